@@ -1,0 +1,1 @@
+"""The HORUS schema compiler: lexer -> parser -> resolver (model, layout, identity) -> emitters."""

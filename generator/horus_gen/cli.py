@@ -1,0 +1,161 @@
+"""The horus-gen command line: generate, check, describe, list-outputs.
+
+Exit status: 0 success, 1 schema errors (all of them on stderr), 2 usage errors.
+"""
+from __future__ import annotations
+
+import argparse
+import glob
+import json
+import os
+import sys
+
+from . import emit
+from .diagnostics import Reporter
+from .model import Enum, Message, Model, Service
+from .output import write_depfile, write_outputs, touch
+from .parser import FILE_KINDS
+from .resolve import Options, Resolver
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="horus-gen", description="The HORUS schema compiler.")
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    def common(sub: argparse.ArgumentParser) -> None:
+        sub.add_argument("files", nargs="+", metavar="FILE", help=".hmsg or .hsrv schema files")
+        sub.add_argument("-I", dest="include_dirs", action="append", default=[], metavar="DIR",
+                         help="folder to resolve imports and qualified names in (repeatable)")
+        sub.add_argument("--package", help="package of files that declare none (default: their folder's name)")
+
+    def outputs(sub: argparse.ArgumentParser) -> None:
+        sub.add_argument("--lang", default="cpp", help="comma-separated languages: " + ",".join(emit.emitters()))
+        sub.add_argument("--out", required=True, metavar="OUT", help="output folder (OUT/cpp, OUT/python)")
+
+    generate = commands.add_parser("generate", help="write C++ headers and Python modules")
+    common(generate)
+    outputs(generate)
+    generate.add_argument("--depfile", help="write a Makefile-style list of every file read")
+    generate.add_argument("--stamp", help="file to touch on success (the depfile's target)")
+    common(commands.add_parser("check", help="parse and resolve only: report errors, write nothing"))
+    describe = commands.add_parser("describe", help="tier, size, alignment, fingerprint, offsets, padding")
+    common(describe)
+    describe.add_argument("--json", action="store_true", help="machine-readable output")
+    listing = commands.add_parser("list-outputs", help="print the files generate would write")
+    common(listing)
+    outputs(listing)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    usage = check_usage(args)
+    if usage:
+        print(f"horus-gen: error: {usage}", file=sys.stderr)
+        return 2
+    try:
+        return run(args)
+    except KeyboardInterrupt:
+        return 130
+    except Exception as error:  # a bug in horus-gen, not in the schema: say so without a traceback
+        print(f"horus-gen: internal error: {type(error).__name__}: {error}\n"
+              "This is a bug in horus-gen; please report it with the schema that triggered it.", file=sys.stderr)
+        return 1
+
+
+def check_usage(args: argparse.Namespace) -> str | None:
+    for path in args.files:
+        if os.path.splitext(path)[1] == ".hnode":
+            return f"{path}: node files (.hnode) are not supported by this version of horus-gen"
+        if os.path.splitext(path)[1] not in FILE_KINDS:
+            return f"{path}: not a schema file (expected .hmsg or .hsrv)"
+        if not os.path.isfile(path):
+            return f"{path}: no such file"
+    for folder in args.include_dirs:
+        if not os.path.isdir(folder):
+            return f"-I {folder}: no such folder"
+    if hasattr(args, "lang"):
+        unknown = [lang for lang in args.lang.split(",") if lang not in emit.emitters()]
+        if unknown:
+            return f"unknown language '{unknown[0]}' (known: {', '.join(emit.emitters())})"
+    if getattr(args, "depfile", None) and not getattr(args, "stamp", None):
+        return "--depfile needs --stamp (the file the dependencies belong to)"
+    return None
+
+
+def run(args: argparse.Namespace) -> int:
+    reporter = Reporter()
+    model = Resolver(reporter, Options(args.include_dirs, args.package)).run(args.files)
+    if reporter.has_errors:
+        sys.stderr.write(reporter.render())
+        return 1
+    if args.command == "check":
+        return 0
+    if args.command == "describe":
+        print(describe_json(model) if args.json else describe_text(model), end="")
+        return 0
+    languages = args.lang.split(",")
+    files: dict[str, str] = {}
+    for language in languages:
+        files.update(emit.emitters()[language](model))
+    if args.command == "list-outputs":
+        for relative in sorted(files):
+            print(os.path.abspath(os.path.join(args.out, relative)))
+        return 0
+    write_outputs(args.out, files)
+    if args.depfile:
+        write_depfile(args.depfile, args.stamp, model.inputs + emit.template_files(languages) + generator_sources())
+    if args.stamp:
+        touch(args.stamp)
+    return 0
+
+
+def generator_sources() -> list[str]:
+    package = os.path.dirname(os.path.abspath(__file__))
+    return sorted(glob.glob(os.path.join(package, "**", "*.py"), recursive=True)) + \
+        [os.path.join(os.path.dirname(package), "horus-gen")]
+
+
+def describe_text(model: Model) -> str:
+    out: list[str] = []
+    for item in model.generated_items():
+        if isinstance(item, Service):
+            out.append(f"{item.qualified}  service  request {item.request.qualified}  "
+                       f"response {item.response.qualified}  fingerprint 0x{item.fingerprint:016x}\n")
+        elif isinstance(item, Enum):
+            out.append(f"{item.qualified}  enum {item.underlying.name}  fingerprint 0x{item.fingerprint:016x}\n")
+            out.extend(f"    {v.name} = {v.value}\n" for v in item.variants)
+        else:
+            tier = f"POD  size {item.size}  align {item.alignment}" if item.is_pod else "serialized (MessagePack)"
+            out.append(f"{item.qualified}  message  {tier}  fingerprint 0x{item.fingerprint:016x}\n")
+            if item.is_pod:
+                out.append("    offset  size  field\n")
+                rows = [(f.offset, f.size, f"{f.name}: {f.spelling}") for f in item.fields]
+                rows += [(p.offset, p.size, "(padding)") for p in item.padding]
+                out.extend(f"    {o:6d}  {s:4d}  {text}\n" for o, s, text in sorted(rows))
+            else:
+                out.extend(f"    {f.name}: {f.spelling}\n" for f in item.fields)
+        out.append("\n")
+    return "".join(out)
+
+
+def describe_json(model: Model) -> str:
+    items = []
+    for item in model.generated_items():
+        entry: dict = {"name": item.qualified, "package": item.package, "fingerprint": f"0x{item.fingerprint:016x}"}
+        if isinstance(item, Service):
+            entry.update(kind="service", request=item.request.qualified, response=item.response.qualified,
+                         request_topic=item.request_topic, response_topic=item.response_topic)
+        elif isinstance(item, Enum):
+            entry.update(kind="enum", underlying=item.underlying.name,
+                         values={v.name: v.value for v in item.variants})
+        else:
+            assert isinstance(item, Message)
+            entry.update(kind="message", tier="pod" if item.is_pod else "serialized", size=item.size,
+                         alignment=item.alignment,
+                         fields=[{"name": f.name, "type": f.spelling, "offset": f.offset, "size": f.size}
+                                 for f in item.fields],
+                         padding=[{"offset": p.offset, "size": p.size} for p in item.padding],
+                         schema=item.schema)
+        items.append(entry)
+    return json.dumps({"types": items}, indent=2) + "\n"

@@ -1,0 +1,183 @@
+"""C++ spelling of the model: type names, literals, include lists, file paths."""
+from __future__ import annotations
+
+import os
+import struct
+
+from . import banner, environment
+from ..identity import spelling
+from ..model import (Bytes, DynString, Enum, EnumRef, EnumValue, Field, FixedArray, FixedString,
+                     Message, MessageRef, Model, Optional, Primitive, Service, Type, Vec)
+from ..names import snake_case
+
+PRIMITIVE_TYPES = {"bool": "bool", "u8": "std::uint8_t", "u16": "std::uint16_t", "u32": "std::uint32_t",
+                   "u64": "std::uint64_t", "i8": "std::int8_t", "i16": "std::int16_t", "i32": "std::int32_t",
+                   "i64": "std::int64_t", "f32": "float", "f64": "double"}
+
+
+def namespace(package: str) -> str:
+    return package.replace(".", "::")
+
+
+def header_path(qualified: str) -> str:
+    package, name = qualified.rsplit(".", 1)
+    return "/".join(package.split(".") + [snake_case(name) + ".hpp"])
+
+
+def type_name(t: Type, package: str) -> str:
+    if isinstance(t, Primitive):
+        return PRIMITIVE_TYPES[t.name]
+    if isinstance(t, FixedString):
+        return f"horus::FixedString<{t.capacity}>"
+    if isinstance(t, FixedArray):
+        return f"std::array<{type_name(t.element, package)}, {t.length}>"
+    if isinstance(t, DynString):
+        return "std::string"
+    if isinstance(t, Bytes):
+        return "std::vector<std::uint8_t>"
+    if isinstance(t, Vec):
+        return f"std::vector<{type_name(t.element, package)}>"
+    if isinstance(t, Optional):
+        return f"std::optional<{type_name(t.element, package)}>"
+    if isinstance(t, (MessageRef, EnumRef)):
+        owner, name = t.qualified.rsplit(".", 1)
+        return name if owner == package else f"::{namespace(owner)}::{name}"
+    raise ValueError(t)
+
+
+def string_literal(text: str) -> str:
+    out = []
+    for byte in text.encode("utf-8"):
+        c = chr(byte)
+        if c in '"\\':
+            out.append("\\" + c)
+        elif c == "\n":
+            out.append("\\n")
+        elif 0x20 <= byte < 0x7F:
+            out.append(c)
+        else:
+            out.append(f"\\{byte:03o}")
+    return '"' + "".join(out) + '"'
+
+
+def char_literal(byte: int) -> str:
+    c = chr(byte)
+    if c in "'\\":
+        return f"'\\{c}'"
+    if 0x20 <= byte < 0x7F:
+        return f"'{c}'"
+    return f"'\\{byte:03o}'"
+
+
+def float_literal(value: float, single: bool) -> str:
+    if single:
+        target = struct.unpack("<f", struct.pack("<f", value))[0]
+        shortest = next(t for t in (f"{value:.{p}g}" for p in range(1, 10))
+                        if struct.unpack("<f", struct.pack("<f", float(t)))[0] == target)
+        text = repr(float(shortest))
+    else:
+        text = repr(value)
+    if not any(c in text for c in ".e"):
+        text += ".0"
+    return text + ("f" if single else "")
+
+
+def value_literal(value, t: Type, package: str) -> str:
+    if isinstance(t, Primitive):
+        if t.is_bool:
+            return "true" if value else "false"
+        if t.is_float:
+            return float_literal(float(value), t.name == "f32")
+        if t.name == "u64":
+            return f"{value}ULL"
+        if t.name == "i64":
+            return "(-9223372036854775807LL - 1)" if value == -(1 << 63) else f"{value}LL"
+        if t.name == "u32":
+            return f"{value}U"
+        return str(value)
+    if isinstance(t, EnumRef):
+        assert isinstance(value, EnumValue)
+        return f"{type_name(t, package)}::{value.variant}"
+    if isinstance(t, FixedString):
+        return "{{" + ", ".join(char_literal(b) for b in value.encode("utf-8")) + "}}"
+    if isinstance(t, DynString):
+        return string_literal(value)
+    if isinstance(t, FixedArray):
+        return "{{" + ", ".join(value_literal(v, t.element, package) for v in value) + "}}"
+    raise ValueError(t)
+
+
+def initializer(f: Field, package: str) -> str:
+    if f.default is None:
+        return "{}"
+    literal = value_literal(f.default, f.type, package)
+    return literal if literal.startswith("{") else "{" + literal + "}"
+
+
+def padding_initializer(message: Message) -> str:
+    return "{{" + ", ".join(f"{{{p.offset}, {p.size}}}" for p in message.padding) + "}}"
+
+
+def constant_type(t: Type, package: str) -> str:
+    if isinstance(t, (FixedString, DynString)):
+        return "std::string_view"
+    return type_name(t, package)
+
+
+def std_headers(message: Message) -> list[str]:
+    """The standard headers a message's fields need beyond horus/message.hpp."""
+    needed: set[str] = set()
+
+    def visit(t: Type) -> None:
+        if isinstance(t, (Vec, Bytes)):
+            needed.add("<vector>")
+        if isinstance(t, Optional):
+            needed.add("<optional>")
+        if isinstance(t, (FixedArray, Vec, Optional)):
+            visit(t.element)
+
+    for f in message.fields:
+        visit(f.type)
+    return sorted(needed | set(message.cpp_includes))
+
+
+def type_headers(message: Message) -> list[str]:
+    return [header_path(q) for q in message.uses]
+
+
+def doc_lines(docs: tuple[str, ...]) -> list[str]:
+    return [f"/// {line}".rstrip() for line in docs]
+
+
+FILTERS = {
+    "namespace": namespace, "type_name": type_name, "initializer": initializer,
+    "value_literal": value_literal, "padding_initializer": padding_initializer, "constant_type": constant_type, "string_literal": string_literal,
+    "header_path": header_path, "std_headers": std_headers, "type_headers": type_headers,
+    "doc_lines": doc_lines, "spelling": spelling, "snake_case": snake_case,
+    "hex": lambda n: f"0x{n:016x}ULL",
+}
+
+
+def emit(model: Model) -> dict[str, str]:
+    env = environment("cpp", FILTERS)
+    files: dict[str, str] = {}
+    by_package: dict[str, list[str]] = {}
+    for item in model.generated_items():
+        path = header_path(item.qualified)
+        if isinstance(item, Service):
+            template, context = "service.hpp.j2", {"service": item}
+        elif isinstance(item, Enum):
+            template, context = "enum.hpp.j2", {"enum": item}
+        else:
+            template, context = "message.hpp.j2", {"message": item, "model": model}
+            if item.cpp_mixin is not None:
+                with open(item.cpp_mixin.source_path, encoding="utf-8") as handle:
+                    files[os.path.join("cpp", item.cpp_mixin.output_path)] = handle.read()
+        files[os.path.join("cpp", path)] = env.get_template(template).render(
+            banner=banner("//", [item.source]), **context)
+        by_package.setdefault(item.package, []).append(path)
+    for package, headers in by_package.items():
+        sources = [i.source for i in model.generated_items() if i.package == package]
+        files[os.path.join("cpp", *package.split(".")) + ".hpp"] = env.get_template("package.hpp.j2").render(
+            banner=banner("//", sources), package=package, headers=sorted(headers))
+    return files

@@ -1,0 +1,235 @@
+"""The resolved model: the single source of truth every emitter reads.
+
+Types are resolved (every name bound), every POD message carries its layout (offsets, size,
+alignment, padding), and every type its canonical schema text and fingerprint. Emitters only
+spell what is here in their language; they never compute layout or identity themselves.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Union
+
+from .diagnostics import Span
+
+
+@dataclass(frozen=True)
+class Primitive:
+    name: str  # bool u8 u16 u32 u64 i8 i16 i32 i64 f32 f64
+    size: int
+
+    @property
+    def is_integer(self) -> bool:
+        return self.name[0] in "ui"
+
+    @property
+    def is_signed(self) -> bool:
+        return self.name[0] == "i"
+
+    @property
+    def is_float(self) -> bool:
+        return self.name[0] == "f"
+
+    @property
+    def is_bool(self) -> bool:
+        return self.name == "bool"
+
+
+PRIMITIVES = {p.name: p for p in (
+    Primitive("bool", 1), Primitive("u8", 1), Primitive("u16", 2), Primitive("u32", 4), Primitive("u64", 8),
+    Primitive("i8", 1), Primitive("i16", 2), Primitive("i32", 4), Primitive("i64", 8),
+    Primitive("f32", 4), Primitive("f64", 8))}
+
+
+@dataclass(frozen=True)
+class FixedString:
+    capacity: int
+
+
+@dataclass(frozen=True)
+class FixedArray:
+    element: "Type"
+    length: int
+
+
+@dataclass(frozen=True)
+class DynString:
+    pass
+
+
+@dataclass(frozen=True)
+class Bytes:
+    pass
+
+
+@dataclass(frozen=True)
+class Vec:
+    element: "Type"
+
+
+@dataclass(frozen=True)
+class Optional:
+    element: "Type"
+
+
+@dataclass(frozen=True)
+class MessageRef:
+    qualified: str  # "pkg.Name": look up in Model.types
+
+
+@dataclass(frozen=True)
+class EnumRef:
+    qualified: str
+
+
+Type = Union[Primitive, FixedString, FixedArray, DynString, Bytes, Vec, Optional, MessageRef, EnumRef]
+
+
+@dataclass(frozen=True)
+class EnumValue:
+    """A default or constant that names an enumerator."""
+    enum: str
+    variant: str
+    number: int
+
+
+Value = Union[bool, int, float, str, EnumValue, tuple]
+
+
+@dataclass(frozen=True)
+class SummaryPart:
+    """One piece of a log summary line: literal text, or a field's value (and unit)."""
+    text: str = ""
+    field: str | None = None
+    label: str = ""  # element type spelling for "[N x label]" summaries of sequences
+    unit: str = ""
+
+
+@dataclass(frozen=True)
+class Field:
+    name: str
+    type: Type
+    spelling: str  # canonical schema spelling of the type, e.g. "[f32; 360]"
+    default: Value | None
+    unit: str
+    docs: tuple[str, ...]
+    span: Span
+    offset: int | None = None  # POD messages only
+    size: int | None = None
+
+
+@dataclass(frozen=True)
+class Constant:
+    name: str
+    type: Type
+    spelling: str
+    value: Value
+    docs: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Padding:
+    offset: int
+    size: int
+
+
+@dataclass(frozen=True)
+class Mixin:
+    source_path: str  # absolute path of the hand-written file
+    output_path: str  # path relative to the language's output root
+
+
+@dataclass(frozen=True)
+class Message:
+    package: str
+    name: str
+    fields: tuple[Field, ...]
+    constants: tuple[Constant, ...]
+    docs: tuple[str, ...]
+    source: str
+    is_pod: bool
+    size: int | None  # POD only
+    alignment: int | None
+    padding: tuple[Padding, ...]
+    canonical: str  # this type alone, nested types named with their fingerprints (hashed)
+    definition: str  # this type alone, readable
+    schema: str  # the definitions of this type and of every type it uses
+    fingerprint: int
+    summary: tuple[SummaryPart, ...]
+    topic: str | None = None
+    cpp_mixin: Mixin | None = None
+    cpp_includes: tuple[str, ...] = ()
+    py_mixin: Mixin | None = None
+    uses: tuple[str, ...] = ()  # qualified names of the types its fields name, in first-use order
+    service: str | None = None  # set on a service's Request/Response
+
+    @property
+    def qualified(self) -> str:
+        return f"{self.package}.{self.name}"
+
+
+@dataclass(frozen=True)
+class Variant:
+    name: str
+    value: int
+    docs: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Enum:
+    package: str
+    name: str
+    underlying: Primitive
+    variants: tuple[Variant, ...]
+    docs: tuple[str, ...]
+    source: str
+    canonical: str
+    definition: str
+    schema: str
+    fingerprint: int
+
+    @property
+    def qualified(self) -> str:
+        return f"{self.package}.{self.name}"
+
+
+@dataclass(frozen=True)
+class Service:
+    package: str
+    name: str
+    request: Message
+    response: Message
+    docs: tuple[str, ...]
+    source: str
+    fingerprint: int
+
+    @property
+    def qualified(self) -> str:
+        return f"{self.package}.{self.name}"
+
+    @property
+    def request_topic(self) -> str:
+        return f"{self.name}.request"
+
+    @property
+    def response_topic(self) -> str:
+        return f"{self.name}.response"
+
+
+@dataclass
+class Model:
+    """Every type known to the run, and which of them this run generates."""
+    types: dict[str, Message | Enum] = field(default_factory=dict)
+    services: dict[str, Service] = field(default_factory=dict)
+    generated: list[str] = field(default_factory=list)  # qualified names, in source order
+    inputs: list[str] = field(default_factory=list)  # every file read: schemas, imports, mixins
+
+    def message(self, qualified: str) -> Message:
+        found = self.types[qualified]
+        assert isinstance(found, Message)
+        return found
+
+    def generated_items(self) -> list[Message | Enum | Service]:
+        return [self.services.get(q) or self.types[q] for q in self.generated]
+
+    def packages(self) -> list[str]:
+        return sorted({item.package for item in self.generated_items()})

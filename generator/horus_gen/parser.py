@@ -1,0 +1,405 @@
+"""Recursive-descent parser: tokens -> syntax tree, reporting every syntax error it can recover from.
+
+After an error the parser skips to the next `,` or `}` of the block it is in, so one typo yields
+one diagnostic and the rest of the file is still checked.
+"""
+from __future__ import annotations
+
+from .diagnostics import Reporter, Source, Span, did_you_mean
+from .lexer import Kind, Token, tokenize
+from .syntax import (Attribute, ConstDecl, EnumDecl, EnumVariant, FieldDecl, FileSyntax, Literal,
+                     MessageDecl, ServiceDecl, TypeExpr)
+
+FILE_KINDS = {".hmsg": "message", ".hsrv": "service"}
+
+
+class _Recover(Exception):
+    """Raised after an error has been reported, to resynchronise at the enclosing block."""
+
+
+class Parser:
+    def __init__(self, source: Source, reporter: Reporter, file_kind: str):
+        self.source = source
+        self.reporter = reporter
+        self.file_kind = file_kind
+        self.tokens = tokenize(source, reporter)
+        self.pos = 0
+
+    # -- token helpers -------------------------------------------------------------------------
+    def peek(self, ahead: int = 0) -> Token:
+        return self.tokens[min(self.pos + ahead, len(self.tokens) - 1)]
+
+    def advance(self) -> Token:
+        token = self.peek()
+        if token.kind is not Kind.EOF:
+            self.pos += 1
+        return token
+
+    def accept_punct(self, text: str) -> Token | None:
+        if self.peek().is_punct(text):
+            return self.advance()
+        return None
+
+    def fail(self, span: Span, message: str, hint: str | None = None) -> _Recover:
+        self.reporter.error(span, message, hint)
+        return _Recover()
+
+    def expect_punct(self, text: str, context: str, hint: str | None = None) -> Token:
+        token = self.peek()
+        if token.is_punct(text):
+            return self.advance()
+        raise self.fail(token.span, f"expected '{text}' {context}, found {token.describe()}", hint)
+
+    def expect_ident(self, what: str) -> Token:
+        token = self.peek()
+        if token.kind is Kind.IDENT:
+            return self.advance()
+        raise self.fail(token.span, f"expected {what}, found {token.describe()}")
+
+    def skip_to_member_end(self) -> None:
+        """Skips to just after the next ',' (or to the '}') of the current block."""
+        depth = 0
+        while True:
+            token = self.peek()
+            if token.kind is Kind.EOF:
+                return
+            if token.kind is Kind.PUNCT:
+                if token.text in "{[(":
+                    depth += 1
+                elif token.text in ")]":
+                    depth = max(0, depth - 1)
+                elif token.text == "}":
+                    if depth == 0:
+                        return
+                    depth -= 1
+                elif token.text == "," and depth == 0:
+                    self.advance()
+                    return
+            self.advance()
+
+    def skip_item(self) -> None:
+        """Skips the rest of a top-level item: up to and including its closing '}'."""
+        depth = 0
+        while True:
+            token = self.advance()
+            if token.kind is Kind.EOF:
+                return
+            if token.is_punct("{"):
+                depth += 1
+            elif token.is_punct("}"):
+                depth -= 1
+                if depth <= 0:
+                    return
+            elif token.is_punct(";") and depth == 0:
+                return
+
+    # -- file --------------------------------------------------------------------------------
+    def parse_file(self) -> FileSyntax:
+        syntax = FileSyntax(self.source)
+        while self.peek().kind is not Kind.EOF:
+            start = self.pos
+            try:
+                self.parse_top_level(syntax)
+            except _Recover:
+                self.skip_item()
+            if self.pos == start:
+                self.advance()
+        return syntax
+
+    def parse_top_level(self, syntax: FileSyntax) -> None:
+        token = self.peek()
+        if token.is_word("package"):
+            self.advance()
+            path, span = self.parse_dotted_path("a package name such as 'my_robot.msg'")
+            self.expect_punct(";", "after the package name")
+            if syntax.package is not None:
+                self.reporter.error(span, "a file declares its package once")
+            elif syntax.items:
+                self.reporter.error(span, "'package' must come before the first item")
+            else:
+                syntax.package = (path, span)
+            return
+        if token.is_word("import"):
+            self.advance()
+            target = self.peek()
+            if target.kind is not Kind.STRING:
+                raise self.fail(target.span, f"expected a quoted path after 'import', found {target.describe()}",
+                                'write: import "horus/msg/geometry.hmsg";')
+            self.advance()
+            self.expect_punct(";", "after the import path")
+            syntax.imports.append((str(target.value), target.span))
+            return
+        if (token.is_word("message") or token.is_word("service")) and self.peek(1).is_punct("!"):
+            self.parse_macro_block(syntax)
+            return
+        syntax.items.append(self.parse_item())
+
+    def parse_macro_block(self, syntax: FileSyntax) -> None:
+        """`message! { ... }` / `service! { ... }`: the Rust macro form, accepted unchanged."""
+        self.advance()
+        self.advance()
+        open_brace = self.expect_punct("{", "after the macro name")
+        while not self.peek().is_punct("}"):
+            if self.peek().kind is Kind.EOF:
+                raise self.fail(open_brace.span, "unterminated macro block: expected '}'")
+            start = self.pos
+            try:
+                syntax.items.append(self.parse_item())
+            except _Recover:
+                self.skip_item()
+            if self.pos == start:
+                self.advance()
+        self.advance()
+
+    def parse_prefix(self) -> tuple[tuple[Attribute, ...], tuple[str, ...]]:
+        attributes: list[Attribute] = []
+        docs: list[str] = []
+        while True:
+            token = self.peek()
+            if token.kind is Kind.DOC:
+                docs.append(str(token.value))
+                self.advance()
+            elif token.is_punct("#["):
+                attributes.append(self.parse_attribute())
+            else:
+                return tuple(attributes), tuple(docs)
+
+    def parse_attribute(self) -> Attribute:
+        self.advance()
+        name = self.expect_ident("an attribute name")
+        value = None
+        if self.accept_punct("="):
+            value = self.parse_literal()
+        elif self.peek().is_punct("("):
+            raise self.fail(self.peek().span, f"attribute '{name.text}' takes '= value', not a list")
+        self.expect_punct("]", f"to close attribute '{name.text}'")
+        return Attribute(name.text, value, name.span)
+
+    def parse_item(self) -> MessageDecl | EnumDecl | ServiceDecl:
+        attributes, docs = self.parse_prefix()
+        while self.peek().is_word("pub"):
+            self.advance()
+        if self.peek().is_word("enum"):
+            return self.parse_enum(attributes, docs)
+        if self.peek().is_word("struct"):
+            self.advance()
+        name = self.peek()
+        if name.kind is not Kind.IDENT:
+            expected = "a message name" if self.file_kind == "message" else "a service name"
+            raise self.fail(name.span, f"expected {expected} or 'enum', found {name.describe()}")
+        self.advance()
+        open_brace = self.expect_punct("{", f"after '{name.text}'",
+                                       f"an item reads: {name.text} {{ ... }}")
+        if self.file_kind == "service":
+            return self.parse_service_body(name, open_brace, attributes, docs)
+        fields, constants = self.parse_members(name.text, open_brace)
+        return MessageDecl(name.text, name.span, fields, constants, attributes, docs)
+
+    # -- messages ------------------------------------------------------------------------------
+    def parse_members(self, owner: str, open_brace: Token) -> tuple[tuple[FieldDecl, ...], tuple[ConstDecl, ...]]:
+        fields: list[FieldDecl] = []
+        constants: list[ConstDecl] = []
+        while True:
+            token = self.peek()
+            if token.is_punct("}"):
+                self.advance()
+                return tuple(fields), tuple(constants)
+            if token.kind is Kind.EOF:
+                self.reporter.error(open_brace.span, f"unterminated block of '{owner}': expected '}}'",
+                                    "every '{' needs a matching '}'")
+                return tuple(fields), tuple(constants)
+            start = self.pos
+            try:
+                member = self.parse_member(owner)
+                (constants if isinstance(member, ConstDecl) else fields).append(member)
+                self.expect_member_end(member.name)
+            except _Recover:
+                self.skip_to_member_end()
+            if self.pos == start:
+                self.advance()
+
+    def expect_member_end(self, member: str) -> None:
+        if self.accept_punct(",") or self.peek().is_punct("}"):
+            return
+        token = self.peek()
+        looks_like_next_member = token.kind in (Kind.IDENT, Kind.DOC) or token.is_punct("#[")
+        self.reporter.error(token.span, f"expected ',' or '}}' after '{member}', found {token.describe()}",
+                            "separate members with ','")
+        if not looks_like_next_member:
+            raise _Recover()
+
+    def parse_member(self, owner: str) -> FieldDecl | ConstDecl:
+        attributes, docs = self.parse_prefix()
+        if self.peek().is_word("const"):
+            self.advance()
+            name = self.expect_ident("a constant name")
+            self.expect_punct(":", f"after constant name '{name.text}'",
+                              f"a constant reads: const {name.text}: u32 = 1")
+            type_expr = self.parse_type()
+            self.expect_punct("=", f"after the type of constant '{name.text}'", "a constant needs a value")
+            value = self.parse_literal()
+            return ConstDecl(name.text, name.span, type_expr, value, attributes, docs)
+        if self.peek().is_word("pub"):
+            self.advance()
+        name = self.expect_ident(f"a field name in '{owner}'")
+        colon = self.peek()
+        if not colon.is_punct(":"):
+            hint = f"a field reads: {name.text}: f64"
+            if colon.kind is Kind.IDENT:
+                hint = f"write '{name.text}: {colon.text}'"
+            raise self.fail(colon.span, f"expected ':' after field name '{name.text}', found {colon.describe()}", hint)
+        self.advance()
+        type_expr = self.parse_type()
+        default = self.parse_literal() if self.accept_punct("=") else None
+        return FieldDecl(name.text, name.span, type_expr, default, attributes, docs)
+
+    # -- types and literals --------------------------------------------------------------------
+    def parse_type(self) -> TypeExpr:
+        token = self.peek()
+        if token.is_punct("["):
+            self.advance()
+            element = self.parse_type()
+            self.expect_punct(";", "between an array's element type and its length",
+                              "a fixed array reads: [f32; 360]")
+            length = self.parse_literal()
+            self.expect_punct("]", "to close the array type")
+            return TypeExpr(("[]",), token.span, element=element, length=length)
+        if token.kind is not Kind.IDENT:
+            raise self.fail(token.span, f"expected a type, found {token.describe()}")
+        path = [self.advance().text]
+        while self.peek().is_punct("::") or (self.peek().is_punct(".") and self.peek(1).kind is Kind.IDENT):
+            self.advance()
+            path.append(self.expect_ident("a name after '::'").text)
+        args: list[TypeExpr | Literal] = []
+        if self.accept_punct("<"):
+            while True:
+                if self.peek().kind in (Kind.INT, Kind.FLOAT) or self.peek().is_punct("-"):
+                    args.append(self.parse_literal())
+                else:
+                    args.append(self.parse_type())
+                if not self.accept_punct(","):
+                    break
+            self.expect_punct(">", f"to close the arguments of '{'::'.join(path)}'")
+        end = self.tokens[self.pos - 1].span
+        length = end.col + end.length - token.span.col if end.line == token.span.line else token.span.length
+        return TypeExpr(tuple(path), Span(token.span.source, token.span.line, token.span.col, length), tuple(args))
+
+    def parse_literal(self) -> Literal:
+        token = self.peek()
+        if token.is_punct("-"):
+            self.advance()
+            number = self.peek()
+            if number.kind not in (Kind.INT, Kind.FLOAT):
+                raise self.fail(number.span, f"expected a number after '-', found {number.describe()}")
+            self.advance()
+            span = Span(token.span.source, token.span.line, token.span.col, number.span.col + number.span.length - token.span.col)
+            return Literal("int" if number.kind is Kind.INT else "float", -number.value, span)
+        if token.kind is Kind.INT:
+            self.advance()
+            return Literal("int", token.value, token.span)
+        if token.kind is Kind.FLOAT:
+            self.advance()
+            return Literal("float", token.value, token.span)
+        if token.kind is Kind.STRING:
+            self.advance()
+            return Literal("string", token.value, token.span)
+        if token.is_word("true") or token.is_word("false"):
+            self.advance()
+            return Literal("bool", token.text == "true", token.span)
+        if token.kind is Kind.IDENT:
+            path = [self.advance().text]
+            while self.accept_punct("::"):
+                path.append(self.expect_ident("a name after '::'").text)
+            end = self.tokens[self.pos - 1].span
+            return Literal("path", tuple(path), Span(token.span.source, token.span.line, token.span.col,
+                                                      end.col + end.length - token.span.col))
+        if token.is_punct("["):
+            self.advance()
+            items: list[Literal] = []
+            while not self.peek().is_punct("]"):
+                items.append(self.parse_literal())
+                if not self.accept_punct(","):
+                    break
+            self.expect_punct("]", "to close the list")
+            return Literal("list", tuple(items), token.span)
+        raise self.fail(token.span, f"expected a value, found {token.describe()}")
+
+    def parse_dotted_path(self, what: str) -> tuple[str, Span]:
+        first = self.expect_ident(what)
+        parts = [first.text]
+        while self.peek().is_punct(".") or self.peek().is_punct("::"):
+            self.advance()
+            parts.append(self.expect_ident(what).text)
+        return ".".join(parts), first.span
+
+    # -- enums ---------------------------------------------------------------------------------
+    def parse_enum(self, attributes, docs) -> EnumDecl:
+        self.advance()
+        name = self.expect_ident("an enum name")
+        underlying = None
+        if self.accept_punct(":"):
+            underlying = self.parse_type()
+        open_brace = self.expect_punct("{", f"after enum '{name.text}'",
+                                       f"an enum reads: enum {name.text}: u8 {{ A = 0, B = 1 }}")
+        variants: list[EnumVariant] = []
+        while True:
+            token = self.peek()
+            if token.is_punct("}"):
+                self.advance()
+                break
+            if token.kind is Kind.EOF:
+                self.reporter.error(open_brace.span, f"unterminated enum '{name.text}': expected '}}'")
+                break
+            start = self.pos
+            try:
+                _, variant_docs = self.parse_prefix()
+                variant = self.expect_ident(f"an enumerator name in '{name.text}'")
+                value = self.parse_literal() if self.accept_punct("=") else None
+                variants.append(EnumVariant(variant.text, variant.span, value, variant_docs))
+                self.expect_member_end(variant.text)
+            except _Recover:
+                self.skip_to_member_end()
+            if self.pos == start:
+                self.advance()
+        return EnumDecl(name.text, name.span, underlying, tuple(variants), attributes, docs)
+
+    # -- services ------------------------------------------------------------------------------
+    def parse_service_body(self, name: Token, open_brace: Token, attributes, docs) -> ServiceDecl:
+        parts: dict[str, MessageDecl] = {}
+        while True:
+            token = self.peek()
+            if token.is_punct("}"):
+                self.advance()
+                break
+            if token.kind is Kind.EOF:
+                self.reporter.error(open_brace.span, f"unterminated service '{name.text}': expected '}}'")
+                break
+            start = self.pos
+            try:
+                part_attributes, part_docs = self.parse_prefix()
+                part = self.expect_ident("'request' or 'response'")
+                if part.text not in ("request", "response"):
+                    raise self.fail(part.span, f"expected 'request' or 'response', found '{part.text}'",
+                                    did_you_mean(part.text, ["request", "response"])
+                                    or "a service holds a request { ... } and a response { ... } block")
+                if part.text in parts:
+                    self.reporter.error(part.span, f"service '{name.text}' has two '{part.text}' blocks")
+                block = self.expect_punct("{", f"after '{part.text}'")
+                type_name = name.text + part.text.capitalize()
+                fields, constants = self.parse_members(type_name, block)
+                parts[part.text] = MessageDecl(type_name, part.span, fields, constants, part_attributes, part_docs)
+                self.accept_punct(",")
+            except _Recover:
+                self.skip_to_member_end()
+            if self.pos == start:
+                self.advance()
+        for missing in ("request", "response"):
+            if missing not in parts:
+                self.reporter.error(name.span, f"service '{name.text}' has no '{missing}' block",
+                                    f"add '{missing} {{ }}' (it may be empty)")
+                parts[missing] = MessageDecl(name.text + missing.capitalize(), name.span, (), (), (), ())
+        return ServiceDecl(name.text, name.span, parts["request"], parts["response"], attributes, docs)
+
+
+def parse(source: Source, reporter: Reporter, file_kind: str) -> FileSyntax:
+    return Parser(source, reporter, file_kind).parse_file()

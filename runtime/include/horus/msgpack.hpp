@@ -1,0 +1,124 @@
+// MessagePack for serialized messages, over msgpack-cxx. Every generated message and enum packs
+// through the adaptors below: a message as an array of its fields in declaration order, an enum
+// as its underlying integer, string<N> as a str. Python's generated code writes the same bytes.
+#pragma once
+
+#ifndef MSGPACK_NO_BOOST
+#define MSGPACK_NO_BOOST
+#endif
+
+#include <msgpack.hpp>
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "horus/codec.hpp"
+#include "horus/fixed_string.hpp"
+#include "horus/type_info.hpp"
+
+namespace msgpack {
+MSGPACK_API_VERSION_NAMESPACE(MSGPACK_DEFAULT_API_NS) {
+  namespace adaptor {
+
+  template <class T>
+  struct pack<T, std::enable_if_t<horus::Message<T>>> {
+    template <class Stream>
+    packer<Stream>& operator()(packer<Stream>& o, const T& msg) const {
+      o.pack_array(static_cast<std::uint32_t>(horus::TypeInfo<T>::field_count));
+      horus::TypeInfo<T>::visit(msg, [&o](std::string_view, const auto& field) { o.pack(field); });
+      return o;
+    }
+  };
+
+  template <class T>
+  struct convert<T, std::enable_if_t<horus::Message<T>>> {
+    const msgpack::object& operator()(const msgpack::object& obj, T& msg) const {
+      if (obj.type != msgpack::type::ARRAY || obj.via.array.size != horus::TypeInfo<T>::field_count) {
+        throw msgpack::type_error();
+      }
+      std::size_t index = 0;
+      horus::TypeInfo<T>::visit(msg, [&](std::string_view, auto& field) {
+        obj.via.array.ptr[index++].convert(field);
+      });
+      return obj;
+    }
+  };
+
+  template <class E>
+  struct pack<E, std::enable_if_t<horus::SchemaEnum<E>>> {
+    template <class Stream>
+    packer<Stream>& operator()(packer<Stream>& o, const E& value) const {
+      o.pack(static_cast<std::underlying_type_t<E>>(value));
+      return o;
+    }
+  };
+
+  template <class E>
+  struct convert<E, std::enable_if_t<horus::SchemaEnum<E>>> {
+    const msgpack::object& operator()(const msgpack::object& obj, E& value) const {
+      value = static_cast<E>(obj.as<std::underlying_type_t<E>>());
+      return obj;
+    }
+  };
+
+  template <std::size_t N>
+  struct pack<horus::FixedString<N>> {
+    template <class Stream>
+    packer<Stream>& operator()(packer<Stream>& o, const horus::FixedString<N>& text) const {
+      const std::string_view view = text.view();
+      o.pack_str(static_cast<std::uint32_t>(view.size()));
+      o.pack_str_body(view.data(), static_cast<std::uint32_t>(view.size()));
+      return o;
+    }
+  };
+
+  template <std::size_t N>
+  struct convert<horus::FixedString<N>> {
+    const msgpack::object& operator()(const msgpack::object& obj, horus::FixedString<N>& text) const {
+      if (obj.type != msgpack::type::STR ||
+          !text.try_assign(std::string_view(obj.via.str.ptr, obj.via.str.size))) {
+        throw msgpack::type_error();
+      }
+      return obj;
+    }
+  };
+
+  }  // namespace adaptor
+}  // MSGPACK_API_VERSION_NAMESPACE
+}  // namespace msgpack
+
+namespace horus::detail {
+
+template <class T>
+std::vector<std::uint8_t> msgpack_encode(const T& msg) {
+  msgpack::sbuffer buffer;
+  msgpack::pack(buffer, msg);
+  const auto* data = reinterpret_cast<const std::uint8_t*>(buffer.data());
+  return std::vector<std::uint8_t>(data, data + buffer.size());
+}
+
+template <class T>
+T msgpack_decode(std::span<const std::uint8_t> bytes) {
+  try {
+    std::size_t offset = 0;
+    msgpack::object_handle handle =
+        msgpack::unpack(reinterpret_cast<const char*>(bytes.data()), bytes.size(), offset);
+    if (offset != bytes.size()) {
+      throw DecodeError(std::string(TypeInfo<T>::name) + ": " +
+                        std::to_string(bytes.size() - offset) + " trailing bytes after the message");
+    }
+    T msg{};
+    handle.get().convert(msg);
+    return msg;
+  } catch (const DecodeError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw DecodeError(std::string(TypeInfo<T>::name) + ": not a valid MessagePack encoding (" +
+                      e.what() + ")");
+  }
+}
+
+}  // namespace horus::detail
