@@ -215,7 +215,30 @@ class Resolver:
             seen[key] = name
 
     # -- resolution ------------------------------------------------------------------------------
+    def preload_referenced_packages(self) -> None:
+        """Loads, before anything is resolved, the package folders that names refer to, so that
+        every declaration the run needs is known when resolution starts."""
+        done: set[str] = set()
+        while True:
+            pending = [d for d in self.decls.values() if d.qualified not in done]
+            if not pending:
+                return
+            for decl in pending:
+                done.add(decl.qualified)
+                if not isinstance(decl.item, MessageDecl):
+                    continue
+                for member in list(decl.item.fields) + list(decl.item.constants):
+                    for path in _type_paths(member.type):
+                        if len(path) == 1 and (path[0] in BUILTIN_NAMES or
+                                               f"{decl.unit.package}.{path[0]}" in self.decls):
+                            continue
+                        if len(path) > 1 and ".".join(path) in self.decls:
+                            continue
+                        package = decl.unit.package if len(path) == 1 else ".".join(path[:-1])
+                        self.scan_package_folders(package, os.path.dirname(decl.unit.path))
+
     def resolve_all(self) -> None:
+        self.preload_referenced_packages()
         for decl in list(self.decls.values()):
             if isinstance(decl.item, EnumDecl):
                 self.build_enum(decl)
@@ -279,10 +302,6 @@ class Resolver:
             return None
         candidates = [f"{unit.package}.{name}"] if len(expr.path) == 1 else [name]
         found = self.lookup(candidates)
-        if found is None:
-            package = unit.package if len(expr.path) == 1 else name.rsplit(".", 1)[0]
-            self.scan_package_folders(package, os.path.dirname(unit.path))
-            found = self.lookup(candidates)
         if found is None:
             self.report_unknown_type(expr, unit)
             return None
@@ -492,6 +511,7 @@ class Resolver:
             if value is not None:
                 constants.append(Constant(c.name, t, identity.spelling(t), value, c.docs))
         if len(fields) < len(item.fields):
+            assert self.reporter.has_errors, f"{decl.qualified} lost a field without an error"
             return  # an unresolved field type was reported; a partial model would mislead
 
         is_pod = all(self.is_pod(t) for t in types.values())
@@ -724,6 +744,13 @@ class Resolver:
         error(f"{owner} of type '{spelled}' cannot have a default value",
               "defaults are for numbers, bool, enums, strings and fixed arrays of those")
         return None
+
+
+def _type_paths(expr: TypeExpr) -> list[tuple[str, ...]]:
+    if expr.element is not None:
+        return _type_paths(expr.element)
+    nested = [p for arg in expr.args if isinstance(arg, TypeExpr) for p in _type_paths(arg)]
+    return [expr.path] + nested
 
 
 def _describe(literal: Literal) -> str:

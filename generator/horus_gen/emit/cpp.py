@@ -124,6 +124,12 @@ def constant_type(t: Type, package: str) -> str:
     return type_name(t, package)
 
 
+def constant_literal(value, t: Type, package: str) -> str:
+    if isinstance(t, (FixedString, DynString)):
+        return string_literal(value)
+    return value_literal(value, t, package)
+
+
 def std_headers(message: Message) -> list[str]:
     """The standard headers a message's fields need beyond horus/message.hpp."""
     needed: set[str] = set()
@@ -151,7 +157,7 @@ def doc_lines(docs: tuple[str, ...]) -> list[str]:
 
 FILTERS = {
     "namespace": namespace, "type_name": type_name, "initializer": initializer,
-    "value_literal": value_literal, "padding_initializer": padding_initializer, "constant_type": constant_type, "string_literal": string_literal,
+    "value_literal": value_literal, "padding_initializer": padding_initializer, "constant_type": constant_type, "constant_literal": constant_literal, "string_literal": string_literal,
     "header_path": header_path, "std_headers": std_headers, "type_headers": type_headers,
     "doc_lines": doc_lines, "spelling": spelling, "snake_case": snake_case,
     "hex": lambda n: f"0x{n:016x}ULL",
