@@ -17,7 +17,7 @@ MANIFEST = ".horus-gen-outputs"
 def write_outputs(out_dir: str, files: dict[str, str]) -> list[str]:
     """Writes `files` (relative path -> content) under out_dir; returns the paths it changed."""
     os.makedirs(out_dir, exist_ok=True)
-    staging = tempfile.mkdtemp(prefix=".horus-gen-", dir=out_dir)
+    staging = tempfile.mkdtemp(prefix=".horus-gen-staging-", dir=out_dir)
     changed: list[str] = []
     try:
         for relative, content in sorted(files.items()):

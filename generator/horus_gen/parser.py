@@ -5,7 +5,7 @@ one diagnostic and the rest of the file is still checked.
 """
 from __future__ import annotations
 
-from .diagnostics import Reporter, Source, Span, did_you_mean
+from .diagnostics import Reporter, Source, Span, near_miss
 from .lexer import Kind, Token, tokenize
 from .syntax import (Attribute, ConstDecl, EnumDecl, EnumVariant, FieldDecl, FileSyntax, Literal,
                      MessageDecl, ServiceDecl, TypeExpr)
@@ -378,16 +378,21 @@ class Parser:
             try:
                 part_attributes, part_docs = self.parse_prefix()
                 part = self.expect_ident("'request' or 'response'")
-                if part.text not in ("request", "response"):
-                    raise self.fail(part.span, f"expected 'request' or 'response', found '{part.text}'",
-                                    did_you_mean(part.text, ["request", "response"])
-                                    or "a service holds a request { ... } and a response { ... } block")
-                if part.text in parts:
-                    self.reporter.error(part.span, f"service '{name.text}' has two '{part.text}' blocks")
+                kind = part.text
+                if kind not in ("request", "response"):
+                    guess = near_miss(kind, ["request", "response"])
+                    self.reporter.error(part.span, f"expected 'request' or 'response', found '{kind}'",
+                                        f"did you mean '{guess}'?" if guess else
+                                        "a service holds a request { ... } and a response { ... } block")
+                    if guess is None or guess in parts:
+                        raise _Recover()
+                    kind = guess  # read the block as the part it most likely is, so nothing cascades
+                if kind in parts:
+                    self.reporter.error(part.span, f"service '{name.text}' has two '{kind}' blocks")
                 block = self.expect_punct("{", f"after '{part.text}'")
-                type_name = name.text + part.text.capitalize()
+                type_name = name.text + kind.capitalize()
                 fields, constants = self.parse_members(type_name, block)
-                parts[part.text] = MessageDecl(type_name, part.span, fields, constants, part_attributes, part_docs)
+                parts[kind] = MessageDecl(type_name, part.span, fields, constants, part_attributes, part_docs)
                 self.accept_punct(",")
             except _Recover:
                 self.skip_to_member_end()

@@ -1,0 +1,27 @@
+"""Shared fixtures: the repository's folders and a way to run horus-gen as a user would."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+HORUS_GEN = ROOT / "generator" / "horus-gen"
+SCHEMAS = ROOT / "tests" / "schemas"
+GOLDEN = ROOT / "tests" / "golden"
+
+sys.path.insert(0, str(ROOT / "generator"))
+
+
+def run_horus_gen(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    """Runs the generator in its own process with Debian's interpreter, as CMake does."""
+    return subprocess.run(["/usr/bin/python3", str(HORUS_GEN), *args], cwd=cwd, capture_output=True, text=True,
+                          env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+
+
+@pytest.fixture
+def horus_gen():
+    return run_horus_gen
