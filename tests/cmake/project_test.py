@@ -1,0 +1,277 @@
+#!/usr/bin/python3
+"""Builds examples/custom_messages against an installed horus, exactly as a user would.
+
+    project_test.py installed --build HORUS_BUILD --source EXAMPLE --work DIR [--generator G]
+        install horus into DIR/prefix, configure, build and run the example against it, check
+        the installed horus-gen and the installation of the example's own generated code;
+    project_test.py rebuild --build HORUS_BUILD --source EXAMPLE --work DIR [--generator G]
+        in a copy of the example, check what each kind of edit regenerates and recompiles:
+        comment-only schema edits, generator and template changes recompile nothing, a field
+        added to the imported schema recompiles its users, unrelated files change nothing;
+    project_test.py depends ... (same options)
+        the same across two message libraries (tests/cmake/two_libraries, DEPENDS).
+
+Every check prints what it expected and what came; the exit status is 1 on the first failure.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+PYTHON = "/usr/bin/python3"
+TARGET = "demo_msgs"
+
+
+class Failure(Exception):
+    pass
+
+
+def run(cmd: list[str], cwd: Path | None = None, env: dict | None = None,
+        check: bool = True) -> subprocess.CompletedProcess:
+    proc = subprocess.run([str(c) for c in cmd], cwd=cwd, env=env, text=True,
+                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+    if check and proc.returncode != 0:
+        raise Failure(f"command failed (exit {proc.returncode}): {' '.join(map(str, cmd))}\n"
+                      f"{proc.stdout}")
+    return proc
+
+
+def expect(condition: bool, what: str, came: str = "") -> None:
+    if not condition:
+        raise Failure(f"expected {what}" + (f"\n--- came:\n{came}" if came else ""))
+    print(f"ok: {what}")
+
+
+def install_horus(horus_build: Path, prefix: Path) -> None:
+    shutil.rmtree(prefix, ignore_errors=True)
+    run(["cmake", "--install", horus_build, "--prefix", prefix])
+
+
+def configure(source: Path, build: Path, prefix: Path, generator: str, *extra: str) -> None:
+    run(["cmake", "-S", source, "-B", build, "-G", generator, f"-DCMAKE_PREFIX_PATH={prefix}",
+         "-DCMAKE_BUILD_TYPE=Debug", *extra])
+
+
+def build(build_dir: Path, check: bool = True) -> subprocess.CompletedProcess:
+    return run(["cmake", "--build", build_dir, "--parallel", str(os.cpu_count() or 2)],
+               check=check)
+
+
+def run_example(build_dir: Path, *expected: str) -> str:
+    out = run([build_dir / "custom_messages"]).stdout
+    for text in expected:
+        expect(text in out, f"the example's output to contain {text!r}", out)
+    expect("DIFFERENT" not in out, "every message to decode unchanged", out)
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+def installed(args: argparse.Namespace) -> None:
+    prefix = args.work / "prefix"
+    install_horus(args.build, prefix)
+    for path in ["lib/cmake/horus/horusConfig.cmake", "lib/cmake/horus/HorusGenerate.cmake",
+                 "include/horus/message.hpp", "bin/horus-gen",
+                 "share/horus/generator/horus-gen", "share/horus/templates/cpp"]:
+        expect((prefix / path).exists(), f"the installation to hold {path}")
+
+    schemas = sorted((args.source / "msg").glob("*.hmsg"))
+    checked = run([prefix / "bin/horus-gen", "check", "--package", "demo_robot.msg",
+                   "-I", args.source / "msg", *schemas], check=False)
+    expect(checked.returncode == 0, "the installed horus-gen to accept the example's schemas",
+           checked.stdout)
+
+    build_dir = args.work / "build"
+    shutil.rmtree(build_dir, ignore_errors=True)
+    configure(args.source, build_dir, prefix, args.generator,
+              f"-DCMAKE_INSTALL_PREFIX={args.work / 'app-prefix'}")
+    build(build_dir)
+    run_example(build_dir, "demo_robot.msg.MotorFeedback", "demo_robot.msg.Pose2D",
+                "demo_robot.msg.MotorStatus", "(padding)", "left_front")
+
+    app_prefix = args.work / "app-prefix"
+    shutil.rmtree(app_prefix, ignore_errors=True)
+    run(["cmake", "--install", build_dir])
+    expect((app_prefix / "include/demo_robot/msg/motor_feedback.hpp").is_file(),
+           "the generated headers to install under include/")
+    if re.search(r"LANGUAGES[^)]*python", (args.source / "CMakeLists.txt").read_text()):
+        check_python(build_dir, app_prefix)
+    else:
+        print("note: the example generates no Python: its Python package is not checked")
+
+
+def check_python(build_dir: Path, app_prefix: Path) -> None:
+    python_dir = build_dir / "horus_gen" / TARGET / "python"
+    imported = run([PYTHON, "-c", "import demo_robot.msg as m; print(m.MotorFeedback.__horus__.name)"],
+                   env={**os.environ, "PYTHONPATH": str(python_dir)}, check=False)
+    expect(imported.returncode == 0 and "demo_robot.msg.MotorFeedback" in imported.stdout,
+           "the generated Python package to import from <TARGET>_PYTHON_DIR", imported.stdout)
+
+    site = run([PYTHON, "-c", "import sys; print(f'python{sys.version_info[0]}.{sys.version_info[1]}')"])
+    python_install = app_prefix / "lib" / site.stdout.strip() / "dist-packages"
+    expect((python_install / "demo_robot/msg/__init__.py").is_file(),
+           f"the generated Python package to install under {python_install.relative_to(app_prefix)}")
+
+
+# ---------------------------------------------------------------------------------------------
+def mtimes(root: Path, pattern: str) -> dict[Path, int]:
+    return {p: p.stat().st_mtime_ns for p in root.rglob(pattern) if p.is_file()}
+
+
+class Project:
+    """A copy of a project with its own horus installation, so that touching the installed
+    generator and templates disturbs no other test."""
+
+    def __init__(self, args: argparse.Namespace, source: Path, targets: list[str]) -> None:
+        self.root = args.work
+        shutil.rmtree(self.root, ignore_errors=True)
+        self.prefix = self.root / "prefix"
+        install_horus(args.build, self.prefix)
+        self.source = self.root / "project"
+        shutil.copytree(source, self.source)
+        self.build_dir = self.root / "build"
+        self.generated = self.build_dir / "horus_gen"
+        self.stamps = {t: self.generated / f"{t}.stamp" for t in targets}
+        configure(self.source, self.build_dir, self.prefix, args.generator)
+
+    def snapshot(self) -> dict[str, dict]:
+        return {"objects": mtimes(self.build_dir, "*.o"), "generated": mtimes(self.generated, "*"),
+                "stamps": {t: p.stat().st_mtime_ns for t, p in self.stamps.items()}}
+
+    def rebuild(self, step: str, *, generated: set[str], recompiled: set[str],
+                rewritten: bool) -> None:
+        """Builds, then checks which targets horus-gen ran for, which objects were recompiled (by
+        source file name) and whether any generated file was rewritten."""
+        print(f"--- {step}")
+        before = self.snapshot()
+        out = build(self.build_dir).stdout
+        after = self.snapshot()
+        ran = {t for t in self.stamps if before["stamps"][t] != after["stamps"][t]}
+        expect(ran == generated,
+               f"horus-gen to run for {sorted(generated) or 'no target'}, ran for {sorted(ran) or 'none'}",
+               out)
+        changed = {p.name.removesuffix(".o") for p, t in after["objects"].items()
+                   if before["objects"].get(p) != t}
+        expect(changed == recompiled,
+               f"recompiled objects to be {sorted(recompiled) or 'none'}, were {sorted(changed) or 'none'}",
+               out)
+        touched = sorted(str(p.relative_to(self.generated)) for p, t in after["generated"].items()
+                         if before["generated"].get(p) != t and p.suffix != ".stamp")
+        expect(bool(touched) == rewritten,
+               f"generated files {'to be' if rewritten else 'not to be'} rewritten (rewritten: {touched})",
+               out)
+
+    def edit(self, relative: str, old: str, new: str) -> None:
+        path = self.source / relative
+        text = path.read_text()
+        if old not in text:
+            raise Failure(f"test set-up: {old!r} not found in {path}")
+        path.write_text(text.replace(old, new, 1))
+
+
+def rebuild(args: argparse.Namespace) -> None:
+    p = Project(args, args.source, [TARGET])
+    everything = {TARGET}
+    print("--- first build")
+    build(p.build_dir)
+    run_example(p.build_dir, "demo_robot.msg.Pose2D")
+
+    p.rebuild("nothing changed", generated=set(), recompiled=set(), rewritten=False)
+
+    (p.source / "notes.txt").write_text("a file no target uses\n")
+    os.utime(p.source / "CMakeLists.txt")
+    p.rebuild("unrelated file added, CMakeLists.txt touched", generated=set(), recompiled=set(),
+              rewritten=False)
+
+    os.utime(p.source / "main.cpp")
+    p.rebuild("main.cpp touched", generated=set(), recompiled={"main.cpp"}, rewritten=False)
+
+    p.edit("msg/geometry.hmsg", "// Geometry shared", "// Planar geometry shared")
+    p.edit("msg/motor.hmsg", "/// How the motor",
+           "// The enum below is used by MotorFeedback.\n/// How the motor")
+    p.rebuild("comments edited in both schemas", generated=everything, recompiled=set(),
+              rewritten=False)
+
+    for changed in [next((p.prefix / "share/horus/templates").rglob("*.j2"), None),
+                    p.prefix / "share/horus/generator/horus_gen/model.py"]:
+        expect(changed is not None and changed.is_file(),
+               f"an installed generator file to touch ({changed})")
+        os.utime(changed)
+        p.rebuild(f"{changed.relative_to(p.prefix)} touched", generated=everything,
+                  recompiled=set(), rewritten=False)
+
+    p.edit("msg/geometry.hmsg", "    theta: f64,\n", "    theta: f64,\n    stamp_ns: u64,\n")
+    p.rebuild("field added to the imported schema", generated=everything,
+              recompiled={"main.cpp"}, rewritten=True)
+    run_example(p.build_dir, "stamp_ns")
+
+    print("--- schema error")
+    before = p.snapshot()
+    p.edit("msg/geometry.hmsg", "stamp_ns: u64,", "stamp_ns: u64\n    broken: f63,")
+    failed = build(p.build_dir, check=False)
+    expect(failed.returncode != 0, "the build to fail on a schema error", failed.stdout)
+    expect("geometry.hmsg:" in failed.stdout and "error:" in failed.stdout,
+           "the error to name the schema file", failed.stdout)
+    expect(p.snapshot()["generated"] == before["generated"],
+           "a failed generation to leave the generated files alone")
+    p.edit("msg/geometry.hmsg", "stamp_ns: u64\n    broken: f63,", "stamp_ns: u64,")
+    p.rebuild("schema error fixed", generated=everything, recompiled=set(), rewritten=False)
+
+    p.edit("msg/motor.hmsg", "/// A motor's health",
+           "/// Limits of one motor.\nMotorLimits {\n    max_current: f32,\n}\n\n/// A motor's health")
+    p.rebuild("message added", generated=everything, recompiled={"main.cpp"}, rewritten=True)
+    expect((p.generated / TARGET / "cpp/demo_robot/msg/motor_limits.hpp").is_file(),
+           "a header for the added message")
+
+
+def depends(args: argparse.Namespace) -> None:
+    """base_msgs and app_msgs (DEPENDS base_msgs, using robot_base::Point by qualified name)."""
+    source = Path(__file__).resolve().parent / "two_libraries"
+    p = Project(args, source, ["base_msgs", "app_msgs"])
+    print("--- first build")
+    build(p.build_dir)
+    out = run([p.build_dir / "route_main"]).stdout
+    expect("goal: Point{x: 0 m, y: 4 m}" in out, "route_main to print the nested points", out)
+
+    p.rebuild("nothing changed", generated=set(), recompiled=set(), rewritten=False)
+
+    p.edit("schemas/robot_base/point.hmsg", "// A point", "// A 2-D point")
+    p.rebuild("comment edited in the depended-on schema", generated={"base_msgs", "app_msgs"},
+              recompiled=set(), rewritten=False)
+
+    p.edit("schemas/robot_app/route.hmsg", "    speed: f32,\n", "    speed: f32,\n    lane: u8,\n")
+    p.rebuild("field added to the depending schema", generated={"app_msgs"},
+              recompiled={"route_main.cpp"}, rewritten=True)
+
+    p.edit("schemas/robot_base/point.hmsg", "    y: f64,\n", "    y: f64,\n    z: f64,\n")
+    p.rebuild("field added to the depended-on schema", generated={"base_msgs", "app_msgs"},
+              recompiled={"base_main.cpp", "route_main.cpp"}, rewritten=True)
+    out = run([p.build_dir / "route_main"]).stdout
+    expect("z: 0" in out, "route_main to print the new field of robot_base::Point", out)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("mode", choices=["installed", "rebuild", "depends"])
+    parser.add_argument("--build", type=Path, required=True, help="the horus build folder")
+    parser.add_argument("--source", type=Path, required=True, help="examples/custom_messages")
+    parser.add_argument("--work", type=Path, required=True, help="scratch folder (emptied)")
+    parser.add_argument("--generator", default="Ninja", help="CMake generator for the project")
+    args = parser.parse_args()
+    args.work.mkdir(parents=True, exist_ok=True)
+    try:
+        {"installed": installed, "rebuild": rebuild, "depends": depends}[args.mode](args)
+    except Failure as failure:
+        print(f"FAILED: {failure}", file=sys.stderr)
+        return 1
+    print("passed")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

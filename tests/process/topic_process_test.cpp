@@ -1,0 +1,555 @@
+// Topics between real processes: the test binary re-executes itself to play publishers and
+// subscribers (see topic_test_support.hpp). Every wait is bounded, so a failure never hangs.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include <horus/detail/shm_segment.hpp>
+#include <horus/detail/topic_notifier.hpp>
+#include <horus/topic.hpp>
+#include <horus/topic_registry.hpp>
+#include <topic_test/big.hpp>
+#include <topic_test/blob.hpp>
+#include <topic_test/other.hpp>
+#include <topic_test/sample.hpp>
+
+#include "topic_test_support.hpp"
+
+namespace {
+
+using namespace std::chrono_literals;
+using topic_test::Big;
+using topic_test::Blob;
+using topic_test::Child;
+using topic_test::Other;
+using topic_test::PrivateNamespace;
+using topic_test::Sample;
+using topic_test::sealed;
+using topic_test::valid;
+
+constexpr auto kDeadline = 30s;
+
+bool past(std::chrono::steady_clock::time_point deadline) {
+  return std::chrono::steady_clock::now() > deadline;
+}
+
+/// Per-publisher counts a subscriber reports back, packed into an ack Sample's payload.
+void put_count(Sample& ack, std::size_t publisher, std::uint64_t count) {
+  std::memcpy(ack.payload.data() + publisher * 8, &count, 8);
+}
+std::uint64_t get_count(const Sample& ack, std::size_t publisher) {
+  std::uint64_t count = 0;
+  std::memcpy(&count, ack.payload.data() + publisher * 8, 8);
+  return count;
+}
+
+// ---- Roles -------------------------------------------------------------------------------------
+
+/// publish <topic> <publisher id> <count> <subscribers> <window> [capacity]: sends `count`
+/// sealed Samples (salt = publisher id), never more than `window` ahead of any subscriber's ack.
+int role_publish(const std::vector<std::string>& args) {
+  const std::string topic = args.at(0);
+  const std::size_t id = std::stoul(args.at(1));
+  const std::uint64_t count = std::stoull(args.at(2));
+  const std::size_t subscribers = std::stoul(args.at(3));
+  const std::uint64_t window = std::stoull(args.at(4));
+  horus::TopicOptions options;
+  options.capacity = args.size() > 5 ? std::stoul(args.at(5)) : 64;
+  horus::Topic<Sample> data(topic, options);
+  std::vector<horus::Topic<Sample>> acks;
+  for (std::size_t k = 0; k < subscribers; ++k) {
+    acks.emplace_back(topic + ".ack" + std::to_string(k));
+  }
+  const auto deadline = std::chrono::steady_clock::now() + kDeadline;
+  std::vector<std::uint64_t> acked(subscribers, 0);
+  auto refresh = [&](bool sleep) {
+    for (std::size_t k = 0; k < subscribers; ++k) {
+      if (auto latest = acks[k].read_latest()) {
+        acked[k] = std::max(acked[k], get_count(*latest, id));
+      }
+    }
+    if (sleep) {
+      acks[0].recv(1ms);
+    }
+  };
+  // Every subscriber announces itself (count 0) once its handle is open.
+  for (std::size_t k = 0; k < subscribers; ++k) {
+    while (!acks[k].read_latest()) {
+      if (past(deadline)) {
+        std::fprintf(stderr, "publisher %zu: subscriber %zu never became ready\n", id, k);
+        return 10;
+      }
+      acks[k].recv(1ms);
+    }
+  }
+  for (std::uint64_t i = 0; i < count; ++i) {
+    for (;;) {
+      std::uint64_t slowest = UINT64_MAX;
+      for (const std::uint64_t a : acked) {
+        slowest = std::min(slowest, a);
+      }
+      if (i - std::min(i, slowest) < window) {
+        break;
+      }
+      if (past(deadline)) {
+        std::fprintf(stderr, "publisher %zu: stuck at %llu\n", id, static_cast<unsigned long long>(i));
+        return 11;
+      }
+      refresh(true);
+    }
+    if (!data.send(sealed<Sample>(i, id))) {
+      std::fprintf(stderr, "publisher %zu: send %llu failed\n", id, static_cast<unsigned long long>(i));
+      return 12;
+    }
+    if (i % 64 == 0) {
+      refresh(false);
+    }
+  }
+  return 0;
+}
+
+/// subscribe <topic> <subscriber id> <publishers> <count each>: expects every publisher's
+/// messages in order, none lost, each sealed; acks progress every 256 messages.
+int role_subscribe(const std::vector<std::string>& args) {
+  const std::string topic = args.at(0);
+  const std::size_t id = std::stoul(args.at(1));
+  const std::size_t publishers = std::stoul(args.at(2));
+  const std::uint64_t count = std::stoull(args.at(3));
+  horus::Topic<Sample> data(topic);
+  horus::Topic<Sample> ack(topic + ".ack" + std::to_string(id));
+  std::vector<std::uint64_t> next(publishers, 0);
+  Sample progress{};
+  ack.send(progress);
+  const auto deadline = std::chrono::steady_clock::now() + kDeadline;
+  std::uint64_t total = 0;
+  while (total < count * publishers) {
+    auto msg = data.recv(100ms);
+    if (!msg) {
+      if (past(deadline)) {
+        std::fprintf(stderr, "subscriber %zu: timed out after %llu messages\n", id,
+                     static_cast<unsigned long long>(total));
+        return 20;
+      }
+      continue;
+    }
+    std::size_t from = publishers;
+    for (std::size_t p = 0; p < publishers; ++p) {
+      if (msg->seq == next[p] && *msg == sealed<Sample>(msg->seq, p)) {
+        from = p;
+        break;
+      }
+    }
+    if (from == publishers) {
+      std::fprintf(stderr, "subscriber %zu: unexpected message seq %llu (valid %d)\n", id,
+                   static_cast<unsigned long long>(msg->seq), valid(*msg) ? 1 : 0);
+      return 21;
+    }
+    ++next[from];
+    ++total;
+    if (total % 256 == 0 || total == count * publishers) {
+      for (std::size_t p = 0; p < publishers; ++p) {
+        put_count(progress, p, next[p]);
+      }
+      ack.send(progress);
+    }
+  }
+  if (data.lost() != 0) {
+    std::fprintf(stderr, "subscriber %zu: lost %llu\n", id,
+                 static_cast<unsigned long long>(data.lost()));
+    return 22;
+  }
+  return 0;
+}
+
+/// send_plain <topic> <first seq> <count> [capacity]: sends without flow control, then exits.
+int role_send_plain(const std::vector<std::string>& args) {
+  horus::TopicOptions options;
+  options.capacity = args.size() > 3 ? std::stoul(args.at(3)) : 64;
+  horus::Topic<Sample> data(args.at(0), options);
+  const std::uint64_t first = std::stoull(args.at(1));
+  const std::uint64_t count = std::stoull(args.at(2));
+  for (std::uint64_t i = first; i < first + count; ++i) {
+    if (!data.send(sealed<Sample>(i))) {
+      return 30;
+    }
+  }
+  return 0;
+}
+
+/// stream_big <topic> <first seq>: sends sealed Bigs until killed.
+int role_stream_big(const std::vector<std::string>& args) {
+  horus::Topic<Big> data(args.at(0), {.capacity = 16});
+  for (std::uint64_t i = std::stoull(args.at(1));; ++i) {
+    data.send(sealed<Big>(i));
+  }
+}
+
+/// hold_loan <topic>: takes a loan, half-writes it, announces it on <topic>.held and waits to be
+/// killed while the slot is still marked as being written.
+int role_hold_loan(const std::vector<std::string>& args) {
+  horus::Topic<Sample> data(args.at(0));
+  horus::Topic<Sample> held(args.at(0) + ".held");
+  auto loan = data.loan();
+  loan->seq = 424242;
+  held.send(sealed<Sample>(1));
+  std::this_thread::sleep_for(kDeadline);
+  return 40;
+}
+
+/// echo <topic>: replies every Sample on <topic>.reply until it sees seq == UINT64_MAX.
+int role_echo(const std::vector<std::string>& args) {
+  horus::Topic<Sample> data(args.at(0));
+  horus::Topic<Sample> reply(args.at(0) + ".reply");
+  reply.send(sealed<Sample>(0));
+  const auto deadline = std::chrono::steady_clock::now() + kDeadline;
+  while (!past(deadline)) {
+    if (auto msg = data.recv(100ms)) {
+      if (msg->seq == UINT64_MAX) {
+        return 0;
+      }
+      reply.send(*msg);
+    }
+  }
+  return 50;
+}
+
+/// open_and_exit <topic>: opens a Sample topic and exits (leaving a segment with no live user).
+int role_open_and_exit(const std::vector<std::string>& args) {
+  horus::Topic<Sample> data(args.at(0));
+  data.send(sealed<Sample>(7));
+  return 0;
+}
+
+/// send_blobs <topic> <count>: serialized messages of growing size, one oversized in between.
+int role_send_blobs(const std::vector<std::string>& args) {
+  horus::Topic<Blob> data(args.at(0), {.capacity = 64, .max_message_size = 2048});
+  const std::uint64_t count = std::stoull(args.at(1));
+  for (std::uint64_t i = 0; i < count; ++i) {
+    Blob blob;
+    blob.seq = i;
+    blob.text = std::string(i % 50, 'a' + static_cast<char>(i % 26));
+    blob.data.assign(i * 7 % 1500, static_cast<std::uint8_t>(i));
+    if (i % 3 == 0) {
+      blob.note = "note " + std::to_string(i);
+    }
+    if (!data.send(blob)) {
+      return 60;
+    }
+    if (i == count / 2) {
+      Blob huge;
+      huge.data.assign(4096, 1);
+      if (data.send(huge) || data.stats().oversized != 1) {
+        return 61;
+      }
+    }
+  }
+  return 0;
+}
+
+/// no_room <topic>: with a 1 MiB file size limit, creating a 16 MiB topic must be a clear error.
+int role_no_room(const std::vector<std::string>& args) {
+  ::signal(SIGXFSZ, SIG_IGN);
+  const rlimit limit{1 << 20, 1 << 20};
+  ::setrlimit(RLIMIT_FSIZE, &limit);
+  try {
+    horus::Topic<Big> data(args.at(0), {.capacity = 4096});
+  } catch (const horus::Error& e) {
+    const std::string text = e.what();
+    return text.find("cannot allocate") != std::string::npos && text.find(args.at(0)) != std::string::npos ? 0 : 71;
+  }
+  return 70;
+}
+
+/// send_after <topic> <delay ms>: sleeps, then sends one Sample.
+int role_send_after(const std::vector<std::string>& args) {
+  horus::Topic<Sample> data(args.at(0));
+  std::this_thread::sleep_for(std::chrono::milliseconds(std::stoul(args.at(1))));
+  return data.send(sealed<Sample>(5)) ? 0 : 80;
+}
+
+const bool kRolesRegistered = [] {
+  auto& roles = topic_test::roles();
+  roles["publish"] = role_publish;
+  roles["subscribe"] = role_subscribe;
+  roles["send_plain"] = role_send_plain;
+  roles["stream_big"] = role_stream_big;
+  roles["hold_loan"] = role_hold_loan;
+  roles["echo"] = role_echo;
+  roles["open_and_exit"] = role_open_and_exit;
+  roles["send_blobs"] = role_send_blobs;
+  roles["no_room"] = role_no_room;
+  roles["send_after"] = role_send_after;
+  return true;
+}();
+// Runs before main: a re-executed child plays its role and exits here.
+const int kRoleStatus = topic_test::dispatch_role();
+
+// ---- Tests -------------------------------------------------------------------------------------
+
+TEST(TopicProcess, MillionMessagesArriveInOrderWithoutLoss) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> create("million", {.capacity = 1024});
+  Child subscriber("subscribe", {"million", "0", "1", "1000000"});
+  Child publisher("publish", {"million", "0", "1000000", "1", "768"});
+  EXPECT_EQ(publisher.wait(), 0);
+  EXPECT_EQ(subscriber.wait(), 0);
+}
+
+TEST(TopicProcess, SeveralPublishersAndSubscribersEachSeeEverything) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> create("many", {.capacity = 512});
+  std::vector<std::unique_ptr<Child>> children;
+  for (int s = 0; s < 2; ++s) {
+    children.push_back(std::make_unique<Child>(
+        "subscribe", std::vector<std::string>{"many", std::to_string(s), "3", "20000"}));
+  }
+  for (int p = 0; p < 3; ++p) {
+    children.push_back(std::make_unique<Child>(
+        "publish", std::vector<std::string>{"many", std::to_string(p), "20000", "2", "128"}));
+  }
+  for (auto& child : children) {
+    EXPECT_EQ(child->wait(), 0);
+  }
+}
+
+TEST(TopicProcess, LaggingSubscriberLosesTheOldestAndCountsThem) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> slow("lag", {.capacity = 64});
+  Child publisher("send_plain", {"lag", "0", "1000"});
+  ASSERT_EQ(publisher.wait(), 0);
+  std::vector<std::uint64_t> got;
+  while (auto msg = slow.try_recv()) {
+    EXPECT_TRUE(valid(*msg));
+    got.push_back(msg->seq);
+  }
+  ASSERT_EQ(got.size(), 64u);
+  EXPECT_EQ(slow.lost(), 1000u - 64u);
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    EXPECT_EQ(got[i], 1000u - 64u + i);
+  }
+}
+
+TEST(TopicProcess, LateJoinerSeesOnlyNewMessagesButReadLatestSeesTheNewest) {
+  PrivateNamespace ns;
+  {
+    Child publisher("send_plain", {"late", "0", "10"});
+    ASSERT_EQ(publisher.wait(), 0);
+  }
+  horus::Topic<Sample> late("late");
+  EXPECT_FALSE(late.has_msg());
+  EXPECT_FALSE(late.try_recv().has_value());
+  auto latest = late.read_latest();
+  ASSERT_TRUE(latest.has_value());
+  EXPECT_EQ(latest->seq, 9u);
+  EXPECT_TRUE(valid(*latest));
+  Child more("send_plain", {"late", "10", "1"});
+  ASSERT_EQ(more.wait(), 0);
+  auto next = late.try_recv();
+  ASSERT_TRUE(next.has_value());
+  EXPECT_EQ(next->seq, 10u);
+  EXPECT_EQ(late.lost(), 0u);
+}
+
+TEST(TopicProcess, AnotherTypeIsRefusedAndTheIncumbentsKeepWorking) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> data("typed");
+  horus::Topic<Sample> reply("typed.reply");
+  Child echo("echo", {"typed"});
+  ASSERT_TRUE(reply.recv(10s).has_value()) << "the echo child never came up";
+
+  try {
+    horus::Topic<Other> wrong("typed");
+    FAIL() << "opening a Sample topic as Other succeeded";
+  } catch (const horus::Error& e) {
+    const std::string text = e.what();
+    EXPECT_NE(text.find("topic_test.Sample"), std::string::npos) << text;
+    EXPECT_NE(text.find("topic_test.Other"), std::string::npos) << text;
+    char fingerprint[32];
+    std::snprintf(fingerprint, sizeof fingerprint, "%016llx",
+                  static_cast<unsigned long long>(horus::TypeInfo<Sample>::fingerprint));
+    EXPECT_NE(text.find(fingerprint), std::string::npos) << text;
+    std::snprintf(fingerprint, sizeof fingerprint, "%016llx",
+                  static_cast<unsigned long long>(horus::TypeInfo<Other>::fingerprint));
+    EXPECT_NE(text.find(fingerprint), std::string::npos) << text;
+  }
+
+  ASSERT_TRUE(data.send(sealed<Sample>(33)));
+  auto echoed = reply.recv(10s);
+  ASSERT_TRUE(echoed.has_value());
+  EXPECT_EQ(*echoed, sealed<Sample>(33));
+  data.send(sealed<Sample>(UINT64_MAX));
+  EXPECT_EQ(echo.wait(), 0);
+}
+
+TEST(TopicProcess, SegmentWhoseUsersAllDiedIsReusedEvenForAnotherType) {
+  PrivateNamespace ns;
+  Child first("open_and_exit", {"reused"});
+  ASSERT_EQ(first.wait(), 0);
+  {
+    horus::Topic<Sample> same("reused");
+    auto latest = same.read_latest();
+    ASSERT_TRUE(latest.has_value()) << "a restarted user continues the topic";
+    EXPECT_EQ(latest->seq, 7u);
+  }
+  horus::Topic<Other> retyped("reused");
+  EXPECT_TRUE(retyped.send(sealed<Other>(1)));
+  const auto topics = horus::list_topics();
+  ASSERT_EQ(topics.size(), 1u);
+  EXPECT_EQ(topics[0].type_name, "topic_test.Other");
+}
+
+TEST(TopicProcess, PublisherKilledWhileHoldingASlotNeitherTearsNorBlocks) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> data("held", {.capacity = 8});
+  horus::Topic<Sample> held("held.held");
+  Child holder("hold_loan", {"held"});
+  ASSERT_TRUE(held.recv(10s).has_value()) << "the child never took its loan";
+  EXPECT_FALSE(data.try_recv().has_value());
+  holder.kill();
+
+  // The dead writer's ticket is skipped (and counted), not waited for.
+  Child restarted("send_plain", {"held", "100", "3"});
+  ASSERT_EQ(restarted.wait(), 0);
+  for (std::uint64_t seq = 100; seq < 103; ++seq) {
+    auto msg = data.recv(10s);
+    ASSERT_TRUE(msg.has_value()) << "blocked behind the dead writer";
+    EXPECT_EQ(msg->seq, seq);
+    EXPECT_TRUE(valid(*msg));
+  }
+  EXPECT_EQ(data.lost(), 1u);
+
+  // Going round the ring twice takes the dead writer's slot back.
+  Child again("send_plain", {"held", "200", "6"});
+  ASSERT_EQ(again.wait(), 0);
+  for (std::uint64_t seq = 200; seq < 206; ++seq) {
+    auto msg = data.recv(10s);
+    ASSERT_TRUE(msg.has_value());
+    EXPECT_EQ(msg->seq, seq);
+    EXPECT_TRUE(valid(*msg));
+  }
+  EXPECT_EQ(data.lost(), 1u);
+  auto latest = data.read_latest();
+  ASSERT_TRUE(latest.has_value());
+  EXPECT_EQ(latest->seq, 205u);
+}
+
+TEST(TopicProcess, PublisherKilledMidStreamThenRestartedNeverShowsATornMessage) {
+  PrivateNamespace ns;
+  horus::Topic<Big> data("stream", {.capacity = 16});
+  for (int round = 0; round < 3; ++round) {
+    const std::uint64_t first = static_cast<std::uint64_t>(round) * 1'000'000'000ULL;
+    Child publisher("stream_big", {"stream", std::to_string(first)});
+    std::uint64_t received = 0;
+    const auto deadline = std::chrono::steady_clock::now() + 20s;
+    while (received < 2000 && !past(deadline)) {
+      if (auto msg = data.recv(100ms)) {
+        ASSERT_TRUE(valid(*msg)) << "torn message " << msg->seq;
+        received += msg->seq >= first ? 1 : 0;
+      }
+    }
+    ASSERT_GE(received, 2000u) << "round " << round << ": the publisher stalled";
+    publisher.kill();
+  }
+  while (auto msg = data.try_recv()) {
+    ASSERT_TRUE(valid(*msg)) << "torn message " << msg->seq;
+  }
+}
+
+TEST(TopicProcess, SerializedMessagesCrossProcessesAndOversizedOnesAreCounted) {
+  PrivateNamespace ns;
+  horus::Topic<Blob> data("blobs", {.capacity = 64, .max_message_size = 2048});
+  constexpr std::uint64_t kCount = 40;
+  Child publisher("send_blobs", {"blobs", std::to_string(kCount)});
+  ASSERT_EQ(publisher.wait(), 0);
+  for (std::uint64_t i = 0; i < kCount; ++i) {
+    auto blob = data.try_recv();
+    ASSERT_TRUE(blob.has_value()) << "message " << i;
+    EXPECT_EQ(blob->seq, i);
+    EXPECT_EQ(blob->text, std::string(i % 50, 'a' + static_cast<char>(i % 26)));
+    EXPECT_EQ(blob->data, std::vector<std::uint8_t>(i * 7 % 1500, static_cast<std::uint8_t>(i)));
+    EXPECT_EQ(blob->note.has_value(), i % 3 == 0);
+  }
+  EXPECT_FALSE(data.try_recv().has_value());
+  EXPECT_EQ(data.stats().invalid, 0u);
+  EXPECT_EQ(data.lost(), 0u);
+}
+
+TEST(TopicProcess, BlockingRecvWakesOnASendFromAnotherProcess) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> data("wake");
+  Child sender("send_after", {"wake", "50"});
+  auto msg = data.recv(20s);
+  ASSERT_TRUE(msg.has_value());
+  EXPECT_EQ(msg->seq, 5u);
+  EXPECT_EQ(sender.wait(), 0);
+  EXPECT_FALSE(data.recv(50ms).has_value()) << "nothing else was sent";
+}
+
+TEST(TopicProcess, NotifierWaitsForATopicThatDoesNotExistYet) {
+  PrivateNamespace ns;
+  horus::detail::TopicNotifier notifier("future");
+  EXPECT_FALSE(notifier.wait(20ms));
+  Child sender("send_after", {"future", "20"});
+  EXPECT_TRUE(notifier.wait(20s));
+  EXPECT_EQ(sender.wait(), 0);
+  EXPECT_FALSE(notifier.wait(20ms)) << "one message wakes one wait";
+}
+
+TEST(TopicProcess, FullShmIsAClearErrorNotSigbus) {
+  PrivateNamespace ns;
+  Child child("no_room", {"roomless"});
+  EXPECT_EQ(child.wait(), 0);
+}
+
+TEST(TopicProcess, IntrospectionListsTypesUsersAndTraffic) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> listener("listed", {.capacity = 32});
+  EXPECT_FALSE(listener.try_recv().has_value());
+  const auto before = std::chrono::system_clock::now() - 1s;
+  Child publisher("send_plain", {"listed", "0", "5"});
+  ASSERT_EQ(publisher.wait(), 0);
+  horus::detail::TopicNotifier notifier("untyped");
+
+  const auto topics = horus::list_topics();
+  ASSERT_EQ(topics.size(), 2u);
+  const horus::TopicInfo& listed = topics[0];
+  EXPECT_EQ(listed.name, "listed");
+  EXPECT_EQ(listed.error, "");
+  EXPECT_EQ(listed.type_name, "topic_test.Sample");
+  EXPECT_EQ(listed.fingerprint, horus::TypeInfo<Sample>::fingerprint);
+  EXPECT_EQ(listed.schema, horus::TypeInfo<Sample>::schema);
+  EXPECT_TRUE(listed.is_pod);
+  EXPECT_EQ(listed.capacity, 32u);
+  EXPECT_EQ(listed.max_message_size, sizeof(Sample));
+  EXPECT_EQ(listed.publishers, 0u) << "the publisher exited";
+  EXPECT_EQ(listed.subscribers, 1u);
+  EXPECT_EQ(listed.message_count, 5u);
+  ASSERT_TRUE(listed.last_send.has_value());
+  EXPECT_GT(*listed.last_send, before);
+  EXPECT_EQ(topics[1].name, "untyped");
+  EXPECT_EQ(topics[1].type_name, "");
+  EXPECT_EQ(topics[1].error, "");
+}
+
+TEST(TopicProcess, SegmentsAreOwnerOnlyInAPerNamespaceFolder) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> data("private");
+  struct stat info {};
+  const std::string directory = horus::detail::namespace_directory(ns.name());
+  ASSERT_EQ(::stat(directory.c_str(), &info), 0);
+  EXPECT_EQ(info.st_mode & 07777, 0700u);
+  ASSERT_EQ(::stat((directory + "/private").c_str(), &info), 0);
+  EXPECT_EQ(info.st_mode & 07777, 0600u);
+}
+
+}  // namespace

@@ -1,0 +1,108 @@
+// Segments that cannot be trusted: every opener validates the headers before using them.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include <horus/detail/shm_segment.hpp>
+#include <horus/topic.hpp>
+#include <horus/topic_registry.hpp>
+#include <topic_test/sample.hpp>
+
+#include "topic_test_support.hpp"
+
+namespace {
+
+using horus::detail::kControlSize;
+using horus::detail::LayoutHeader;
+using topic_test::PrivateNamespace;
+using topic_test::Sample;
+
+std::string segment_path(const PrivateNamespace& ns, const std::string& topic) {
+  return horus::detail::namespace_directory(ns.name()) + "/" + topic;
+}
+
+void create(const std::string& topic) {
+  horus::Topic<Sample> data(topic);
+  data.send(Sample{});
+}
+
+void overwrite(const std::string& path, std::size_t offset, std::uint64_t value) {
+  const int fd = ::open(path.c_str(), O_WRONLY);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(::pwrite(fd, &value, sizeof value, static_cast<off_t>(offset)),
+            static_cast<ssize_t>(sizeof value));
+  ::close(fd);
+}
+
+std::string open_error(const std::string& topic) {
+  try {
+    horus::Topic<Sample> data(topic);
+  } catch (const horus::Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(ShmSegment, TruncatedSegmentIsAnErrorNotSigbus) {
+  PrivateNamespace ns;
+  create("cut");
+  ASSERT_EQ(::truncate(segment_path(ns, "cut").c_str(), kControlSize + 1000), 0);
+  const std::string error = open_error("cut");
+  EXPECT_NE(error.find("corrupt"), std::string::npos) << error;
+  const auto topics = horus::list_topics();
+  ASSERT_EQ(topics.size(), 1u);
+  EXPECT_NE(topics[0].error.find("truncated"), std::string::npos) << topics[0].error;
+}
+
+TEST(ShmSegment, SegmentShorterThanItsControlPageIsAnError) {
+  PrivateNamespace ns;
+  create("stub");
+  ASSERT_EQ(::truncate(segment_path(ns, "stub").c_str(), 100), 0);
+  EXPECT_NE(open_error("stub").find("truncated"), std::string::npos);
+}
+
+TEST(ShmSegment, CorruptControlMagicIsAnError) {
+  PrivateNamespace ns;
+  create("magic");
+  overwrite(segment_path(ns, "magic"), 0, 0x1234);
+  EXPECT_NE(open_error("magic").find("control magic"), std::string::npos);
+}
+
+TEST(ShmSegment, CorruptGeometryIsAnError) {
+  PrivateNamespace ns;
+  create("geometry");
+  overwrite(segment_path(ns, "geometry"), kControlSize + offsetof(LayoutHeader, capacity), 3);
+  EXPECT_NE(open_error("geometry").find("invalid capacity"), std::string::npos);
+}
+
+TEST(ShmSegment, SlotStrideBeyondTheFileIsAnError) {
+  PrivateNamespace ns;
+  create("stride");
+  overwrite(segment_path(ns, "stride"), kControlSize + offsetof(LayoutHeader, slot_stride),
+            std::uint64_t{1} << 40);
+  EXPECT_NE(open_error("stride").find("corrupt"), std::string::npos);
+}
+
+TEST(ShmSegment, HugeSchemaSizeIsAnError) {
+  PrivateNamespace ns;
+  create("schema");
+  overwrite(segment_path(ns, "schema"), kControlSize + offsetof(LayoutHeader, schema_size),
+            ~std::uint64_t{0});
+  EXPECT_NE(open_error("schema").find("corrupt"), std::string::npos);
+}
+
+TEST(ShmSegment, CleanRemovesOnlySegmentsWithoutLiveUsers) {
+  PrivateNamespace ns;
+  create("abandoned");
+  horus::Topic<Sample> used("used");
+  EXPECT_EQ(horus::clean_namespace(), 1u);
+  const auto topics = horus::list_topics();
+  ASSERT_EQ(topics.size(), 1u);
+  EXPECT_EQ(topics[0].name, "used");
+}
+
+}  // namespace

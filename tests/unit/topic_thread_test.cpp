@@ -1,0 +1,211 @@
+// Topics between threads of one process: the API contract, loans, blocking and the notifier.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <thread>
+#include <vector>
+
+#include <horus/detail/topic_notifier.hpp>
+#include <horus/topic.hpp>
+#include <horus/topic_registry.hpp>
+#include <topic_test/blob.hpp>
+#include <topic_test/other.hpp>
+#include <topic_test/sample.hpp>
+
+#include "topic_test_support.hpp"
+
+namespace {
+
+using namespace std::chrono_literals;
+using topic_test::Blob;
+using topic_test::Other;
+using topic_test::PrivateNamespace;
+using topic_test::Sample;
+using topic_test::sealed;
+using topic_test::valid;
+
+TEST(TopicThread, OneHandleSendsAndAnotherReceivesInOrder) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> pub("chatter");
+  horus::Topic<Sample> sub("chatter");
+  EXPECT_FALSE(sub.has_msg());
+  for (std::uint64_t i = 0; i < 10; ++i) {
+    ASSERT_TRUE(pub.send(sealed<Sample>(i)));
+  }
+  EXPECT_TRUE(sub.has_msg());
+  for (std::uint64_t i = 0; i < 10; ++i) {
+    auto msg = sub.try_recv();
+    ASSERT_TRUE(msg.has_value());
+    EXPECT_EQ(*msg, sealed<Sample>(i));
+  }
+  EXPECT_FALSE(sub.try_recv().has_value());
+  auto own = pub.try_recv();
+  ASSERT_TRUE(own.has_value()) << "a handle also receives what it sent";
+  EXPECT_EQ(own->seq, 0u);
+}
+
+TEST(TopicThread, LoanWritesInPlaceAndAnUnpublishedLoanSendsNothing) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> pub("loaned");
+  horus::Topic<Sample> sub("loaned");
+  {
+    auto dropped = pub.loan();
+    dropped->seq = 99;
+  }
+  auto loan = pub.loan();
+  topic_test::seal(*loan, 5);
+  ASSERT_TRUE(pub.publish(std::move(loan)));
+  auto msg = sub.try_recv();
+  ASSERT_TRUE(msg.has_value());
+  EXPECT_EQ(*msg, sealed<Sample>(5));
+  EXPECT_FALSE(sub.try_recv().has_value());
+  EXPECT_EQ(sub.lost(), 0u);
+  EXPECT_EQ(sub.read_latest()->seq, 5u);
+}
+
+TEST(TopicThread, CapacityIsRoundedToAPowerOfTwoAndAdoptedByLaterOpeners) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> first("sized", {.capacity = 100});
+  horus::Topic<Sample> second("sized", {.capacity = 4});
+  EXPECT_EQ(first.capacity(), 128u);
+  EXPECT_EQ(second.capacity(), 128u);
+}
+
+TEST(TopicThread, AnotherTypeInTheSameProcessIsRefused) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> incumbent("typed");
+  EXPECT_THROW(horus::Topic<Other>("typed"), horus::Error);
+  EXPECT_THROW(horus::Topic<Blob>("typed"), horus::Error);
+  horus::Topic<Sample> sub("typed");
+  EXPECT_TRUE(incumbent.send(sealed<Sample>(1)));
+  EXPECT_TRUE(sub.try_recv().has_value());
+}
+
+TEST(TopicThread, InvalidNamesAreRejected) {
+  PrivateNamespace ns;
+  EXPECT_THROW(horus::Topic<Sample>("a/b"), horus::Error);
+  EXPECT_THROW(horus::Topic<Sample>(".."), horus::Error);
+  EXPECT_THROW(horus::Topic<Sample>(""), horus::Error);
+  EXPECT_THROW(horus::Topic<Sample>("x", {.capacity = 0}), horus::Error);
+}
+
+TEST(TopicThread, ConcurrentPublishersAndSubscribersSeeEveryMessageInOrder) {
+  PrivateNamespace ns;
+  constexpr std::size_t kPublishers = 3;
+  constexpr std::uint64_t kEach = 5000;
+  // Large enough that nobody is lapped: every subscriber must see everything.
+  horus::Topic<Sample> create("busy", {.capacity = 16384});
+  std::vector<horus::Topic<Sample>> subs;
+  for (int s = 0; s < 2; ++s) {
+    subs.emplace_back("busy");
+  }
+  std::atomic<int> failures{0};
+  std::vector<std::thread> threads;
+  for (auto& sub : subs) {
+    threads.emplace_back([&sub, &failures] {
+      std::vector<std::uint64_t> next(kPublishers, 0);
+      for (std::uint64_t got = 0; got < kPublishers * kEach;) {
+        auto msg = sub.recv(10s);
+        if (!msg) {
+          ++failures;
+          return;
+        }
+        std::size_t from = kPublishers;
+        for (std::size_t p = 0; p < kPublishers; ++p) {
+          if (msg->seq == next[p] && *msg == sealed<Sample>(msg->seq, p)) {
+            from = p;
+          }
+        }
+        if (from == kPublishers) {
+          ++failures;
+          return;
+        }
+        ++next[from];
+        ++got;
+      }
+    });
+  }
+  for (std::size_t p = 0; p < kPublishers; ++p) {
+    threads.emplace_back([p, &failures] {
+      horus::Topic<Sample> pub("busy");
+      for (std::uint64_t i = 0; i < kEach; ++i) {
+        if (!pub.send(sealed<Sample>(i, p))) {
+          ++failures;
+        }
+      }
+    });
+  }
+  for (auto& thread : threads) {
+    thread.join();
+  }
+  EXPECT_EQ(failures.load(), 0);
+  for (auto& sub : subs) {
+    EXPECT_EQ(sub.lost(), 0u);
+  }
+}
+
+TEST(TopicThread, RecvWakesOnSendAndTimesOutWhenNothingComes) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> sub("wake");
+  EXPECT_FALSE(sub.recv(20ms).has_value());
+  std::thread sender([] {
+    horus::Topic<Sample> pub("wake");
+    std::this_thread::sleep_for(20ms);
+    pub.send(sealed<Sample>(3));
+  });
+  auto msg = sub.recv(20s);
+  sender.join();
+  ASSERT_TRUE(msg.has_value());
+  EXPECT_EQ(msg->seq, 3u);
+}
+
+TEST(TopicThread, NotifierWakesOnAnyTypeAndOnInterrupt) {
+  PrivateNamespace ns;
+  horus::detail::TopicNotifier notifier("events");
+  std::thread sender([] {
+    horus::Topic<Blob> pub("events");
+    std::this_thread::sleep_for(20ms);
+    Blob blob;
+    blob.text = "hello";
+    pub.send(blob);
+  });
+  EXPECT_TRUE(notifier.wait(20s));
+  sender.join();
+
+  std::thread stopper([&notifier] {
+    std::this_thread::sleep_for(20ms);
+    notifier.interrupt();
+  });
+  EXPECT_FALSE(notifier.wait(20s)) << "interrupt() ends the wait without a message";
+  stopper.join();
+
+  horus::Topic<Blob> pub("events");
+  pub.send(Blob{});
+  EXPECT_TRUE(notifier.wait(0ns)) << "a message sent between two waits is not missed";
+}
+
+TEST(TopicThread, SerializedOverMaximumSizeIsRefusedAndCounted) {
+  PrivateNamespace ns;
+  horus::Topic<Blob> pub("blob", {.capacity = 8, .max_message_size = 256});
+  horus::Topic<Blob> sub("blob");
+  Blob small;
+  small.seq = 1;
+  small.text = "fits";
+  Blob large;
+  large.data.assign(1000, 7);
+  EXPECT_TRUE(pub.send(small));
+  EXPECT_FALSE(pub.send(large));
+  EXPECT_EQ(pub.stats().oversized, 1u);
+  EXPECT_EQ(pub.stats().send_failures, 1u);
+  small.seq = 2;
+  EXPECT_TRUE(pub.send(small));
+  EXPECT_EQ(sub.try_recv()->seq, 1u);
+  EXPECT_EQ(sub.try_recv()->seq, 2u) << "the refused message leaves no hole";
+  EXPECT_FALSE(sub.try_recv().has_value());
+  EXPECT_EQ(sub.lost(), 0u);
+  EXPECT_EQ(sub.read_latest()->seq, 2u);
+}
+
+}  // namespace
