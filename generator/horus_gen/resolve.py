@@ -144,31 +144,20 @@ class Resolver:
                 return candidate
         return None
 
-    def scan_package_folders(self, package: str, near: str) -> None:
+    def scan_package_folders(self, package: str, near: str | None) -> None:
         """Loads the schema files of `package`'s folder in every include dir, so that a qualified
-        name resolves without an explicit import."""
+        name resolves without an explicit import. Their errors are reported like any other: a
+        package the schema uses is part of what it compiles against."""
         relative = package.replace(".", os.sep)
-        for folder in [os.path.join(d, relative) for d in self.options.include_dirs] + [near]:
+        folders = [os.path.join(d, relative) for d in self.options.include_dirs] + ([near] if near else [])
+        for folder in folders:
             real = os.path.realpath(folder)
             if real in self.scanned_folders or not os.path.isdir(folder):
                 continue
             self.scanned_folders.add(real)
             for name in sorted(os.listdir(folder)):
                 if os.path.splitext(name)[1] in FILE_KINDS:
-                    path = os.path.join(folder, name)
-                    unit = self.units.get(os.path.realpath(path))
-                    if unit is None:
-                        quiet = Reporter()
-                        self.load_quietly(path, quiet)
-
-    def load_quietly(self, path: str, quiet: Reporter) -> None:
-        """A file found by scanning is only a candidate: its own errors are reported when it is
-        compiled or imported, not here."""
-        loud, self.reporter = self.reporter, quiet
-        try:
-            self.load(path)
-        finally:
-            self.reporter = loud
+                    self.load(os.path.join(folder, name))
 
     # -- declarations ----------------------------------------------------------------------------
     def declare(self, unit: Unit) -> None:
@@ -235,7 +224,8 @@ class Resolver:
                         if len(path) > 1 and ".".join(path) in self.decls:
                             continue
                         package = decl.unit.package if len(path) == 1 else ".".join(path[:-1])
-                        self.scan_package_folders(package, os.path.dirname(decl.unit.path))
+                        own_folder = os.path.dirname(decl.unit.path) if package == decl.unit.package else None
+                        self.scan_package_folders(package, own_folder)
 
     def resolve_all(self) -> None:
         self.preload_referenced_packages()
