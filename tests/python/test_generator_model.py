@@ -176,3 +176,19 @@ def test_nested_arrays(tmp_path):
 def test_all_errors_are_reported_in_one_run(tmp_path):
     _, reporter = resolve(tmp_path, "package p; A { x: f63 } B { y: [u8; 0] } C { z: string<0> }")
     assert len(reporter.diagnostics) == 3
+
+
+def test_same_package_types_in_sibling_files_resolve_without_import(tmp_path):
+    (tmp_path / "point.hmsg").write_text("package p; Point { x: f64 }")
+    model = ok(tmp_path, "package p; Path { points: [Point; 4] }")
+    assert model.message("p.Path").size == 32
+    assert model.generated == ["p.Path"], "a sibling used by name is a dependency, not an output"
+
+
+def test_errors_in_a_package_found_through_include_dirs_are_reported(tmp_path):
+    lib = tmp_path / "inc" / "lib"
+    lib.mkdir(parents=True)
+    (lib / "things.hmsg").write_text("package lib;\nThing { b: f63 }\n")
+    _, reporter = resolve(tmp_path, "package app; Uses { t: lib::Thing }", includes=[str(tmp_path / "inc")])
+    assert [d.message for d in reporter.diagnostics] == ["unknown type 'f63'"]
+    assert reporter.diagnostics[0].span.source.path.endswith("things.hmsg")
