@@ -65,6 +65,7 @@ class Resolver:
         self.decls: dict[str, Decl] = {}
         self.service_decls: dict[str, tuple[ServiceDecl, Unit]] = {}
         self.scanned_folders: set[str] = set()
+        self.mixin_outputs: dict[str, Mixin] = {}  # output path -> the helper file copied there
         self.model = Model()
         self.broken: set[str] = set()
         self.types: dict[str, dict[str, Type]] = {}  # message -> field name -> resolved type
@@ -630,10 +631,17 @@ class Resolver:
             return None
         self.model.inputs.append(source)
         if key == "py_mixin":
-            output = os.path.join(*package.split("."), f"_mixin_{snake_case(item.name)}.py")
+            stem = os.path.splitext(os.path.basename(normalized))[0]
+            output = os.path.join(*package.split("."), f"_mixin_{stem}.py")
         else:
             output = os.path.join(*package.split("."), normalized)
-        return Mixin(os.path.abspath(source), output)
+        mixin = Mixin(os.path.abspath(source), output)
+        previous = self.mixin_outputs.setdefault(output, mixin)
+        if previous.source_path != mixin.source_path:
+            self.reporter.error(span, f"#[{key}] file '{relative}' would be written to '{output}', "
+                                f"like '{previous.source_path}'", "give the two helper files different names")
+            return None
+        return mixin
 
     # -- attributes and values --------------------------------------------------------------------
     def check_attributes(self, attributes: tuple[Attribute, ...], allowed: dict[str, str], owner: str) -> dict:

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstring>
 #include <horus/codec.hpp>
+#include <horus/msgpack.hpp>
 #include <limits>
 #include <other_pkg/stamp.hpp>
 #include <test_msgs.hpp>

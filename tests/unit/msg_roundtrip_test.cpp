@@ -12,6 +12,7 @@
 // Refresh the table after an intended wire change:
 //   HORUS_UPDATE_GOLDEN=1 <build>/tests/unit/msg_roundtrip_test
 #include <horus/codec.hpp>
+#include <horus/msgpack.hpp>
 #include <horus/msg.hpp>
 
 #include <gtest/gtest.h>

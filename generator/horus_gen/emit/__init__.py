@@ -54,4 +54,5 @@ Emitter = Callable[[Model], dict[str, str]]
 
 def emitters() -> dict[str, Emitter]:
     from . import cpp
-    return {"cpp": cpp.emit}
+    from . import python
+    return {"cpp": cpp.emit, "python": python.emit}

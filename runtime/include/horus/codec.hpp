@@ -1,6 +1,10 @@
 // horus::encode / horus::decode: a message's wire bytes. POD messages are their raw struct bytes
 // with padding zeroed (what Python's to_bytes() writes); serialized messages are MessagePack, an
-// array of the fields in declaration order (horus/msgpack.hpp, included by their headers).
+// array of the fields in declaration order.
+//
+// MessagePack support is in horus/msgpack.hpp, which a program includes where it encodes or
+// decodes a serialized message (horus/topic.hpp includes it). Message headers do not include it:
+// msgpack-cxx costs more compile time than everything else a message header needs.
 #pragma once
 
 #include <cstddef>
@@ -17,10 +21,14 @@
 namespace horus {
 
 namespace detail {
+/// MessagePack of a value (a serialized message, a GenericMessage payload): pack(value) and
+/// unpack(bytes, what), which throws DecodeError naming `what`. Defined in horus/msgpack.hpp:
+/// "incomplete type Msgpack<...>" means that header is not included.
+template <class V>
+struct Msgpack;
+
 template <class T>
-std::vector<std::uint8_t> msgpack_encode(const T& msg);
-template <class T>
-T msgpack_decode(std::span<const std::uint8_t> bytes);
+concept MsgpackIncluded = requires { sizeof(Msgpack<T>); };
 }  // namespace detail
 
 /// Copies a POD message into `out` (at least sizeof(T) bytes) with its padding zeroed.
@@ -40,7 +48,8 @@ std::vector<std::uint8_t> encode(const T& msg) {
     encode_into(msg, bytes);
     return bytes;
   } else {
-    return detail::msgpack_encode(msg);
+    static_assert(detail::MsgpackIncluded<T>, "include <horus/msgpack.hpp> to encode serialized messages");
+    return detail::Msgpack<T>::pack(msg);
   }
 }
 
@@ -57,7 +66,8 @@ T decode(std::span<const std::uint8_t> bytes) {
     std::memcpy(&msg, bytes.data(), sizeof(T));
     return msg;
   } else {
-    return detail::msgpack_decode<T>(bytes);
+    static_assert(detail::MsgpackIncluded<T>, "include <horus/msgpack.hpp> to decode serialized messages");
+    return detail::Msgpack<T>::unpack(bytes, TypeInfo<T>::name);
   }
 }
 

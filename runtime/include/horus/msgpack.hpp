@@ -1,17 +1,39 @@
 // MessagePack for serialized messages, over msgpack-cxx. Every generated message and enum packs
 // through the adaptors below: a message as an array of its fields in declaration order, an enum
 // as its underlying integer, string<N> as a str. Python's generated code writes the same bytes.
+//
+// Only the parts of msgpack-cxx that message fields need are included (the whole library takes
+// longer to compile than all of horus's other headers together). To pack other types into a
+// GenericMessage, include their msgpack-cxx adaptor too (or <msgpack.hpp>).
 #pragma once
 
 #ifndef MSGPACK_NO_BOOST
 #define MSGPACK_NO_BOOST
 #endif
 
-#include <msgpack.hpp>
+#include <msgpack/adaptor/bool.hpp>
+#include <msgpack/adaptor/cpp11/array.hpp>
+#include <msgpack/adaptor/cpp11/array_char.hpp>
+#include <msgpack/adaptor/cpp11/array_unsigned_char.hpp>
+#include <msgpack/adaptor/cpp17/optional.hpp>
+#include <msgpack/adaptor/float.hpp>
+#include <msgpack/adaptor/int.hpp>
+#include <msgpack/adaptor/map.hpp>
+#include <msgpack/adaptor/nil.hpp>
+#include <msgpack/adaptor/string.hpp>
+#include <msgpack/adaptor/vector.hpp>
+#include <msgpack/adaptor/vector_bool.hpp>
+#include <msgpack/adaptor/vector_char.hpp>
+#include <msgpack/adaptor/vector_unsigned_char.hpp>
+#include <msgpack/object.hpp>
+#include <msgpack/pack.hpp>
+#include <msgpack/sbuffer.hpp>
+#include <msgpack/unpack.hpp>
 
 #include <cstdint>
 #include <span>
 #include <string>
+#include <string_view>
 #include <type_traits>
 #include <vector>
 
@@ -92,33 +114,33 @@ MSGPACK_API_VERSION_NAMESPACE(MSGPACK_DEFAULT_API_NS) {
 
 namespace horus::detail {
 
-template <class T>
-std::vector<std::uint8_t> msgpack_encode(const T& msg) {
-  msgpack::sbuffer buffer;
-  msgpack::pack(buffer, msg);
-  const auto* data = reinterpret_cast<const std::uint8_t*>(buffer.data());
-  return std::vector<std::uint8_t>(data, data + buffer.size());
-}
-
-template <class T>
-T msgpack_decode(std::span<const std::uint8_t> bytes) {
-  try {
-    std::size_t offset = 0;
-    msgpack::object_handle handle =
-        msgpack::unpack(reinterpret_cast<const char*>(bytes.data()), bytes.size(), offset);
-    if (offset != bytes.size()) {
-      throw DecodeError(std::string(TypeInfo<T>::name) + ": " +
-                        std::to_string(bytes.size() - offset) + " trailing bytes after the message");
-    }
-    T msg{};
-    handle.get().convert(msg);
-    return msg;
-  } catch (const DecodeError&) {
-    throw;
-  } catch (const std::exception& e) {
-    throw DecodeError(std::string(TypeInfo<T>::name) + ": not a valid MessagePack encoding (" +
-                      e.what() + ")");
+template <class V>
+struct Msgpack {
+  static std::vector<std::uint8_t> pack(const V& value) {
+    msgpack::sbuffer buffer;
+    msgpack::pack(buffer, value);
+    const auto* data = reinterpret_cast<const std::uint8_t*>(buffer.data());
+    return std::vector<std::uint8_t>(data, data + buffer.size());
   }
-}
+
+  static V unpack(std::span<const std::uint8_t> bytes, std::string_view what) {
+    try {
+      std::size_t offset = 0;
+      msgpack::object_handle handle =
+          msgpack::unpack(reinterpret_cast<const char*>(bytes.data()), bytes.size(), offset);
+      if (offset != bytes.size()) {
+        throw DecodeError(std::string(what) + ": " + std::to_string(bytes.size() - offset) +
+                          " trailing bytes after the MessagePack value");
+      }
+      V value{};
+      handle.get().convert(value);
+      return value;
+    } catch (const DecodeError&) {
+      throw;
+    } catch (const std::exception& e) {
+      throw DecodeError(std::string(what) + ": not a valid MessagePack encoding (" + e.what() + ")");
+    }
+  }
+};
 
 }  // namespace horus::detail

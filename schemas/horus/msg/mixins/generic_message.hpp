@@ -20,40 +20,24 @@ static GenericMessage with_metadata(std::vector<std::uint8_t> payload, std::stri
 }
 
 /// A message holding `value` packed as MessagePack: anything msgpack-cxx can pack (numbers,
-/// strings, std::vector, std::map, MSGPACK_DEFINE_MAP structs, horus messages).
+/// strings, std::vector, std::map, MSGPACK_DEFINE_MAP structs, horus messages). Needs
+/// <horus/msgpack.hpp> (and the msgpack-cxx adaptor of any other type packed).
 template <class T>
 static GenericMessage from_value(const T& value) {
-  msgpack::sbuffer buffer;
-  msgpack::pack(buffer, value);
-  check_payload_size(buffer.size(), "GenericMessage::from_value");
-  const auto* bytes = reinterpret_cast<const std::uint8_t*>(buffer.data());
+  std::vector<std::uint8_t> payload = horus::detail::Msgpack<T>::pack(value);
+  check_payload_size(payload.size(), "GenericMessage::from_value");
   GenericMessage msg;
-  msg.data.assign(bytes, bytes + buffer.size());
+  msg.data = std::move(payload);
   return msg;
 }
 
 /// The payload unpacked as a `T`. Throws horus::Error when the payload is over MAX_PAYLOAD and
-/// horus::DecodeError when it is not one MessagePack value convertible to `T`.
+/// horus::DecodeError when it is not one MessagePack value convertible to `T`. Needs
+/// <horus/msgpack.hpp>.
 template <class T>
 T to_value() const {
   check_payload_size(data.size(), "GenericMessage::to_value");
-  try {
-    std::size_t offset = 0;
-    msgpack::object_handle handle =
-        msgpack::unpack(reinterpret_cast<const char*>(data.data()), data.size(), offset);
-    if (offset != data.size()) {
-      throw horus::DecodeError("GenericMessage::to_value: " + std::to_string(data.size() - offset) +
-                               " trailing bytes after the MessagePack value");
-    }
-    return handle.get().as<T>();
-  } catch (const horus::Error&) {
-    throw;
-  } catch (const std::exception& e) {
-    throw horus::DecodeError(
-        std::string("GenericMessage::to_value: the payload is not a MessagePack value of the "
-                    "requested type (") +
-        e.what() + ")");
-  }
+  return horus::detail::Msgpack<T>::unpack(data, "GenericMessage::to_value");
 }
 
 /// Throws horus::Error when `size` bytes exceed MAX_PAYLOAD.
