@@ -1,8 +1,18 @@
 """Helpers of the detection messages (horus/msg/detection.hmsg), mirroring the C++ mixins.
 Computed in float32, like the f32 fields in C++."""
-import numpy as np
 
-_f32 = np.float32
+
+def _np():
+    """numpy, imported on first use so that importing the message package stays fast."""
+    import numpy
+    return numpy
+
+
+
+
+def _f32(value):
+    """`value` rounded to float32, as the C++ helpers compute."""
+    return _np().float32(value)
 
 
 class BoundingBox2DMixin:

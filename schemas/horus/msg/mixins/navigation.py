@@ -7,13 +7,19 @@ languages pick the same cell. CostMap inflation computes squared cell distances 
 import copy as _copy
 import math
 
-import numpy as np
+
+
+def _np():
+    """numpy, imported on first use so that importing the message package stays fast."""
+    import numpy
+    return numpy
+
 
 _TWO_PI = 2.0 * math.pi
 
 
 def _resolution(grid) -> float:
-    return float(np.float32(grid.resolution))
+    return float(_np().float32(grid.resolution))
 
 
 class GoalMixin:
@@ -122,7 +128,7 @@ class PathPlanMixin:
         """Waypoint `index` as (x, y, theta) floats, or None past the valid ones."""
         if index < 0 or index >= min(self.waypoint_count, self.MAX_WAYPOINTS):
             return None
-        return tuple(float(np.float32(v)) for v in self.waypoint_data[3 * index:3 * index + 3])
+        return tuple(float(_np().float32(v)) for v in self.waypoint_data[3 * index:3 * index + 3])
 
     def is_empty(self) -> bool:
         """True when the plan has no waypoint."""
@@ -202,16 +208,16 @@ class CostMapMixin:
         width, height = int(grid.width), int(grid.height)
         lethal = int(self.lethal_cost)
         size = width * height
-        occ = np.full(size, -1, dtype=np.int64)
-        data = np.asarray(list(grid.data)[:size], dtype=np.int64)
+        occ = _np().full(size, -1, dtype=_np().int64)
+        data = _np().asarray(list(grid.data)[:size], dtype=_np().int64)
         occ[:len(data)] = data
-        costs = np.where(occ < 0, 255, np.where(occ >= 65, lethal, occ * 2)).astype(np.int64)
+        costs = _np().where(occ < 0, 255, _np().where(occ >= 65, lethal, occ * 2)).astype(_np().int64)
         res = _resolution(grid)
-        radius = float(np.float32(self.inflation_radius))
+        radius = float(_np().float32(self.inflation_radius))
         if res > 0.0 and radius > 0.0 and math.isfinite(radius) and size > 0:
             reach = int(min(math.ceil(radius / res), max(width, height)))
             obstacle = (costs >= lethal).reshape(height, width)
-            nearest = np.full((height, width), -1, dtype=np.int64)
+            nearest = _np().full((height, width), -1, dtype=_np().int64)
             for dy in range(-reach, reach + 1):
                 for dx in range(-reach, reach + 1):
                     # cells (y, x) whose neighbour (y - dy, x - dx) is an obstacle
@@ -224,19 +230,19 @@ class CostMapMixin:
                     dst[update] = d2
             nearest = nearest.reshape(size)
             top = float(lethal) - 1.0
-            scaling = float(np.float32(self.cost_scaling_factor))
+            scaling = float(_np().float32(self.cost_scaling_factor))
             decay = {}
-            for d2 in np.unique(nearest[nearest >= 0]).tolist():
+            for d2 in _np().unique(nearest[nearest >= 0]).tolist():
                 distance = math.sqrt(float(d2)) * res
                 if distance > radius:
                     continue
                 inflated = min(top * math.pow(1.0 - distance / radius, scaling), top)
                 decay[d2] = int(inflated) if inflated > 0.0 else 0
-            for i in np.nonzero((nearest >= 0) & (costs < lethal))[0].tolist():
+            for i in _np().nonzero((nearest >= 0) & (costs < lethal))[0].tolist():
                 value = decay.get(int(nearest[i]))
                 if value is not None and value > costs[i]:
                     costs[i] = value
-        self.costs = costs.astype(np.uint8)
+        self.costs = costs.astype(_np().uint8)
 
     def cost(self, x: float, y: float):
         """The cost at world point (x, y): lethal_cost off the map; None when not computed."""

@@ -4,9 +4,19 @@ f32 fields are computed on in float32 (numpy) so that results equal the C++ ones
 """
 import math
 
-import numpy as np
 
-_f32 = np.float32
+
+def _np():
+    """numpy, imported on first use so that importing the message package stays fast."""
+    import numpy
+    return numpy
+
+
+
+
+def _f32(value):
+    """`value` rounded to float32, as the C++ helpers compute."""
+    return _np().float32(value)
 
 
 def quaternion_from_euler(roll: float, pitch: float, yaw: float) -> tuple:
@@ -28,8 +38,8 @@ def _check_name(owner: str, what: str, text: str, capacity: int = 32) -> None:
 
 class LaserScanMixin:
     def _valid_mask(self):
-        r = np.asarray(self.ranges, dtype=np.float32)
-        return np.isfinite(r) & (r >= _f32(self.range_min)) & (r <= _f32(self.range_max)), r
+        r = _np().asarray(self.ranges, dtype=_np().float32)
+        return _np().isfinite(r) & (r >= _f32(self.range_min)) & (r <= _f32(self.range_max)), r
 
     def angle_at(self, index: int) -> float:
         """angle_min + index * angle_increment in radians (float32); NaN past the 360 readings."""
@@ -45,7 +55,7 @@ class LaserScanMixin:
 
     def valid_count(self) -> int:
         """The number of valid readings."""
-        return int(np.count_nonzero(self._valid_mask()[0]))
+        return int(_np().count_nonzero(self._valid_mask()[0]))
 
     def min_range(self):
         """The closest valid reading in metres, or None when none is valid."""
@@ -110,7 +120,7 @@ class RangeMixin:
     def is_valid(self) -> bool:
         """True when the reading is finite and within [min_range, max_range]."""
         r = _f32(self.range)
-        return bool(np.isfinite(r) and _f32(self.min_range) <= r <= _f32(self.max_range))
+        return bool(_np().isfinite(r) and _f32(self.min_range) <= r <= _f32(self.max_range))
 
 
 class BatteryStateMixin:
@@ -132,7 +142,7 @@ class BatteryStateMixin:
         """Seconds until empty at the present discharge current, or None when not
         discharging or when the charge is unknown."""
         current, charge = _f32(self.current), _f32(self.charge)
-        if not (current < _f32(-1e-9)) or not np.isfinite(charge):
+        if not (current < _f32(-1e-9)) or not _np().isfinite(charge):
             return None
         return float(charge / -current * _f32(3600.0))
 

@@ -1,7 +1,13 @@
 """Helpers of the vision messages (horus/msg/vision.hmsg), mirroring the C++ mixins."""
 import math
 
-import numpy as np
+
+
+def _np():
+    """numpy, imported on first use so that importing the message package stays fast."""
+    import numpy
+    return numpy
+
 
 
 class CameraInfoMixin:
@@ -41,16 +47,16 @@ class RegionOfInterestMixin:
 class StereoInfoMixin:
     def depth_from_disparity(self, disparity: float) -> float:
         """Depth in metres; +inf for a disparity <= 0."""
-        d = np.float32(disparity)
+        d = _np().float32(disparity)
         if d <= 0.0:
             return math.inf
-        return float(np.float32(float(self.baseline) * float(self.left_camera.camera_matrix[0])
+        return float(_np().float32(float(self.baseline) * float(self.left_camera.camera_matrix[0])
                                 / float(d)))
 
     def disparity_from_depth(self, depth: float) -> float:
         """Disparity in pixels; NaN for a depth <= 0."""
-        z = np.float32(depth)
+        z = _np().float32(depth)
         if z <= 0.0:
             return math.nan
-        return float(np.float32(float(self.baseline) * float(self.left_camera.camera_matrix[0])
+        return float(_np().float32(float(self.baseline) * float(self.left_camera.camera_matrix[0])
                                 / float(z)))
