@@ -11,11 +11,13 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <horus/detail/shm_segment.hpp>
 #include <horus/detail/topic_notifier.hpp>
+#include <horus/detail/topic_wait_set.hpp>
 #include <horus/topic.hpp>
 #include <horus/topic_registry.hpp>
 #include <topic_test/big.hpp>
@@ -119,7 +121,7 @@ int role_publish(const std::vector<std::string>& args) {
 }
 
 /// subscribe <topic> <subscriber id> <publishers> <count each>: expects every publisher's
-/// messages in order, none lost, each sealed; acks progress every 256 messages.
+/// messages in order, none lost, each sealed; acks progress every 256 messages and when idle.
 int role_subscribe(const std::vector<std::string>& args) {
   const std::string topic = args.at(0);
   const std::size_t id = std::stoul(args.at(1));
@@ -132,8 +134,19 @@ int role_subscribe(const std::vector<std::string>& args) {
   ack.send(progress);
   const auto deadline = std::chrono::steady_clock::now() + kDeadline;
   std::uint64_t total = 0;
+  auto report = [&] {
+    for (std::size_t p = 0; p < publishers; ++p) {
+      put_count(progress, p, next[p]);
+    }
+    ack.send(progress);
+  };
   while (total < count * publishers) {
-    auto msg = data.recv(100ms);
+    auto msg = data.try_recv();
+    if (!msg) {
+      // Caught up: tell the publishers before sleeping, so none waits on a stale ack.
+      report();
+      msg = data.recv(100ms);
+    }
     if (!msg) {
       if (past(deadline)) {
         std::fprintf(stderr, "subscriber %zu: timed out after %llu messages\n", id,
@@ -156,11 +169,8 @@ int role_subscribe(const std::vector<std::string>& args) {
     }
     ++next[from];
     ++total;
-    if (total % 256 == 0 || total == count * publishers) {
-      for (std::size_t p = 0; p < publishers; ++p) {
-        put_count(progress, p, next[p]);
-      }
-      ack.send(progress);
+    if (total % 256 == 0) {
+      report();
     }
   }
   if (data.lost() != 0) {
@@ -503,6 +513,15 @@ TEST(TopicProcess, NotifierWaitsForATopicThatDoesNotExistYet) {
   EXPECT_TRUE(notifier.wait(20s));
   EXPECT_EQ(sender.wait(), 0);
   EXPECT_FALSE(notifier.wait(20ms)) << "one message wakes one wait";
+}
+
+TEST(TopicProcess, WaitSetWakesOnASendFromAnotherProcess) {
+  PrivateNamespace ns;
+  horus::detail::TopicWaitSet set({"quiet", "loud"});
+  Child sender("send_after", {"loud", "20"});
+  EXPECT_EQ(set.wait(20s), std::optional<std::size_t>(1));
+  EXPECT_EQ(sender.wait(), 0);
+  EXPECT_FALSE(set.wait(20ms).has_value());
 }
 
 TEST(TopicProcess, FullShmIsAClearErrorNotSigbus) {

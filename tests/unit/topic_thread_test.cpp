@@ -4,10 +4,12 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <optional>
 #include <thread>
 #include <vector>
 
 #include <horus/detail/topic_notifier.hpp>
+#include <horus/detail/topic_wait_set.hpp>
 #include <horus/topic.hpp>
 #include <horus/topic_registry.hpp>
 #include <topic_test/blob.hpp>
@@ -184,6 +186,36 @@ TEST(TopicThread, NotifierWakesOnAnyTypeAndOnInterrupt) {
   horus::Topic<Blob> pub("events");
   pub.send(Blob{});
   EXPECT_TRUE(notifier.wait(0ns)) << "a message sent between two waits is not missed";
+}
+
+TEST(TopicThread, WaitSetWakesOnWhicheverTopicReceives) {
+  PrivateNamespace ns;
+  horus::detail::TopicWaitSet set({"left", "right", "later"});
+  EXPECT_EQ(set.size(), 3u);
+  EXPECT_FALSE(set.wait(10ms).has_value());
+  std::thread sender([] {
+    horus::Topic<Sample> right("right");
+    std::this_thread::sleep_for(20ms);
+    right.send(sealed<Sample>(1));
+  });
+  EXPECT_EQ(set.wait(20s), std::optional<std::size_t>(1));
+  sender.join();
+
+  horus::Topic<Sample> left("left");
+  horus::Topic<Blob> later("later");
+  left.send(sealed<Sample>(2));
+  later.send(Blob{});
+  EXPECT_EQ(set.wait(0ns), std::optional<std::size_t>(0));
+  EXPECT_EQ(set.wait(0ns), std::optional<std::size_t>(2)) << "the other arrival is remembered";
+  EXPECT_FALSE(set.wait(10ms).has_value());
+
+  std::thread stopper([&set] {
+    std::this_thread::sleep_for(20ms);
+    set.interrupt();
+  });
+  EXPECT_FALSE(set.wait(20s).has_value());
+  stopper.join();
+  EXPECT_THROW(horus::detail::TopicWaitSet({}), horus::Error);
 }
 
 TEST(TopicThread, SerializedOverMaximumSizeIsRefusedAndCounted) {

@@ -1,0 +1,507 @@
+// Topic<T> against the raw floors, in one run, with the two processes pinned to two cores:
+//   latency     one-way (round trip / 2) p50/p99/p99.9, busy-polling try_recv, per size,
+//               against a raw shared-memory ping-pong (a sequence counter and a memcpy);
+//   wake-up     one-way through blocking recv() (futex), against a raw futex ping-pong;
+//   throughput  messages per second through a 1024-slot topic, against a raw seqlock ring.
+// The second process is this binary re-executed with --role.
+#include <fcntl.h>
+#include <sched.h>
+#include <spawn.h>
+#include <sys/mman.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <horus/detail/futex.hpp>
+#include <horus/topic.hpp>
+#include <horus/topic_registry.hpp>
+#include <topic_bench/msg1536.hpp>
+#include <topic_bench/msg16.hpp>
+#include <topic_bench/msg4096.hpp>
+#include <topic_bench/msg64.hpp>
+#include <topic_bench/msg65536.hpp>
+
+extern char** environ;
+
+namespace {
+
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+
+constexpr std::size_t kMaxPayload = 65536;
+constexpr std::uint64_t kStop = UINT64_MAX;
+constexpr std::size_t kRingSlots = 1024;
+constexpr std::size_t kRingPayload = 64;
+constexpr std::uint64_t kThroughputMessages = 2'000'000;
+constexpr std::uint64_t kAckEvery = 64;
+constexpr std::uint64_t kWindow = kRingSlots / 2;
+
+/// The raw floors' shared region: two one-message mailboxes, two futex words, a raw ring, and
+/// the results the second process reports.
+struct alignas(64) Mailbox {
+  std::atomic<std::uint64_t> seq;
+  alignas(64) std::byte payload[kMaxPayload];
+};
+struct RawSlot {
+  std::atomic<std::uint64_t> seq;
+  std::byte payload[kRingPayload - 8];
+};
+struct Shared {
+  Mailbox ping;
+  Mailbox pong;
+  alignas(64) std::atomic<std::uint32_t> ping_word;
+  alignas(64) std::atomic<std::uint32_t> pong_word;
+  alignas(64) std::atomic<std::uint64_t> ready;
+  std::atomic<std::uint64_t> stop;
+  std::atomic<std::uint64_t> received;
+  std::atomic<std::uint64_t> lost;
+  std::atomic<std::int64_t> finished_ns;
+  /// The reader's position, published every kAckEvery messages: the writer's back-pressure.
+  alignas(64) std::atomic<std::uint64_t> consumed;
+  alignas(64) RawSlot ring[kRingSlots];
+};
+
+Shared* map_shared(const std::string& name, bool create) {
+  const int fd = ::shm_open(name.c_str(), O_RDWR | (create ? O_CREAT : 0), 0600);
+  if (fd < 0 || (create && ::posix_fallocate(fd, 0, sizeof(Shared)) != 0)) {
+    std::perror("bench shared region");
+    std::exit(2);
+  }
+  void* base = ::mmap(nullptr, sizeof(Shared), PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+  ::close(fd);
+  if (base == MAP_FAILED) {
+    std::perror("mmap");
+    std::exit(2);
+  }
+  return static_cast<Shared*>(base);
+}
+
+void pin(int cpu) {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  CPU_SET(cpu % static_cast<int>(std::max(1u, std::thread::hardware_concurrency())), &set);
+  if (::sched_setaffinity(0, sizeof set, &set) != 0) {
+    std::perror("sched_setaffinity");
+  }
+}
+
+std::int64_t now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch())
+      .count();
+}
+
+struct Percentiles {
+  double p50, p99, p999;
+};
+
+Percentiles percentiles(std::vector<std::int64_t>& samples) {
+  std::sort(samples.begin(), samples.end());
+  auto at = [&](double q) {
+    return static_cast<double>(samples[static_cast<std::size_t>(q * (samples.size() - 1))]) / 2;
+  };
+  return {at(0.50), at(0.99), at(0.999)};
+}
+
+/// "ping.64" and the like (append, not operator+: GCC 12 -Wrestrict false positive, PR105651).
+std::string topic_name(const char* prefix, std::size_t size) {
+  return std::string(prefix).append(".").append(std::to_string(size));
+}
+
+std::size_t iterations(std::size_t size) { return size >= 65536 ? 5000 : 50000; }
+constexpr std::size_t kWarmup = 2000;
+/// Ping-pong keeps one message in flight; a ring of 64 large slots would only measure L2 misses.
+constexpr std::size_t kLatencyCapacity = 4;
+
+// ---- Second process --------------------------------------------------------------------------
+
+template <class M>
+void echo_topic(std::size_t size, bool blocking, Shared& shared) {
+  horus::Topic<M> ping(topic_name("ping", size));
+  horus::Topic<M> pong(topic_name("pong", size));
+  shared.ready.store(1, std::memory_order_release);
+  for (;;) {
+    if (blocking) {
+      const std::optional<M> msg = ping.recv(5s);
+      if (!msg || msg->seq == kStop) {
+        return;
+      }
+      pong.send(*msg);
+    } else if (const std::optional<M> msg = ping.try_recv()) {
+      if (msg->seq == kStop) {
+        return;
+      }
+      pong.send(*msg);
+    }
+  }
+}
+
+void echo_raw(std::size_t size, Shared& shared) {
+  std::vector<std::byte> local(size);
+  shared.ready.store(1, std::memory_order_release);
+  for (std::uint64_t expect = 1;; ++expect) {
+    std::uint64_t seq = 0;
+    while ((seq = shared.ping.seq.load(std::memory_order_acquire)) < expect) {
+    }
+    if (seq == kStop) {
+      return;
+    }
+    std::memcpy(local.data(), shared.ping.payload, size);
+    std::memcpy(shared.pong.payload, local.data(), size);
+    shared.pong.seq.store(seq, std::memory_order_release);
+  }
+}
+
+void echo_futex(Shared& shared) {
+  shared.ready.store(1, std::memory_order_release);
+  std::uint32_t seen = 0;
+  for (;;) {
+    std::uint32_t value = 0;
+    while ((value = shared.ping_word.load(std::memory_order_acquire)) == seen) {
+      horus::detail::futex_wait(shared.ping_word, seen, 5s);
+      if (shared.stop.load(std::memory_order_acquire) != 0) {
+        return;
+      }
+    }
+    seen = value;
+    shared.pong_word.fetch_add(1, std::memory_order_release);
+    horus::detail::futex_wake_all(shared.pong_word);
+  }
+}
+
+void consume_topic(Shared& shared) {
+  horus::Topic<topic_bench::Msg64> topic("throughput");
+  shared.consumed.store(0);
+  shared.ready.store(1, std::memory_order_release);
+  std::uint64_t received = 0;
+  while (received + topic.lost() < kThroughputMessages) {
+    if (topic.try_recv()) {
+      if (++received % kAckEvery == 0) {
+        shared.consumed.store(received + topic.lost(), std::memory_order_release);
+      }
+    }
+  }
+  shared.finished_ns.store(now_ns());
+  shared.received.store(received);
+  shared.lost.store(topic.lost());
+}
+
+void consume_raw(Shared& shared) {
+  shared.consumed.store(0);
+  shared.ready.store(1, std::memory_order_release);
+  std::uint64_t received = 0;
+  std::uint64_t lost = 0;
+  std::uint64_t next = 0;
+  std::byte local[kRingPayload - 8];
+  while (next < kThroughputMessages) {
+    RawSlot& slot = shared.ring[next % kRingSlots];
+    const std::uint64_t committed = 2 * next + 2;
+    const std::uint64_t before = slot.seq.load(std::memory_order_acquire);
+    if (before == committed) {
+      std::memcpy(local, slot.payload, sizeof local);
+      std::atomic_thread_fence(std::memory_order_acquire);
+      if (slot.seq.load(std::memory_order_relaxed) == before) {
+        ++next;
+        if (++received % kAckEvery == 0) {
+          shared.consumed.store(next, std::memory_order_release);
+        }
+        continue;
+      }
+    }
+    if (before > committed) {
+      ++lost;
+      ++next;
+    }
+  }
+  shared.finished_ns.store(now_ns());
+  shared.received.store(received);
+  shared.lost.store(lost);
+}
+
+int run_role(const std::string& role, std::size_t size, const std::string& region) {
+  pin(1);
+  Shared& shared = *map_shared(region, false);
+  if (role == "echo_topic" || role == "wake_topic") {
+    const bool blocking = role == "wake_topic";
+    switch (size) {
+      case 16: echo_topic<topic_bench::Msg16>(size, blocking, shared); break;
+      case 64: echo_topic<topic_bench::Msg64>(size, blocking, shared); break;
+      case 1536: echo_topic<topic_bench::Msg1536>(size, blocking, shared); break;
+      case 4096: echo_topic<topic_bench::Msg4096>(size, blocking, shared); break;
+      case 65536: echo_topic<topic_bench::Msg65536>(size, blocking, shared); break;
+      default: return 3;
+    }
+  } else if (role == "echo_raw") {
+    echo_raw(size, shared);
+  } else if (role == "echo_futex") {
+    echo_futex(shared);
+  } else if (role == "consume_topic") {
+    consume_topic(shared);
+  } else if (role == "consume_raw") {
+    consume_raw(shared);
+  } else {
+    return 3;
+  }
+  return 0;
+}
+
+// ---- First process ---------------------------------------------------------------------------
+
+class Peer {
+ public:
+  Peer(const std::string& role, std::size_t size, const std::string& region, Shared& shared)
+      : shared_(shared) {
+    shared.ready.store(0);
+    shared.stop.store(0);
+    std::string exe = "/proc/self/exe";
+    std::string role_arg = role;
+    std::string size_arg = std::to_string(size);
+    std::string region_arg = region;
+    std::string flag = "--role";
+    char* argv[] = {exe.data(), flag.data(), role_arg.data(), size_arg.data(), region_arg.data(),
+                    nullptr};
+    if (::posix_spawn(&pid_, exe.c_str(), nullptr, nullptr, argv, environ) != 0) {
+      std::perror("posix_spawn");
+      std::exit(2);
+    }
+    const auto deadline = Clock::now() + 10s;
+    while (shared.ready.load(std::memory_order_acquire) == 0) {
+      if (Clock::now() > deadline) {
+        std::fprintf(stderr, "peer %s never became ready\n", role.c_str());
+        std::exit(2);
+      }
+      std::this_thread::sleep_for(1ms);
+    }
+  }
+  Peer(const Peer&) = delete;
+  Peer& operator=(const Peer&) = delete;
+  ~Peer() {
+    shared_.stop.store(1, std::memory_order_release);
+    horus::detail::futex_wake_all(shared_.ping_word);
+    int status = 0;
+    ::waitpid(pid_, &status, 0);
+  }
+
+ private:
+  Shared& shared_;
+  pid_t pid_ = -1;
+};
+
+template <class M>
+void topic_latency(std::size_t size, bool blocking, std::size_t count, const std::string& region,
+                   Shared& shared, std::vector<std::int64_t>& samples) {
+  horus::Topic<M> ping(topic_name("ping", size), {.capacity = kLatencyCapacity});
+  horus::Topic<M> pong(topic_name("pong", size), {.capacity = kLatencyCapacity});
+  {
+    Peer peer(blocking ? "wake_topic" : "echo_topic", size, region, shared);
+    M msg{};
+    const std::size_t total = kWarmup + count;
+    for (std::size_t i = 0; i < total; ++i) {
+      msg.seq = i;
+      const std::int64_t start = now_ns();
+      ping.send(msg);
+      // The reply is used where try_recv() returns it: no extra copy on the measured path.
+      std::int64_t end = 0;
+      bool intact = false;
+      for (;;) {
+        if (auto back = blocking ? pong.recv(5s) : pong.try_recv()) {
+          end = now_ns();
+          intact = back->seq == i;
+          break;
+        }
+        if (blocking) {
+          break;
+        }
+      }
+      if (!intact) {
+        std::fprintf(stderr, "topic echo lost message %zu\n", i);
+        std::exit(2);
+      }
+      if (i >= kWarmup) {
+        samples.push_back(end - start);
+      }
+    }
+    msg.seq = kStop;
+    ping.send(msg);
+  }
+}
+
+void raw_latency(std::size_t size, std::size_t count, const std::string& region, Shared& shared,
+                 std::vector<std::int64_t>& samples) {
+  shared.ping.seq.store(0);
+  shared.pong.seq.store(0);
+  std::vector<std::byte> message(size, std::byte{1});
+  std::vector<std::byte> local(size);
+  Peer peer("echo_raw", size, region, shared);
+  const std::size_t total = kWarmup + count;
+  for (std::uint64_t seq = 1; seq <= total; ++seq) {
+    const std::int64_t start = now_ns();
+    std::memcpy(shared.ping.payload, message.data(), size);
+    shared.ping.seq.store(seq, std::memory_order_release);
+    while (shared.pong.seq.load(std::memory_order_acquire) != seq) {
+    }
+    std::memcpy(local.data(), shared.pong.payload, size);
+    const std::int64_t end = now_ns();
+    if (seq > kWarmup) {
+      samples.push_back(end - start);
+    }
+  }
+  shared.ping.seq.store(kStop, std::memory_order_release);
+}
+
+void futex_latency(std::size_t count, const std::string& region, Shared& shared,
+                   std::vector<std::int64_t>& samples) {
+  shared.ping_word.store(0);
+  shared.pong_word.store(0);
+  Peer peer("echo_futex", 0, region, shared);
+  std::uint32_t seen = 0;
+  for (std::size_t i = 0; i < kWarmup + count; ++i) {
+    const std::int64_t start = now_ns();
+    shared.ping_word.fetch_add(1, std::memory_order_release);
+    horus::detail::futex_wake_all(shared.ping_word);
+    std::uint32_t value = 0;
+    while ((value = shared.pong_word.load(std::memory_order_acquire)) == seen) {
+      horus::detail::futex_wait(shared.pong_word, seen, 5s);
+    }
+    seen = value;
+    const std::int64_t end = now_ns();
+    if (i >= kWarmup) {
+      samples.push_back(end - start);
+    }
+  }
+}
+
+struct Throughput {
+  double per_s;
+  std::uint64_t lost;
+};
+
+/// Lossless throughput: the writer stays within half the ring of the reader's last ack.
+void wait_for_reader(std::uint64_t sent, Shared& shared) {
+  while (sent - shared.consumed.load(std::memory_order_acquire) >= kWindow) {
+  }
+}
+
+Throughput topic_throughput(const std::string& region, Shared& shared) {
+  horus::Topic<topic_bench::Msg64> topic("throughput", {.capacity = kRingSlots});
+  topic_bench::Msg64 msg{};
+  std::int64_t start = 0;
+  {
+    Peer peer("consume_topic", 64, region, shared);
+    start = now_ns();
+    for (std::uint64_t i = 0; i < kThroughputMessages; ++i) {
+      wait_for_reader(i, shared);
+      msg.seq = i;
+      topic.send(msg);
+    }
+  }
+  return {kThroughputMessages * 1e9 / static_cast<double>(shared.finished_ns.load() - start),
+          shared.lost.load()};
+}
+
+Throughput raw_throughput(const std::string& region, Shared& shared) {
+  for (RawSlot& slot : shared.ring) {
+    slot.seq.store(0);
+  }
+  std::byte payload[kRingPayload - 8] = {};
+  std::int64_t start = 0;
+  {
+    Peer peer("consume_raw", 64, region, shared);
+    start = now_ns();
+    for (std::uint64_t i = 0; i < kThroughputMessages; ++i) {
+      wait_for_reader(i, shared);
+      RawSlot& slot = shared.ring[i % kRingSlots];
+      slot.seq.store(2 * i + 1, std::memory_order_relaxed);
+      std::atomic_thread_fence(std::memory_order_release);
+      std::memcpy(slot.payload, payload, sizeof payload);
+      slot.seq.store(2 * i + 2, std::memory_order_release);
+    }
+  }
+  return {kThroughputMessages * 1e9 / static_cast<double>(shared.finished_ns.load() - start),
+          shared.lost.load()};
+}
+
+/// Topic and raw runs alternate in rounds, so a disturbance (other load) hits both alike.
+constexpr int kRounds = 5;
+
+template <class M>
+void latency_row(std::size_t size, const std::string& region, Shared& shared) {
+  std::vector<std::int64_t> topic_samples;
+  std::vector<std::int64_t> raw_samples;
+  for (int round = 0; round < kRounds; ++round) {
+    topic_latency<M>(size, false, iterations(size) / kRounds, region, shared, topic_samples);
+    raw_latency(size, iterations(size) / kRounds, region, shared, raw_samples);
+  }
+  const Percentiles topic = percentiles(topic_samples);
+  const Percentiles raw = percentiles(raw_samples);
+  std::printf("| %6zu B | %8.0f | %8.0f | %8.0f | %8.0f | %8.0f | %8.0f | %5.2fx | %5.2fx |\n",
+              size, topic.p50, topic.p99, topic.p999, raw.p50, raw.p99, raw.p999,
+              topic.p50 / raw.p50, topic.p99 / raw.p99);
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc == 5 && std::string(argv[1]) == "--role") {
+    return run_role(argv[2], std::stoul(argv[3]), argv[4]);
+  }
+  const std::string ns = "bench" + std::to_string(::getpid());
+  ::setenv("HORUS_NAMESPACE", ns.c_str(), 1);
+  const std::string region = "/horus_topic_bench_" + std::to_string(::getpid());
+  Shared& shared = *map_shared(region, true);
+  pin(0);
+
+  std::printf("Topic<T> vs raw shared memory, processes pinned to CPUs 0 and 1 (%u CPUs online).\n"
+              "Latency is one-way (round trip / 2) in ns; ratio = Topic / raw.\n\n",
+              std::thread::hardware_concurrency());
+  std::printf("| size | topic p50 | topic p99 | topic p99.9 | raw p50 | raw p99 | raw p99.9 | p50 ratio | p99 ratio |\n");
+  std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+  latency_row<topic_bench::Msg16>(16, region, shared);
+  latency_row<topic_bench::Msg64>(64, region, shared);
+  latency_row<topic_bench::Msg1536>(1536, region, shared);
+  latency_row<topic_bench::Msg4096>(4096, region, shared);
+  latency_row<topic_bench::Msg65536>(65536, region, shared);
+
+  std::vector<std::int64_t> wake_samples;
+  std::vector<std::int64_t> futex_samples;
+  for (int round = 0; round < kRounds; ++round) {
+    topic_latency<topic_bench::Msg64>(64, true, 1000, region, shared, wake_samples);
+    futex_latency(1000, region, shared, futex_samples);
+  }
+  const Percentiles wake = percentiles(wake_samples);
+  const Percentiles futex = percentiles(futex_samples);
+  std::printf("\nBlocking wake-up, one-way in ns (Topic recv() vs raw futex ping-pong):\n\n");
+  std::printf("| | p50 | p99 | p99.9 |\n|---|---:|---:|---:|\n");
+  std::printf("| Topic<Msg64> recv(timeout) | %.0f | %.0f | %.0f |\n", wake.p50, wake.p99, wake.p999);
+  std::printf("| raw futex | %.0f | %.0f | %.0f |\n", futex.p50, futex.p99, futex.p999);
+  std::printf("| ratio | %.2fx | %.2fx | %.2fx |\n", wake.p50 / futex.p50, wake.p99 / futex.p99,
+              wake.p999 / futex.p999);
+
+  const Throughput topic = topic_throughput(region, shared);
+  const Throughput raw = raw_throughput(region, shared);
+  std::printf("\nThroughput, 64 B messages through 1024 slots, %llu messages, the writer at most %llu "
+              "ahead of the reader (lossless):\n\n",
+              static_cast<unsigned long long>(kThroughputMessages),
+              static_cast<unsigned long long>(kWindow));
+  std::printf("| | msg/s | lost |\n|---|---:|---:|\n");
+  std::printf("| Topic<Msg64> | %.3g | %llu |\n", topic.per_s,
+              static_cast<unsigned long long>(topic.lost));
+  std::printf("| raw seqlock ring | %.3g | %llu |\n", raw.per_s,
+              static_cast<unsigned long long>(raw.lost));
+  std::printf("| ratio | %.2fx | |\n", topic.per_s / raw.per_s);
+
+  ::shm_unlink(region.c_str());
+  horus::remove_namespace(ns);
+  return 0;
+}

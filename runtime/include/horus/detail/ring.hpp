@@ -1,0 +1,294 @@
+// The lock-free slot ring of a topic: multi-publisher claim/commit and a seqlock-style read.
+//
+// Ticket t (from write_index, ever increasing) lives in slot t % capacity. The slot's `seq` is
+// 2t+1 while ticket t is being written and 2t+2 once it is committed. A reader expecting ticket
+// t accepts the slot only if it reads 2t+2 before and after copying the payload, so a half-written
+// slot (a writer killed mid-memcpy, or one overwriting it a lap later) is never accepted.
+#pragma once
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <ctime>
+
+#include "horus/detail/futex.hpp"
+
+namespace horus::detail {
+
+/// The shared counters of a ring, in the type-independent control page.
+struct RingControl {
+  /// Low 56 bits: tickets handed out to publishers, ever (the count of messages sent). High 8
+  /// bits: threads about to sleep or sleeping on `notify`. Sharing the word lets the claim's
+  /// fetch_add tell a publisher whether to wake anybody, so a send needs no extra barrier.
+  alignas(64) std::atomic<std::uint64_t> write_index;
+  /// Bumped (and futex-woken) after a commit whose publisher saw sleepers.
+  alignas(64) std::atomic<std::uint32_t> notify;
+  /// Ticket + 1 of the latest commit (a plain store, so not strictly monotonic across
+  /// publishers): how TopicNotifier learns of messages sent while it was not asleep.
+  alignas(64) std::atomic<std::uint64_t> commits;
+};
+
+inline constexpr std::uint64_t kIndexMask = (std::uint64_t{1} << 56) - 1;
+inline constexpr std::uint64_t kSleeper = std::uint64_t{1} << 56;
+inline constexpr std::uint64_t kMaxSleepers = 255;
+
+struct SlotHeader {
+  // First cache line, touched by publishers only: exclusion among them. Readers poll the second
+  // line, so a publisher's atomic read-modify-write never waits for a line a reader holds.
+  /// 2t+1 while the writer of ticket t holds the slot, 2t+2 once it let go.
+  std::atomic<std::uint64_t> claim;
+  /// Pid of that writer, so a successor can tell a dead writer from a slow one.
+  std::atomic<std::uint32_t> owner;
+  std::byte reserved0[52];
+  // Second cache line, read by subscribers (the payload follows).
+  /// The seqlock: 2t+1 while ticket t is written, 2t+2 once it is committed.
+  std::atomic<std::uint64_t> seq;
+  /// Payload bytes, or kReleasedSlot for a ticket that carries no message.
+  std::atomic<std::uint32_t> size;
+  std::uint32_t reserved1;
+  /// CLOCK_REALTIME_COARSE nanoseconds at commit, for introspection.
+  std::atomic<std::uint64_t> send_time_ns;
+};
+static_assert(sizeof(SlotHeader) == 88 && offsetof(SlotHeader, seq) == 64);
+static_assert(std::atomic<std::uint64_t>::is_always_lock_free);
+
+/// Size of a slot whose writer gave it up (an unpublished loan, an oversized message).
+inline constexpr std::uint32_t kReleasedSlot = 0xffffffffU;
+/// How long a reader waits for a ticket whose writer vanished before even marking its slot.
+inline constexpr std::int64_t kStallLimitNs = 1'000'000'000;
+/// How long a reader waits for a ticket whose writer holds its slot before asking whether
+/// that writer is still alive.
+inline constexpr std::int64_t kDeadCheckNs = 1'000'000;
+/// Empty polls between the checks for a dead writer.
+inline constexpr std::uint32_t kStallCheckInterval = 1024;
+
+/// Whether a process exists (only on slow paths: it is a syscall). Pid 0 is nobody.
+bool process_alive(std::uint32_t pid) noexcept;
+
+/// Pointers and geometry of a mapped ring, copied out of the validated header.
+struct RingView {
+  RingControl* control = nullptr;
+  std::byte* slots = nullptr;
+  std::uint64_t mask = 0;
+  std::uint64_t stride = 0;
+  std::uint64_t payload_offset = 0;
+  std::uint64_t payload_capacity = 0;
+
+  std::uint64_t capacity() const noexcept { return mask + 1; }
+  SlotHeader& slot(std::uint64_t ticket) const noexcept {
+    return *reinterpret_cast<SlotHeader*>(slots + (ticket & mask) * stride);
+  }
+  std::byte* payload(SlotHeader& slot) const noexcept {
+    return reinterpret_cast<std::byte*>(&slot) + payload_offset;
+  }
+};
+
+/// Per-handle reading position.
+struct ReadCursor {
+  std::uint64_t next = 0;
+  std::uint64_t lost = 0;
+  std::uint32_t empty_polls = 0;
+  std::int64_t stall_since_ns = 0;
+};
+
+/// The seqlock's fences. ThreadSanitizer does not model fences (GCC rejects them under -Wtsan);
+/// its builds use compiler-only barriers, which is what these fences compile to on x86-64.
+inline void seqlock_fence(std::memory_order order) noexcept {
+#if defined(__SANITIZE_THREAD__)
+  std::atomic_signal_fence(order);
+#else
+  std::atomic_thread_fence(order);
+#endif
+}
+
+inline std::int64_t clock_ns(clockid_t clock) noexcept {
+  timespec now{};
+  clock_gettime(clock, &now);
+  return static_cast<std::int64_t>(now.tv_sec) * 1'000'000'000 + now.tv_nsec;
+}
+
+/// A claimed slot: where to write, and whether a sleeper must be woken after the commit.
+struct Claim {
+  SlotHeader* slot;
+  std::uint64_t ticket;
+  bool wake;
+};
+
+/// Claims the slot of a fresh ticket for writing; slot is nullptr when it cannot be taken without
+/// racing a live writer (one stalled for a whole lap) or this ticket was already overtaken.
+inline Claim ring_claim(const RingView& ring, std::uint32_t pid) noexcept {
+  const std::uint64_t word = ring.control->write_index.fetch_add(1, std::memory_order_seq_cst);
+  Claim claim{nullptr, word & kIndexMask, (word & ~kIndexMask) != 0};
+  SlotHeader& slot = ring.slot(claim.ticket);
+  const std::uint64_t writing = 2 * claim.ticket + 1;
+  std::uint64_t current = slot.claim.load(std::memory_order_relaxed);
+  for (;;) {
+    if (current >= writing) {
+      return claim;
+    }
+    if ((current & 1) != 0 && process_alive(slot.owner.load(std::memory_order_relaxed))) {
+      return claim;
+    }
+    slot.owner.store(pid, std::memory_order_relaxed);
+    if (slot.claim.compare_exchange_weak(current, writing, std::memory_order_acquire,
+                                         std::memory_order_relaxed)) {
+      slot.seq.store(writing, std::memory_order_relaxed);
+      // Orders the odd sequence before the payload stores (the seqlock writer's fence).
+      seqlock_fence(std::memory_order_release);
+      claim.slot = &slot;
+      return claim;
+    }
+  }
+}
+
+/// Wakes the sleepers a claim saw (also for a claim that got no slot: they wait for its ticket).
+inline void ring_wake(const RingView& ring) noexcept {
+  ring.control->notify.fetch_add(1, std::memory_order_seq_cst);
+  futex_wake_all(ring.control->notify);
+}
+
+/// Makes the claimed ticket visible with `size` payload bytes (or kReleasedSlot). No barrier and
+/// no syscall unless the claim saw a sleeper.
+inline void ring_commit(const RingView& ring, const Claim& claim, std::uint32_t size) noexcept {
+  SlotHeader& slot = *claim.slot;
+  slot.size.store(size, std::memory_order_relaxed);
+  // The coarse clock is a plain read of the kernel's tick (a few ns): introspection wants
+  // "when did this topic last see traffic", not a message timestamp.
+  slot.send_time_ns.store(static_cast<std::uint64_t>(clock_ns(CLOCK_REALTIME_COARSE)),
+                          std::memory_order_relaxed);
+  slot.seq.store(2 * claim.ticket + 2, std::memory_order_release);
+  slot.claim.store(2 * claim.ticket + 2, std::memory_order_release);
+  ring.control->commits.store(claim.ticket + 1, std::memory_order_release);
+  if (claim.wake) {
+    ring_wake(ring);
+  }
+}
+
+/// Tickets handed out so far.
+inline std::uint64_t ring_written(const RingView& ring) noexcept {
+  return ring.control->write_index.load(std::memory_order_acquire) & kIndexMask;
+}
+
+/// Announces a thread about to sleep on `notify`. Returns the tickets handed out before the
+/// announcement (publishers of later ones will wake it), or nullopt-like UINT64_MAX when the
+/// sleeper count is full and the caller must sleep in short slices instead.
+inline std::uint64_t ring_add_sleeper(RingControl& control) noexcept {
+  const std::uint64_t word = control.write_index.fetch_add(kSleeper, std::memory_order_seq_cst);
+  if ((word >> 56) >= kMaxSleepers) {
+    control.write_index.fetch_sub(kSleeper, std::memory_order_seq_cst);
+    return UINT64_MAX;
+  }
+  return word & kIndexMask;
+}
+
+inline void ring_remove_sleeper(RingControl& control) noexcept {
+  control.write_index.fetch_sub(kSleeper, std::memory_order_seq_cst);
+}
+
+/// Moves a reader that was lapped to the oldest ticket still in the ring.
+inline void ring_resync(const RingView& ring, ReadCursor& cursor) noexcept {
+  const std::uint64_t written = ring_written(ring);
+  const std::uint64_t oldest = written > ring.capacity() ? written - ring.capacity() : 0;
+  const std::uint64_t next = oldest > cursor.next + 1 ? oldest : cursor.next + 1;
+  cursor.lost += next - cursor.next;
+  cursor.next = next;
+  cursor.stall_since_ns = 0;
+}
+
+/// True when the writer of the reader's next ticket is gone, so the ticket must be skipped.
+/// Only a stall that outlasts kDeadCheckNs costs a syscall (the liveness check).
+inline bool ring_writer_gone(const RingView& ring, ReadCursor& cursor,
+                             const SlotHeader& slot) noexcept {
+  if (cursor.next >= ring_written(ring)) {
+    cursor.stall_since_ns = 0;
+    return false;
+  }
+  const std::int64_t now = clock_ns(CLOCK_MONOTONIC);
+  if (cursor.stall_since_ns == 0) {
+    cursor.stall_since_ns = now;
+    return false;
+  }
+  const std::int64_t stalled = now - cursor.stall_since_ns;
+  if (stalled > kDeadCheckNs &&
+      slot.claim.load(std::memory_order_relaxed) == 2 * cursor.next + 1 &&
+      !process_alive(slot.owner.load(std::memory_order_relaxed))) {
+    return true;
+  }
+  // Ticket taken but slot never claimed: the writer may have died between the two.
+  return stalled > kStallLimitNs;
+}
+
+/// Reads the reader's next message. `copy(payload, size)` copies it out (checking `size` first)
+/// and returns whether the size was acceptable; it may run on a slot being overwritten, whose
+/// copy is then discarded. Returns 1 for a message, 0 for none, -1 for an invalid size.
+template <class Copy>
+int ring_read(const RingView& ring, ReadCursor& cursor, bool check_stall, Copy&& copy) noexcept {
+  // Bounded: every pass either returns or moves the cursor forward.
+  for (int pass = 0; pass < 64; ++pass) {
+    SlotHeader& slot = ring.slot(cursor.next);
+    const std::uint64_t committed = 2 * cursor.next + 2;
+    const std::uint64_t before = slot.seq.load(std::memory_order_acquire);
+    if (before == committed) {
+      const std::uint32_t size = slot.size.load(std::memory_order_relaxed);
+      const bool valid = size != kReleasedSlot && copy(ring.payload(slot), size);
+      seqlock_fence(std::memory_order_acquire);
+      if (slot.seq.load(std::memory_order_relaxed) != before) {
+        ring_resync(ring, cursor);
+        continue;
+      }
+      ++cursor.next;
+      cursor.stall_since_ns = 0;
+      cursor.empty_polls = 0;
+      if (size == kReleasedSlot) {
+        continue;
+      }
+      return valid ? 1 : -1;
+    }
+    if (before > committed) {
+      ring_resync(ring, cursor);
+      continue;
+    }
+    if (!check_stall && ++cursor.empty_polls % kStallCheckInterval != 0) {
+      return 0;
+    }
+    if (!ring_writer_gone(ring, cursor, slot)) {
+      return 0;
+    }
+    ++cursor.lost;
+    ++cursor.next;
+    cursor.stall_since_ns = 0;
+  }
+  return 0;
+}
+
+/// Whether the reader's next ticket is readable (or was overwritten, which try_recv resolves).
+inline bool ring_ready(const RingView& ring, const ReadCursor& cursor) noexcept {
+  return ring.slot(cursor.next).seq.load(std::memory_order_acquire) >= 2 * cursor.next + 2;
+}
+
+/// Copies the newest committed message with `copy`, without moving any cursor.
+template <class Copy>
+bool ring_read_latest(const RingView& ring, Copy&& copy) noexcept {
+  const std::uint64_t written = ring_written(ring);
+  const std::uint64_t depth = written < ring.capacity() ? written : ring.capacity();
+  for (std::uint64_t back = 1; back <= depth; ++back) {
+    const std::uint64_t ticket = written - back;
+    SlotHeader& slot = ring.slot(ticket);
+    const std::uint64_t before = slot.seq.load(std::memory_order_acquire);
+    if (before != 2 * ticket + 2) {
+      continue;
+    }
+    const std::uint32_t size = slot.size.load(std::memory_order_relaxed);
+    if (size == kReleasedSlot) {
+      continue;
+    }
+    const bool valid = copy(ring.payload(slot), size);
+    seqlock_fence(std::memory_order_acquire);
+    if (valid && slot.seq.load(std::memory_order_relaxed) == before) {
+      return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace horus::detail

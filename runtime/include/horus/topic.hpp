@@ -1,0 +1,326 @@
+// horus::Topic<T>: a named, typed channel between threads and processes over shared memory.
+// How the segment and the slots work: runtime/src/transport/README.md.
+#pragma once
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <memory>
+#include <new>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "horus/codec.hpp"
+#include "horus/detail/ring.hpp"
+#include "horus/detail/shm_segment.hpp"
+#include "horus/detail/topic_stream.hpp"
+#include "horus/msgpack.hpp"
+#include "horus/type_info.hpp"
+
+namespace horus {
+
+/// How a topic is created. Only the creator's options apply: a later opener adopts the segment.
+struct TopicOptions {
+  /// Messages kept for subscribers (rounded up to a power of two). A subscriber that falls
+  /// further behind loses the oldest and counts them in lost().
+  std::size_t capacity = 64;
+  /// Serialized types only: the largest encoded message a slot holds; send() of a larger one
+  /// returns false and counts it in TopicStats::oversized.
+  std::size_t max_message_size = 16 * 1024;
+  /// Permissions of the segment (and of the namespace folder, when this creates it).
+  unsigned mode = 0600;
+  /// Empty: HORUS_NAMESPACE, or "default".
+  std::string namespace_name{};
+};
+
+/// Per-handle counters: nothing fails silently.
+struct TopicStats {
+  /// Messages this handle never received because it fell more than `capacity` behind
+  /// (or their publisher died while writing them).
+  std::uint64_t lost = 0;
+  /// send()/publish() calls that published nothing (oversized, or the slot was held by a
+  /// publisher stalled for a whole lap of the ring).
+  std::uint64_t send_failures = 0;
+  /// The part of send_failures due to messages over max_message_size.
+  std::uint64_t oversized = 0;
+  /// Received slots whose content did not decode as T (a corrupted segment).
+  std::uint64_t invalid = 0;
+};
+
+template <Message T>
+class Topic;
+
+/// A slot of a POD topic lent for writing in place (zero copy); give it back with
+/// Topic::publish(). Its content is unspecified (an old message): write every field.
+/// Dropping it unpublished releases the slot without sending anything. It must not outlive
+/// its Topic, and while it is held the ring cannot reuse its slot.
+template <Message T>
+class Loan {
+  static_assert(PodMessage<T>, "only POD messages can be written in place");
+
+ public:
+  Loan(Loan&& other) noexcept
+      : ring_(other.ring_),
+        claim_(std::exchange(other.claim_, detail::Claim{nullptr, 0, false})),
+        data_(other.data_) {}
+  Loan& operator=(Loan&&) = delete;
+  Loan(const Loan&) = delete;
+  Loan& operator=(const Loan&) = delete;
+  ~Loan() {
+    if (claim_.slot != nullptr) {
+      detail::ring_commit(ring_, claim_, detail::kReleasedSlot);
+    } else if (claim_.wake) {
+      detail::ring_wake(ring_);
+    }
+  }
+
+  T& operator*() const noexcept { return *data_; }
+  T* operator->() const noexcept { return data_; }
+
+ private:
+  friend class Topic<T>;
+  Loan(const detail::RingView& ring, const detail::Claim& claim, T* data) noexcept
+      : ring_(ring), claim_(claim), data_(data) {}
+
+  detail::RingView ring_;
+  detail::Claim claim_;
+  T* data_;
+};
+
+/// One handle on a topic: it can send and receive. Every handle sees every message sent after
+/// it opened, in order. A handle is used by one thread at a time; open one per thread.
+template <Message T>
+class Topic {
+ public:
+  /// Opens (or creates) the topic `name` in the namespace. Throws horus::Error when the topic
+  /// carries another type, its segment is corrupt, or /dev/shm has no room.
+  explicit Topic(std::string_view name, const TopicOptions& options = {})
+      : name_(name),
+        segment_(detail::ShmSegment::open_topic(
+            name,
+            detail::TypeDescriptor{TypeInfo<T>::name, TypeInfo<T>::fingerprint,
+                                   TypeInfo<T>::schema, TypeInfo<T>::is_pod,
+                                   TypeInfo<T>::is_pod ? sizeof(T) : 0, alignof(T)},
+            detail::SegmentOptions{options.capacity, options.max_message_size, options.mode,
+                                   options.namespace_name})),
+        ring_(segment_.ring()),
+        pid_(static_cast<std::uint32_t>(::getpid())) {
+    cursor_.next = detail::ring_written(ring_);
+    if constexpr (PodMessage<T>) {
+      spare_ = std::make_unique<T>();
+    } else {
+      buffer_.resize(ring_.payload_capacity);
+    }
+  }
+
+  Topic(Topic&&) noexcept = default;
+  Topic& operator=(Topic&&) noexcept = default;
+
+  const std::string& name() const noexcept { return name_; }
+
+  /// Publishes a copy of `msg`. Never blocks; false (and a counter) when nothing was published.
+  bool send(const T& msg) noexcept {
+    mark(detail::kRolePublisher);
+    const detail::Claim claim = detail::ring_claim(ring_, pid_);
+    if (claim.slot == nullptr) {
+      if (claim.wake) {
+        detail::ring_wake(ring_);
+      }
+      ++stats_.send_failures;
+      return false;
+    }
+    std::byte* payload = ring_.payload(*claim.slot);
+    if constexpr (PodMessage<T>) {
+      std::memcpy(payload, &msg, sizeof(T));
+      detail::ring_commit(ring_, claim, sizeof(T));
+      return true;
+    } else {
+      detail::FixedBufferStream stream(payload, ring_.payload_capacity);
+      msgpack::packer<detail::FixedBufferStream> packer(stream);
+      packer.pack(msg);
+      if (stream.overflowed()) {
+        detail::ring_commit(ring_, claim, detail::kReleasedSlot);
+        ++stats_.send_failures;
+        ++stats_.oversized;
+        return false;
+      }
+      detail::ring_commit(ring_, claim, static_cast<std::uint32_t>(stream.size()));
+      return true;
+    }
+  }
+
+  /// Lends the next slot for writing the message in place. Publish it with publish().
+  Loan<T> loan() noexcept
+    requires PodMessage<T>
+  {
+    mark(detail::kRolePublisher);
+    const detail::Claim claim = detail::ring_claim(ring_, pid_);
+    if (claim.slot == nullptr) {
+      // The ring refused the slot: the caller writes into a private spare, publish() reports it.
+      return Loan<T>(ring_, claim, spare_.get());
+    }
+    return Loan<T>(ring_, claim, reinterpret_cast<T*>(ring_.payload(*claim.slot)));
+  }
+
+  /// Makes a loaned message visible. False (and a counter) when the loan had no slot.
+  bool publish(Loan<T>&& loan) noexcept
+    requires PodMessage<T>
+  {
+    const detail::Claim claim = std::exchange(loan.claim_, detail::Claim{nullptr, 0, false});
+    if (claim.slot == nullptr) {
+      if (claim.wake) {
+        detail::ring_wake(ring_);
+      }
+      ++stats_.send_failures;
+      return false;
+    }
+    detail::ring_commit(ring_, claim, sizeof(T));
+    return true;
+  }
+
+  /// The next message for this handle, if one is there. Never blocks.
+  std::optional<T> try_recv() noexcept(PodMessage<T>) { return receive(false); }
+
+  /// The next message, waiting up to `timeout` for one (asleep on a futex, no polling).
+  std::optional<T> recv(std::chrono::nanoseconds timeout) noexcept(PodMessage<T>) {
+    if (auto msg = receive(false)) {
+      return msg;
+    }
+    detail::RingControl& control = *ring_.control;
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    for (;;) {
+      const std::uint32_t seen = control.notify.load(std::memory_order_seq_cst);
+      const std::uint64_t claimed_before = detail::ring_add_sleeper(control);
+      std::optional<T> msg = receive(true);
+      const auto remaining = deadline - std::chrono::steady_clock::now();
+      if (!msg && remaining > std::chrono::nanoseconds::zero()) {
+        // A ticket claimed before this thread announced itself may still be in flight, and its
+        // publisher will not wake us: only then sleep in short slices.
+        const bool unannounced = claimed_before == UINT64_MAX || cursor_.next < claimed_before;
+        detail::futex_wait(control.notify, seen,
+                           unannounced ? std::min<std::chrono::nanoseconds>(remaining, kSlice)
+                                       : remaining);
+      }
+      if (claimed_before != UINT64_MAX) {
+        detail::ring_remove_sleeper(control);
+      }
+      if (msg || remaining <= std::chrono::nanoseconds::zero()) {
+        return msg;
+      }
+    }
+  }
+
+  /// Whether try_recv() would find something (a message, or news that some were lost).
+  bool has_msg() const noexcept { return detail::ring_ready(ring_, cursor_); }
+
+  /// The newest message ever sent on the topic (not only since this handle opened); does not
+  /// move this handle's position.
+  std::optional<T> read_latest() const noexcept(PodMessage<T>) {
+    if constexpr (PodMessage<T>) {
+      std::optional<T> msg;
+      if (detail::ring_read_latest(ring_, [&](const std::byte* payload, std::uint32_t size) {
+            if (size != sizeof(T)) {
+              return false;
+            }
+            msg.emplace(*std::launder(reinterpret_cast<const T*>(payload)));
+            return true;
+          })) {
+        return msg;
+      }
+      return std::nullopt;
+    } else {
+      std::vector<std::uint8_t> bytes(ring_.payload_capacity);
+      std::size_t length = 0;
+      if (!detail::ring_read_latest(ring_, [&](const std::byte* payload, std::uint32_t size) {
+            if (size > bytes.size()) {
+              return false;
+            }
+            std::memcpy(bytes.data(), payload, size);
+            length = size;
+            return true;
+          })) {
+        return std::nullopt;
+      }
+      return try_decode<T>(std::span<const std::uint8_t>(bytes.data(), length));
+    }
+  }
+
+  /// Messages this handle lost by falling more than the capacity behind.
+  std::uint64_t lost() const noexcept { return cursor_.lost; }
+  TopicStats stats() const noexcept {
+    TopicStats stats = stats_;
+    stats.lost = cursor_.lost;
+    return stats;
+  }
+  /// Slots in the ring (a power of two).
+  std::size_t capacity() const noexcept { return static_cast<std::size_t>(ring_.capacity()); }
+
+ private:
+  static constexpr std::chrono::nanoseconds kSlice = std::chrono::microseconds(50);
+
+  void mark(std::uint32_t role) noexcept {
+    if ((roles_ & role) == 0) {
+      roles_ |= role;
+      segment_.add_role(role);
+    }
+  }
+
+  std::optional<T> receive(bool check_stall) noexcept(PodMessage<T>) {
+    mark(detail::kRoleSubscriber);
+    // One result object for every path, so the (possibly large) message is returned in place.
+    std::optional<T> msg;
+    for (;;) {
+      std::size_t length = 0;
+      const int got = detail::ring_read(
+          ring_, cursor_, check_stall, [&](const std::byte* payload, std::uint32_t size) {
+            if constexpr (PodMessage<T>) {
+              if (size != sizeof(T)) {
+                return false;
+              }
+              // Copy-constructs straight from the slot: no zeroing of a large T first.
+              msg.emplace(*std::launder(reinterpret_cast<const T*>(payload)));
+            } else {
+              if (size > buffer_.size()) {
+                return false;
+              }
+              std::memcpy(buffer_.data(), payload, size);
+              length = size;
+            }
+            return true;
+          });
+      if (got == 0) {
+        msg.reset();
+        return msg;
+      }
+      if (got > 0) {
+        if constexpr (!PodMessage<T>) {
+          msg = try_decode<T>(std::span<const std::uint8_t>(buffer_.data(), length));
+        }
+        if (msg) {
+          return msg;
+        }
+      }
+      ++stats_.invalid;
+    }
+  }
+
+  std::string name_;
+  detail::ShmSegment segment_;
+  detail::RingView ring_;
+  detail::ReadCursor cursor_;
+  std::uint32_t pid_;
+  std::uint32_t roles_ = 0;
+  TopicStats stats_;
+  std::unique_ptr<T> spare_;
+  std::vector<std::uint8_t> buffer_;
+};
+
+}  // namespace horus

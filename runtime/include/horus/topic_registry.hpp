@@ -1,0 +1,51 @@
+// Introspection of the topics of a namespace, for tools: what exists, with which type, who uses
+// it and how busy it is, without decoding any message.
+#pragma once
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace horus {
+
+struct TopicInfo {
+  std::string name;
+  /// Empty while only TopicNotifiers have opened the topic (no type chosen yet).
+  std::string type_name;
+  std::uint64_t fingerprint = 0;
+  /// Canonical schema text of the type, enough to decode the messages.
+  std::string schema;
+  bool is_pod = false;
+  std::size_t capacity = 0;
+  /// Payload bytes per slot (sizeof(T) for POD types).
+  std::size_t max_message_size = 0;
+  /// Open handles in live processes that have sent / received at least once.
+  std::size_t publishers = 0;
+  std::size_t subscribers = 0;
+  /// Messages sent since the segment was created.
+  std::uint64_t message_count = 0;
+  std::optional<std::chrono::system_clock::time_point> last_send;
+  /// Why the segment could not be read (corrupt, truncated, unreadable); empty when it was.
+  std::string error;
+};
+
+/// HORUS_NAMESPACE, or "default".
+std::string current_namespace();
+
+/// The topics of a namespace (empty: the current one), sorted by name. A namespace nobody has
+/// used yet has none.
+std::vector<TopicInfo> list_topics(std::string_view namespace_name = {});
+
+/// Unlinks the segments of a namespace whose every user process has died (they would otherwise
+/// be re-used by the next opener); returns how many. Segments in use are left alone.
+std::size_t clean_namespace(std::string_view namespace_name = {});
+
+/// Unlinks every segment of a namespace and its folder, in use or not (tests, `horus clean -f`).
+/// Handles still open keep working on the unlinked memory but no longer meet new ones.
+void remove_namespace(std::string_view namespace_name);
+
+}  // namespace horus

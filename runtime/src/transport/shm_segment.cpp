@@ -1,0 +1,529 @@
+// Set-up of topic segments: creation, validation, re-use and the users table.
+//
+// Every set-up step runs under flock(LOCK_EX) on the segment file: concurrent openers serialise,
+// and the kernel drops the lock of a process killed mid-set-up, so nobody waits on a dead one.
+#include "horus/detail/shm_segment.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/file.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <bit>
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <utility>
+
+#include "horus/error.hpp"
+
+namespace horus::detail {
+
+namespace {
+
+std::string errno_text(int error) { return std::strerror(error); }
+
+std::string hex(std::uint64_t value) {
+  char text[19];
+  std::snprintf(text, sizeof text, "0x%016llx", static_cast<unsigned long long>(value));
+  return text;
+}
+
+std::uint64_t round_up(std::uint64_t value, std::uint64_t multiple) {
+  return (value + multiple - 1) / multiple * multiple;
+}
+
+/// Directory mode for a file mode: the classes that may read files may also list and enter.
+mode_t directory_mode(unsigned file_mode) {
+  return static_cast<mode_t>(0700 | (file_mode & 0066) | ((file_mode & 0044) >> 2));
+}
+
+void make_directory(const std::string& path, mode_t mode) {
+  if (::mkdir(path.c_str(), mode) == 0) {
+    // mkdir applies the umask; the requested mode is the contract.
+    ::chmod(path.c_str(), mode);
+    return;
+  }
+  if (errno != EEXIST) {
+    throw Error("cannot create the topic directory " + path + ": " + errno_text(errno));
+  }
+  struct stat info {};
+  if (::lstat(path.c_str(), &info) != 0 || !S_ISDIR(info.st_mode)) {
+    throw Error("topic directory " + path + " exists but is not a directory");
+  }
+}
+
+std::string ensure_namespace_directory(const std::string& namespace_name, unsigned mode) {
+  const std::string root = shm_root();
+  // Shared by every user of the machine, like /tmp; each namespace folder is private.
+  make_directory(root, 01777);
+  const std::string directory = namespace_directory(namespace_name);
+  make_directory(directory, directory_mode(mode));
+  return directory;
+}
+
+class FileDescriptor {
+ public:
+  explicit FileDescriptor(int fd) : fd_(fd) {}
+  FileDescriptor(const FileDescriptor&) = delete;
+  FileDescriptor& operator=(const FileDescriptor&) = delete;
+  ~FileDescriptor() {
+    if (fd_ >= 0) {
+      // Explicitly: the mapping keeps the open file description (and so a flock) alive after
+      // close, which would leave the set-up lock held for as long as the handle lives.
+      ::flock(fd_, LOCK_UN);
+      ::close(fd_);
+    }
+  }
+  int get() const { return fd_; }
+
+ private:
+  int fd_;
+};
+
+struct Mapping {
+  void* base = nullptr;
+  std::size_t size = 0;
+};
+
+Mapping map_file(int fd, std::size_t size, int protection, const std::string& path) {
+  void* base = ::mmap(nullptr, size, protection, MAP_SHARED, fd, 0);
+  if (base == MAP_FAILED) {
+    throw Error("cannot map topic segment " + path + ": " + errno_text(errno));
+  }
+  return {base, size};
+}
+
+/// Opens `path` (creating it empty with `mode`) and holds the set-up lock on it. Retries when
+/// the file was unlinked between open and lock, so the lock always guards the live file.
+int open_locked(const std::string& path, unsigned mode, int lock) {
+  for (int attempt = 0; attempt < 16; ++attempt) {
+    const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW,
+                          static_cast<mode_t>(mode));
+    if (fd < 0) {
+      throw Error("cannot open topic segment " + path + ": " + errno_text(errno));
+    }
+    while (::flock(fd, lock) != 0) {
+      if (errno != EINTR) {
+        const int error = errno;
+        ::close(fd);
+        throw Error("cannot lock topic segment " + path + ": " + errno_text(error));
+      }
+    }
+    struct stat opened {};
+    struct stat current {};
+    if (::fstat(fd, &opened) == 0 && ::stat(path.c_str(), &current) == 0 &&
+        opened.st_dev == current.st_dev && opened.st_ino == current.st_ino) {
+      return fd;
+    }
+    ::close(fd);
+  }
+  throw Error("topic segment " + path + " keeps being removed while opening it");
+}
+
+std::uint64_t file_size(int fd, const std::string& path) {
+  struct stat info {};
+  if (::fstat(fd, &info) != 0) {
+    throw Error("cannot stat topic segment " + path + ": " + errno_text(errno));
+  }
+  return static_cast<std::uint64_t>(info.st_size);
+}
+
+void allocate(int fd, std::uint64_t size, const std::string& path) {
+  // posix_fallocate, not ftruncate: a full /dev/shm must fail here, not as SIGBUS on first touch.
+  const int error = ::posix_fallocate(fd, 0, static_cast<off_t>(size));
+  if (error != 0) {
+    ::ftruncate(fd, static_cast<off_t>(kControlSize));
+    throw Error("cannot allocate " + std::to_string(size) + " bytes for topic segment " + path +
+                ": " + errno_text(error) + " (is /dev/shm full or too small?)");
+  }
+}
+
+void write_all(int fd, const void* data, std::size_t size, std::uint64_t offset,
+               const std::string& path) {
+  const auto* bytes = static_cast<const char*>(data);
+  while (size > 0) {
+    const ssize_t written = ::pwrite(fd, bytes, size, static_cast<off_t>(offset));
+    if (written < 0 && errno == EINTR) {
+      continue;
+    }
+    if (written <= 0) {
+      throw Error("cannot write topic segment " + path + ": " + errno_text(errno));
+    }
+    bytes += written;
+    size -= static_cast<std::size_t>(written);
+    offset += static_cast<std::uint64_t>(written);
+  }
+}
+
+void read_all(int fd, void* data, std::size_t size, std::uint64_t offset, const std::string& path) {
+  auto* bytes = static_cast<char*>(data);
+  while (size > 0) {
+    const ssize_t got = ::pread(fd, bytes, size, static_cast<off_t>(offset));
+    if (got < 0 && errno == EINTR) {
+      continue;
+    }
+    if (got <= 0) {
+      throw Error("cannot read topic segment " + path + ": truncated");
+    }
+    bytes += got;
+    size -= static_cast<std::size_t>(got);
+    offset += static_cast<std::uint64_t>(got);
+  }
+}
+
+/// Gives a new (empty) file its control page; validates an existing one.
+void prepare_control(int fd, const std::string& path, unsigned mode) {
+  const std::uint64_t size = file_size(fd, path);
+  if (size == 0) {
+    ::fchmod(fd, static_cast<mode_t>(mode));
+    allocate(fd, kControlSize, path);
+    struct {
+      std::uint64_t magic;
+      std::uint32_t version;
+      std::uint32_t control_size;
+    } const prefix{kControlMagic, kSegmentVersion, static_cast<std::uint32_t>(kControlSize)};
+    write_all(fd, &prefix, sizeof prefix, 0, path);
+    return;
+  }
+  if (size < kControlSize) {
+    throw Error("topic segment " + path + " is truncated (" + std::to_string(size) +
+                " bytes, the control page alone is " + std::to_string(kControlSize) + ")");
+  }
+}
+
+/// Whether a live process has the segment open (counting notifiers only if asked: they map the
+/// control page alone, so they do not stand in the way of re-typing).
+bool has_live_users(const ControlBlock& control, bool count_notifiers) {
+  for (const UserEntry& user : control.users) {
+    const std::uint32_t pid = user.pid.load(std::memory_order_acquire);
+    const bool notifier = (user.roles.load(std::memory_order_relaxed) & kRoleNotifier) != 0;
+    if (pid != 0 && (count_notifiers || !notifier) && process_alive(pid)) {
+      return true;
+    }
+  }
+  return false;
+}
+
+int register_user(ControlBlock& control, std::uint32_t roles, const std::string& path) {
+  const auto pid = static_cast<std::uint32_t>(::getpid());
+  for (int pass = 0; pass < 2; ++pass) {
+    for (std::size_t i = 0; i < kMaxUsers; ++i) {
+      UserEntry& user = control.users[i];
+      std::uint32_t current = user.pid.load(std::memory_order_acquire);
+      const bool free = pass == 0 ? current == 0 : current != 0 && !process_alive(current);
+      if (free && user.pid.compare_exchange_strong(current, pid, std::memory_order_acq_rel)) {
+        user.roles.store(roles, std::memory_order_release);
+        return static_cast<int>(i);
+      }
+    }
+  }
+  throw Error("topic segment " + path + " already has " + std::to_string(kMaxUsers) +
+              " open handles in live processes");
+}
+
+LayoutHeader make_layout(const TypeDescriptor& type, const SegmentOptions& options,
+                         const std::string& path) {
+  if (type.name.empty() || type.name.size() > kMaxTypeName) {
+    throw Error("type name '" + std::string(type.name) + "' must have 1 to " +
+                std::to_string(kMaxTypeName) + " characters (topic " + path + ")");
+  }
+  if (type.schema.size() > kMaxSchemaSize) {
+    throw Error("schema of " + std::string(type.name) + " exceeds " +
+                std::to_string(kMaxSchemaSize) + " bytes (topic " + path + ")");
+  }
+  if (options.capacity == 0 || options.capacity > kMaxCapacity) {
+    throw Error("topic capacity " + std::to_string(options.capacity) + " is not within 1.." +
+                std::to_string(kMaxCapacity) + " (topic " + path + ")");
+  }
+  const std::uint64_t alignment = std::max<std::uint64_t>(type.alignment, 8);
+  if (!std::has_single_bit(alignment) || alignment > kControlSize) {
+    throw Error("alignment " + std::to_string(type.alignment) + " of " + std::string(type.name) +
+                " is not supported in shared memory (topic " + path + ")");
+  }
+  const std::uint64_t payload = type.is_pod ? type.size : options.max_message_size;
+  if (payload == 0 || payload > kMaxSlotPayload) {
+    throw Error("message size " + std::to_string(payload) + " of " + std::string(type.name) +
+                " is not within 1.." + std::to_string(kMaxSlotPayload) + " (topic " + path + ")");
+  }
+  LayoutHeader header{};
+  header.magic = kLayoutMagic;
+  header.version = kSegmentVersion;
+  header.header_size = sizeof(LayoutHeader);
+  header.fingerprint = type.fingerprint;
+  header.is_pod = type.is_pod ? 1 : 0;
+  header.type_name_size = static_cast<std::uint32_t>(type.name.size());
+  std::memcpy(header.type_name, type.name.data(), type.name.size());
+  header.type_size = type.is_pod ? type.size : 0;
+  header.type_alignment = alignment;
+  header.capacity = std::bit_ceil(static_cast<std::uint64_t>(options.capacity));
+  header.payload_offset = round_up(sizeof(SlotHeader), alignment);
+  if (header.payload_offset + payload > 2 * 64) {
+    // A payload that does not fit beside `seq` starts on its own cache line: the writer then
+    // fills it without fighting a subscriber that is polling `seq`.
+    header.payload_offset = round_up(2 * 64, alignment);
+  }
+  header.payload_capacity = payload;
+  header.slot_stride =
+      round_up(header.payload_offset + payload, std::max<std::uint64_t>(64, alignment));
+  header.schema_offset = kControlSize + sizeof(LayoutHeader);
+  header.schema_size = type.schema.size();
+  header.slots_offset = round_up(header.schema_offset + header.schema_size, kControlSize);
+  header.total_size = header.slots_offset + header.capacity * header.slot_stride;
+  return header;
+}
+
+bool same_type(const LayoutHeader& header, const TypeDescriptor& type) {
+  return std::string_view(header.type_name, header.type_name_size) == type.name &&
+         header.fingerprint == type.fingerprint && (header.is_pod != 0) == type.is_pod &&
+         (!type.is_pod || (header.type_size == type.size &&
+                           (header.slots_offset + header.payload_offset) % type.alignment == 0 &&
+                           header.slot_stride % type.alignment == 0));
+}
+
+}  // namespace
+
+std::string current_namespace() {
+  const char* value = std::getenv("HORUS_NAMESPACE");
+  if (value == nullptr || *value == '\0') {
+    return "default";
+  }
+  validate_segment_name("namespace (HORUS_NAMESPACE)", value);
+  return value;
+}
+
+std::string shm_root() {
+  const char* value = std::getenv("HORUS_SHM_DIR");
+  return value != nullptr && *value != '\0' ? value : "/dev/shm/horus";
+}
+
+std::string namespace_directory(std::string_view namespace_name) {
+  std::string name = namespace_name.empty() ? current_namespace() : std::string(namespace_name);
+  validate_segment_name("namespace", name);
+  return shm_root() + "/" + name;
+}
+
+void validate_segment_name(std::string_view what, std::string_view name) {
+  bool valid = !name.empty() && name.size() <= 200 && name != "." && name != "..";
+  for (const char c : name) {
+    const bool allowed = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
+                         (c >= '0' && c <= '9') || c == '_' || c == '.' || c == '-';
+    valid = valid && allowed;
+  }
+  if (!valid) {
+    throw Error(std::string(what) + " '" + std::string(name) +
+                "' is not valid: use 1 to 200 of [A-Za-z0-9_.-] (and not . or ..)");
+  }
+}
+
+bool process_alive(std::uint32_t pid) noexcept {
+  if (pid == 0) {
+    return false;
+  }
+  return ::kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM;
+}
+
+std::string validate_control(const ControlBlock& control) {
+  if (control.magic != kControlMagic) {
+    return "bad control magic " + hex(control.magic);
+  }
+  if (control.version != kSegmentVersion) {
+    return "unsupported version " + std::to_string(control.version) + " (this build reads " +
+           std::to_string(kSegmentVersion) + ")";
+  }
+  if (control.control_size != kControlSize) {
+    return "control page size " + std::to_string(control.control_size) + " instead of " +
+           std::to_string(kControlSize);
+  }
+  const std::uint32_t ready = control.layout_ready.load(std::memory_order_acquire);
+  if (ready > 1) {
+    return "invalid layout state " + std::to_string(ready);
+  }
+  return {};
+}
+
+std::string validate_layout(const LayoutHeader& h, std::uint64_t file_size) {
+  if (h.magic != kLayoutMagic) {
+    return "bad layout magic " + hex(h.magic);
+  }
+  if (h.version != kSegmentVersion || h.header_size != sizeof(LayoutHeader)) {
+    return "unsupported layout version " + std::to_string(h.version) + " / header size " +
+           std::to_string(h.header_size);
+  }
+  if (h.type_name_size == 0 || h.type_name_size > kMaxTypeName || h.is_pod > 1) {
+    return "invalid type identity fields";
+  }
+  if (h.capacity == 0 || h.capacity > kMaxCapacity || !std::has_single_bit(h.capacity)) {
+    return "invalid capacity " + std::to_string(h.capacity);
+  }
+  if (h.type_alignment < 8 || h.type_alignment > kControlSize ||
+      !std::has_single_bit(h.type_alignment)) {
+    return "invalid alignment " + std::to_string(h.type_alignment);
+  }
+  if (h.payload_capacity == 0 || h.payload_capacity > kMaxSlotPayload ||
+      (h.is_pod != 0 && (h.type_size == 0 || h.payload_capacity < h.type_size))) {
+    return "invalid payload capacity " + std::to_string(h.payload_capacity);
+  }
+  if (h.payload_offset < sizeof(SlotHeader) || h.payload_offset % h.type_alignment != 0 ||
+      h.payload_offset > kControlSize || h.slot_stride % 64 != 0 ||
+      h.slot_stride % h.type_alignment != 0 ||
+      h.slot_stride < h.payload_offset + h.payload_capacity ||
+      h.slot_stride > kMaxSlotPayload + 2 * kControlSize) {
+    return "invalid slot geometry (stride " + std::to_string(h.slot_stride) + ", payload at " +
+           std::to_string(h.payload_offset) + ")";
+  }
+  if (h.schema_offset != kControlSize + sizeof(LayoutHeader) || h.schema_size > kMaxSchemaSize ||
+      h.slots_offset < h.schema_offset + h.schema_size || h.slots_offset % 64 != 0 ||
+      h.slots_offset % h.type_alignment != 0) {
+    return "invalid schema or slot offsets";
+  }
+  if (h.total_size != h.slots_offset + h.capacity * h.slot_stride) {
+    return "total size " + std::to_string(h.total_size) + " does not match the geometry";
+  }
+  if (h.total_size > file_size) {
+    return "truncated: the header describes " + std::to_string(h.total_size) +
+           " bytes but the file has " + std::to_string(file_size);
+  }
+  return {};
+}
+
+ShmSegment ShmSegment::open_topic(std::string_view topic, const TypeDescriptor& type,
+                                  const SegmentOptions& options) {
+  validate_segment_name("topic name", topic);
+  const std::string directory = ensure_namespace_directory(
+      options.namespace_name.empty() ? current_namespace() : options.namespace_name, options.mode);
+  ShmSegment segment;
+  segment.path_ = directory + "/" + std::string(topic);
+  const std::string& path = segment.path_;
+  const FileDescriptor fd(open_locked(path, options.mode, LOCK_EX));
+  prepare_control(fd.get(), path, options.mode);
+
+  const Mapping control_page = map_file(fd.get(), kControlSize, PROT_READ | PROT_WRITE, path);
+  segment.base_ = control_page.base;
+  segment.mapped_size_ = control_page.size;
+  ControlBlock& control = segment.control();
+  if (std::string problem = validate_control(control); !problem.empty()) {
+    throw Error("topic segment " + path + " is corrupt: " + problem +
+                "; remove the file if no process uses it");
+  }
+
+  LayoutHeader header{};
+  bool usable = false;
+  if (control.layout_ready.load(std::memory_order_acquire) == 1) {
+    const std::uint64_t size = file_size(fd.get(), path);
+    if (size < kControlSize + sizeof(LayoutHeader)) {
+      throw Error("topic segment " + path + " is corrupt: truncated to " + std::to_string(size) +
+                  " bytes; remove the file if no process uses it");
+    }
+    read_all(fd.get(), &header, sizeof header, kControlSize, path);
+    if (std::string problem = validate_layout(header, size); !problem.empty()) {
+      throw Error("topic segment " + path + " is corrupt: " + problem +
+                  "; remove the file if no process uses it");
+    }
+    usable = same_type(header, type);
+    if (!usable && has_live_users(control, false)) {
+      throw Error("topic '" + std::string(topic) + "' (" + path + ") carries " +
+                  std::string(header.type_name, header.type_name_size) + " (fingerprint " +
+                  hex(header.fingerprint) + "); cannot open it as " + std::string(type.name) +
+                  " (fingerprint " + hex(type.fingerprint) + ")");
+    }
+  }
+  if (!usable) {
+    // New, abandoned half-way by a dead creator, or re-typed after every user died. The write
+    // index is kept: it only grows, so notifiers never see it go backwards.
+    header = make_layout(type, options, path);
+    control.layout_ready.store(0, std::memory_order_release);
+    ::ftruncate(fd.get(), static_cast<off_t>(kControlSize));
+    allocate(fd.get(), header.total_size, path);
+    write_all(fd.get(), &header, sizeof header, kControlSize, path);
+    write_all(fd.get(), type.schema.data(), type.schema.size(), header.schema_offset, path);
+    control.layout_ready.store(1, std::memory_order_release);
+  }
+
+  if (!has_live_users(control, true)) {
+    // Sleepers killed while waiting never took themselves off the count; with nobody alive,
+    // clear it, or every send would keep making a wake-up syscall for nobody.
+    control.ring.write_index.fetch_and(kIndexMask, std::memory_order_acq_rel);
+  }
+
+  ::munmap(segment.base_, segment.mapped_size_);
+  segment.base_ = nullptr;
+  const Mapping whole = map_file(fd.get(), header.total_size, PROT_READ | PROT_WRITE, path);
+  segment.base_ = whole.base;
+  segment.mapped_size_ = whole.size;
+  auto* bytes = static_cast<std::byte*>(segment.base_);
+  segment.ring_.control = &segment.control().ring;
+  segment.ring_.slots = bytes + header.slots_offset;
+  segment.ring_.mask = header.capacity - 1;
+  segment.ring_.stride = header.slot_stride;
+  segment.ring_.payload_offset = header.payload_offset;
+  segment.ring_.payload_capacity = header.payload_capacity;
+  segment.user_index_ = register_user(segment.control(), 0, path);
+  return segment;
+}
+
+ShmSegment ShmSegment::open_control(std::string_view topic, const SegmentOptions& options) {
+  validate_segment_name("topic name", topic);
+  const std::string directory = ensure_namespace_directory(
+      options.namespace_name.empty() ? current_namespace() : options.namespace_name, options.mode);
+  ShmSegment segment;
+  segment.path_ = directory + "/" + std::string(topic);
+  const FileDescriptor fd(open_locked(segment.path_, options.mode, LOCK_EX));
+  prepare_control(fd.get(), segment.path_, options.mode);
+  const Mapping page = map_file(fd.get(), kControlSize, PROT_READ | PROT_WRITE, segment.path_);
+  segment.base_ = page.base;
+  segment.mapped_size_ = page.size;
+  if (std::string problem = validate_control(segment.control()); !problem.empty()) {
+    throw Error("topic segment " + segment.path_ + " is corrupt: " + problem +
+                "; remove the file if no process uses it");
+  }
+  segment.ring_.control = &segment.control().ring;
+  segment.user_index_ = register_user(segment.control(), kRoleNotifier, segment.path_);
+  return segment;
+}
+
+ShmSegment::ShmSegment(ShmSegment&& other) noexcept
+    : base_(std::exchange(other.base_, nullptr)),
+      mapped_size_(std::exchange(other.mapped_size_, 0)),
+      user_index_(std::exchange(other.user_index_, -1)),
+      ring_(std::exchange(other.ring_, RingView{})),
+      path_(std::move(other.path_)) {}
+
+ShmSegment& ShmSegment::operator=(ShmSegment&& other) noexcept {
+  if (this != &other) {
+    release();
+    base_ = std::exchange(other.base_, nullptr);
+    mapped_size_ = std::exchange(other.mapped_size_, 0);
+    user_index_ = std::exchange(other.user_index_, -1);
+    ring_ = std::exchange(other.ring_, RingView{});
+    path_ = std::move(other.path_);
+  }
+  return *this;
+}
+
+ShmSegment::~ShmSegment() { release(); }
+
+void ShmSegment::add_role(std::uint32_t role) noexcept {
+  if (user_index_ >= 0) {
+    control().users[user_index_].roles.fetch_or(role, std::memory_order_relaxed);
+  }
+}
+
+void ShmSegment::release() noexcept {
+  if (base_ == nullptr) {
+    return;
+  }
+  if (user_index_ >= 0) {
+    UserEntry& user = control().users[user_index_];
+    user.roles.store(0, std::memory_order_relaxed);
+    user.pid.store(0, std::memory_order_release);
+    user_index_ = -1;
+  }
+  ::munmap(base_, mapped_size_);
+  base_ = nullptr;
+}
+
+}  // namespace horus::detail
