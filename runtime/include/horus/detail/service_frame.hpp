@@ -1,0 +1,273 @@
+// The messages that carry a service over topics, hand-written in the shape horus-gen generates
+// (not generated from a schema: they are templates over the service's own messages).
+//
+//   <Service>.request       ServiceRequestFrame<Request>    {client_id, request_id, reply_to,
+//   payload} <Service>.response.<k>  ServiceResponseFrame<Response>  {client_id, request_id,
+//   status, error, payload} <Service>.service       ServiceRegistration             the live
+//   server: pid, instance, types
+//
+// Each client receives on a reply topic of its own (`reply_to` = k, the smallest index no live
+// client uses): on one shared response topic, a client preempted for a few milliseconds while
+// others keep calling would find its answer overwritten by theirs. Indices are re-used, so the
+// number of reply topics stays the number of clients alive at once; two clients that pick the
+// same index at the same moment merely share a topic (answers carry the client id).
+// The payload is the message itself, not its encoded bytes: a POD request or response makes a POD
+// frame, copied straight into the slot (no MessagePack, no allocation), and a serialized one is
+// encoded once, straight into the slot, as an element of the frame's MessagePack array. Each
+// frame's type name and fingerprint derive from its payload's, so a client and a server that
+// disagree on a service's types fail to open its topics with the transport's "another type" error.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <type_traits>
+
+#include "horus/fixed_string.hpp"
+#include "horus/message.hpp"
+#include "horus/msgpack.hpp"
+
+namespace horus::detail {
+
+/// The concatenation of static strings as one static string_view (for TypeInfo names and schemas).
+template <const std::string_view&... Parts>
+struct JoinedText {
+  static constexpr std::size_t size = (Parts.size() + ... + 0);
+  static constexpr std::array<char, size + 1> storage = [] {
+    std::array<char, size + 1> out{};
+    std::size_t at = 0;
+    ((std::copy(Parts.begin(), Parts.end(), out.begin() + static_cast<std::ptrdiff_t>(at)),
+      at += Parts.size()),
+     ...);
+    return out;
+  }();
+  static constexpr std::string_view value{storage.data(), size};
+};
+
+constexpr std::uint64_t fnv1a(std::string_view text) noexcept {
+  std::uint64_t hash = 0xcbf29ce484222325ULL;
+  for (const char c : text) {
+    hash = (hash ^ static_cast<std::uint8_t>(c)) * 0x100000001b3ULL;
+  }
+  return hash;
+}
+
+inline constexpr std::string_view kRequestFrameName = "horus.ServiceRequest<";
+inline constexpr std::string_view kResponseFrameName = "horus.ServiceResponse<";
+inline constexpr std::string_view kNameClose = ">";
+inline constexpr std::string_view kSchemaOpen = "message ";
+inline constexpr std::string_view kRequestFrameFields =
+    " {\n  client_id: u64,\n  request_id: u64,\n  reply_to: u64,\n  payload: ";
+inline constexpr std::string_view kResponseFrameFieldsPod =
+    " {\n  client_id: u64,\n  request_id: u64,\n  status: u32,\n  error: string<236>,\n  payload: ";
+inline constexpr std::string_view kResponseFrameFieldsSerialized =
+    " {\n  client_id: u64,\n  request_id: u64,\n  status: u32,\n  error: String,\n  payload: ";
+inline constexpr std::string_view kSchemaClose = ",\n}\n";
+
+/// ServiceResponseFrame::status.
+inline constexpr std::uint32_t kStatusOk = 0;
+inline constexpr std::uint32_t kStatusFailed = 1;
+
+/// The error text a POD response frame holds (sized so that the payload starts at byte 256).
+inline constexpr std::size_t kPodErrorCapacity = 236;
+
+/// A request on its way to the server. client_id 0 is no client: the server's own wake-up at
+/// stop().
+template <Message Req>
+struct ServiceRequestFrame {
+  std::uint64_t client_id{};
+  std::uint64_t request_id{};
+  /// Index of the client's reply topic (reply_topic()).
+  std::uint64_t reply_to{};
+  Req payload{};
+
+  std::string log_summary() const {
+    std::string out = "ServiceRequest{client_id: ";
+    summary::append_field(out, client_id, "", "");
+    out += ", request_id: ";
+    summary::append_field(out, request_id, "", "");
+    out += ", reply_to: ";
+    summary::append_field(out, reply_to, "", "");
+    out += ", payload: " + payload.log_summary() + "}";
+    return out;
+  }
+  bool operator==(const ServiceRequestFrame&) const = default;
+};
+
+/// An answer, for every client to see; each keeps those with its client_id and pending request_id.
+template <Message Res>
+struct ServiceResponseFrame {
+  /// Fixed-size for a POD response, so the frame stays POD; longer texts are cut (cut_error()).
+  using ErrorText =
+      std::conditional_t<TypeInfo<Res>::is_pod, FixedString<kPodErrorCapacity>, std::string>;
+
+  std::uint64_t client_id{};
+  std::uint64_t request_id{};
+  std::uint32_t status{};
+  ErrorText error{};
+  Res payload{};
+
+  std::string log_summary() const {
+    std::string out = "ServiceResponse{client_id: ";
+    summary::append_field(out, client_id, "", "");
+    out += ", request_id: ";
+    summary::append_field(out, request_id, "", "");
+    out += status == kStatusOk ? ", ok, payload: " + payload.log_summary()
+                               : ", failed: \"" + std::string(std::string_view(error)) + "\"";
+    out += "}";
+    return out;
+  }
+  bool operator==(const ServiceResponseFrame&) const = default;
+};
+
+/// Stores a handler's error text in a frame, cut at a UTF-8 character boundary when a POD frame
+/// has no room for all of it.
+template <Message Res>
+void set_error(ServiceResponseFrame<Res>& frame, std::string_view text) {
+  if constexpr (TypeInfo<Res>::is_pod) {
+    std::size_t size = std::min(text.size(), kPodErrorCapacity);
+    while (size > 0 && size < text.size() &&
+           (static_cast<unsigned char>(text[size]) & 0xC0U) == 0x80U) {
+      --size;
+    }
+    frame.error.try_assign(text.substr(0, size));
+  } else {
+    frame.error.assign(text);
+  }
+}
+
+/// The server of a service, as it announces itself on `<Service>.service` (the latest message
+/// counts). server_pid 0: the server stopped and withdrew.
+struct ServiceRegistration {
+  /// Unique per ServiceServer object: tells a restarted server from the one a request went to.
+  std::uint64_t server_instance{};
+  std::uint64_t fingerprint{};
+  FixedString<256> request_type{};
+  FixedString<256> response_type{};
+  std::uint64_t server_pid{};
+
+  std::string log_summary() const {
+    std::string out = "ServiceRegistration{server_instance: ";
+    summary::append_field(out, server_instance, "", "");
+    out += ", fingerprint: ";
+    summary::append_field(out, fingerprint, "", "");
+    out += ", request_type: ";
+    summary::append_field(out, request_type, "", "");
+    out += ", response_type: ";
+    summary::append_field(out, response_type, "", "");
+    out += ", server_pid: ";
+    summary::append_field(out, server_pid, "", "");
+    out += "}";
+    return out;
+  }
+  bool operator==(const ServiceRegistration&) const = default;
+};
+
+/// The reply topic number `index` of a service.
+inline std::string reply_topic(std::string_view response_topic, std::uint64_t index) {
+  return std::string(response_topic) + "." + std::to_string(index);
+}
+
+/// The topic that holds a service's registration.
+inline std::string registration_topic(std::string_view service_name) {
+  return std::string(service_name) + ".service";
+}
+inline constexpr std::string_view kRegistrationSuffix = ".service";
+
+}  // namespace horus::detail
+
+template <horus::Message Req>
+struct horus::TypeInfo<horus::detail::ServiceRequestFrame<Req>> {
+  using type = horus::detail::ServiceRequestFrame<Req>;
+  static constexpr std::string_view name =
+      horus::detail::JoinedText<horus::detail::kRequestFrameName, horus::TypeInfo<Req>::name,
+                                horus::detail::kNameClose>::value;
+  static constexpr std::string_view package = "horus";
+  static constexpr std::string_view schema =
+      horus::detail::JoinedText<horus::detail::kSchemaOpen, name,
+                                horus::detail::kRequestFrameFields, horus::TypeInfo<Req>::name,
+                                horus::detail::kSchemaClose, horus::TypeInfo<Req>::schema>::value;
+  static constexpr std::uint64_t fingerprint = horus::detail::fnv1a(schema);
+  static constexpr bool is_pod = horus::TypeInfo<Req>::is_pod;
+  static constexpr std::size_t size = sizeof(type);
+  static constexpr std::size_t alignment = alignof(type);
+  static constexpr std::size_t field_count = 4;
+  // Frames are never encoded with horus::encode: the topic copies them whole.
+  static constexpr std::array<horus::PaddingRange, 0> padding{};
+
+  template <class Msg, class Fn>
+  static constexpr void visit(Msg& msg, Fn&& fn) {
+    fn("client_id", msg.client_id);
+    fn("request_id", msg.request_id);
+    fn("reply_to", msg.reply_to);
+    fn("payload", msg.payload);
+  }
+};
+
+template <horus::Message Res>
+struct horus::TypeInfo<horus::detail::ServiceResponseFrame<Res>> {
+  using type = horus::detail::ServiceResponseFrame<Res>;
+  static constexpr std::string_view name =
+      horus::detail::JoinedText<horus::detail::kResponseFrameName, horus::TypeInfo<Res>::name,
+                                horus::detail::kNameClose>::value;
+  static constexpr std::string_view package = "horus";
+  static constexpr std::string_view schema = horus::detail::JoinedText < horus::detail::kSchemaOpen,
+                                    name,
+                                    horus::TypeInfo<Res>::is_pod
+                                        ? horus::detail::kResponseFrameFieldsPod
+                                        : horus::detail::kResponseFrameFieldsSerialized,
+                                    horus::TypeInfo<Res>::name, horus::detail::kSchemaClose,
+                                    horus::TypeInfo<Res>::schema > ::value;
+  static constexpr std::uint64_t fingerprint = horus::detail::fnv1a(schema);
+  static constexpr bool is_pod = horus::TypeInfo<Res>::is_pod;
+  static constexpr std::size_t size = sizeof(type);
+  static constexpr std::size_t alignment = alignof(type);
+  static constexpr std::size_t field_count = 5;
+  static constexpr std::array<horus::PaddingRange, 0> padding{};
+
+  template <class Msg, class Fn>
+  static constexpr void visit(Msg& msg, Fn&& fn) {
+    fn("client_id", msg.client_id);
+    fn("request_id", msg.request_id);
+    fn("status", msg.status);
+    fn("error", msg.error);
+    fn("payload", msg.payload);
+  }
+};
+
+template <>
+struct horus::TypeInfo<horus::detail::ServiceRegistration> {
+  using type = horus::detail::ServiceRegistration;
+  static constexpr std::string_view name = "horus.ServiceRegistration";
+  static constexpr std::string_view package = "horus";
+  static constexpr std::string_view schema =
+      "message horus.ServiceRegistration {\n"
+      "  server_instance: u64,\n"
+      "  fingerprint: u64,\n"
+      "  request_type: string<256>,\n"
+      "  response_type: string<256>,\n"
+      "  server_pid: u64,\n"
+      "}\n";
+  static constexpr std::uint64_t fingerprint = horus::detail::fnv1a(schema);
+  static constexpr bool is_pod = true;
+  static constexpr std::size_t size = sizeof(type);
+  static constexpr std::size_t alignment = alignof(type);
+  static constexpr std::size_t field_count = 5;
+  static constexpr std::array<horus::PaddingRange, 0> padding{};
+
+  template <class Msg, class Fn>
+  static constexpr void visit(Msg& msg, Fn&& fn) {
+    fn("server_instance", msg.server_instance);
+    fn("fingerprint", msg.fingerprint);
+    fn("request_type", msg.request_type);
+    fn("response_type", msg.response_type);
+    fn("server_pid", msg.server_pid);
+  }
+};
+
+static_assert(sizeof(horus::detail::ServiceRegistration) == 536 &&
+                  offsetof(horus::detail::ServiceRegistration, server_pid) == 528,
+              "horus.ServiceRegistration has no padding: its layout is shared between processes");

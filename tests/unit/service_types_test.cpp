@@ -1,0 +1,130 @@
+// The value types of the services API and the identity of the frames that carry services.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <optional>
+#include <string>
+
+#include <horus/detail/service_frame.hpp>
+#include <horus/service_error.hpp>
+#include <horus/service_result.hpp>
+#include <horus/service_retry.hpp>
+#include <service_test/compute.hpp>
+#include <service_test/echo.hpp>
+#include <service_test/get_robot_pose.hpp>
+
+namespace {
+
+using namespace std::chrono_literals;
+using horus::RetryConfig;
+using horus::ServiceError;
+using horus::ServiceErrorKind;
+using horus::ServiceResult;
+using horus::detail::ServiceRequestFrame;
+using horus::detail::ServiceResponseFrame;
+using service_test::ComputeRequest;
+using service_test::ComputeResponse;
+using service_test::EchoResponse;
+using service_test::GetRobotPoseRequest;
+using service_test::GetRobotPoseResponse;
+
+TEST(ServiceError, OnlyTimeoutAndTransportAreTransient) {
+  EXPECT_TRUE(ServiceError::timeout().is_transient());
+  EXPECT_TRUE(ServiceError::transport("lost").is_transient());
+  EXPECT_FALSE(ServiceError::no_server().is_transient());
+  EXPECT_FALSE(ServiceError::service_failed("bad").is_transient());
+}
+
+TEST(ServiceError, TextNamesTheKindAndTheMessage) {
+  EXPECT_EQ(ServiceError::timeout().to_string(), "Timeout");
+  EXPECT_EQ(ServiceError::service_failed("unknown robot").to_string(),
+            "ServiceFailed: unknown robot");
+  EXPECT_EQ(ServiceError::no_server().kind(), ServiceErrorKind::NoServer);
+  EXPECT_EQ(ServiceError::transport("x").message(), "x");
+}
+
+TEST(ServiceResult, HoldsAValueOrAnError) {
+  ServiceResult<int> value = 7;
+  ASSERT_TRUE(value.has_value());
+  EXPECT_EQ(value.value(), 7);
+  EXPECT_EQ(*value, 7);
+  EXPECT_THROW(static_cast<void>(value.error()), horus::Error);
+
+  ServiceResult<int> error = ServiceError::timeout();
+  ASSERT_FALSE(error);
+  EXPECT_EQ(error.error().kind(), ServiceErrorKind::Timeout);
+  EXPECT_EQ(error.value_or(3), 3);
+  EXPECT_THROW(static_cast<void>(error.value()), horus::Error);
+}
+
+TEST(ServiceResult, AnEmptyOptionalIsAValue) {
+  ServiceResult<std::optional<int>> none = std::nullopt;
+  ASSERT_TRUE(none.has_value());
+  EXPECT_FALSE(none->has_value());
+}
+
+TEST(RetryConfig, DefaultIsThreeRetriesFromTenMillisecondsDoubling) {
+  const RetryConfig config;
+  EXPECT_EQ(config.max_retries(), 3U);
+  EXPECT_EQ(config.backoff(0), 10ms);
+  EXPECT_EQ(config.backoff(1), 20ms);
+  EXPECT_EQ(config.backoff(2), 40ms);
+}
+
+TEST(RetryConfig, BackoffGrowsByTheMultiplierUpToTheCap) {
+  const RetryConfig config = RetryConfig(5, 50ms).multiplier(3.0).max_backoff(1s);
+  EXPECT_EQ(config.max_retries(), 5U);
+  EXPECT_EQ(config.backoff(0), 50ms);
+  EXPECT_EQ(config.backoff(1), 150ms);
+  EXPECT_EQ(config.backoff(2), 450ms);
+  EXPECT_EQ(config.backoff(3), 1s);
+  EXPECT_EQ(config.backoff(30), 1s);
+}
+
+TEST(RetryConfig, RejectsAShrinkingMultiplierAndNegativeDurations) {
+  RetryConfig config;
+  EXPECT_THROW(config.multiplier(0.5), horus::Error);
+  EXPECT_THROW(config.initial_backoff(-1ms), horus::Error);
+  EXPECT_THROW(config.max_backoff(-1ms), horus::Error);
+}
+
+TEST(ServiceFrames, ArePodExactlyWhenTheirPayloadIs) {
+  static_assert(horus::PodMessage<ServiceRequestFrame<ComputeRequest>>);
+  static_assert(horus::PodMessage<ServiceResponseFrame<ComputeResponse>>);
+  static_assert(horus::SerializedMessage<ServiceRequestFrame<GetRobotPoseRequest>>);
+  static_assert(horus::PodMessage<ServiceResponseFrame<GetRobotPoseResponse>>);
+  static_assert(horus::SerializedMessage<ServiceResponseFrame<EchoResponse>>);
+  EXPECT_EQ(offsetof(ServiceResponseFrame<ComputeResponse>, payload), 256U);
+}
+
+TEST(ServiceFrames, NameAndFingerprintFollowThePayload) {
+  using Info = horus::TypeInfo<ServiceRequestFrame<GetRobotPoseRequest>>;
+  EXPECT_EQ(Info::name, "horus.ServiceRequest<service_test.GetRobotPoseRequest>");
+  EXPECT_NE(Info::schema.find("payload: service_test.GetRobotPoseRequest,"),
+            std::string_view::npos);
+  EXPECT_NE(Info::schema.find("message service_test.GetRobotPoseRequest {"),
+            std::string_view::npos);
+  EXPECT_NE(Info::fingerprint, horus::TypeInfo<ServiceRequestFrame<ComputeRequest>>::fingerprint);
+  EXPECT_NE(horus::TypeInfo<ServiceResponseFrame<ComputeResponse>>::fingerprint,
+            horus::TypeInfo<ServiceResponseFrame<GetRobotPoseResponse>>::fingerprint);
+}
+
+TEST(ServiceFrames, SerializedFramesRoundTrip) {
+  ServiceRequestFrame<GetRobotPoseRequest> frame{3, 9, 2, GetRobotPoseRequest{"arm_1"}};
+  const auto bytes = horus::encode(frame);
+  EXPECT_EQ(horus::decode<ServiceRequestFrame<GetRobotPoseRequest>>(bytes), frame);
+}
+
+TEST(ServiceFrames, PodErrorTextIsCutAtACharacterBoundary) {
+  ServiceResponseFrame<ComputeResponse> frame;
+  // 235 ASCII bytes then a 2-byte character: it does not fit whole in 236 bytes.
+  const std::string text = std::string(235, 'x') + "\xc3\xa9" + "tail";
+  horus::detail::set_error(frame, text);
+  EXPECT_EQ(std::string_view(frame.error), std::string(235, 'x'));
+
+  ServiceResponseFrame<EchoResponse> serialized;
+  horus::detail::set_error(serialized, text);
+  EXPECT_EQ(serialized.error, text);
+}
+
+}  // namespace
