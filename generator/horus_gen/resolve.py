@@ -72,7 +72,7 @@ class Resolver:
 
     # -- loading ---------------------------------------------------------------------------------
     def run(self, paths: list[str]) -> Model:
-        roots = [u for u in (self.load(p) for p in paths) if u is not None]
+        roots = [u for u in (self.load(p, root=True) for p in paths) if u is not None]
         generated: list[str] = []
         for unit in roots:
             for item in unit.syntax.items:
@@ -87,7 +87,7 @@ class Resolver:
         self.check_file_names()
         return self.model
 
-    def load(self, path: str, import_span: Span | None = None) -> Unit | None:
+    def load(self, path: str, import_span: Span | None = None, root: bool = False) -> Unit | None:
         real = os.path.realpath(path)
         if real in self.units:
             return self.units[real]
@@ -108,7 +108,7 @@ class Resolver:
         source = Source(path, text)
         self.model.inputs.append(path)
         syntax = parse(source, self.reporter, kind)
-        package = self.package_of(syntax, path)
+        package = self.package_of(syntax, path, root)
         unit = Unit(path, syntax, package)
         self.units[real] = unit
         for target, span in syntax.imports:
@@ -123,11 +123,14 @@ class Resolver:
         self.declare(unit)
         return unit
 
-    def package_of(self, syntax: FileSyntax, path: str) -> str:
+    def package_of(self, syntax: FileSyntax, path: str, root: bool) -> str:
+        """The file's own `package`, else --package for the files being compiled, else the
+        name of the file's folder (so a library reached through -I keeps its own package)."""
         if syntax.package is not None:
             name, span = syntax.package
         else:
-            name = self.options.package or os.path.basename(os.path.dirname(os.path.abspath(path)))
+            given = self.options.package if root else None
+            name = given or os.path.basename(os.path.dirname(os.path.abspath(path)))
             span = Span(syntax.source, 1, 1)
         for part in name.split("."):
             clash = keyword_clash(part)

@@ -9,7 +9,9 @@
         comment-only schema edits, generator and template changes recompile nothing, a field
         added to the imported schema recompiles its users, unrelated files change nothing;
     project_test.py depends ... (same options)
-        the same across two message libraries (tests/cmake/two_libraries, DEPENDS).
+        the same across two message libraries (tests/cmake/two_libraries, DEPENDS);
+    project_test.py usage ... (same options)
+        horus_generate() misused or given a wrong schema fails configuration with a clear error.
 
 Every check prints what it expected and what came; the exit status is 1 on the first failure.
 """
@@ -31,10 +33,9 @@ class Failure(Exception):
     pass
 
 
-def run(cmd: list[str], cwd: Path | None = None, env: dict | None = None,
-        check: bool = True) -> subprocess.CompletedProcess:
-    proc = subprocess.run([str(c) for c in cmd], cwd=cwd, env=env, text=True,
-                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+def run(cmd: list, env: dict | None = None, check: bool = True) -> subprocess.CompletedProcess:
+    proc = subprocess.run([str(c) for c in cmd], env=env, text=True, stdin=subprocess.DEVNULL,
+                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
     if check and proc.returncode != 0:
         raise Failure(f"command failed (exit {proc.returncode}): {' '.join(map(str, cmd))}\n"
                       f"{proc.stdout}")
@@ -52,9 +53,9 @@ def install_horus(horus_build: Path, prefix: Path) -> None:
     run(["cmake", "--install", horus_build, "--prefix", prefix])
 
 
-def configure(source: Path, build: Path, prefix: Path, generator: str, *extra: str) -> None:
-    run(["cmake", "-S", source, "-B", build, "-G", generator, f"-DCMAKE_PREFIX_PATH={prefix}",
-         "-DCMAKE_BUILD_TYPE=Debug", *extra])
+def configure(source: Path, build: Path, prefix: Path, generator: str, *extra: str) -> str:
+    return run(["cmake", "-S", source, "-B", build, "-G", generator,
+                f"-DCMAKE_PREFIX_PATH={prefix}", "-DCMAKE_BUILD_TYPE=Debug", *extra]).stdout
 
 
 def build(build_dir: Path, check: bool = True) -> subprocess.CompletedProcess:
@@ -87,8 +88,8 @@ def installed(args: argparse.Namespace) -> None:
 
     build_dir = args.work / "build"
     shutil.rmtree(build_dir, ignore_errors=True)
-    configure(args.source, build_dir, prefix, args.generator,
-              f"-DCMAKE_INSTALL_PREFIX={args.work / 'app-prefix'}")
+    configured = configure(args.source, build_dir, prefix, args.generator,
+                           f"-DCMAKE_INSTALL_PREFIX={args.work / 'app-prefix'}")
     build(build_dir)
     run_example(build_dir, "demo_robot.msg.MotorFeedback", "demo_robot.msg.Pose2D",
                 "demo_robot.msg.MotorStatus", "(padding)", "left_front")
@@ -99,22 +100,24 @@ def installed(args: argparse.Namespace) -> None:
     expect((app_prefix / "include/demo_robot/msg/motor_feedback.hpp").is_file(),
            "the generated headers to install under include/")
     if re.search(r"LANGUAGES[^)]*python", (args.source / "CMakeLists.txt").read_text()):
-        check_python(build_dir, app_prefix)
+        check_python(configured, app_prefix)
     else:
         print("note: the example generates no Python: its Python package is not checked")
 
 
-def check_python(build_dir: Path, app_prefix: Path) -> None:
-    python_dir = build_dir / "horus_gen" / TARGET / "python"
-    imported = run([PYTHON, "-c", "import demo_robot.msg as m; print(m.MotorFeedback.__horus__.name)"],
-                   env={**os.environ, "PYTHONPATH": str(python_dir)}, check=False)
-    expect(imported.returncode == 0 and "demo_robot.msg.MotorFeedback" in imported.stdout,
-           "the generated Python package to import from <TARGET>_PYTHON_DIR", imported.stdout)
-
-    site = run([PYTHON, "-c", "import sys; print(f'python{sys.version_info[0]}.{sys.version_info[1]}')"])
-    python_install = app_prefix / "lib" / site.stdout.strip() / "dist-packages"
-    expect((python_install / "demo_robot/msg/__init__.py").is_file(),
-           f"the generated Python package to install under {python_install.relative_to(app_prefix)}")
+def check_python(configured: str, app_prefix: Path) -> None:
+    """The example prints ${demo_msgs_PYTHON_DIR} when it configures."""
+    found = re.search(r"PYTHONPATH=(\S+)", configured)
+    expect(found is not None, "the example to print its <TARGET>_PYTHON_DIR", configured)
+    version = run([PYTHON, "-c", "import sys; print('%d.%d' % sys.version_info[:2])"]).stdout
+    python_install = app_prefix / "lib" / f"python{version.strip()}" / "dist-packages"
+    script = ("from demo_robot.msg import MotorFeedback as M\n"
+              "print(M.__horus__.name, M.from_bytes(M(motor_id=2).to_bytes()).motor_id)")
+    for where, path in [("<TARGET>_PYTHON_DIR", found.group(1)),
+                        (str(python_install.relative_to(app_prefix)), str(python_install))]:
+        imported = run([PYTHON, "-c", script], env={**os.environ, "PYTHONPATH": path}, check=False)
+        expect(imported.returncode == 0 and "demo_robot.msg.MotorFeedback 2" in imported.stdout,
+               f"the generated Python package to work from {where}", imported.stdout)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -151,19 +154,16 @@ class Project:
         out = build(self.build_dir).stdout
         after = self.snapshot()
         ran = {t for t in self.stamps if before["stamps"][t] != after["stamps"][t]}
-        expect(ran == generated,
-               f"horus-gen to run for {sorted(generated) or 'no target'}, ran for {sorted(ran) or 'none'}",
-               out)
+        expect(ran == generated, f"horus-gen to run for {sorted(generated) or 'no target'}, "
+               f"ran for {sorted(ran) or 'none'}", out)
         changed = {p.name.removesuffix(".o") for p, t in after["objects"].items()
                    if before["objects"].get(p) != t}
-        expect(changed == recompiled,
-               f"recompiled objects to be {sorted(recompiled) or 'none'}, were {sorted(changed) or 'none'}",
-               out)
+        expect(changed == recompiled, f"recompiled objects to be {sorted(recompiled) or 'none'}, "
+               f"were {sorted(changed) or 'none'}", out)
         touched = sorted(str(p.relative_to(self.generated)) for p, t in after["generated"].items()
                          if before["generated"].get(p) != t and p.suffix != ".stamp")
-        expect(bool(touched) == rewritten,
-               f"generated files {'to be' if rewritten else 'not to be'} rewritten (rewritten: {touched})",
-               out)
+        expect(bool(touched) == rewritten, f"generated files {'to be' if rewritten else 'not to be'}"
+               f" rewritten (rewritten: {touched})", out)
 
     def edit(self, relative: str, old: str, new: str) -> None:
         path = self.source / relative
@@ -222,7 +222,7 @@ def rebuild(args: argparse.Namespace) -> None:
     p.rebuild("schema error fixed", generated=everything, recompiled=set(), rewritten=False)
 
     p.edit("msg/motor.hmsg", "/// A motor's health",
-           "/// Limits of one motor.\nMotorLimits {\n    max_current: f32,\n}\n\n/// A motor's health")
+           "MotorLimits {\n    max_current: f32,\n}\n\n/// A motor's health")
     p.rebuild("message added", generated=everything, recompiled={"main.cpp"}, rewritten=True)
     expect((p.generated / TARGET / "cpp/demo_robot/msg/motor_limits.hpp").is_file(),
            "a header for the added message")
@@ -236,6 +236,7 @@ def depends(args: argparse.Namespace) -> None:
     build(p.build_dir)
     out = run([p.build_dir / "route_main"]).stdout
     expect("goal: Point{x: 0 m, y: 4 m}" in out, "route_main to print the nested points", out)
+    expect("start_pose: Pose2D{" in out, "route_main to print the standard library's Pose2D", out)
 
     p.rebuild("nothing changed", generated=set(), recompiled=set(), rewritten=False)
 
@@ -254,10 +255,52 @@ def depends(args: argparse.Namespace) -> None:
     expect("z: 0" in out, "route_main to print the new field of robot_base::Point", out)
 
 
+def usage(args: argparse.Namespace) -> None:
+    """horus_generate() misused, or given a wrong schema: configuration fails with a message that
+    says what is wrong and where."""
+    shutil.rmtree(args.work, ignore_errors=True)
+    prefix = args.work / "prefix"
+    install_horus(args.build, prefix)
+    source = args.work / "project"
+    (source / "msg").mkdir(parents=True)
+    (source / "msg/good.hmsg").write_text("Good {\n    value: u32,\n}\n")
+    (source / "msg/bad.hmsg").write_text("Bad {\n    value: u32,\n    speed: f63,\n}\n")
+    cases = [
+        ("FILES msg/good.hmsg LANGUAGES cpp python", None),
+        ("FILES msg/missing.hmsg", "schema file 'msg/missing.hmsg' not found"),
+        ("FILES msg/good.hmsg LANGUAGES rust", "unknown language 'rust'"),
+        ("BOGUS FILES msg/good.hmsg", "unknown arguments: BOGUS"),
+        ("FILES msg/good.hmsg LANGAUGES cpp", "is 'LANGAUGES' a misspelled keyword?"),
+        ("FILES msg/good.hmsg INCLUDE_DIRS nowhere", "include directory 'nowhere' not found"),
+        ("FILES msg/good.hmsg DEPENDS Threads::Threads",
+         "DEPENDS 'Threads::Threads' was not made by horus_generate()"),
+        ("FILES msg/bad.hmsg", "bad.hmsg:3:12: error: unknown type 'f63'"),
+    ]
+    for arguments, error in cases:
+        (source / "CMakeLists.txt").write_text(
+            "cmake_minimum_required(VERSION 3.22)\nproject(usage LANGUAGES CXX)\n"
+            "find_package(horus CONFIG REQUIRED)\n"
+            f"horus_generate(TARGET my_msgs PACKAGE my_robot.msg {arguments})\n"
+            "get_target_property(property my_msgs HORUS_PYTHON_DIR)\n"
+            'message(STATUS "python: ${property} ${my_msgs_PYTHON_DIR}")\n')
+        proc = run(["cmake", "-S", source, "-B", args.work / "build", "-G", args.generator,
+                    f"-DCMAKE_PREFIX_PATH={prefix}"], check=False)
+        if error is None:
+            expect(proc.returncode == 0, f"horus_generate({arguments}) to configure", proc.stdout)
+            found = re.search(r"python: (\S+) (\S+)", proc.stdout)
+            expect(found is not None and found.group(1) == found.group(2)
+                   and found.group(1).endswith("/horus_gen/my_msgs/python"),
+                   "HORUS_PYTHON_DIR and my_msgs_PYTHON_DIR to name the Python folder", proc.stdout)
+        else:
+            unwrapped = " ".join(proc.stdout.split())  # CMake wraps its messages
+            expect(proc.returncode != 0 and error in unwrapped,
+                   f"horus_generate({arguments}) to fail with {error!r}", proc.stdout)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("mode", choices=["installed", "rebuild", "depends"])
+    parser.add_argument("mode", choices=["installed", "rebuild", "depends", "usage"])
     parser.add_argument("--build", type=Path, required=True, help="the horus build folder")
     parser.add_argument("--source", type=Path, required=True, help="examples/custom_messages")
     parser.add_argument("--work", type=Path, required=True, help="scratch folder (emptied)")
@@ -265,7 +308,8 @@ def main() -> int:
     args = parser.parse_args()
     args.work.mkdir(parents=True, exist_ok=True)
     try:
-        {"installed": installed, "rebuild": rebuild, "depends": depends}[args.mode](args)
+        modes = {"installed": installed, "rebuild": rebuild, "depends": depends, "usage": usage}
+        modes[args.mode](args)
     except Failure as failure:
         print(f"FAILED: {failure}", file=sys.stderr)
         return 1

@@ -192,3 +192,11 @@ def test_errors_in_a_package_found_through_include_dirs_are_reported(tmp_path):
     _, reporter = resolve(tmp_path, "package app; Uses { t: lib::Thing }", includes=[str(tmp_path / "inc")])
     assert [d.message for d in reporter.diagnostics] == ["unknown type 'f63'"]
     assert reporter.diagnostics[0].span.source.path.endswith("things.hmsg")
+
+
+def test_package_option_applies_only_to_the_files_being_compiled(tmp_path):
+    lib = tmp_path / "inc" / "lib"
+    lib.mkdir(parents=True)
+    (lib / "things.hmsg").write_text("Thing { a: u8 }\n")
+    model = ok(tmp_path, "Uses { t: lib::Thing }", package="app", includes=[str(tmp_path / "inc")])
+    assert "lib.Thing" in model.types and "app.Uses" in model.types

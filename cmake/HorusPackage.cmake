@@ -1,0 +1,70 @@
+# Installation of horus and its CMake package: `cmake --install build --prefix P` gives
+#   P/include/horus/...                 runtime headers
+#   P/lib/libhorus_runtime.a            horus::runtime
+#   P/lib/cmake/horus/                  horusConfig.cmake, targets, HorusGenerate.cmake
+#   P/include/horus/msg/..., P/lib/python3.X/dist-packages/horus/msg   the standard messages
+#   P/share/horus/{generator,templates,schemas}   the generator, its templates, the schemas
+#   P/bin/horus-gen                     the generator's command
+# so that user projects do find_package(horus CONFIG) and call horus_generate().
+# The generator finds its templates as ../templates of its own folder, in the source tree and
+# under share/horus alike.
+include(GNUInstallDirs)
+include(CMakePackageConfigHelpers)
+
+set(HORUS_INSTALL_CMAKEDIR "${CMAKE_INSTALL_LIBDIR}/cmake/horus")
+set(HORUS_INSTALL_GENERATORDIR "${CMAKE_INSTALL_DATADIR}/horus/generator")
+set(HORUS_INSTALL_SCHEMADIR "${CMAKE_INSTALL_DATADIR}/horus/schemas")
+
+set_target_properties(horus_headers PROPERTIES EXPORT_NAME headers)
+set_target_properties(horus_runtime PROPERTIES EXPORT_NAME runtime)
+set(horus_exported horus_headers horus_runtime)
+# The standard message library (schemas/), installed by its horus_generate(): exported as
+# horus::msgs, which users link and name in DEPENDS to use its types in their own schemas.
+set(HORUS_MSGS_PYTHON OFF)
+if(TARGET horus_msgs)
+  set_target_properties(horus_msgs PROPERTIES EXPORT_NAME msgs)
+  list(APPEND horus_exported horus_msgs)
+  get_target_property(horus_msgs_python horus_msgs HORUS_PYTHON_DIR)
+  if(horus_msgs_python)
+    set(HORUS_MSGS_PYTHON ON)
+  endif()
+endif()
+install(TARGETS ${horus_exported} EXPORT horusTargets ARCHIVE DESTINATION "${CMAKE_INSTALL_LIBDIR}")
+install(DIRECTORY runtime/include/horus DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}")
+install(EXPORT horusTargets NAMESPACE horus:: DESTINATION "${HORUS_INSTALL_CMAKEDIR}")
+
+install(PROGRAMS generator/horus-gen DESTINATION "${HORUS_INSTALL_GENERATORDIR}")
+install(DIRECTORY generator/horus_gen DESTINATION "${HORUS_INSTALL_GENERATORDIR}"
+        PATTERN __pycache__ EXCLUDE)
+install(DIRECTORY templates/ DESTINATION "${CMAKE_INSTALL_DATADIR}/horus/templates"
+        PATTERN README.md EXCLUDE)
+install(DIRECTORY schemas/ DESTINATION "${HORUS_INSTALL_SCHEMADIR}" PATTERN README.md EXCLUDE)
+
+file(RELATIVE_PATH HORUS_GEN_FROM_BIN "/${CMAKE_INSTALL_BINDIR}" "/${HORUS_INSTALL_GENERATORDIR}")
+configure_file(cmake/horus-gen.in "${PROJECT_BINARY_DIR}/package/horus-gen" @ONLY)
+install(PROGRAMS "${PROJECT_BINARY_DIR}/package/horus-gen" DESTINATION "${CMAKE_INSTALL_BINDIR}")
+
+configure_package_config_file(cmake/horusConfig.cmake.in
+  "${PROJECT_BINARY_DIR}/package/horusConfig.cmake"
+  INSTALL_DESTINATION "${HORUS_INSTALL_CMAKEDIR}"
+  PATH_VARS HORUS_INSTALL_GENERATORDIR HORUS_INSTALL_SCHEMADIR HORUS_PYTHON_INSTALL_DIR)
+# 0.x: a new minor version may break users, so only the same minor version is compatible.
+write_basic_package_version_file("${PROJECT_BINARY_DIR}/package/horusConfigVersion.cmake"
+  COMPATIBILITY SameMinorVersion)
+install(FILES
+  "${PROJECT_BINARY_DIR}/package/horusConfig.cmake"
+  "${PROJECT_BINARY_DIR}/package/horusConfigVersion.cmake"
+  cmake/HorusGenerate.cmake
+  DESTINATION "${HORUS_INSTALL_CMAKEDIR}")
+
+# Inside this build, find_package(horus) (as the examples, written as user projects, call it)
+# finds this stand-in, which only adds what the build has not already defined.
+set(HORUS_IN_TREE_PACKAGE_DIR "${PROJECT_BINARY_DIR}/package/in-tree")
+file(CONFIGURE OUTPUT "${HORUS_IN_TREE_PACKAGE_DIR}/horusConfig.cmake" CONTENT
+  "# horus inside its own build: the targets and horus_generate() are already defined.\n\
+set(HORUS_SCHEMA_DIR \"${PROJECT_SOURCE_DIR}/schemas\")\n")
+file(COPY "${PROJECT_BINARY_DIR}/package/horusConfigVersion.cmake"
+     DESTINATION "${HORUS_IN_TREE_PACKAGE_DIR}")
+
+# Message libraries of horus's own tests and examples are not part of the installation.
+set(HORUS_GENERATE_INSTALL OFF)
