@@ -1,0 +1,273 @@
+// horus::Scheduler: runs nodes in order, at their rates, with budgets, deadlines, a graduated
+// watchdog, failure policies, a flight recorder and reverse-order shutdown on Ctrl+C / SIGTERM.
+//
+//   horus::Scheduler sched{horus::SchedulerConfig{}.tick_rate(100_hz).watchdog(500_ms)};
+//   sched.add(std::make_unique<MotorController>())
+//       .order(1).rate(100_hz).budget(200_us).deadline(900_us).on_miss(horus::Miss::SafeMode)
+//       .build();
+//   return sched.run();
+//
+// See runtime/src/scheduler/README.md for the execution classes, the release grid and how
+// misses and the watchdog are decided.
+#pragma once
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "horus/blackbox.hpp"
+#include "horus/error.hpp"
+#include "horus/failure_policy.hpp"
+#include "horus/miss.hpp"
+#include "horus/node.hpp"
+#include "horus/node_metrics.hpp"
+#include "horus/node_state.hpp"
+#include "horus/rate.hpp"
+#include "horus/topic_metadata.hpp"
+
+namespace horus {
+
+namespace detail {
+class SchedulerImpl;
+struct NodeSlot;
+}  // namespace detail
+
+/// How a node is run; inferred from its settings (first match wins):
+/// on(topic) -> Event, async_io() -> AsyncIo, compute() -> Compute, rate/budget/deadline -> Rt,
+/// otherwise BestEffort.
+enum class ExecutionClass : std::uint8_t {
+  BestEffort,  // main thread, in order, every scheduler tick
+  Rt,          // a dedicated thread per (rate, core, priority) group, in order; SCHED_FIFO when allowed
+  Compute,     // the compute thread pool
+  Event,       // a thread that sleeps until the topic receives a message
+  AsyncIo,     // its own thread, where blocking I/O stalls nothing else
+};
+
+std::string_view to_string(ExecutionClass c) noexcept;
+
+enum class SchedulerStatus : std::uint8_t { Idle, Running, Stopped };
+
+std::string_view to_string(SchedulerStatus s) noexcept;
+
+/// Scheduler-wide settings, chained: SchedulerConfig{}.tick_rate(1000_hz).rt(true).watchdog(500_ms).
+class SchedulerConfig {
+ public:
+  /// Rate of the main loop (BestEffort nodes) and the default rate of other nodes. Default 1 kHz.
+  SchedulerConfig& tick_rate(Rate r) { tick_rate_ = r; return *this; }
+  /// Ask for SCHED_FIFO on Rt threads and mlockall; what cannot be had is listed in degradations().
+  SchedulerConfig& rt(bool on) { rt_ = on; return *this; }
+  /// SimClock: time advances exactly one period per tick, rng_float() is seeded, everything runs on
+  /// the calling thread in order, and wall-clock timing (budget, deadline, watchdog) is not enforced.
+  SchedulerConfig& deterministic(bool on) { deterministic_ = on; return *this; }
+  /// Seed of the deterministic random sequences.
+  SchedulerConfig& seed(std::uint64_t s) { seed_ = s; return *this; }
+  /// Frozen-node detection for every node (per-node watchdog() overrides). Zero disables.
+  SchedulerConfig& watchdog(std::chrono::nanoseconds timeout) { watchdog_ = timeout; return *this; }
+  /// Flight recorder size in MiB; zero disables it.
+  SchedulerConfig& blackbox_mb(std::size_t mb) { blackbox_mb_ = mb; return *this; }
+  /// Where the blackbox is written on a crash or a fatal stop. Default: "<name>.blackbox".
+  SchedulerConfig& blackbox_path(std::filesystem::path p) { blackbox_path_ = std::move(p); return *this; }
+  /// Stop the scheduler after this many deadline misses in total (default 100; nullopt: never).
+  SchedulerConfig& max_deadline_misses(std::optional<std::uint64_t> n) { max_deadline_misses_ = n; return *this; }
+  SchedulerConfig& name(std::string n) { name_ = std::move(n); return *this; }
+  /// Pin every scheduler thread to these CPUs.
+  SchedulerConfig& cores(std::vector<int> c) { cores_ = std::move(c); return *this; }
+  SchedulerConfig& verbose(bool on) { verbose_ = on; return *this; }
+  /// Threads of the Compute pool (default: one per CPU, at most one per compute node).
+  SchedulerConfig& compute_threads(std::size_t n) { compute_threads_ = n; return *this; }
+  /// How long each node's shutdown() may take before it is abandoned (default 3 s).
+  SchedulerConfig& shutdown_timeout(std::chrono::nanoseconds t) { shutdown_timeout_ = t; return *this; }
+  /// Whether run()/run_for()/tick_for() turn SIGINT and SIGTERM into a clean stop (default on).
+  SchedulerConfig& handle_signals(bool on) { handle_signals_ = on; return *this; }
+
+  Rate tick_rate() const { return tick_rate_; }
+  bool rt() const { return rt_; }
+  bool deterministic() const { return deterministic_; }
+  std::uint64_t seed() const { return seed_; }
+  std::chrono::nanoseconds watchdog() const { return watchdog_; }
+  std::size_t blackbox_mb() const { return blackbox_mb_; }
+  const std::filesystem::path& blackbox_path() const { return blackbox_path_; }
+  std::optional<std::uint64_t> max_deadline_misses() const { return max_deadline_misses_; }
+  const std::string& name() const { return name_; }
+  const std::vector<int>& cores() const { return cores_; }
+  bool verbose() const { return verbose_; }
+  std::size_t compute_threads() const { return compute_threads_; }
+  std::chrono::nanoseconds shutdown_timeout() const { return shutdown_timeout_; }
+  bool handle_signals() const { return handle_signals_; }
+
+ private:
+  Rate tick_rate_ = Rate::hz(1000.0);
+  bool rt_ = false;
+  bool deterministic_ = false;
+  std::uint64_t seed_ = 0x5EED'0F'4085ULL;
+  std::chrono::nanoseconds watchdog_{0};
+  std::size_t blackbox_mb_ = 0;
+  std::filesystem::path blackbox_path_;
+  std::optional<std::uint64_t> max_deadline_misses_ = 100;
+  std::string name_ = "horus";
+  std::vector<int> cores_;
+  bool verbose_ = false;
+  std::size_t compute_threads_ = 0;
+  std::chrono::nanoseconds shutdown_timeout_ = std::chrono::seconds(3);
+  bool handle_signals_ = true;
+};
+
+/// A node's scheduling settings as given to the builder (unset optionals are derived at start-up).
+struct NodeConfig {
+  std::int32_t order = 100;  // lower runs first: 0-9 critical, 10-49 high, 50-99 normal, 100+ low
+  std::optional<Rate> rate;
+  std::optional<std::chrono::nanoseconds> budget;    // default 80 % of the period (Rt)
+  std::optional<std::chrono::nanoseconds> deadline;  // default 95 % of the period (Rt)
+  Miss on_miss = Miss::Warn;
+  FailurePolicy failure_policy;
+  bool compute = false;
+  std::optional<std::string> on_topic;
+  bool async_io = false;
+  std::optional<int> priority;  // SCHED_FIFO 1..99, needs rt
+  std::optional<int> core;
+  std::optional<std::chrono::nanoseconds> watchdog;
+};
+
+class Scheduler;
+
+/// Returned by Scheduler::add(); set what you need, then build() (which validates and throws
+/// horus::Error). A node added without build() makes the next run()/tick_once() throw.
+class [[nodiscard]] NodeBuilder {
+ public:
+  NodeBuilder& order(std::int32_t o) { config_->order = o; return *this; }
+  NodeBuilder& rate(Rate r) { config_->rate = r; return *this; }
+  NodeBuilder& budget(std::chrono::nanoseconds b) { config_->budget = b; return *this; }
+  NodeBuilder& deadline(std::chrono::nanoseconds d) { config_->deadline = d; return *this; }
+  NodeBuilder& on_miss(Miss m) { config_->on_miss = m; return *this; }
+  NodeBuilder& failure_policy(FailurePolicy p) { config_->failure_policy = p; return *this; }
+  NodeBuilder& compute(bool on = true) { config_->compute = on; return *this; }
+  /// Event node: tick only when `topic` receives a message (the thread sleeps meanwhile).
+  NodeBuilder& on(std::string topic) { config_->on_topic = std::move(topic); return *this; }
+  NodeBuilder& async_io(bool on = true) { config_->async_io = on; return *this; }
+  NodeBuilder& priority(int p) { config_->priority = p; return *this; }
+  NodeBuilder& core(int c) { config_->core = c; return *this; }
+  NodeBuilder& watchdog(std::chrono::nanoseconds t) { config_->watchdog = t; return *this; }
+  /// Validates the settings and the name's uniqueness; throws horus::Error saying what is wrong.
+  Scheduler& build();
+
+ private:
+  friend class Scheduler;
+  NodeBuilder(Scheduler& s, NodeConfig* c) : scheduler_(&s), config_(c) {}
+  Scheduler* scheduler_;
+  NodeConfig* config_;
+};
+
+/// What the scheduler knows about one node.
+struct NodeInfo {
+  std::string name;
+  std::int32_t order = 0;
+  ExecutionClass execution_class = ExecutionClass::BestEffort;
+  NodeState state = NodeState::Uninitialized;
+  NodeHealthState health = NodeHealthState::Healthy;
+  std::optional<Rate> rate;
+  std::optional<std::chrono::nanoseconds> budget;
+  std::optional<std::chrono::nanoseconds> deadline;
+  std::optional<std::chrono::nanoseconds> watchdog;
+  Miss on_miss = Miss::Warn;
+  FailurePolicy::Kind failure_policy = FailurePolicy::Kind::Fatal;
+  bool critical = false;
+  std::optional<std::string> on_topic;
+  std::string last_error;
+  std::vector<TopicMetadata> publishers;   // as reported after init()
+  std::vector<TopicMetadata> subscribers;
+};
+
+struct SafetyStats {
+  std::uint64_t budget_overruns = 0;
+  std::uint64_t deadline_misses = 0;
+  std::uint64_t watchdog_expirations = 0;
+  std::vector<std::pair<std::string, NodeHealthState>> health_states;
+};
+
+/// What rt() actually obtained.
+struct RtCapabilities {
+  bool rt_scheduling = false;  // SCHED_FIFO could be set
+  bool memory_locking = false; // mlockall succeeded
+  bool cpu_isolation = false;  // the kernel has isolated CPUs (isolcpus)
+};
+
+class Scheduler {
+ public:
+  /// Throws horus::Error for an invalid configuration (non-positive rate, unknown cores, ...).
+  explicit Scheduler(SchedulerConfig config = {});
+  /// Shuts down nodes that were initialised and not yet shut down (reverse order).
+  ~Scheduler();
+  Scheduler(const Scheduler&) = delete;
+  Scheduler& operator=(const Scheduler&) = delete;
+
+  /// Registers a node; finish with .build(). Throws horus::Error for a null node or while running.
+  /// Takes std::make_unique<MyNode>() as well; the scheduler shares ownership so that a language
+  /// binding can keep its own reference to the object it handed over.
+  NodeBuilder add(std::shared_ptr<Node> node);
+
+  /// Marks a built node safety-critical with its own watchdog timeout: past 3x it is Isolated and
+  /// every other node is asked to enter its safe state. Throws horus::Error for an unknown node.
+  void add_critical_node(std::string_view name, std::chrono::nanoseconds timeout);
+
+  /// Initialises nodes (first time), runs until stop(), Ctrl+C, SIGTERM or a fatal failure, then
+  /// shuts every node down in reverse order. Returns 0, or 1 when a failure stopped it.
+  int run();
+  /// As run(), but stops on its own after `duration` (simulated time in deterministic mode).
+  int run_for(std::chrono::nanoseconds duration);
+  /// One cycle on the calling thread, no sleeping: every node ticks once (in deterministic mode,
+  /// the nodes due at this simulated time; event nodes only when their topic has a message).
+  void tick_once();
+  /// As tick_once(), only for the named nodes (the others stay frozen).
+  void tick_once(const std::vector<std::string>& names);
+  /// Runs the real loop (threads and all) for `duration`, optionally only for `names`, then returns
+  /// without shutting nodes down.
+  void tick_for(std::chrono::nanoseconds duration, const std::vector<std::string>& names = {});
+  /// Asks the loop to end; safe from any thread, a node's tick, or a signal handler's caller.
+  void stop() noexcept;
+
+  /// Runtime changes; false when no such node. set_node_rate re-derives automatic budget/deadline.
+  bool set_node_rate(std::string_view name, Rate rate);
+  bool set_tick_budget(std::string_view name, std::chrono::nanoseconds budget);
+  /// Shuts the node down (on its own thread when running) and removes it.
+  bool remove_node(std::string_view name);
+
+  SchedulerStatus status() const noexcept;
+  bool is_running() const noexcept;
+  /// Main-loop cycles so far (tick_once() calls included).
+  std::uint64_t current_tick() const noexcept;
+  const std::string& name() const noexcept;
+  const SchedulerConfig& config() const noexcept;
+  /// Why the scheduler stopped ("" while it has not been asked to).
+  std::string stop_reason() const;
+
+  std::size_t node_count() const;
+  std::vector<std::string> node_names() const;  // in execution order
+  bool has_node(std::string_view name) const;
+  std::optional<NodeInfo> node_info(std::string_view name) const;
+  std::vector<NodeInfo> nodes() const;
+  std::optional<NodeMetrics> node_metrics(std::string_view name) const;
+  SafetyStats safety_stats() const;
+  /// A table of every node's rate, tick times, misses and health.
+  std::string timing_report() const;
+
+  bool has_full_rt() const;
+  std::vector<std::string> degradations() const;
+  RtCapabilities capabilities() const;
+
+  /// The flight recorder, or nullptr when blackbox_mb is 0.
+  const Blackbox* blackbox() const noexcept;
+  /// Writes the flight recorder to `path`; throws horus::Error when it is disabled or unwritable.
+  void dump_blackbox(const std::filesystem::path& path) const;
+
+ private:
+  friend class NodeBuilder;
+  std::shared_ptr<detail::SchedulerImpl> impl_;
+};
+
+}  // namespace horus

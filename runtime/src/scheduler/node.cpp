@@ -1,0 +1,49 @@
+#include "horus/node.hpp"
+
+#include <cxxabi.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <typeinfo>
+
+namespace horus {
+namespace {
+
+// "robot::sensors::ImuReader" -> "ImuReader", leaving template arguments intact:
+// "robot::Filter<robot::Imu>" -> "Filter<robot::Imu>".
+std::string strip_namespaces(std::string_view qualified) {
+  int depth = 0;
+  std::size_t start = 0;
+  for (std::size_t i = 0; i < qualified.size(); ++i) {
+    const char c = qualified[i];
+    if (c == '<') {
+      ++depth;
+    } else if (c == '>') {
+      --depth;
+    } else if (depth == 0 && c == ':' && i + 1 < qualified.size() && qualified[i + 1] == ':') {
+      start = i + 2;
+    }
+  }
+  return std::string(qualified.substr(start));
+}
+
+}  // namespace
+
+std::string_view Node::name() const {
+  if (default_name_.empty()) {
+    const char* mangled = typeid(*this).name();
+    int status = 0;
+    std::unique_ptr<char, decltype(&std::free)> demangled(
+        abi::__cxa_demangle(mangled, nullptr, nullptr, &status), &std::free);
+    default_name_ = strip_namespaces(status == 0 && demangled ? demangled.get() : mangled);
+  }
+  return default_name_;
+}
+
+void Node::on_error(std::string_view error) {
+  std::fprintf(stderr, "[horus] node '%.*s' error: %.*s\n", static_cast<int>(name().size()),
+               name().data(), static_cast<int>(error.size()), error.data());
+}
+
+}  // namespace horus

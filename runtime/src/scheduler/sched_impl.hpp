@@ -1,0 +1,109 @@
+// Internals of horus::Scheduler shared by its source files.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "horus/blackbox.hpp"
+#include "horus/detail/topic_notifier.hpp"
+#include "horus/scheduler.hpp"
+#include "tick_context.hpp"
+
+namespace horus::detail {
+
+/// One registered node with its settings, its runtime state and its counters.
+///
+/// Ownership: fields without std::atomic are touched only by the thread that currently runs the
+/// node (its executor during a loop, the caller of tick_once otherwise); hand-over between them is
+/// a thread start or join. Atomics are what other threads (watchdog, introspection) read or poke.
+struct NodeSlot : std::enable_shared_from_this<NodeSlot> {
+  std::shared_ptr<Node> node;
+  std::string name;
+  std::size_t registration = 0;  // insertion index: breaks order() ties
+  NodeConfig config;
+  bool built = false;
+
+  // Derived at start-up.
+  ExecutionClass execution_class = ExecutionClass::BestEffort;
+  bool budget_auto = false;
+  bool deadline_auto = false;
+  bool critical = false;
+  std::int64_t critical_timeout_ns = 0;
+  std::atomic<std::int64_t> period_ns{0};
+  std::atomic<std::int64_t> budget_ns{0};    // 0: none
+  std::atomic<std::int64_t> deadline_ns{0};  // 0: none
+  std::int64_t watchdog_ns = 0;              // 0: none
+  std::unique_ptr<TopicNotifier> notifier;
+
+  // Lifecycle.
+  std::atomic<NodeState> state{NodeState::Uninitialized};
+  std::atomic<NodeHealthState> health{NodeHealthState::Healthy};
+  std::atomic<bool> pending_safe_state{false};
+  std::atomic<bool> remove_requested{false};
+  std::atomic<bool> removed{false};
+  bool init_attempted = false;
+  bool initialized = false;  // init() succeeded at least once (so shutdown() is owed)
+  bool shut_down = false;
+  bool restart_pending = false;
+
+  // Release bookkeeping (executing thread only).
+  std::int64_t next_release_ns = 0;
+  std::int64_t last_tick_start_ns = -1;
+  std::int64_t resume_at_ns = 0;       // Restart backoff / Skip cooldown
+  std::int64_t unhealthy_until_ns = 0; // Unhealthy rest period
+  bool skip_next = false;
+  std::uint32_t consecutive_failures = 0;
+  std::uint32_t restart_attempts = 0;
+  Rng rng;
+  TickContext context;
+  std::int64_t init_done_ns = 0;
+
+  // Watchdog.
+  std::atomic<std::int64_t> tick_started_ns{0};  // 0: not inside tick()
+  std::atomic<std::uint8_t> watchdog_level{0};   // timeouts reached by the current/last tick
+
+  // Counters (single writer: the executing thread; relaxed loads elsewhere).
+  std::atomic<std::uint64_t> total_ticks{0};
+  std::atomic<std::uint64_t> failed_ticks{0};
+  std::atomic<std::uint64_t> skipped_ticks{0};
+  std::atomic<std::int64_t> sum_tick_ns{0};
+  std::atomic<std::int64_t> max_tick_ns{0};
+  std::atomic<std::int64_t> min_tick_ns{0};
+  std::atomic<std::int64_t> last_tick_ns{0};
+  std::atomic<std::uint64_t> budget_overruns{0};
+  std::atomic<std::uint64_t> deadline_misses{0};
+  std::atomic<std::uint64_t> watchdog_expirations{0};
+  std::atomic<std::uint64_t> errors{0};
+  std::atomic<std::uint64_t> warnings{0};
+  std::atomic<std::uint64_t> restarts{0};
+  std::atomic<std::int64_t> running_since_ns{0};  // monotonic; 0 before init
+  std::atomic<std::int64_t> stopped_at_ns{0};     // monotonic; 0 until shut down
+
+  // Error path and introspection only (guarded by SchedulerImpl::mutex_).
+  std::string last_error;
+  std::vector<TopicMetadata> publishers;
+  std::vector<TopicMetadata> subscribers;
+};
+
+using SlotPtr = std::shared_ptr<NodeSlot>;
+
+/// A set of nodes run by one thread on their release grids, in order.
+struct Executor {
+  std::string label;
+  std::vector<SlotPtr> slots;
+  bool main = false;     // the main loop: passes on the scheduler's tick grid
+  bool realtime = false; // apply SCHED_FIFO when rt is on
+  std::optional<int> priority;
+  std::optional<int> core;
+  std::atomic<bool> exited{false};
+};
+
+enum class Phase : std::uint8_t { Init, Tick, Shutdown };
+
+}  // namespace horus::detail

@@ -1,0 +1,136 @@
+// horus::detail::SchedulerImpl: the scheduler's state and algorithms (see README.md).
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "horus/blackbox.hpp"
+#include "horus/scheduler.hpp"
+#include "sched_impl.hpp"
+
+namespace horus::detail {
+
+class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
+ public:
+  explicit SchedulerImpl(SchedulerConfig config);
+  ~SchedulerImpl();
+
+  // Set-up.
+  NodeConfig* add(std::shared_ptr<Node> node);
+  void build(NodeConfig* config);
+  void add_critical_node(std::string_view name, std::chrono::nanoseconds timeout);
+
+  // Running.
+  int run(std::optional<std::int64_t> duration_ns);
+  void tick_once(const std::vector<std::string>* names);
+  void tick_for(std::int64_t duration_ns, const std::vector<std::string>* names);
+  void request_stop(std::string_view reason, bool failure) noexcept;
+  /// Shuts down whatever is still initialised (the Scheduler's destructor).
+  void finish() noexcept;
+
+  // Runtime mutation.
+  bool set_node_rate(std::string_view name, Rate rate);
+  bool set_tick_budget(std::string_view name, std::chrono::nanoseconds budget);
+  bool remove_node(std::string_view name);
+
+  // Introspection.
+  SchedulerStatus status() const noexcept;
+  bool in_loop() const noexcept { return in_loop_.load(std::memory_order_acquire); }
+  std::uint64_t current_tick() const noexcept { return cycle_.load(std::memory_order_relaxed); }
+  const SchedulerConfig& config() const noexcept { return config_; }
+  std::string stop_reason() const;
+  std::vector<SlotPtr> ordered_slots() const;
+  SlotPtr find(std::string_view name) const;
+  NodeInfo info(const NodeSlot& slot) const;
+  NodeMetrics metrics(const NodeSlot& slot) const;
+  SafetyStats safety_stats() const;
+  std::vector<std::string> degradations() const;
+  RtCapabilities capabilities() const { return capabilities_; }
+  const Blackbox* blackbox() const noexcept { return blackbox_.get(); }
+  std::string timing_report() const;
+
+ private:
+  class Activity;
+
+  void derive(NodeSlot& slot) const;
+  void validate(const NodeSlot& slot) const;
+  void prepare();
+  void refresh_loop_slots();
+  void probe_rt();
+  void add_degradation(const std::string& message);
+
+  // Lifecycle of one node (on the thread that runs it).
+  bool init_node(NodeSlot& slot) noexcept;
+  void service(NodeSlot& slot, std::int64_t release, std::int64_t& mono) noexcept;
+  void handle_failure(NodeSlot& slot, Phase phase, const std::string& what,
+                      std::int64_t sched_now) noexcept;
+  void deadline_missed(NodeSlot& slot, std::int64_t late_ns) noexcept;
+  void escalate(NodeSlot& slot, std::uint8_t level) noexcept;
+  void set_health(NodeSlot& slot, NodeHealthState health) noexcept;
+  void enter_safe(NodeSlot& slot) noexcept;
+  void shutdown_node(const SlotPtr& slot, bool removing) noexcept;
+  void shutdown_all() noexcept;
+  void purge_removed() noexcept;
+
+  // Loops.
+  void pass_once(const std::vector<std::string>* names);
+  void real_loop(std::optional<std::int64_t> duration_ns, const std::vector<std::string>* names);
+  void run_executor(Executor& ex, std::int64_t end_ns) noexcept;
+  void run_event(NodeSlot& slot, std::int64_t end_ns) noexcept;
+  void run_watchdog(const std::vector<SlotPtr>& watched, std::int64_t end_ns) noexcept;
+  void apply_thread_settings(const Executor& ex) noexcept;
+  bool sleep_until(std::int64_t mono_ns) noexcept;
+  bool loop_ending() const noexcept { return wake_word_.load(std::memory_order_acquire) != 0; }
+  void check_signal() noexcept;
+  std::int64_t sched_now(std::int64_t mono) const noexcept {
+    return config_.deterministic() ? sim_now_ns_ : mono;
+  }
+
+  void record(BlackboxEventKind kind, const NodeSlot& slot, std::int64_t value = 0,
+              std::string_view detail = {}) noexcept;
+  void record_scheduler(BlackboxEventKind kind, std::string_view detail = {}) noexcept;
+  void log(const char* level, const char* format, ...) const noexcept
+      __attribute__((format(printf, 3, 4)));
+
+  SchedulerConfig config_;
+  std::int64_t tick_period_ns_;
+  std::filesystem::path blackbox_path_;
+  std::unique_ptr<Blackbox> blackbox_;
+  RtCapabilities capabilities_;
+  bool locked_memory_ = false;
+
+  mutable std::mutex mutex_;  // structure, strings and degradations; never held around a callback
+  std::vector<SlotPtr> slots_;  // execution order: (order, registration)
+  std::size_t registrations_ = 0;
+  std::vector<std::string> degradations_;
+  std::vector<SlotPtr> loop_slots_;  // every node, in order; refreshed between loops/passes only
+  std::uint64_t loop_slots_version_ = 0;
+  std::atomic<std::uint64_t> structure_version_{1};  // bumped when nodes are built or removed
+  std::atomic<bool> removals_pending_{false};
+
+  bool prepared_ = false;
+  bool finished_ = false;
+  std::atomic<bool> active_{false};   // run/tick_once/tick_for in progress
+  std::atomic<bool> in_loop_{false};  // run/tick_for in progress
+  std::atomic<bool> stop_requested_{false};
+  std::atomic<bool> failed_{false};
+  std::atomic<std::uint32_t> wake_word_{0};  // non-zero: the current loop must end
+  char stop_reason_[192] = {};
+  std::atomic<bool> stop_reason_set_{false};
+
+  std::atomic<std::uint64_t> cycle_{0};
+  std::atomic<std::uint64_t> total_misses_{0};
+  std::atomic<std::uint64_t> total_overruns_{0};
+  std::atomic<std::uint64_t> total_watchdog_{0};
+  std::int64_t start_mono_ns_ = 0;
+  std::int64_t sim_now_ns_ = 0;
+};
+
+}  // namespace horus::detail
