@@ -49,8 +49,8 @@ def package_of_35_types() -> str:
         lines.append(f"enum Kind{e}: u8 {{ A = 0, B = 1, C = {e + 2} }}")
     for i in range(30):
         lines.append(f"/// Message {i}.")
-        fields = [f"stamp_ns: u64", f"kind: Kind{i % 5}", f"value: f64 = {i}.5", f"values: [f32; {4 + i}]",
-                  f"name: string<16>", "flag: bool"]
+        fields = ["stamp_ns: u64", f"kind: Kind{i % 5}", f"value: f64 = {i}.5", f"values: [f32; {4 + i}]",
+                  "name: string<16>", "flag: bool"]
         if i > 0:
             fields.append(f"previous: Msg{i - 1}" if i % 3 else f"items: Vec<Msg{i - 1}>")
         if i % 4 == 0:

@@ -196,27 +196,36 @@ class Parser:
         return MessageDecl(name.text, name.span, fields, constants, attributes, docs)
 
     # -- messages ------------------------------------------------------------------------------
-    def parse_members(self, owner: str, open_brace: Token) -> tuple[tuple[FieldDecl, ...], tuple[ConstDecl, ...]]:
-        fields: list[FieldDecl] = []
-        constants: list[ConstDecl] = []
+    def parse_block(self, open_brace: Token, what: str, parse_entry) -> None:
+        """Calls parse_entry for each entry up to the closing '}', resynchronising after errors."""
         while True:
             token = self.peek()
             if token.is_punct("}"):
                 self.advance()
-                return tuple(fields), tuple(constants)
+                return
             if token.kind is Kind.EOF:
-                self.reporter.error(open_brace.span, f"unterminated block of '{owner}': expected '}}'",
+                self.reporter.error(open_brace.span, f"unterminated {what}: expected '}}'",
                                     "every '{' needs a matching '}'")
-                return tuple(fields), tuple(constants)
+                return
             start = self.pos
             try:
-                member = self.parse_member(owner)
-                (constants if isinstance(member, ConstDecl) else fields).append(member)
-                self.expect_member_end(member.name)
+                parse_entry()
             except _Recover:
                 self.skip_to_member_end()
             if self.pos == start:
                 self.advance()
+
+    def parse_members(self, owner: str, open_brace: Token) -> tuple[tuple[FieldDecl, ...], tuple[ConstDecl, ...]]:
+        fields: list[FieldDecl] = []
+        constants: list[ConstDecl] = []
+
+        def entry() -> None:
+            member = self.parse_member(owner)
+            (constants if isinstance(member, ConstDecl) else fields).append(member)
+            self.expect_member_end(member.name)
+
+        self.parse_block(open_brace, f"block of '{owner}'", entry)
+        return tuple(fields), tuple(constants)
 
     def expect_member_end(self, member: str) -> None:
         if self.accept_punct(",") or self.peek().is_punct("}"):
@@ -342,62 +351,42 @@ class Parser:
         open_brace = self.expect_punct("{", f"after enum '{name.text}'",
                                        f"an enum reads: enum {name.text}: u8 {{ A = 0, B = 1 }}")
         variants: list[EnumVariant] = []
-        while True:
-            token = self.peek()
-            if token.is_punct("}"):
-                self.advance()
-                break
-            if token.kind is Kind.EOF:
-                self.reporter.error(open_brace.span, f"unterminated enum '{name.text}': expected '}}'")
-                break
-            start = self.pos
-            try:
-                _, variant_docs = self.parse_prefix()
-                variant = self.expect_ident(f"an enumerator name in '{name.text}'")
-                value = self.parse_literal() if self.accept_punct("=") else None
-                variants.append(EnumVariant(variant.text, variant.span, value, variant_docs))
-                self.expect_member_end(variant.text)
-            except _Recover:
-                self.skip_to_member_end()
-            if self.pos == start:
-                self.advance()
+
+        def entry() -> None:
+            _, variant_docs = self.parse_prefix()
+            variant = self.expect_ident(f"an enumerator name in '{name.text}'")
+            value = self.parse_literal() if self.accept_punct("=") else None
+            variants.append(EnumVariant(variant.text, variant.span, value, variant_docs))
+            self.expect_member_end(variant.text)
+
+        self.parse_block(open_brace, f"enum '{name.text}'", entry)
         return EnumDecl(name.text, name.span, underlying, tuple(variants), attributes, docs)
 
     # -- services ------------------------------------------------------------------------------
     def parse_service_body(self, name: Token, open_brace: Token, attributes, docs) -> ServiceDecl:
         parts: dict[str, MessageDecl] = {}
-        while True:
-            token = self.peek()
-            if token.is_punct("}"):
-                self.advance()
-                break
-            if token.kind is Kind.EOF:
-                self.reporter.error(open_brace.span, f"unterminated service '{name.text}': expected '}}'")
-                break
-            start = self.pos
-            try:
-                part_attributes, part_docs = self.parse_prefix()
-                part = self.expect_ident("'request' or 'response'")
-                kind = part.text
-                if kind not in ("request", "response"):
-                    guess = near_miss(kind, ["request", "response"])
-                    self.reporter.error(part.span, f"expected 'request' or 'response', found '{kind}'",
-                                        f"did you mean '{guess}'?" if guess else
-                                        "a service holds a request { ... } and a response { ... } block")
-                    if guess is None or guess in parts:
-                        raise _Recover()
-                    kind = guess  # read the block as the part it most likely is, so nothing cascades
-                if kind in parts:
-                    self.reporter.error(part.span, f"service '{name.text}' has two '{kind}' blocks")
-                block = self.expect_punct("{", f"after '{part.text}'")
-                type_name = name.text + kind.capitalize()
-                fields, constants = self.parse_members(type_name, block)
-                parts[kind] = MessageDecl(type_name, part.span, fields, constants, part_attributes, part_docs)
-                self.accept_punct(",")
-            except _Recover:
-                self.skip_to_member_end()
-            if self.pos == start:
-                self.advance()
+
+        def entry() -> None:
+            part_attributes, part_docs = self.parse_prefix()
+            part = self.expect_ident("'request' or 'response'")
+            kind = part.text
+            if kind not in ("request", "response"):
+                guess = near_miss(kind, ["request", "response"])
+                self.reporter.error(part.span, f"expected 'request' or 'response', found '{kind}'",
+                                    f"did you mean '{guess}'?" if guess else
+                                    "a service holds a request { ... } and a response { ... } block")
+                if guess is None or guess in parts:
+                    raise _Recover()
+                kind = guess  # read the block as the part it most likely is, so nothing cascades
+            if kind in parts:
+                self.reporter.error(part.span, f"service '{name.text}' has two '{kind}' blocks")
+            block = self.expect_punct("{", f"after '{part.text}'")
+            type_name = name.text + kind.capitalize()
+            fields, constants = self.parse_members(type_name, block)
+            parts[kind] = MessageDecl(type_name, part.span, fields, constants, part_attributes, part_docs)
+            self.accept_punct(",")
+
+        self.parse_block(open_brace, f"service '{name.text}'", entry)
         for missing in ("request", "response"):
             if missing not in parts:
                 self.reporter.error(name.span, f"service '{name.text}' has no '{missing}' block",

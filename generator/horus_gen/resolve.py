@@ -18,7 +18,7 @@ from .model import (PRIMITIVES, Bytes, Constant, DynString, Enum, EnumRef, EnumV
                     Primitive, Service, SummaryPart, Type, Value, Variant, Vec)
 from .names import RESERVED_MEMBERS, keyword_clash, snake_case
 from .parser import FILE_KINDS, parse
-from .syntax import (Attribute, ConstDecl, EnumDecl, FieldDecl, FileSyntax, Literal, MessageDecl,
+from .syntax import (Attribute, EnumDecl, FieldDecl, FileSyntax, Literal, MessageDecl,
                      ServiceDecl, TypeExpr)
 
 BUILTIN_NAMES = sorted(list(PRIMITIVES) + ["String", "bytes", "string", "Vec", "Option"])
@@ -695,7 +695,7 @@ class Resolver:
                 return None
             if t.is_integer:
                 if literal.kind == "float":
-                    error(wrong + f"the non-integer {literal.value}", f"write a whole number, or make it f32/f64")
+                    error(wrong + f"the non-integer {literal.value}", "write a whole number, or make it f32/f64")
                     return None
                 low, high = INTEGER_RANGES[t.name]
                 if not low <= literal.value <= high:

@@ -1,6 +1,7 @@
 """Shared fixtures: the repository's folders and a way to run horus-gen as a user would."""
 from __future__ import annotations
 
+import importlib
 import os
 import subprocess
 import sys
@@ -29,3 +30,20 @@ def run_horus_gen(*args: str, cwd: Path | None = None) -> subprocess.CompletedPr
 @pytest.fixture
 def horus_gen():
     return run_horus_gen
+
+
+@pytest.fixture(scope="module")
+def msg(tmp_path_factory):
+    """The standard library `horus.msg`, generated for Python into a fresh folder and imported."""
+    out = tmp_path_factory.mktemp("stdmsg")
+    schemas = sorted((ROOT / "schemas" / "horus" / "msg").glob("*.hmsg"))
+    result = run_horus_gen("generate", "--lang", "python", "--out", str(out), "-I", str(ROOT / "schemas"),
+                           *map(str, schemas))
+    assert result.returncode == 0, result.stderr
+    sys.path.insert(0, str(out / "python"))
+    try:
+        for name in [m for m in sys.modules if m == "horus" or m.startswith("horus.")]:
+            del sys.modules[name]
+        yield importlib.import_module("horus.msg")
+    finally:
+        sys.path.remove(str(out / "python"))

@@ -5,11 +5,8 @@ C++ helpers against, so both languages are held to the same values.
 The horus.msg package is generated into a temporary folder by horus-gen, as the build does."""
 from __future__ import annotations
 
-import importlib
 import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -18,23 +15,6 @@ ROOT = Path(__file__).resolve().parents[2]
 CASES = json.loads((ROOT / "tests" / "golden" / "msg_helpers_cases.json").read_text())
 F64 = 1e-9
 F32 = 1e-6
-
-
-@pytest.fixture(scope="module")
-def msg(tmp_path_factory):
-    out = tmp_path_factory.mktemp("stdmsg")
-    schemas = sorted((ROOT / "schemas" / "horus" / "msg").glob("*.hmsg"))
-    result = subprocess.run(["/usr/bin/python3", str(ROOT / "generator" / "horus-gen"), "generate", "--lang", "python",
-                             "--out", str(out), "-I", str(ROOT / "schemas"), *map(str, schemas)],
-                            capture_output=True, text=True)
-    assert result.returncode == 0, result.stderr
-    sys.path.insert(0, str(out / "python"))
-    try:
-        for name in [m for m in sys.modules if m == "horus" or m.startswith("horus.")]:
-            del sys.modules[name]
-        yield importlib.import_module("horus.msg")
-    finally:
-        sys.path.remove(str(out / "python"))
 
 
 def num(value) -> float:

@@ -4,11 +4,9 @@ FNV-1a 64 pinned in tests/golden/msg_roundtrip.json) and survives to_bytes/from_
 C++ <-> Python round trip of every type, without a shared-memory run."""
 from __future__ import annotations
 
-import importlib
 import json
 import re
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -32,22 +30,6 @@ MESSAGES = sorted(name for name, t in TYPES.items() if t["kind"] == "message")
 def test_every_message_has_a_pinned_wire_form():
     short = {name.rsplit(".", 1)[-1] for name in MESSAGES}
     assert short == set(GOLDEN) - {"_about"}, "refresh with HORUS_UPDATE_GOLDEN=1 msg_roundtrip_test"
-
-
-@pytest.fixture(scope="module")
-def msg(tmp_path_factory):
-    out = tmp_path_factory.mktemp("stdmsg")
-    result = subprocess.run(["/usr/bin/python3", str(ROOT / "generator" / "horus-gen"), "generate", "--lang", "python",
-                             "--out", str(out), "-I", str(ROOT / "schemas"), *map(str, SCHEMAS)],
-                            capture_output=True, text=True)
-    assert result.returncode == 0, result.stderr
-    sys.path.insert(0, str(out / "python"))
-    try:
-        for name in [m for m in sys.modules if m == "horus" or m.startswith("horus.")]:
-            del sys.modules[name]
-        yield importlib.import_module("horus.msg")
-    finally:
-        sys.path.remove(str(out / "python"))
 
 
 class Filler:

@@ -3,7 +3,6 @@ MessagePack, views, bad input. The cross-language half is test_python_crosslang.
 from __future__ import annotations
 
 import importlib
-import math
 import subprocess
 import sys
 from pathlib import Path
