@@ -1,18 +1,19 @@
 // Release jitter of a 1 kHz node: lateness of each tick's start behind its release on the grid
-// (p50/p99/max, from horus::lateness()), with and without a busy neighbour, against a bare clock_nanosleep loop measured
-// in the same run under the same conditions. Also the run loop's own cost per node tick.
+// (p50/p99/max, from horus::lateness()), with and without a busy neighbour, against a bare
+// clock_nanosleep loop measured in the same run under the same conditions. Also the run loop's own
+// cost per node tick.
 //
 //   sched_jitter_bench [seconds per measurement, default 10]
 #include <time.h>
 
+#include <pthread.h>
+#include <sched.h>
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <pthread.h>
-#include <sched.h>
 #include <memory>
 #include <string>
 #include <thread>
@@ -44,7 +45,9 @@ Stats summarise(std::vector<std::int64_t> lateness) {
   if (lateness.empty()) return s;
   std::sort(lateness.begin(), lateness.end());
   const auto at = [&](double q) {
-    return static_cast<double>(lateness[static_cast<std::size_t>(q * static_cast<double>(lateness.size() - 1))]) / 1e3;
+    return static_cast<double>(
+               lateness[static_cast<std::size_t>(q * static_cast<double>(lateness.size() - 1))]) /
+           1e3;
   };
   s.samples = lateness.size();
   s.p50_us = at(0.50);
@@ -65,7 +68,8 @@ std::vector<std::int64_t> bare_loop(double seconds, bool& fifo) {
     const std::int64_t start = mono_ns() + kPeriodNs;
     const std::int64_t end = start + static_cast<std::int64_t>(seconds * 1e9);
     for (std::int64_t release = start; release < end; release += kPeriodNs) {
-      timespec ts{static_cast<time_t>(release / 1'000'000'000), static_cast<long>(release % 1'000'000'000)};
+      timespec ts{static_cast<time_t>(release / 1'000'000'000),
+                  static_cast<long>(release % 1'000'000'000)};
       while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) != 0) {
       }
       lateness.push_back(mono_ns() - release);
@@ -127,7 +131,8 @@ class BusyThread {
 };
 
 void row(const char* what, const Stats& s) {
-  std::printf("| %-44s | %8zu | %8.1f | %8.1f | %9.1f |\n", what, s.samples, s.p50_us, s.p99_us, s.max_us);
+  std::printf("| %-44s | %8zu | %8.1f | %8.1f | %9.1f |\n", what, s.samples, s.p50_us, s.p99_us,
+              s.max_us);
 }
 
 // The run loop (not tick_once): N trivial nodes on the main loop at a rate it can never keep,
@@ -148,9 +153,11 @@ class Trivial : public horus::Node {
 };
 
 void run_loop_overhead() {
-  std::printf("\n| run loop, trivial BestEffort nodes | cycles/s | ns per node tick |\n|---|---:|---:|\n");
+  std::printf(
+      "\n| run loop, trivial BestEffort nodes | cycles/s | ns per node tick |\n|---|---:|---:|\n");
   for (const int n : {1, 10, 100}) {
-    horus::Scheduler sched{horus::SchedulerConfig{}.tick_rate(horus::Rate::hz(1e9)).max_deadline_misses(std::nullopt)};
+    horus::Scheduler sched{
+        horus::SchedulerConfig{}.tick_rate(horus::Rate::hz(1e9)).max_deadline_misses(std::nullopt)};
     for (int i = 0; i < n; ++i) sched.add(std::make_unique<Trivial>(i)).build();
     const std::int64_t start = mono_ns();
     sched.run_for(std::chrono::milliseconds(500));
@@ -175,7 +182,8 @@ int main(int argc, char** argv) {
     for (const auto& d : probe.degradations()) std::printf("  - %s\n", d.c_str());
   }
   std::printf("\n1 kHz release lateness over %.0f s per row (microseconds)\n\n", seconds);
-  std::printf("| %-44s | %8s | %8s | %8s | %9s |\n|---|---:|---:|---:|---:|\n", "loop", "ticks", "p50", "p99", "max");
+  std::printf("| %-44s | %8s | %8s | %8s | %9s |\n|---|---:|---:|---:|---:|\n", "loop", "ticks",
+              "p50", "p99", "max");
   bool fifo = false;
   row("bare clock_nanosleep loop, quiet", summarise(bare_loop(seconds, fifo)));
   row("scheduler Rt node, quiet", summarise(scheduler_loop(seconds, false)));
@@ -186,7 +194,8 @@ int main(int argc, char** argv) {
   row("scheduler Rt node, busy compute neighbour", summarise(scheduler_loop(seconds, true)));
   std::printf("\nBoth the bare loop and the scheduler's Rt thread ran %s.\n",
               fifo ? "under SCHED_FIFO 50" : "under SCHED_OTHER (SCHED_FIFO not permitted)");
-  std::printf("Lateness: tick start (horus::lateness()) or wake-up (bare loop) minus the release.\n");
+  std::printf(
+      "Lateness: tick start (horus::lateness()) or wake-up (bare loop) minus the release.\n");
   run_loop_overhead();
   return 0;
 }

@@ -234,12 +234,23 @@ int run_role(const std::string& role, std::size_t size, const std::string& regio
   if (role == "echo_topic" || role == "wake_topic") {
     const bool blocking = role == "wake_topic";
     switch (size) {
-      case 16: echo_topic<topic_bench::Msg16>(size, blocking, shared); break;
-      case 64: echo_topic<topic_bench::Msg64>(size, blocking, shared); break;
-      case 1536: echo_topic<topic_bench::Msg1536>(size, blocking, shared); break;
-      case 4096: echo_topic<topic_bench::Msg4096>(size, blocking, shared); break;
-      case 65536: echo_topic<topic_bench::Msg65536>(size, blocking, shared); break;
-      default: return 3;
+      case 16:
+        echo_topic<topic_bench::Msg16>(size, blocking, shared);
+        break;
+      case 64:
+        echo_topic<topic_bench::Msg64>(size, blocking, shared);
+        break;
+      case 1536:
+        echo_topic<topic_bench::Msg1536>(size, blocking, shared);
+        break;
+      case 4096:
+        echo_topic<topic_bench::Msg4096>(size, blocking, shared);
+        break;
+      case 65536:
+        echo_topic<topic_bench::Msg65536>(size, blocking, shared);
+        break;
+      default:
+        return 3;
     }
   } else if (role == "echo_raw") {
     echo_raw(size, shared);
@@ -268,8 +279,8 @@ class Peer {
     std::string size_arg = std::to_string(size);
     std::string region_arg = region;
     std::string flag = "--role";
-    char* argv[] = {exe.data(), flag.data(), role_arg.data(), size_arg.data(), region_arg.data(),
-                    nullptr};
+    char* argv[] = {exe.data(),      flag.data(),       role_arg.data(),
+                    size_arg.data(), region_arg.data(), nullptr};
     if (::posix_spawn(&pid_, exe.c_str(), nullptr, nullptr, argv, environ) != 0) {
       std::perror("posix_spawn");
       std::exit(2);
@@ -462,10 +473,13 @@ int main(int argc, char** argv) {
   Shared& shared = *map_shared(region, true);
   pin(0);
 
-  std::printf("Topic<T> vs raw shared memory, processes pinned to CPUs 0 and 1 (%u CPUs online).\n"
-              "Latency is one-way (round trip / 2) in ns; ratio = Topic / raw.\n\n",
-              std::thread::hardware_concurrency());
-  std::printf("| size | topic p50 | topic p99 | topic p99.9 | raw p50 | raw p99 | raw p99.9 | p50 ratio | p99 ratio |\n");
+  std::printf(
+      "Topic<T> vs raw shared memory, processes pinned to CPUs 0 and 1 (%u CPUs online).\n"
+      "Latency is one-way (round trip / 2) in ns; ratio = Topic / raw.\n\n",
+      std::thread::hardware_concurrency());
+  std::printf(
+      "| size | topic p50 | topic p99 | topic p99.9 | raw p50 | raw p99 | raw p99.9 | p50 ratio | "
+      "p99 ratio |\n");
   std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
   latency_row<topic_bench::Msg16>(16, region, shared);
   latency_row<topic_bench::Msg64>(64, region, shared);
@@ -483,17 +497,19 @@ int main(int argc, char** argv) {
   const Percentiles futex = percentiles(futex_samples);
   std::printf("\nBlocking wake-up, one-way in ns (Topic recv() vs raw futex ping-pong):\n\n");
   std::printf("| | p50 | p99 | p99.9 |\n|---|---:|---:|---:|\n");
-  std::printf("| Topic<Msg64> recv(timeout) | %.0f | %.0f | %.0f |\n", wake.p50, wake.p99, wake.p999);
+  std::printf("| Topic<Msg64> recv(timeout) | %.0f | %.0f | %.0f |\n", wake.p50, wake.p99,
+              wake.p999);
   std::printf("| raw futex | %.0f | %.0f | %.0f |\n", futex.p50, futex.p99, futex.p999);
   std::printf("| ratio | %.2fx | %.2fx | %.2fx |\n", wake.p50 / futex.p50, wake.p99 / futex.p99,
               wake.p999 / futex.p999);
 
   const Throughput topic = topic_throughput(region, shared);
   const Throughput raw = raw_throughput(region, shared);
-  std::printf("\nThroughput, 64 B messages through 1024 slots, %llu messages, the writer at most %llu "
-              "ahead of the reader (lossless):\n\n",
-              static_cast<unsigned long long>(kThroughputMessages),
-              static_cast<unsigned long long>(kWindow));
+  std::printf(
+      "\nThroughput, 64 B messages through 1024 slots, %llu messages, the writer at most %llu "
+      "ahead of the reader (lossless):\n\n",
+      static_cast<unsigned long long>(kThroughputMessages),
+      static_cast<unsigned long long>(kWindow));
   std::printf("| | msg/s | lost |\n|---|---:|---:|\n");
   std::printf("| Topic<Msg64> | %.3g | %llu |\n", topic.per_s,
               static_cast<unsigned long long>(topic.lost));

@@ -25,10 +25,10 @@ namespace {
 // The simulated world the nodes sense and act on: the robot drives along a corridor towards a
 // pallet; at `person_at_s` someone steps in front of it.
 struct World {
-  std::atomic<double> robot_x{0.0};     // m, written by the motor controller only
-  std::atomic<double> robot_speed{0.0}; // m/s
-  double pallet_x = 4.0;                // m
-  double person_at_s = 0.0;             // s after start
+  std::atomic<double> robot_x{0.0};      // m, written by the motor controller only
+  std::atomic<double> robot_speed{0.0};  // m/s
+  double pallet_x = 4.0;                 // m
+  double person_at_s = 0.0;              // s after start
   std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
 
   double seconds() const {
@@ -40,16 +40,15 @@ struct World {
   }
 };
 
-std::uint64_t stamp() {
-  return static_cast<std::uint64_t>(horus::now().count());
-}
+std::uint64_t stamp() { return static_cast<std::uint64_t>(horus::now().count()); }
 
 void say(const char* who, const std::string& line) {
   std::printf("  %-8s %s\n", who, line.c_str());
   std::fflush(stdout);
 }
 
-// Order 10, 40 Hz: a 360-beam scan of the corridor (walls 1 m to each side, the nearest obstacle ahead).
+// Order 10, 40 Hz: a 360-beam scan of the corridor (walls 1 m to each side, the nearest obstacle
+// ahead).
 class Lidar : public horus::Node {
  public:
   explicit Lidar(const World& world) : world_(world), scan_("scan") {}
@@ -60,7 +59,8 @@ class Lidar : public horus::Node {
     for (std::size_t i = 0; i < scan.ranges.size(); ++i) {
       const double angle = scan.angle_min + static_cast<double>(i) * scan.angle_increment;
       const double wall = 1.0 / std::max(std::abs(std::sin(angle)), 1e-3);
-      const double front = std::abs(angle) < 0.2 && std::cos(angle) > 0 ? ahead / std::cos(angle) : 1e9;
+      const double front =
+          std::abs(angle) < 0.2 && std::cos(angle) > 0 ? ahead / std::cos(angle) : 1e9;
       scan.ranges[i] = static_cast<float>(std::min({wall, front, double{scan.range_max}}));
     }
     scan.timestamp_ns = stamp();
@@ -74,7 +74,8 @@ class Lidar : public horus::Node {
   std::uint64_t count_ = 0;
 };
 
-// Order 0, every cycle: an obstacle closer than 30 cm fires the emergency stop before the motors tick.
+// Order 0, every cycle: an obstacle closer than 30 cm fires the emergency stop before the motors
+// tick.
 class Safety : public horus::Node {
  public:
   Safety() : scan_("scan"), estop_("emergency.stop") {}
@@ -113,12 +114,14 @@ class Planner : public horus::Node {
     const double start = world_.robot_x.load();
     plan.waypoint_count = 20;
     for (std::size_t i = 0; i < plan.waypoint_count; ++i) {
-      plan.waypoint_data[i * 3] = static_cast<float>(start + (goal - start) * static_cast<double>(i + 1) / 20.0);
+      plan.waypoint_data[i * 3] =
+          static_cast<float>(start + (goal - start) * static_cast<double>(i + 1) / 20.0);
     }
     plan.goal_pose = {static_cast<float>(goal), 0.0f, 0.0f};
     plan.timestamp_ns = stamp();
     path_.send(plan);
-    if (++count_ % 10 == 1) say("planner", "path to x=" + std::to_string(goal).substr(0, 4) + " m, 20 waypoints");
+    if (++count_ % 10 == 1)
+      say("planner", "path to x=" + std::to_string(goal).substr(0, 4) + " m, 20 waypoints");
   }
 
  private:
@@ -136,8 +139,8 @@ class Tracker : public horus::Node {
   void tick() override {
     if (auto plan = path_.try_recv()) goal_ = plan->goal_pose[0];
     const double remaining = goal_ - world_.robot_x.load();
-    const auto cmd = msg::CmdVel::with_timestamp(static_cast<float>(std::clamp(0.8 * remaining, 0.0, 0.8)),
-                                                 0.0f, stamp());
+    const auto cmd = msg::CmdVel::with_timestamp(
+        static_cast<float>(std::clamp(0.8 * remaining, 0.0, 0.8)), 0.0f, stamp());
     cmd_.send(cmd);
     if (++count_ % 50 == 1) say("tracker", cmd.log_summary());
   }
@@ -241,8 +244,9 @@ class Fleet : public horus::Node {
     telemetry_.send(beat);
     char line[160];
     std::snprintf(line, sizeof line, "telemetry #%llu: battery %.1f%% %.2f V, wheels %.2f m/s%s",
-                  static_cast<unsigned long long>(beat.sequence), battery ? battery->percentage : 0.0f,
-                  battery ? battery->voltage : 0.0f, wheels ? wheels->left_velocity : 0.0f,
+                  static_cast<unsigned long long>(beat.sequence),
+                  battery ? battery->percentage : 0.0f, battery ? battery->voltage : 0.0f,
+                  wheels ? wheels->left_velocity : 0.0f,
                   wheels && !wheels->enable ? " (disabled)" : "");
     say("fleet", line);
   }
@@ -263,26 +267,42 @@ int main(int argc, char** argv) {
   World world;
   world.person_at_s = seconds * 0.6;
 
-  horus::Scheduler sched{horus::SchedulerConfig{}.name("warehouse_agv").tick_rate(1000_hz).rt(true)
-                             .watchdog(500_ms).blackbox_mb(1).max_deadline_misses(1000)};
+  horus::Scheduler sched{horus::SchedulerConfig{}
+                             .name("warehouse_agv")
+                             .tick_rate(1000_hz)
+                             .rt(true)
+                             .watchdog(500_ms)
+                             .blackbox_mb(1)
+                             .max_deadline_misses(1000)};
   sched.add(std::make_unique<Safety>()).order(0).rate(1000_hz).build();
   sched.add(std::make_unique<Lidar>(world)).order(10).rate(40_hz).build();
   sched.add(std::make_unique<Planner>(world)).order(50).rate(10_hz).compute().build();
   sched.add(std::make_unique<Tracker>(world)).order(60).rate(100_hz).build();
-  sched.add(std::make_unique<Motor>(world)).order(70).rate(1000_hz).budget(300_us).deadline(900_us)
-      .on_miss(horus::Miss::SafeMode).build();
+  sched.add(std::make_unique<Motor>(world))
+      .order(70)
+      .rate(1000_hz)
+      .budget(300_us)
+      .deadline(900_us)
+      .on_miss(horus::Miss::SafeMode)
+      .build();
   sched.add(std::make_unique<Battery>()).order(100).rate(2_hz).build();
-  sched.add(std::make_unique<Fleet>()).order(200).rate(1_hz).async_io()
-      .failure_policy(horus::FailurePolicy::Skip{}).build();
+  sched.add(std::make_unique<Fleet>())
+      .order(200)
+      .rate(1_hz)
+      .async_io()
+      .failure_policy(horus::FailurePolicy::Skip{})
+      .build();
   sched.add_critical_node("motor", 200_ms);
 
-  std::printf("warehouse_agv: 7 nodes for %.1f s (a person steps in front of the robot at %.1f s)\n",
-              seconds, world.person_at_s);
-  for (const std::string& degradation : sched.degradations()) std::printf("  rt: %s\n", degradation.c_str());
+  std::printf(
+      "warehouse_agv: 7 nodes for %.1f s (a person steps in front of the robot at %.1f s)\n",
+      seconds, world.person_at_s);
+  for (const std::string& degradation : sched.degradations())
+    std::printf("  rt: %s\n", degradation.c_str());
   std::fflush(stdout);
-  const int status = sched.run_for(std::chrono::duration_cast<std::chrono::nanoseconds>(
-      std::chrono::duration<double>(seconds)));
-  std::printf("\nrobot stopped at x=%.2f m (pallet at %.1f m)\n\n%s", world.robot_x.load(), world.pallet_x,
-              sched.timing_report().c_str());
+  const int status = sched.run_for(
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::duration<double>(seconds)));
+  std::printf("\nrobot stopped at x=%.2f m (pallet at %.1f m)\n\n%s", world.robot_x.load(),
+              world.pallet_x, sched.timing_report().c_str());
   return status;
 }

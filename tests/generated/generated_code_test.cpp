@@ -84,11 +84,12 @@ TEST(GeneratedCode, LogSummaryIsOneReadableLine) {
   arrays.ranges[11] = 30.0f;
   arrays.small = {1, 2, 3};
   arrays.name.assign("lidar");
-  EXPECT_EQ(arrays.log_summary(),
-            "Arrays{small: [1, 2, 3], ranges: [360 x f32, min 0, max 30], grid: [<4 bytes>, <4 bytes>, "
-            "<4 bytes>], name: \"lidar\", names: [\"\", \"\"], poses: [Pose2{position: Point2{x: 0 m, y: "
-            "0 m}, theta: 0 rad}, Pose2{position: Point2{x: 0 m, y: 0 m}, theta: 0 rad}], flags: "
-            "[5 x bool]}");
+  EXPECT_EQ(
+      arrays.log_summary(),
+      "Arrays{small: [1, 2, 3], ranges: [360 x f32, min 0, max 30], grid: [<4 bytes>, <4 bytes>, "
+      "<4 bytes>], name: \"lidar\", names: [\"\", \"\"], poses: [Pose2{position: Point2{x: 0 m, y: "
+      "0 m}, theta: 0 rad}, Pose2{position: Point2{x: 0 m, y: 0 m}, theta: 0 rad}], flags: "
+      "[5 x bool]}");
 
   EXPECT_EQ(Defaults{}.log_summary(),
             "Defaults(Run) at 0.1 m/s with Stamp{sec: 0, nanosec: 0, source: Clock}");
@@ -97,10 +98,11 @@ TEST(GeneratedCode, LogSummaryIsOneReadableLine) {
   s.values = {1.0, 2.5};
   s.maybe_text = "hi";
   s.data.resize(1024);
-  EXPECT_EQ(s.log_summary(),
-            "Serialized{text: \"\", data: <1024 bytes>, values: [1, 2.5], counts: [], small: <0 bytes>, "
-            "maybe: none, maybe_text: \"hi\", poses: [], tags: [], fixed: [0, 0, 0], mode: Idle, label: "
-            "\"\", nested: none}");
+  EXPECT_EQ(
+      s.log_summary(),
+      "Serialized{text: \"\", data: <1024 bytes>, values: [1, 2.5], counts: [], small: <0 bytes>, "
+      "maybe: none, maybe_text: \"hi\", poses: [], tags: [], fixed: [0, 0, 0], mode: Idle, label: "
+      "\"\", nested: none}");
 }
 
 TEST(GeneratedCode, FixedStringsNeverTruncateSilently) {

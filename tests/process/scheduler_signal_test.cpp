@@ -26,7 +26,8 @@ constexpr auto kLimit = std::chrono::seconds(10);
 // Writes "<event> <node>" lines to the parent through a pipe (write(2): safe in a forked child).
 class Reporter : public horus::Node {
  public:
-  Reporter(std::string name, int fd, bool announce) : name_(std::move(name)), fd_(fd), announce_(announce) {}
+  Reporter(std::string name, int fd, bool announce)
+      : name_(std::move(name)), fd_(fd), announce_(announce) {}
   std::string_view name() const override { return name_; }
   void init() override { say("init " + name_); }
   void tick() override {
@@ -53,7 +54,11 @@ class Reporter : public horus::Node {
   try {
     horus::Scheduler sched{horus::SchedulerConfig{}.tick_rate(100_hz).name("child")};
     sched.add(std::make_unique<Reporter>("sensor", fd, false)).order(0).build();
-    sched.add(std::make_unique<Reporter>("planner", fd, false)).order(10).rate(50_hz).compute().build();
+    sched.add(std::make_unique<Reporter>("planner", fd, false))
+        .order(10)
+        .rate(50_hz)
+        .compute()
+        .build();
     sched.add(std::make_unique<Reporter>("motor", fd, true)).order(20).rate(200_hz).build();
     sched.add(std::make_unique<Reporter>("logger", fd, false)).order(30).build();
     rc = sched.run();
@@ -98,7 +103,8 @@ int wait_child(pid_t pid) {
   return -1;
 }
 
-std::vector<std::string> starting_with(const std::vector<std::string>& lines, const std::string& prefix) {
+std::vector<std::string> starting_with(const std::vector<std::string>& lines,
+                                       const std::string& prefix) {
   std::vector<std::string> out;
   for (const auto& l : lines) {
     if (l.rfind(prefix, 0) == 0) out.push_back(l);
@@ -143,7 +149,9 @@ TEST_P(SchedulerSignal, StopsAndShutsDownInReverseOrder) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Signals, SchedulerSignal, ::testing::Values(SIGTERM, SIGINT),
-                         [](const auto& info) { return info.param == SIGTERM ? "SIGTERM" : "SIGINT"; });
+                         [](const auto& info) {
+                           return info.param == SIGTERM ? "SIGTERM" : "SIGINT";
+                         });
 
 TEST(SchedulerCrash, AbortWritesTheBlackboxBeforeDying) {
   const auto path = std::filesystem::temp_directory_path() /
@@ -160,7 +168,8 @@ TEST(SchedulerCrash, AbortWritesTheBlackboxBeforeDying) {
       }
       int n_ = 0;
     };
-    horus::Scheduler sched{horus::SchedulerConfig{}.tick_rate(200_hz).blackbox_mb(1).blackbox_path(path)};
+    horus::Scheduler sched{
+        horus::SchedulerConfig{}.tick_rate(200_hz).blackbox_mb(1).blackbox_path(path)};
     sched.add(std::make_unique<Doomed>()).build();
     sched.run();
     std::_Exit(0);

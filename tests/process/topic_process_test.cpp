@@ -104,13 +104,15 @@ int role_publish(const std::vector<std::string>& args) {
         break;
       }
       if (past(deadline)) {
-        std::fprintf(stderr, "publisher %zu: stuck at %llu\n", id, static_cast<unsigned long long>(i));
+        std::fprintf(stderr, "publisher %zu: stuck at %llu\n", id,
+                     static_cast<unsigned long long>(i));
         return 11;
       }
       refresh(true);
     }
     if (!data.send(sealed<Sample>(i, id))) {
-      std::fprintf(stderr, "publisher %zu: send %llu failed\n", id, static_cast<unsigned long long>(i));
+      std::fprintf(stderr, "publisher %zu: send %llu failed\n", id,
+                   static_cast<unsigned long long>(i));
       return 12;
     }
     if (i % 64 == 0) {
@@ -275,7 +277,10 @@ int role_no_room(const std::vector<std::string>& args) {
     horus::Topic<Big> data(args.at(0), {.capacity = 4096});
   } catch (const horus::Error& e) {
     const std::string text = e.what();
-    return text.find("cannot allocate") != std::string::npos && text.find(args.at(0)) != std::string::npos ? 0 : 71;
+    return text.find("cannot allocate") != std::string::npos &&
+                   text.find(args.at(0)) != std::string::npos
+               ? 0
+               : 71;
   }
   return 70;
 }

@@ -60,7 +60,8 @@ TEST(Blackbox, ConcurrentWritersNeverProduceTornEvents) {
       const std::string name = "writer" + std::to_string(w);
       for (int i = 0; i < 5000; ++i) {
         // value and tick always agree, so a mix of two events is detectable.
-        box.record(BlackboxEventKind::BudgetOverrun, name, static_cast<std::uint64_t>(i), i * 3 + w);
+        box.record(BlackboxEventKind::BudgetOverrun, name, static_cast<std::uint64_t>(i),
+                   i * 3 + w);
       }
     });
   }
@@ -96,9 +97,7 @@ TEST(Blackbox, FileRoundTrip) {
 TEST(Blackbox, RejectsMissingForeignAndTruncatedFiles) {
   EXPECT_THROW(horus::read_blackbox("/nonexistent/horus.blackbox"), horus::Error);
   const auto path = temp_file("bad");
-  {
-    std::ofstream(path) << "this is not a blackbox, it is a text file of some length";
-  }
+  { std::ofstream(path) << "this is not a blackbox, it is a text file of some length"; }
   try {
     horus::read_blackbox(path);
     FAIL() << "a text file was accepted";

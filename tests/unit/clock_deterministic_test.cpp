@@ -26,7 +26,9 @@ class ClockProbe : public horus::Node {
  public:
   explicit ClockProbe(std::string name) : name_(std::move(name)) {}
   std::string_view name() const override { return name_; }
-  void tick() override { samples.push_back({horus::now().count(), horus::dt().count(), horus::tick()}); }
+  void tick() override {
+    samples.push_back({horus::now().count(), horus::dt().count(), horus::tick()});
+  }
   std::vector<Sample> samples;
 
  private:
@@ -65,8 +67,7 @@ class Observer : public horus::Node {
 };
 
 std::pair<std::vector<double>, std::vector<double>> simulate(std::uint64_t seed) {
-  horus::Scheduler sched{
-      horus::SchedulerConfig{}.tick_rate(100_hz).deterministic(true).seed(seed)};
+  horus::Scheduler sched{horus::SchedulerConfig{}.tick_rate(100_hz).deterministic(true).seed(seed)};
   auto vehicle = std::make_unique<NoisyVehicle>();
   auto observer = std::make_unique<Observer>(*vehicle);
   NoisyVehicle* v = vehicle.get();

@@ -1,8 +1,8 @@
 // The helper methods of the standard messages (schemas/horus/msg/mixins/*.hpp), checked against
 // tests/golden/msg_helpers_cases.json: the same table tests/python/test_msg_helpers.py checks the
 // Python mixins against, so both languages are held to the same values.
-#include <horus/msgpack.hpp>
 #include <horus/msg.hpp>
+#include <horus/msgpack.hpp>
 
 #include <gtest/gtest.h>
 

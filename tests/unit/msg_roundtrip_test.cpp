@@ -12,8 +12,8 @@
 // Refresh the table after an intended wire change:
 //   HORUS_UPDATE_GOLDEN=1 <build>/tests/unit/msg_roundtrip_test
 #include <horus/codec.hpp>
-#include <horus/msgpack.hpp>
 #include <horus/msg.hpp>
+#include <horus/msgpack.hpp>
 
 #include <gtest/gtest.h>
 

@@ -56,7 +56,9 @@ class Recorder : public horus::Node {
     if (shutdown_throws) throw std::runtime_error("motor driver unreachable");
     while (hang_shutdown.load()) std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
-  void on_error(std::string_view error) override { journal_.add("error:" + name_ + ":" + std::string(error)); }
+  void on_error(std::string_view error) override {
+    journal_.add("error:" + name_ + ":" + std::string(error));
+  }
   std::vector<horus::TopicMetadata> publishers() const override {
     return {{"scan", "horus.msg.LaserScan"}};
   }
@@ -139,7 +141,8 @@ TEST(NodeLifecycle, ShutdownRunsInReverseOrderAndSurvivesAThrowingNode) {
   EXPECT_EQ(sched.run_for(20_ms), 0);
   EXPECT_EQ(journal.only("shutdown:"),
             (std::vector<std::string>{"shutdown:motor", "shutdown:lidar", "shutdown:safety"}));
-  EXPECT_EQ(journal.only("error:"), (std::vector<std::string>{"error:lidar:motor driver unreachable"}));
+  EXPECT_EQ(journal.only("error:"),
+            (std::vector<std::string>{"error:lidar:motor driver unreachable"}));
   EXPECT_EQ(sched.node_info("safety")->state, horus::NodeState::Stopped);
   EXPECT_THROW(sched.run(), horus::Error) << "a shut-down scheduler cannot run again";
 }
@@ -208,7 +211,8 @@ TEST(NodeLifecycle, RemoveNodeWhileRunningShutsItDownOnItsThread) {
   sched.stop();
   runner.join();
   EXPECT_EQ(journal.only("tick:leaver").size(), ticks_before) << "no tick after removal";
-  EXPECT_EQ(journal.only("shutdown:"), (std::vector<std::string>{"shutdown:leaver", "shutdown:keeper"}));
+  EXPECT_EQ(journal.only("shutdown:"),
+            (std::vector<std::string>{"shutdown:leaver", "shutdown:keeper"}));
 }
 
 TEST(NodeLifecycle, TickOnceWithNamesTicksOnlyThose) {

@@ -33,7 +33,9 @@ class ImuReader : public horus::Node {
 };
 }  // namespace robot::sensors
 
-std::unique_ptr<horus::Node> named(std::string name) { return std::make_unique<Named>(std::move(name)); }
+std::unique_ptr<horus::Node> named(std::string name) {
+  return std::make_unique<Named>(std::move(name));
+}
 
 std::string build_error(const std::function<void(horus::Scheduler&)>& configure) {
   horus::Scheduler sched;
@@ -59,39 +61,49 @@ TEST(SchedulerBuilder, DuplicateNamesAreRejectedAtBuild) {
     sched.add(named("motor")).order(3).build();
     FAIL() << "a duplicate name was accepted";
   } catch (const horus::Error& e) {
-    EXPECT_NE(std::string(e.what()).find("duplicate node name 'motor'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("duplicate node name 'motor'"), std::string::npos)
+        << e.what();
   }
   EXPECT_EQ(sched.node_count(), 1U);  // the rejected node is not kept
 }
 
 TEST(SchedulerBuilder, InvalidNodeSettingsSayWhatIsWrong) {
-  EXPECT_NE(build_error([](auto& s) { s.add(named("a")).rate(horus::Rate::hz(0)).build(); })
-                .find("node 'a': rate must be a positive"),
-            std::string::npos);
-  EXPECT_NE(build_error([](auto& s) { s.add(named("b")).budget(900_us).deadline(500_us).build(); })
-                .find("node 'b': budget 900us exceeds deadline 500us"),
-            std::string::npos);
-  EXPECT_NE(build_error([](auto& s) { s.add(named("c")).on("estop").rate(10_hz).build(); })
-                .find("cannot also have a rate()"),
-            std::string::npos);
-  EXPECT_NE(build_error([](auto& s) { s.add(named("d")).priority(120).build(); })
-                .find("priority must be 1..99"),
-            std::string::npos);
-  EXPECT_NE(build_error([](auto& s) { s.add(named("e")).core(4096).build(); })
-                .find("core 4096 does not exist"),
-            std::string::npos);
-  EXPECT_NE(build_error([](auto& s) { s.add(named("f")).compute().async_io().build(); })
-                .find("choose compute() or async_io()"),
+  EXPECT_NE(build_error([](auto& s) {
+              s.add(named("a")).rate(horus::Rate::hz(0)).build();
+            }).find("node 'a': rate must be a positive"),
             std::string::npos);
   EXPECT_NE(build_error([](auto& s) {
-              s.add(named("g")).failure_policy(horus::FailurePolicy::Skip{.max_failures = 0}).build();
-            }).find("max_failures must be >= 1"),
+              s.add(named("b")).budget(900_us).deadline(500_us).build();
+            }).find("node 'b': budget 900us exceeds deadline 500us"),
             std::string::npos);
-  EXPECT_NE(build_error([](auto& s) { static_cast<void>(s.add(nullptr)); }).find("node is null"), std::string::npos);
+  EXPECT_NE(build_error([](auto& s) {
+              s.add(named("c")).on("estop").rate(10_hz).build();
+            }).find("cannot also have a rate()"),
+            std::string::npos);
+  EXPECT_NE(build_error([](auto& s) {
+              s.add(named("d")).priority(120).build();
+            }).find("priority must be 1..99"),
+            std::string::npos);
+  EXPECT_NE(build_error([](auto& s) {
+              s.add(named("e")).core(4096).build();
+            }).find("core 4096 does not exist"),
+            std::string::npos);
+  EXPECT_NE(build_error([](auto& s) {
+              s.add(named("f")).compute().async_io().build();
+            }).find("choose compute() or async_io()"),
+            std::string::npos);
+  EXPECT_NE(
+      build_error([](auto& s) {
+        s.add(named("g")).failure_policy(horus::FailurePolicy::Skip{.max_failures = 0}).build();
+      }).find("max_failures must be >= 1"),
+      std::string::npos);
+  EXPECT_NE(build_error([](auto& s) { static_cast<void>(s.add(nullptr)); }).find("node is null"),
+            std::string::npos);
 }
 
 TEST(SchedulerBuilder, InvalidSchedulerConfigThrows) {
-  EXPECT_THROW(horus::Scheduler(horus::SchedulerConfig{}.tick_rate(horus::Rate::hz(-1))), horus::Error);
+  EXPECT_THROW(horus::Scheduler(horus::SchedulerConfig{}.tick_rate(horus::Rate::hz(-1))),
+               horus::Error);
   EXPECT_THROW(horus::Scheduler(horus::SchedulerConfig{}.cores({9999})), horus::Error);
   EXPECT_THROW(horus::Scheduler(horus::SchedulerConfig{}.max_deadline_misses(0)), horus::Error);
 }
@@ -189,10 +201,10 @@ TEST(SchedulerBuilder, RtDegradesGracefullyAndSaysWhat) {
   const auto caps = rt.capabilities();
   const auto degradations = rt.degradations();
   EXPECT_EQ(rt.has_full_rt(), degradations.empty());
-  EXPECT_EQ(caps.rt_scheduling, std::none_of(degradations.begin(), degradations.end(), [](const auto& d) {
-              return d.find("SCHED_FIFO") != std::string::npos;
-            }));
-  EXPECT_EQ(caps.memory_locking, std::none_of(degradations.begin(), degradations.end(), [](const auto& d) {
-              return d.find("mlockall") != std::string::npos;
-            }));
+  EXPECT_EQ(caps.rt_scheduling,
+            std::none_of(degradations.begin(), degradations.end(),
+                         [](const auto& d) { return d.find("SCHED_FIFO") != std::string::npos; }));
+  EXPECT_EQ(caps.memory_locking,
+            std::none_of(degradations.begin(), degradations.end(),
+                         [](const auto& d) { return d.find("mlockall") != std::string::npos; }));
 }

@@ -56,7 +56,8 @@ Flaky* add(horus::Scheduler& sched, std::function<bool(int)> failing, horus::Fai
 
 TEST(FailurePolicy, FatalStopsTheSchedulerAndMarksTheNodeCrashed) {
   horus::Scheduler sched{sim()};
-  Flaky* node = add(sched, [](int i) { return i == 2; }, horus::FailurePolicy::Fatal{});
+  Flaky* node = add(
+      sched, [](int i) { return i == 2; }, horus::FailurePolicy::Fatal{});
   EXPECT_EQ(sched.run_for(1_s), 1);
   EXPECT_EQ(node->tick_times, (std::vector<long>{0, 10, 20}));
   EXPECT_EQ(node->errors, (std::vector<std::string>{"encoder read failed"}));
@@ -70,21 +71,24 @@ TEST(FailurePolicy, FatalStopsTheSchedulerAndMarksTheNodeCrashed) {
 
 TEST(FailurePolicy, RestartReinitialisesWithExponentialBackoffThenGivesUp) {
   horus::Scheduler sched{sim()};
-  Flaky* node = add(sched, [](int) { return true; },
-                    horus::FailurePolicy::Restart{.max_restarts = 2, .initial_backoff = 20_ms});
+  Flaky* node = add(
+      sched, [](int) { return true; },
+      horus::FailurePolicy::Restart{.max_restarts = 2, .initial_backoff = 20_ms});
   EXPECT_EQ(sched.run_for(1_s), 1);
   // init at 0; tick fails at 0 -> re-init after 20 ms; fails -> after 40 ms more; fails -> fatal.
   EXPECT_EQ(node->init_times, (std::vector<long>{0, 20, 60}));
   EXPECT_EQ(node->tick_times, (std::vector<long>{0, 20, 60}));
   EXPECT_EQ(sched.node_metrics("flaky")->restarts, 2U);
   EXPECT_EQ(sched.node_info("flaky")->state, horus::NodeState::Error);
-  EXPECT_EQ(sched.stop_reason(), "node 'flaky' still failing after 2 restarts: encoder read failed");
+  EXPECT_EQ(sched.stop_reason(),
+            "node 'flaky' still failing after 2 restarts: encoder read failed");
 }
 
 TEST(FailurePolicy, RestartRecoversWhenTheNodeDoes) {
   horus::Scheduler sched{sim()};
-  Flaky* node = add(sched, [](int i) { return i == 0; },
-                    horus::FailurePolicy::Restart{.max_restarts = 1, .initial_backoff = 30_ms});
+  Flaky* node = add(
+      sched, [](int i) { return i == 0; },
+      horus::FailurePolicy::Restart{.max_restarts = 1, .initial_backoff = 30_ms});
   EXPECT_EQ(sched.run_for(60_ms), 0);
   EXPECT_EQ(node->init_times, (std::vector<long>{0, 30}));
   EXPECT_EQ(node->tick_times, (std::vector<long>{0, 30, 40, 50}));
@@ -92,8 +96,9 @@ TEST(FailurePolicy, RestartRecoversWhenTheNodeDoes) {
 
 TEST(FailurePolicy, SkipCoolsDownAfterMaxConsecutiveFailures) {
   horus::Scheduler sched{sim()};
-  Flaky* node = add(sched, [](int) { return true; },
-                    horus::FailurePolicy::Skip{.max_failures = 2, .cooldown = 50_ms});
+  Flaky* node = add(
+      sched, [](int) { return true; },
+      horus::FailurePolicy::Skip{.max_failures = 2, .cooldown = 50_ms});
   EXPECT_EQ(sched.run_for(130_ms), 0);
   EXPECT_EQ(node->tick_times, (std::vector<long>{0, 10, 60, 70, 120}));
   const auto m = sched.node_metrics("flaky");
@@ -104,7 +109,8 @@ TEST(FailurePolicy, SkipCoolsDownAfterMaxConsecutiveFailures) {
 
 TEST(FailurePolicy, IgnoreKeepsTickingAndCountsErrors) {
   horus::Scheduler sched{sim()};
-  Flaky* node = add(sched, [](int i) { return i % 2 == 0; }, horus::FailurePolicy::Ignore{});
+  Flaky* node = add(
+      sched, [](int i) { return i % 2 == 0; }, horus::FailurePolicy::Ignore{});
   for (int i = 0; i < 6; ++i) sched.tick_once();
   EXPECT_EQ(node->tick_times.size(), 6U);
   EXPECT_EQ(node->errors.size(), 3U);

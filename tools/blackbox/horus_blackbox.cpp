@@ -48,7 +48,8 @@ int main(int argc, char** argv) {
       const char* text = value();
       last = std::strtol(text, &end, 10);
       if (end == text || *end != '\0' || last < 0) {
-        std::fprintf(stderr, "horus-blackbox: --last needs a non-negative number, got '%s'\n", text);
+        std::fprintf(stderr, "horus-blackbox: --last needs a non-negative number, got '%s'\n",
+                     text);
         return 2;
       }
     } else if (!arg.empty() && arg[0] == '-') {

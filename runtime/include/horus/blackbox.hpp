@@ -18,7 +18,7 @@ namespace horus {
 enum class BlackboxEventKind : std::uint32_t {
   SchedulerStart = 1,
   SchedulerStop,
-  StopRequested,   // detail: why (signal, Miss::Stop, fatal failure, max_deadline_misses, stop())
+  StopRequested,  // detail: why (signal, Miss::Stop, fatal failure, max_deadline_misses, stop())
   NodeInit,
   NodeInitFailed,  // detail: the exception's message
   NodeError,       // an exception escaped tick(); detail: its message
@@ -26,12 +26,12 @@ enum class BlackboxEventKind : std::uint32_t {
   NodeShutdown,
   NodeShutdownFailed,  // threw or exceeded 3 s; detail: why
   NodeRemoved,
-  DeadlineMiss,    // value: lateness past the deadline (ns)
-  BudgetOverrun,   // value: tick duration (ns)
-  HealthChange,    // value: new NodeHealthState; detail: its name
+  DeadlineMiss,   // value: lateness past the deadline (ns)
+  BudgetOverrun,  // value: tick duration (ns)
+  HealthChange,   // value: new NodeHealthState; detail: its name
   SafeStateEntered,
-  WatchdogExpired, // value: how many timeouts the tick had lasted
-  Degradation,     // detail: an RT feature that could not be had
+  WatchdogExpired,  // value: how many timeouts the tick had lasted
+  Degradation,      // detail: an RT feature that could not be had
 };
 
 std::string_view to_string(BlackboxEventKind kind) noexcept;
@@ -39,7 +39,7 @@ std::string_view to_string(BlackboxEventKind kind) noexcept;
 /// One recorded event: 128 bytes, trivially copyable, so recording never allocates.
 struct BlackboxEvent {
   std::int64_t wall_time_ns = 0;  // since the Unix epoch
-  std::uint64_t tick = 0;         // the node's tick index (the scheduler's cycle for its own events)
+  std::uint64_t tick = 0;  // the node's tick index (the scheduler's cycle for its own events)
   BlackboxEventKind kind{};
   std::uint32_t reserved = 0;
   std::int64_t value = 0;

@@ -1,10 +1,11 @@
 // The framework clock: time as the scheduler sees it, read from inside init/tick/shutdown.
 //
-// In normal mode these follow the wall clock; in deterministic mode (SchedulerConfig::deterministic)
-// they follow a SimClock that advances by exactly one period per tick and a seeded random
-// sequence, so a run reproduces bit for bit. Outside a scheduler callback they describe "no tick":
-// now() is the wall clock, dt() and elapsed() are zero, budget_remaining() is unlimited.
-// All of them are cheap (no allocation, no lock, no system call) and safe from any thread.
+// In normal mode these follow the wall clock; in deterministic mode
+// (SchedulerConfig::deterministic) they follow a SimClock that advances by exactly one period per
+// tick and a seeded random sequence, so a run reproduces bit for bit. Outside a scheduler callback
+// they describe "no tick": now() is the wall clock, dt() and elapsed() are zero, budget_remaining()
+// is unlimited. All of them are cheap (no allocation, no lock, no system call) and safe from any
+// thread.
 #pragma once
 
 #include <chrono>

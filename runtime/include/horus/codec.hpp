@@ -28,7 +28,9 @@ template <class V>
 struct Msgpack;
 
 template <class T>
-concept MsgpackIncluded = requires { sizeof(Msgpack<T>); };
+concept MsgpackIncluded = requires {
+  sizeof(Msgpack<T>);
+};
 }  // namespace detail
 
 /// Copies a POD message into `out` (at least sizeof(T) bytes) with its padding zeroed.
@@ -48,7 +50,8 @@ std::vector<std::uint8_t> encode(const T& msg) {
     encode_into(msg, bytes);
     return bytes;
   } else {
-    static_assert(detail::MsgpackIncluded<T>, "include <horus/msgpack.hpp> to encode serialized messages");
+    static_assert(detail::MsgpackIncluded<T>,
+                  "include <horus/msgpack.hpp> to encode serialized messages");
     return detail::Msgpack<T>::pack(msg);
   }
 }
@@ -58,15 +61,15 @@ template <Message T>
 T decode(std::span<const std::uint8_t> bytes) {
   if constexpr (TypeInfo<T>::is_pod) {
     if (bytes.size() != sizeof(T)) {
-      throw DecodeError(std::string(TypeInfo<T>::name) + ": expected " +
-                        std::to_string(sizeof(T)) + " bytes, got " +
-                        std::to_string(bytes.size()));
+      throw DecodeError(std::string(TypeInfo<T>::name) + ": expected " + std::to_string(sizeof(T)) +
+                        " bytes, got " + std::to_string(bytes.size()));
     }
     T msg;
     std::memcpy(&msg, bytes.data(), sizeof(T));
     return msg;
   } else {
-    static_assert(detail::MsgpackIncluded<T>, "include <horus/msgpack.hpp> to decode serialized messages");
+    static_assert(detail::MsgpackIncluded<T>,
+                  "include <horus/msgpack.hpp> to decode serialized messages");
     return detail::Msgpack<T>::unpack(bytes, TypeInfo<T>::name);
   }
 }

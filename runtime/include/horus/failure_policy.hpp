@@ -48,10 +48,14 @@ class FailurePolicy {
 
 constexpr std::string_view to_string(FailurePolicy::Kind k) noexcept {
   switch (k) {
-    case FailurePolicy::Kind::Fatal: return "Fatal";
-    case FailurePolicy::Kind::Restart: return "Restart";
-    case FailurePolicy::Kind::Skip: return "Skip";
-    case FailurePolicy::Kind::Ignore: return "Ignore";
+    case FailurePolicy::Kind::Fatal:
+      return "Fatal";
+    case FailurePolicy::Kind::Restart:
+      return "Restart";
+    case FailurePolicy::Kind::Skip:
+      return "Skip";
+    case FailurePolicy::Kind::Ignore:
+      return "Ignore";
   }
   return "?";
 }

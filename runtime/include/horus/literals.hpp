@@ -5,7 +5,8 @@
 
 #include "horus/rate.hpp"
 
-namespace horus::inline literals {
+namespace horus {
+inline namespace literals {
 
 constexpr Rate operator""_hz(unsigned long long hz) { return Rate::hz(static_cast<double>(hz)); }
 constexpr Rate operator""_hz(long double hz) { return Rate::hz(static_cast<double>(hz)); }
@@ -23,4 +24,5 @@ constexpr std::chrono::seconds operator""_s(unsigned long long v) {
   return std::chrono::seconds(v);
 }
 
-}  // namespace horus::inline literals
+}  // namespace literals
+}  // namespace horus

@@ -15,10 +15,14 @@ enum class Miss : std::uint8_t {
 
 constexpr std::string_view to_string(Miss m) noexcept {
   switch (m) {
-    case Miss::Warn: return "Warn";
-    case Miss::Skip: return "Skip";
-    case Miss::SafeMode: return "SafeMode";
-    case Miss::Stop: return "Stop";
+    case Miss::Warn:
+      return "Warn";
+    case Miss::Skip:
+      return "Skip";
+    case Miss::SafeMode:
+      return "SafeMode";
+    case Miss::Stop:
+      return "Stop";
   }
   return "?";
 }

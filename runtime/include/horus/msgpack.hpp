@@ -58,13 +58,13 @@ MSGPACK_API_VERSION_NAMESPACE(MSGPACK_DEFAULT_API_NS) {
   template <class T>
   struct convert<T, std::enable_if_t<horus::Message<T>>> {
     const msgpack::object& operator()(const msgpack::object& obj, T& msg) const {
-      if (obj.type != msgpack::type::ARRAY || obj.via.array.size != horus::TypeInfo<T>::field_count) {
+      if (obj.type != msgpack::type::ARRAY ||
+          obj.via.array.size != horus::TypeInfo<T>::field_count) {
         throw msgpack::type_error();
       }
       std::size_t index = 0;
-      horus::TypeInfo<T>::visit(msg, [&](std::string_view, auto& field) {
-        obj.via.array.ptr[index++].convert(field);
-      });
+      horus::TypeInfo<T>::visit(
+          msg, [&](std::string_view, auto& field) { obj.via.array.ptr[index++].convert(field); });
       return obj;
     }
   };
@@ -99,7 +99,8 @@ MSGPACK_API_VERSION_NAMESPACE(MSGPACK_DEFAULT_API_NS) {
 
   template <std::size_t N>
   struct convert<horus::FixedString<N>> {
-    const msgpack::object& operator()(const msgpack::object& obj, horus::FixedString<N>& text) const {
+    const msgpack::object& operator()(const msgpack::object& obj,
+                                      horus::FixedString<N>& text) const {
       if (obj.type != msgpack::type::STR ||
           !text.try_assign(std::string_view(obj.via.str.ptr, obj.via.str.size))) {
         throw msgpack::type_error();
@@ -138,7 +139,8 @@ struct Msgpack {
     } catch (const DecodeError&) {
       throw;
     } catch (const std::exception& e) {
-      throw DecodeError(std::string(what) + ": not a valid MessagePack encoding (" + e.what() + ")");
+      throw DecodeError(std::string(what) + ": not a valid MessagePack encoding (" + e.what() +
+                        ")");
     }
   }
 };

@@ -14,7 +14,8 @@ struct NodeMetrics {
   std::uint64_t total_ticks = 0;       // tick() calls
   std::uint64_t successful_ticks = 0;  // ... that returned normally
   std::uint64_t failed_ticks = 0;      // ... that threw
-  std::uint64_t skipped_ticks = 0;     // releases not ticked (Miss::Skip, Unhealthy, Isolated, cooldown)
+  std::uint64_t skipped_ticks =
+      0;  // releases not ticked (Miss::Skip, Unhealthy, Isolated, cooldown)
   std::chrono::nanoseconds avg_tick_duration{0};
   std::chrono::nanoseconds max_tick_duration{0};
   std::chrono::nanoseconds min_tick_duration{0};

@@ -31,23 +31,34 @@ enum class NodeHealthState : std::uint8_t {
 
 constexpr std::string_view to_string(NodeState s) noexcept {
   switch (s) {
-    case NodeState::Uninitialized: return "Uninitialized";
-    case NodeState::Initializing: return "Initializing";
-    case NodeState::Running: return "Running";
-    case NodeState::Stopping: return "Stopping";
-    case NodeState::Stopped: return "Stopped";
-    case NodeState::Error: return "Error";
-    case NodeState::Crashed: return "Crashed";
+    case NodeState::Uninitialized:
+      return "Uninitialized";
+    case NodeState::Initializing:
+      return "Initializing";
+    case NodeState::Running:
+      return "Running";
+    case NodeState::Stopping:
+      return "Stopping";
+    case NodeState::Stopped:
+      return "Stopped";
+    case NodeState::Error:
+      return "Error";
+    case NodeState::Crashed:
+      return "Crashed";
   }
   return "?";
 }
 
 constexpr std::string_view to_string(NodeHealthState s) noexcept {
   switch (s) {
-    case NodeHealthState::Healthy: return "Healthy";
-    case NodeHealthState::Warning: return "Warning";
-    case NodeHealthState::Unhealthy: return "Unhealthy";
-    case NodeHealthState::Isolated: return "Isolated";
+    case NodeHealthState::Healthy:
+      return "Healthy";
+    case NodeHealthState::Warning:
+      return "Warning";
+    case NodeHealthState::Unhealthy:
+      return "Unhealthy";
+    case NodeHealthState::Isolated:
+      return "Isolated";
   }
   return "?";
 }

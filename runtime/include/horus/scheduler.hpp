@@ -43,10 +43,10 @@ struct NodeSlot;
 /// otherwise BestEffort.
 enum class ExecutionClass : std::uint8_t {
   BestEffort,  // main thread, in order, every scheduler tick
-  Rt,          // a dedicated thread per (rate, core, priority) group, in order; SCHED_FIFO when allowed
-  Compute,     // the compute thread pool
-  Event,       // a thread that sleeps until the topic receives a message
-  AsyncIo,     // its own thread, where blocking I/O stalls nothing else
+  Rt,  // a dedicated thread per (rate, core, priority) group, in order; SCHED_FIFO when allowed
+  Compute,  // the compute thread pool
+  Event,    // a thread that sleeps until the topic receives a message
+  AsyncIo,  // its own thread, where blocking I/O stalls nothing else
 };
 
 std::string_view to_string(ExecutionClass c) noexcept;
@@ -55,36 +55,80 @@ enum class SchedulerStatus : std::uint8_t { Idle, Running, Stopped };
 
 std::string_view to_string(SchedulerStatus s) noexcept;
 
-/// Scheduler-wide settings, chained: SchedulerConfig{}.tick_rate(1000_hz).rt(true).watchdog(500_ms).
+/// Scheduler-wide settings, chained:
+/// SchedulerConfig{}.tick_rate(1000_hz).rt(true).watchdog(500_ms).
 class SchedulerConfig {
  public:
   /// Rate of the main loop (BestEffort nodes) and the default rate of other nodes. Default 1 kHz.
-  SchedulerConfig& tick_rate(Rate r) { tick_rate_ = r; return *this; }
+  SchedulerConfig& tick_rate(Rate r) {
+    tick_rate_ = r;
+    return *this;
+  }
   /// Ask for SCHED_FIFO on Rt threads and mlockall; what cannot be had is listed in degradations().
-  SchedulerConfig& rt(bool on) { rt_ = on; return *this; }
+  SchedulerConfig& rt(bool on) {
+    rt_ = on;
+    return *this;
+  }
   /// SimClock: time advances exactly one period per tick, rng_float() is seeded, everything runs on
-  /// the calling thread in order, and wall-clock timing (budget, deadline, watchdog) is not enforced.
-  SchedulerConfig& deterministic(bool on) { deterministic_ = on; return *this; }
+  /// the calling thread in order, and wall-clock timing (budget, deadline, watchdog) is not
+  /// enforced.
+  SchedulerConfig& deterministic(bool on) {
+    deterministic_ = on;
+    return *this;
+  }
   /// Seed of the deterministic random sequences.
-  SchedulerConfig& seed(std::uint64_t s) { seed_ = s; return *this; }
+  SchedulerConfig& seed(std::uint64_t s) {
+    seed_ = s;
+    return *this;
+  }
   /// Frozen-node detection for every node (per-node watchdog() overrides). Zero disables.
-  SchedulerConfig& watchdog(std::chrono::nanoseconds timeout) { watchdog_ = timeout; return *this; }
+  SchedulerConfig& watchdog(std::chrono::nanoseconds timeout) {
+    watchdog_ = timeout;
+    return *this;
+  }
   /// Flight recorder size in MiB; zero disables it.
-  SchedulerConfig& blackbox_mb(std::size_t mb) { blackbox_mb_ = mb; return *this; }
+  SchedulerConfig& blackbox_mb(std::size_t mb) {
+    blackbox_mb_ = mb;
+    return *this;
+  }
   /// Where the blackbox is written on a crash or a fatal stop. Default: "<name>.blackbox".
-  SchedulerConfig& blackbox_path(std::filesystem::path p) { blackbox_path_ = std::move(p); return *this; }
+  SchedulerConfig& blackbox_path(std::filesystem::path p) {
+    blackbox_path_ = std::move(p);
+    return *this;
+  }
   /// Stop the scheduler after this many deadline misses in total (default 100; nullopt: never).
-  SchedulerConfig& max_deadline_misses(std::optional<std::uint64_t> n) { max_deadline_misses_ = n; return *this; }
-  SchedulerConfig& name(std::string n) { name_ = std::move(n); return *this; }
+  SchedulerConfig& max_deadline_misses(std::optional<std::uint64_t> n) {
+    max_deadline_misses_ = n;
+    return *this;
+  }
+  SchedulerConfig& name(std::string n) {
+    name_ = std::move(n);
+    return *this;
+  }
   /// Pin every scheduler thread to these CPUs.
-  SchedulerConfig& cores(std::vector<int> c) { cores_ = std::move(c); return *this; }
-  SchedulerConfig& verbose(bool on) { verbose_ = on; return *this; }
+  SchedulerConfig& cores(std::vector<int> c) {
+    cores_ = std::move(c);
+    return *this;
+  }
+  SchedulerConfig& verbose(bool on) {
+    verbose_ = on;
+    return *this;
+  }
   /// Threads of the Compute pool (default: one per CPU, at most one per compute node).
-  SchedulerConfig& compute_threads(std::size_t n) { compute_threads_ = n; return *this; }
+  SchedulerConfig& compute_threads(std::size_t n) {
+    compute_threads_ = n;
+    return *this;
+  }
   /// How long each node's shutdown() may take before it is abandoned (default 3 s).
-  SchedulerConfig& shutdown_timeout(std::chrono::nanoseconds t) { shutdown_timeout_ = t; return *this; }
+  SchedulerConfig& shutdown_timeout(std::chrono::nanoseconds t) {
+    shutdown_timeout_ = t;
+    return *this;
+  }
   /// Whether run()/run_for()/tick_for() turn SIGINT and SIGTERM into a clean stop (default on).
-  SchedulerConfig& handle_signals(bool on) { handle_signals_ = on; return *this; }
+  SchedulerConfig& handle_signals(bool on) {
+    handle_signals_ = on;
+    return *this;
+  }
 
   Rate tick_rate() const { return tick_rate_; }
   bool rt() const { return rt_; }
@@ -140,19 +184,55 @@ class Scheduler;
 /// horus::Error). A node added without build() makes the next run()/tick_once() throw.
 class [[nodiscard]] NodeBuilder {
  public:
-  NodeBuilder& order(std::int32_t o) { config_->order = o; return *this; }
-  NodeBuilder& rate(Rate r) { config_->rate = r; return *this; }
-  NodeBuilder& budget(std::chrono::nanoseconds b) { config_->budget = b; return *this; }
-  NodeBuilder& deadline(std::chrono::nanoseconds d) { config_->deadline = d; return *this; }
-  NodeBuilder& on_miss(Miss m) { config_->on_miss = m; return *this; }
-  NodeBuilder& failure_policy(FailurePolicy p) { config_->failure_policy = p; return *this; }
-  NodeBuilder& compute(bool on = true) { config_->compute = on; return *this; }
+  NodeBuilder& order(std::int32_t o) {
+    config_->order = o;
+    return *this;
+  }
+  NodeBuilder& rate(Rate r) {
+    config_->rate = r;
+    return *this;
+  }
+  NodeBuilder& budget(std::chrono::nanoseconds b) {
+    config_->budget = b;
+    return *this;
+  }
+  NodeBuilder& deadline(std::chrono::nanoseconds d) {
+    config_->deadline = d;
+    return *this;
+  }
+  NodeBuilder& on_miss(Miss m) {
+    config_->on_miss = m;
+    return *this;
+  }
+  NodeBuilder& failure_policy(FailurePolicy p) {
+    config_->failure_policy = p;
+    return *this;
+  }
+  NodeBuilder& compute(bool on = true) {
+    config_->compute = on;
+    return *this;
+  }
   /// Event node: tick only when `topic` receives a message (the thread sleeps meanwhile).
-  NodeBuilder& on(std::string topic) { config_->on_topic = std::move(topic); return *this; }
-  NodeBuilder& async_io(bool on = true) { config_->async_io = on; return *this; }
-  NodeBuilder& priority(int p) { config_->priority = p; return *this; }
-  NodeBuilder& core(int c) { config_->core = c; return *this; }
-  NodeBuilder& watchdog(std::chrono::nanoseconds t) { config_->watchdog = t; return *this; }
+  NodeBuilder& on(std::string topic) {
+    config_->on_topic = std::move(topic);
+    return *this;
+  }
+  NodeBuilder& async_io(bool on = true) {
+    config_->async_io = on;
+    return *this;
+  }
+  NodeBuilder& priority(int p) {
+    config_->priority = p;
+    return *this;
+  }
+  NodeBuilder& core(int c) {
+    config_->core = c;
+    return *this;
+  }
+  NodeBuilder& watchdog(std::chrono::nanoseconds t) {
+    config_->watchdog = t;
+    return *this;
+  }
   /// Validates the settings and the name's uniqueness; throws horus::Error saying what is wrong.
   Scheduler& build();
 
@@ -179,7 +259,7 @@ struct NodeInfo {
   bool critical = false;
   std::optional<std::string> on_topic;
   std::string last_error;
-  std::vector<TopicMetadata> publishers;   // as reported after init()
+  std::vector<TopicMetadata> publishers;  // as reported after init()
   std::vector<TopicMetadata> subscribers;
 };
 
@@ -192,9 +272,9 @@ struct SafetyStats {
 
 /// What rt() actually obtained.
 struct RtCapabilities {
-  bool rt_scheduling = false;  // SCHED_FIFO could be set
-  bool memory_locking = false; // mlockall succeeded
-  bool cpu_isolation = false;  // the kernel has isolated CPUs (isolcpus)
+  bool rt_scheduling = false;   // SCHED_FIFO could be set
+  bool memory_locking = false;  // mlockall succeeded
+  bool cpu_isolation = false;   // the kernel has isolated CPUs (isolcpus)
 };
 
 class Scheduler {

@@ -106,9 +106,9 @@ class Topic {
       : name_(name),
         segment_(detail::ShmSegment::open_topic(
             name,
-            detail::TypeDescriptor{TypeInfo<T>::name, TypeInfo<T>::fingerprint,
-                                   TypeInfo<T>::schema, TypeInfo<T>::is_pod,
-                                   TypeInfo<T>::is_pod ? sizeof(T) : 0, alignof(T)},
+            detail::TypeDescriptor{TypeInfo<T>::name, TypeInfo<T>::fingerprint, TypeInfo<T>::schema,
+                                   TypeInfo<T>::is_pod, TypeInfo<T>::is_pod ? sizeof(T) : 0,
+                                   alignof(T)},
             detail::SegmentOptions{options.capacity, options.max_message_size, options.mode,
                                    options.namespace_name})),
         ring_(segment_.ring()),
@@ -158,9 +158,7 @@ class Topic {
   }
 
   /// Lends the next slot for writing the message in place. Publish it with publish().
-  Loan<T> loan() noexcept
-    requires PodMessage<T>
-  {
+  Loan<T> loan() noexcept requires PodMessage<T> {
     mark(detail::kRolePublisher);
     const detail::Claim claim = detail::ring_claim(ring_, pid_);
     if (claim.slot == nullptr) {
@@ -171,9 +169,7 @@ class Topic {
   }
 
   /// Makes a loaned message visible. False (and a counter) when the loan had no slot.
-  bool publish(Loan<T>&& loan) noexcept
-    requires PodMessage<T>
-  {
+  bool publish(Loan<T>&& loan) noexcept requires PodMessage<T> {
     const detail::Claim claim = std::exchange(loan.claim_, detail::Claim{nullptr, 0, false});
     if (claim.slot == nullptr) {
       if (claim.wake) {
@@ -205,9 +201,9 @@ class Topic {
         // A ticket claimed before this thread announced itself may still be in flight, and its
         // publisher will not wake us: only then sleep in short slices.
         const bool unannounced = claimed_before == UINT64_MAX || cursor_.next < claimed_before;
-        detail::futex_wait(control.notify, seen,
-                           unannounced ? std::min<std::chrono::nanoseconds>(remaining, kSlice)
-                                       : remaining);
+        detail::futex_wait(
+            control.notify, seen,
+            unannounced ? std::min<std::chrono::nanoseconds>(remaining, kSlice) : remaining);
       }
       if (claimed_before != UINT64_MAX) {
         detail::ring_remove_sleeper(control);

@@ -46,7 +46,7 @@ concept Message = requires {
 /// True for generated messages that are plain old data (shared memory, zero copy).
 template <class T>
 concept PodMessage = Message<T> && TypeInfo<T>::is_pod && std::is_trivially_copyable_v<T> &&
-                     std::is_standard_layout_v<T>;
+    std::is_standard_layout_v<T>;
 
 /// True for generated messages carried as MessagePack.
 template <class T>

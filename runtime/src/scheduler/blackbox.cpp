@@ -84,22 +84,38 @@ std::string_view BlackboxEvent::detail_text() const noexcept {
 
 std::string_view to_string(BlackboxEventKind kind) noexcept {
   switch (kind) {
-    case BlackboxEventKind::SchedulerStart: return "SchedulerStart";
-    case BlackboxEventKind::SchedulerStop: return "SchedulerStop";
-    case BlackboxEventKind::StopRequested: return "StopRequested";
-    case BlackboxEventKind::NodeInit: return "NodeInit";
-    case BlackboxEventKind::NodeInitFailed: return "NodeInitFailed";
-    case BlackboxEventKind::NodeError: return "NodeError";
-    case BlackboxEventKind::NodeRestart: return "NodeRestart";
-    case BlackboxEventKind::NodeShutdown: return "NodeShutdown";
-    case BlackboxEventKind::NodeShutdownFailed: return "NodeShutdownFailed";
-    case BlackboxEventKind::NodeRemoved: return "NodeRemoved";
-    case BlackboxEventKind::DeadlineMiss: return "DeadlineMiss";
-    case BlackboxEventKind::BudgetOverrun: return "BudgetOverrun";
-    case BlackboxEventKind::HealthChange: return "HealthChange";
-    case BlackboxEventKind::SafeStateEntered: return "SafeStateEntered";
-    case BlackboxEventKind::WatchdogExpired: return "WatchdogExpired";
-    case BlackboxEventKind::Degradation: return "Degradation";
+    case BlackboxEventKind::SchedulerStart:
+      return "SchedulerStart";
+    case BlackboxEventKind::SchedulerStop:
+      return "SchedulerStop";
+    case BlackboxEventKind::StopRequested:
+      return "StopRequested";
+    case BlackboxEventKind::NodeInit:
+      return "NodeInit";
+    case BlackboxEventKind::NodeInitFailed:
+      return "NodeInitFailed";
+    case BlackboxEventKind::NodeError:
+      return "NodeError";
+    case BlackboxEventKind::NodeRestart:
+      return "NodeRestart";
+    case BlackboxEventKind::NodeShutdown:
+      return "NodeShutdown";
+    case BlackboxEventKind::NodeShutdownFailed:
+      return "NodeShutdownFailed";
+    case BlackboxEventKind::NodeRemoved:
+      return "NodeRemoved";
+    case BlackboxEventKind::DeadlineMiss:
+      return "DeadlineMiss";
+    case BlackboxEventKind::BudgetOverrun:
+      return "BudgetOverrun";
+    case BlackboxEventKind::HealthChange:
+      return "HealthChange";
+    case BlackboxEventKind::SafeStateEntered:
+      return "SafeStateEntered";
+    case BlackboxEventKind::WatchdogExpired:
+      return "WatchdogExpired";
+    case BlackboxEventKind::Degradation:
+      return "Degradation";
   }
   return "Unknown";
 }
@@ -196,8 +212,8 @@ bool Blackbox::write_to_fd(int fd) const noexcept {
 void Blackbox::write_to(const std::filesystem::path& path) const {
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) {
-    throw Error("horus::Blackbox: cannot open '" + path.string() + "' for writing: " +
-                std::strerror(errno));
+    throw Error("horus::Blackbox: cannot open '" + path.string() +
+                "' for writing: " + std::strerror(errno));
   }
   const bool ok = write_to_fd(fd);
   const bool closed = ::close(fd) == 0;
@@ -263,8 +279,8 @@ std::string format_blackbox_event(const BlackboxEvent& event) {
   char when[32];
   std::strftime(when, sizeof(when), "%Y-%m-%dT%H:%M:%S", &utc);
   char line[256];
-  std::snprintf(line, sizeof(line), "%s.%06ldZ  %-13" PRIu64 " %-18s %-16s %-12" PRId64 " %s",
-                when, micros, event.tick, std::string(to_string(event.kind)).c_str(),
+  std::snprintf(line, sizeof(line), "%s.%06ldZ  %-13" PRIu64 " %-18s %-16s %-12" PRId64 " %s", when,
+                micros, event.tick, std::string(to_string(event.kind)).c_str(),
                 std::string(event.node_name()).c_str(), event.value,
                 std::string(event.detail_text()).c_str());
   return line;

@@ -55,8 +55,8 @@ struct NodeSlot : std::enable_shared_from_this<NodeSlot> {
   // Release bookkeeping (executing thread only).
   std::int64_t next_release_ns = 0;
   std::int64_t last_tick_start_ns = -1;
-  std::int64_t resume_at_ns = 0;       // Restart backoff / Skip cooldown
-  std::int64_t unhealthy_until_ns = 0; // Unhealthy rest period
+  std::int64_t resume_at_ns = 0;        // Restart backoff / Skip cooldown
+  std::int64_t unhealthy_until_ns = 0;  // Unhealthy rest period
   bool skip_next = false;
   std::uint32_t consecutive_failures = 0;
   std::uint32_t restart_attempts = 0;
@@ -97,8 +97,8 @@ using SlotPtr = std::shared_ptr<NodeSlot>;
 struct Executor {
   std::string label;
   std::vector<SlotPtr> slots;
-  bool main = false;     // the main loop: passes on the scheduler's tick grid
-  bool realtime = false; // apply SCHED_FIFO when rt is on
+  bool main = false;      // the main loop: passes on the scheduler's tick grid
+  bool realtime = false;  // apply SCHED_FIFO when rt is on
   std::optional<int> priority;
   std::optional<int> core;
   std::atomic<bool> exited{false};

@@ -106,7 +106,7 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   RtCapabilities capabilities_;
   bool locked_memory_ = false;
 
-  mutable std::mutex mutex_;  // structure, strings and degradations; never held around a callback
+  mutable std::mutex mutex_;    // structure, strings and degradations; never held around a callback
   std::vector<SlotPtr> slots_;  // execution order: (order, registration)
   std::size_t registrations_ = 0;
   std::vector<std::string> degradations_;

@@ -6,6 +6,7 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include <fcntl.h>
 #include <algorithm>
 #include <cerrno>
 #include <climits>
@@ -13,7 +14,6 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
-#include <fcntl.h>
 #include <limits>
 #include <map>
 #include <thread>
@@ -75,7 +75,7 @@ class SignalScope {
     if (stop_signals_) {
       g_signal.store(0);
       g_wake_word.store(&word);
-      struct sigaction action{};
+      struct sigaction action {};
       action.sa_handler = on_stop_signal;
       sigemptyset(&action.sa_mask);
       sigaction(SIGINT, &action, &previous_int_);
@@ -85,7 +85,7 @@ class SignalScope {
       const std::string path = std::filesystem::absolute(box_path).string();
       std::snprintf(g_crash_path, sizeof(g_crash_path), "%s", path.c_str());
       g_crash_box.store(box);
-      struct sigaction action{};
+      struct sigaction action {};
       action.sa_handler = on_crash_signal;
       sigemptyset(&action.sa_mask);
       for (std::size_t i = 0; i < std::size(kCrashSignals); ++i) {
@@ -112,8 +112,8 @@ class SignalScope {
  private:
   bool stop_signals_;
   bool crash_;
-  struct sigaction previous_int_{};
-  struct sigaction previous_term_{};
+  struct sigaction previous_int_ {};
+  struct sigaction previous_term_ {};
 };
 
 std::string exception_text(std::exception_ptr error) {
@@ -128,9 +128,12 @@ std::string exception_text(std::exception_ptr error) {
 
 const char* phase_name(Phase phase) {
   switch (phase) {
-    case Phase::Init: return "init()";
-    case Phase::Tick: return "tick()";
-    case Phase::Shutdown: return "shutdown()";
+    case Phase::Init:
+      return "init()";
+    case Phase::Tick:
+      return "tick()";
+    case Phase::Shutdown:
+      return "shutdown()";
   }
   return "?";
 }
@@ -422,7 +425,8 @@ void SchedulerImpl::deadline_missed(NodeSlot& slot, std::int64_t late_ns) noexce
       slot.warnings.fetch_add(1, std::memory_order_relaxed);
       if (mine == 1 || config_.verbose()) {
         log("warn", "node '%s' missed its deadline by %lld us%s", slot.name.c_str(),
-            static_cast<long long>(late_ns / 1000), mine == 1 ? " (further misses counted only)" : "");
+            static_cast<long long>(late_ns / 1000),
+            mine == 1 ? " (further misses counted only)" : "");
       }
       break;
     case Miss::Skip:
@@ -463,7 +467,8 @@ void SchedulerImpl::escalate(NodeSlot& slot, std::uint8_t level) noexcept {
          !slot.health.compare_exchange_weak(current, target, std::memory_order_acq_rel)) {
   }
   if (current >= target) return;
-  record(BlackboxEventKind::HealthChange, slot, static_cast<std::int64_t>(target), to_string(target));
+  record(BlackboxEventKind::HealthChange, slot, static_cast<std::int64_t>(target),
+         to_string(target));
   if (target == NodeHealthState::Warning) slot.warnings.fetch_add(1, std::memory_order_relaxed);
   if (target == NodeHealthState::Isolated) {
     // A frozen critical node puts the whole system in its safe state. Each node enters it on its
@@ -528,7 +533,8 @@ void SchedulerImpl::check_signal() noexcept {
 
 void SchedulerImpl::shutdown_node(const SlotPtr& slot, bool removing) noexcept {
   NodeSlot& s = *slot;
-  if (s.initialized && !s.shut_down) s.stopped_at_ns.store(monotonic_ns(), std::memory_order_relaxed);
+  if (s.initialized && !s.shut_down)
+    s.stopped_at_ns.store(monotonic_ns(), std::memory_order_relaxed);
   if (s.initialized && !s.shut_down) {
     if (s.tick_started_ns.load(std::memory_order_acquire) != 0) {
       // Its thread is still inside tick() (detached at teardown): calling shutdown() now would
@@ -663,7 +669,8 @@ void SchedulerImpl::pass_once(const std::vector<std::string>* names) {
   const std::vector<SlotPtr>& slots = loop_slots_;
   if (names != nullptr) {
     for (const std::string& n : *names) {
-      if (std::none_of(slots.begin(), slots.end(), [&](const SlotPtr& s) { return s->name == n; })) {
+      if (std::none_of(slots.begin(), slots.end(),
+                       [&](const SlotPtr& s) { return s->name == n; })) {
         throw Error("tick_once: no node named '" + n + "'");
       }
     }
@@ -672,7 +679,8 @@ void SchedulerImpl::pass_once(const std::vector<std::string>* names) {
   const std::int64_t pass_start = mono;
   for (const SlotPtr& slot : slots) {
     NodeSlot& s = *slot;
-    if (names != nullptr && std::find(names->begin(), names->end(), s.name) == names->end()) continue;
+    if (names != nullptr && std::find(names->begin(), names->end(), s.name) == names->end())
+      continue;
     if (s.execution_class == ExecutionClass::Event) {
       if (s.notifier->wait(std::chrono::nanoseconds(0))) service(s, mono, mono);
     } else if (deterministic) {
@@ -741,7 +749,8 @@ void SchedulerImpl::real_loop(std::optional<std::int64_t> duration_ns,
   std::vector<SlotPtr> slots = loop_slots_;
   if (names != nullptr) {
     for (const std::string& n : *names) {
-      if (std::none_of(slots.begin(), slots.end(), [&](const SlotPtr& s) { return s->name == n; })) {
+      if (std::none_of(slots.begin(), slots.end(),
+                       [&](const SlotPtr& s) { return s->name == n; })) {
         throw Error("tick_for: no node named '" + n + "'");
       }
     }
@@ -815,8 +824,8 @@ void SchedulerImpl::real_loop(std::optional<std::int64_t> duration_ns,
   }
   if (!compute.empty()) {
     const std::size_t cpus = std::max(1U, std::thread::hardware_concurrency());
-    const std::size_t workers = std::min(
-        compute.size(), config_.compute_threads() > 0 ? config_.compute_threads() : cpus);
+    const std::size_t workers =
+        std::min(compute.size(), config_.compute_threads() > 0 ? config_.compute_threads() : cpus);
     std::vector<std::shared_ptr<Executor>> pool;
     for (std::size_t i = 0; i < workers; ++i) {
       auto ex = std::make_shared<Executor>();
@@ -880,9 +889,9 @@ void SchedulerImpl::real_loop(std::optional<std::int64_t> duration_ns,
 
   // The main loop: BestEffort nodes on the scheduler's tick grid.
   cpu_set_t previous_affinity;
-  const bool pinned = !config_.cores().empty() &&
-                      pthread_getaffinity_np(pthread_self(), sizeof(previous_affinity),
-                                             &previous_affinity) == 0;
+  const bool pinned =
+      !config_.cores().empty() &&
+      pthread_getaffinity_np(pthread_self(), sizeof(previous_affinity), &previous_affinity) == 0;
   if (pinned) apply_thread_settings(*main);
   std::int64_t next_cycle = loop_start;
   for (;;) {
@@ -992,7 +1001,8 @@ void SchedulerImpl::run_watchdog(const std::vector<SlotPtr>& watched, std::int64
     for (const SlotPtr& s : watched) {
       const std::int64_t started = s->tick_started_ns.load(std::memory_order_acquire);
       if (started == 0 || now - started < s->watchdog_ns) continue;
-      escalate(*s, static_cast<std::uint8_t>(std::min<std::int64_t>((now - started) / s->watchdog_ns, 3)));
+      escalate(*s, static_cast<std::uint8_t>(
+                       std::min<std::int64_t>((now - started) / s->watchdog_ns, 3)));
     }
     next = next_on_grid(next, interval, now);
   }

@@ -50,7 +50,8 @@ SchedulerImpl::SchedulerImpl(SchedulerConfig config)
   }
   tick_period_ns_ = config_.tick_rate().period().count();
   if (config_.watchdog().count() < 0) throw Error(where + "watchdog timeout must not be negative");
-  if (config_.shutdown_timeout().count() <= 0) throw Error(where + "shutdown_timeout must be positive");
+  if (config_.shutdown_timeout().count() <= 0)
+    throw Error(where + "shutdown_timeout must be positive");
   if (config_.max_deadline_misses() && *config_.max_deadline_misses() == 0) {
     throw Error(where + "max_deadline_misses must be at least 1 (nullopt disables it)");
   }
@@ -80,7 +81,8 @@ void SchedulerImpl::probe_rt() {
     locked_memory_ = true;
     capabilities_.memory_locking = true;
   } else {
-    add_degradation(std::string("mlockall failed (") + (errno == EPERM ? "EPERM" : std::strerror(errno)) +
+    add_degradation(std::string("mlockall failed (") +
+                    (errno == EPERM ? "EPERM" : std::strerror(errno)) +
                     ") - memory pages may be swapped");
   }
   bool fifo = false;
@@ -161,7 +163,8 @@ void SchedulerImpl::validate(const NodeSlot& slot) const {
   }
   if (const auto* s = c.failure_policy.skip(); s != nullptr) {
     if (s->max_failures == 0) throw Error(where + "FailurePolicy::Skip max_failures must be >= 1");
-    if (s->cooldown.count() < 0) throw Error(where + "FailurePolicy::Skip cooldown must not be negative");
+    if (s->cooldown.count() < 0)
+      throw Error(where + "FailurePolicy::Skip cooldown must not be negative");
   }
 }
 
@@ -184,8 +187,9 @@ void SchedulerImpl::derive(NodeSlot& slot) const {
   slot.budget_auto = !c.budget && timed;
   slot.deadline_auto = !c.deadline && timed;
   const std::int64_t budget = c.budget ? c.budget->count() : timed ? period * 8 / 10 : 0;
-  const std::int64_t deadline =
-      c.deadline ? c.deadline->count() : timed ? std::max(period * 95 / 100, budget) : 0;
+  const std::int64_t deadline = c.deadline ? c.deadline->count()
+                                : timed    ? std::max(period * 95 / 100, budget)
+                                           : 0;
   slot.budget_ns.store(budget);
   slot.deadline_ns.store(deadline);
   slot.watchdog_ns = slot.critical ? slot.critical_timeout_ns
@@ -197,7 +201,8 @@ void SchedulerImpl::build(NodeConfig* config) {
   std::lock_guard lock(mutex_);
   const auto it = std::find_if(slots_.begin(), slots_.end(),
                                [&](const SlotPtr& s) { return &s->config == config; });
-  if (it == slots_.end()) throw Error("horus::NodeBuilder::build: the node is no longer registered");
+  if (it == slots_.end())
+    throw Error("horus::NodeBuilder::build: the node is no longer registered");
   NodeSlot& slot = **it;
   if (slot.built) throw Error("node '" + slot.name + "': build() called twice");
   for (const SlotPtr& other : slots_) {
@@ -256,16 +261,18 @@ void SchedulerImpl::prepare() {
     start_mono_ns_ = monotonic_ns();
     sim_now_ns_ = 0;
     prepared_ = true;
-    record_scheduler(BlackboxEventKind::SchedulerStart, config_.deterministic() ? "deterministic" : "");
+    record_scheduler(BlackboxEventKind::SchedulerStart,
+                     config_.deterministic() ? "deterministic" : "");
   }
   // Nodes built since the last run are initialised (lazily, in order) like the first ones.
   for (const SlotPtr& s : fresh) {
     if (s->execution_class == ExecutionClass::Event && !s->notifier) {
       s->notifier = std::make_unique<TopicNotifier>(*s->config.on_topic);
     }
-    const std::uint64_t salt = config_.deterministic()
-                                   ? config_.seed()
-                                   : static_cast<std::uint64_t>(monotonic_ns()) * 0x9E3779B97F4A7C15ULL;
+    const std::uint64_t salt =
+        config_.deterministic()
+            ? config_.seed()
+            : static_cast<std::uint64_t>(monotonic_ns()) * 0x9E3779B97F4A7C15ULL;
     s->rng = Rng(salt ^ fnv1a(s->name));
     s->context.deterministic = config_.deterministic();
     s->context.rng = &s->rng;
@@ -393,7 +400,8 @@ NodeMetrics SchedulerImpl::metrics(const NodeSlot& slot) const {
   m.successful_ticks = m.total_ticks - std::min(m.total_ticks, m.failed_ticks);
   m.skipped_ticks = slot.skipped_ticks.load(std::memory_order_relaxed);
   const auto sum = slot.sum_tick_ns.load(std::memory_order_relaxed);
-  m.avg_tick_duration = nanoseconds(m.total_ticks > 0 ? sum / static_cast<std::int64_t>(m.total_ticks) : 0);
+  m.avg_tick_duration =
+      nanoseconds(m.total_ticks > 0 ? sum / static_cast<std::int64_t>(m.total_ticks) : 0);
   m.max_tick_duration = nanoseconds(slot.max_tick_ns.load(std::memory_order_relaxed));
   m.min_tick_duration = nanoseconds(slot.min_tick_ns.load(std::memory_order_relaxed));
   m.last_tick_duration = nanoseconds(slot.last_tick_ns.load(std::memory_order_relaxed));
@@ -408,7 +416,8 @@ NodeMetrics SchedulerImpl::metrics(const NodeSlot& slot) const {
     const auto stopped = slot.stopped_at_ns.load(std::memory_order_relaxed);
     m.uptime = nanoseconds((stopped > 0 ? stopped : monotonic_ns()) - since);
     if (m.uptime.count() > 0) {
-      m.achieved_rate_hz = static_cast<double>(m.total_ticks) * 1e9 / static_cast<double>(m.uptime.count());
+      m.achieved_rate_hz =
+          static_cast<double>(m.total_ticks) * 1e9 / static_cast<double>(m.uptime.count());
     }
   }
   return m;
@@ -419,7 +428,8 @@ SafetyStats SchedulerImpl::safety_stats() const {
   stats.budget_overruns = total_overruns_.load();
   stats.deadline_misses = total_misses_.load();
   stats.watchdog_expirations = total_watchdog_.load();
-  for (const SlotPtr& s : ordered_slots()) stats.health_states.emplace_back(s->name, s->health.load());
+  for (const SlotPtr& s : ordered_slots())
+    stats.health_states.emplace_back(s->name, s->health.load());
   return stats;
 }
 
@@ -440,7 +450,8 @@ void SchedulerImpl::log(const char* level, const char* format, ...) const noexce
 void SchedulerImpl::record(BlackboxEventKind kind, const NodeSlot& slot, std::int64_t value,
                            std::string_view detail) noexcept {
   if (blackbox_) {
-    blackbox_->record(kind, slot.name, slot.total_ticks.load(std::memory_order_relaxed), value, detail);
+    blackbox_->record(kind, slot.name, slot.total_ticks.load(std::memory_order_relaxed), value,
+                      detail);
   }
 }
 
@@ -463,15 +474,15 @@ std::string SchedulerImpl::timing_report() const {
       const double hz = node.rate ? node.rate->hz() : config_.tick_rate().hz();
       std::snprintf(target, sizeof(target), "%.1f", hz);
     }
-    std::snprintf(line, sizeof(line), "%-16s %-10s %9s %9.1f %8.1fus %8.1fus %8llu %8llu %6llu  %-9s %s\n",
-                  node.name.c_str(), std::string(to_string(node.execution_class)).c_str(), target,
-                  m.achieved_rate_hz, static_cast<double>(m.avg_tick_duration.count()) / 1e3,
-                  static_cast<double>(m.max_tick_duration.count()) / 1e3,
-                  static_cast<unsigned long long>(m.budget_overruns),
-                  static_cast<unsigned long long>(m.deadline_misses),
-                  static_cast<unsigned long long>(m.errors_count),
-                  std::string(to_string(node.health)).c_str(),
-                  std::string(to_string(node.state)).c_str());
+    std::snprintf(
+        line, sizeof(line), "%-16s %-10s %9s %9.1f %8.1fus %8.1fus %8llu %8llu %6llu  %-9s %s\n",
+        node.name.c_str(), std::string(to_string(node.execution_class)).c_str(), target,
+        m.achieved_rate_hz, static_cast<double>(m.avg_tick_duration.count()) / 1e3,
+        static_cast<double>(m.max_tick_duration.count()) / 1e3,
+        static_cast<unsigned long long>(m.budget_overruns),
+        static_cast<unsigned long long>(m.deadline_misses),
+        static_cast<unsigned long long>(m.errors_count),
+        std::string(to_string(node.health)).c_str(), std::string(to_string(node.state)).c_str());
     out << line;
   }
   return out.str();
@@ -483,20 +494,28 @@ std::string SchedulerImpl::timing_report() const {
 
 std::string_view to_string(ExecutionClass c) noexcept {
   switch (c) {
-    case ExecutionClass::BestEffort: return "BestEffort";
-    case ExecutionClass::Rt: return "Rt";
-    case ExecutionClass::Compute: return "Compute";
-    case ExecutionClass::Event: return "Event";
-    case ExecutionClass::AsyncIo: return "AsyncIo";
+    case ExecutionClass::BestEffort:
+      return "BestEffort";
+    case ExecutionClass::Rt:
+      return "Rt";
+    case ExecutionClass::Compute:
+      return "Compute";
+    case ExecutionClass::Event:
+      return "Event";
+    case ExecutionClass::AsyncIo:
+      return "AsyncIo";
   }
   return "?";
 }
 
 std::string_view to_string(SchedulerStatus s) noexcept {
   switch (s) {
-    case SchedulerStatus::Idle: return "idle";
-    case SchedulerStatus::Running: return "running";
-    case SchedulerStatus::Stopped: return "stopped";
+    case SchedulerStatus::Idle:
+      return "idle";
+    case SchedulerStatus::Running:
+      return "running";
+    case SchedulerStatus::Stopped:
+      return "stopped";
   }
   return "?";
 }
@@ -528,7 +547,9 @@ void Scheduler::tick_for(std::chrono::nanoseconds duration, const std::vector<st
 }
 void Scheduler::stop() noexcept { impl_->request_stop("stop() called", false); }
 
-bool Scheduler::set_node_rate(std::string_view name, Rate rate) { return impl_->set_node_rate(name, rate); }
+bool Scheduler::set_node_rate(std::string_view name, Rate rate) {
+  return impl_->set_node_rate(name, rate);
+}
 bool Scheduler::set_tick_budget(std::string_view name, std::chrono::nanoseconds budget) {
   return impl_->set_tick_budget(name, budget);
 }

@@ -31,7 +31,7 @@ struct TickContext {
   std::int64_t tick_start_ns = 0;  // monotonic (real mode)
   std::int64_t release_ns = 0;     // monotonic release of this tick (real mode)
   std::int64_t dt_ns = 0;
-  std::int64_t budget_ns = 0;      // 0: no budget
+  std::int64_t budget_ns = 0;  // 0: no budget
   std::uint64_t tick_index = 0;
   Rng* rng = nullptr;
 };

@@ -101,8 +101,8 @@ Mapping map_file(int fd, std::size_t size, int protection, const std::string& pa
 /// the file was unlinked between open and lock, so the lock always guards the live file.
 int open_locked(const std::string& path, unsigned mode, int lock) {
   for (int attempt = 0; attempt < 16; ++attempt) {
-    const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW,
-                          static_cast<mode_t>(mode));
+    const int fd =
+        ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, static_cast<mode_t>(mode));
     if (fd < 0) {
       throw Error("cannot open topic segment " + path + ": " + errno_text(errno));
     }

@@ -23,8 +23,8 @@
 #include <vector>
 
 #include <horus/codec.hpp>
-#include <horus/msgpack.hpp>
 #include <horus/log_summary.hpp>
+#include <horus/msgpack.hpp>
 #include <other_pkg.hpp>
 #include <test_msgs.hpp>
 
@@ -74,7 +74,8 @@ template <>
 Arrays fixture<Arrays>() {
   Arrays a{};
   a.small = {1, 65535, 300};
-  for (std::size_t i = 0; i < a.ranges.size(); ++i) a.ranges[i] = 0.25F * static_cast<float>(i) - 10.0F;
+  for (std::size_t i = 0; i < a.ranges.size(); ++i)
+    a.ranges[i] = 0.25F * static_cast<float>(i) - 10.0F;
   a.grid = {{{1, 2, 3, 4}, {5, 6, 7, 8}, {9, 10, 11, 255}}};
   a.name = "twelve bytes";
   a.names[0] = "eight ch";
@@ -125,8 +126,21 @@ Serialized fixture<Serialized>() {
   s.text = "h\xc3\xa9llo w\xc3\xb6rld \xe2\x9c\x93";
   for (int i = 0; i < 300; ++i) s.data.push_back(static_cast<std::uint8_t>(i * 7));
   // Integral doubles are packed as integers by msgpack-cxx, the rest as float64: every branch once.
-  s.values = {0.0, -0.0, 1.5, 3.0, 1e20, -1e20, kNan, kInf, -kInf, 18446744073709551616.0,
-              -9223372036854775808.0, 1234565.0, 1e-7, -2.5, 9007199254740993.0};
+  s.values = {0.0,
+              -0.0,
+              1.5,
+              3.0,
+              1e20,
+              -1e20,
+              kNan,
+              kInf,
+              -kInf,
+              18446744073709551616.0,
+              -9223372036854775808.0,
+              1234565.0,
+              1e-7,
+              -2.5,
+              9007199254740993.0};
   s.counts = {0, 127, 128, 255, 256, 65535, 65536, 4294967295U};
   s.small = {1, 2, 3};
   s.maybe = -33;
@@ -146,7 +160,8 @@ Blob fixture<Blob>() {
   Blob b{};
   b.seq = std::numeric_limits<std::uint64_t>::max();
   b.payload.resize(70000);
-  for (std::size_t i = 0; i < b.payload.size(); ++i) b.payload[i] = static_cast<std::uint8_t>((i * 7) & 0xFF);
+  for (std::size_t i = 0; i < b.payload.size(); ++i)
+    b.payload[i] = static_cast<std::uint8_t>((i * 7) & 0xFF);
   return b;
 }
 
@@ -180,11 +195,13 @@ void compare(const std::string& path, const T& a, const T& b, Diffs& diffs);
 template <class T>
 void compare_message(const std::string& path, const T& a, const T& b, Diffs& diffs) {
   std::vector<const void*> theirs;
-  horus::TypeInfo<T>::visit(b, [&](std::string_view, const auto& field) { theirs.push_back(&field); });
+  horus::TypeInfo<T>::visit(b,
+                            [&](std::string_view, const auto& field) { theirs.push_back(&field); });
   std::size_t index = 0;
   horus::TypeInfo<T>::visit(a, [&](std::string_view name, const auto& field) {
     using Field = std::remove_cvref_t<decltype(field)>;
-    compare(path + "." + std::string(name), field, *static_cast<const Field*>(theirs[index++]), diffs);
+    compare(path + "." + std::string(name), field, *static_cast<const Field*>(theirs[index++]),
+            diffs);
   });
 }
 
@@ -200,11 +217,13 @@ void compare(const std::string& path, const T& a, const T& b, Diffs& diffs) {
   if constexpr (horus::Message<T>) {
     compare_message(path, a, b, diffs);
   } else if constexpr (std::is_floating_point_v<T>) {
-    if (!(a == b || (std::isnan(a) && std::isnan(b)))) diffs.push_back(path + ": " + text_of(a) + " != " + text_of(b));
+    if (!(a == b || (std::isnan(a) && std::isnan(b))))
+      diffs.push_back(path + ": " + text_of(a) + " != " + text_of(b));
   } else if constexpr (std::is_arithmetic_v<T> || std::is_enum_v<T>) {
     if (a != b) diffs.push_back(path + ": " + text_of(a) + " != " + text_of(b));
   } else if constexpr (std::is_convertible_v<const T&, std::string_view>) {
-    if (std::string_view(a) != std::string_view(b)) diffs.push_back(path + ": " + text_of(a) + " != " + text_of(b));
+    if (std::string_view(a) != std::string_view(b))
+      diffs.push_back(path + ": " + text_of(a) + " != " + text_of(b));
   } else if constexpr (horus::summary::OptionalLike<T>) {
     if (a.has_value() != b.has_value()) {
       diffs.push_back(path + ": " + text_of(a) + " != " + text_of(b));
@@ -213,7 +232,8 @@ void compare(const std::string& path, const T& a, const T& b, Diffs& diffs) {
     }
   } else {
     if (a.size() != b.size()) {
-      diffs.push_back(path + ": " + std::to_string(a.size()) + " elements != " + std::to_string(b.size()));
+      diffs.push_back(path + ": " + std::to_string(a.size()) +
+                      " elements != " + std::to_string(b.size()));
       return;
     }
     for (std::size_t i = 0; i < a.size(); ++i) {
@@ -256,9 +276,9 @@ std::string service_line() {
 template <class... Ts>
 struct TypeList {};
 
-using Messages = TypeList<Point2, Pose2, other_pkg::Stamp, Primitives, Arrays, Defaults, Empty, ImuLike,
-                          Serialized, Blob, GetRobotPoseRequest, GetRobotPoseResponse, AddIntsRequest,
-                          AddIntsResponse>;
+using Messages = TypeList<Point2, Pose2, other_pkg::Stamp, Primitives, Arrays, Defaults, Empty,
+                          ImuLike, Serialized, Blob, GetRobotPoseRequest, GetRobotPoseResponse,
+                          AddIntsRequest, AddIntsResponse>;
 
 std::string fingerprints() {
   std::string out;
@@ -275,7 +295,8 @@ void write_one(const fs::path& dir) {
   const T value = fixture<T>();
   const std::vector<std::uint8_t> bytes = horus::encode(value);
   const std::string name(horus::TypeInfo<T>::name);
-  write_file(dir / (name + ".bin"), std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+  write_file(dir / (name + ".bin"),
+             std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
   write_file(dir / (name + ".txt"), value.log_summary());
 }
 
@@ -297,8 +318,8 @@ void check_one(const fs::path& dir, Diffs& diffs) {
   }
   const std::optional<std::string> summary = read_file(dir / (name + ".txt"));
   if (!summary || *summary != expected.log_summary()) {
-    diffs.push_back(name + ": log_summary differs:\n  C++:    " + expected.log_summary() + "\n  Python: " +
-                    summary.value_or("(missing)"));
+    diffs.push_back(name + ": log_summary differs:\n  C++:    " + expected.log_summary() +
+                    "\n  Python: " + summary.value_or("(missing)"));
   }
 }
 
@@ -314,11 +335,14 @@ int run(std::string_view command, const fs::path& dir) {
     [&]<class... Ts>(TypeList<Ts...>) { (check_one<Ts>(dir, diffs), ...); }(Messages{});
     const std::optional<std::string> theirs = read_file(dir / "fingerprints.txt");
     if (!theirs || *theirs != fingerprints()) {
-      diffs.push_back("fingerprints differ:\nC++:\n" + fingerprints() + "Python:\n" + theirs.value_or("(missing)"));
+      diffs.push_back("fingerprints differ:\nC++:\n" + fingerprints() + "Python:\n" +
+                      theirs.value_or("(missing)"));
     }
     for (const std::string& diff : diffs) std::fprintf(stderr, "%s\n", diff.c_str());
     if (diffs.empty()) {
-      const std::size_t count = []<class... Ts>(TypeList<Ts...>) { return sizeof...(Ts); }(Messages{});
+      const std::size_t count = []<class... Ts>(TypeList<Ts...>) {
+        return sizeof...(Ts);
+      }(Messages{});
       std::printf("all %zu types equal\n", count);
     }
     return diffs.empty() ? 0 : 1;

@@ -27,19 +27,22 @@ template <class T>
 bool echo_one(const fs::path& dir, std::string& fingerprints) {
   const std::string name(horus::TypeInfo<T>::name);
   char hex[32];
-  std::snprintf(hex, sizeof hex, "0x%016llx", static_cast<unsigned long long>(horus::TypeInfo<T>::fingerprint));
+  std::snprintf(hex, sizeof hex, "0x%016llx",
+                static_cast<unsigned long long>(horus::TypeInfo<T>::fingerprint));
   fingerprints += name + " " + hex + "\n";
   std::ifstream in(dir / (name + ".bin"), std::ios::binary);
   if (!in) {
     std::fprintf(stderr, "%s: %s.bin is missing\n", name.c_str(), name.c_str());
     return false;
   }
-  const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)),
+                                        std::istreambuf_iterator<char>());
   try {
     const T msg = horus::decode<T>(bytes);
     const std::vector<std::uint8_t> again = horus::encode(msg);
     std::ofstream(dir / (name + ".echo.bin"), std::ios::binary)
-        .write(reinterpret_cast<const char*>(again.data()), static_cast<std::streamsize>(again.size()));
+        .write(reinterpret_cast<const char*>(again.data()),
+               static_cast<std::streamsize>(again.size()));
     const std::string summary = msg.log_summary();
     std::ofstream(dir / (name + ".echo.txt"), std::ios::binary)
         .write(summary.data(), static_cast<std::streamsize>(summary.size()));

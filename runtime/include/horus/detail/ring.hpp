@@ -209,8 +209,7 @@ inline bool ring_writer_gone(const RingView& ring, ReadCursor& cursor,
     return false;
   }
   const std::int64_t stalled = now - cursor.stall_since_ns;
-  if (stalled > kDeadCheckNs &&
-      slot.claim.load(std::memory_order_relaxed) == 2 * cursor.next + 1 &&
+  if (stalled > kDeadCheckNs && slot.claim.load(std::memory_order_relaxed) == 2 * cursor.next + 1 &&
       !process_alive(slot.owner.load(std::memory_order_relaxed))) {
     return true;
   }

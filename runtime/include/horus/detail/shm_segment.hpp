@@ -67,11 +67,11 @@ struct LayoutHeader {
   char type_name[kMaxTypeName];
   std::uint64_t type_size;  // sizeof(T) for a POD type, 0 for a serialized one
   std::uint64_t type_alignment;
-  std::uint64_t capacity;   // slots, a power of two
+  std::uint64_t capacity;  // slots, a power of two
   std::uint64_t slot_stride;
   std::uint64_t payload_offset;  // from the start of a slot
   std::uint64_t payload_capacity;
-  std::uint64_t schema_offset;   // from the start of the file
+  std::uint64_t schema_offset;  // from the start of the file
   std::uint64_t schema_size;
   std::uint64_t slots_offset;
   std::uint64_t total_size;

@@ -17,7 +17,8 @@ class ShmSegment;
 /// Lets a thread sleep until a topic (of any type) receives a message: the scheduler's event nodes.
 class TopicNotifier {
  public:
-  /// For the named topic in the current namespace; works before the topic exists (a publisher may come later).
+  /// For the named topic in the current namespace; works before the topic exists (a publisher may
+  /// come later).
   explicit TopicNotifier(std::string_view topic_name);
   ~TopicNotifier();
   TopicNotifier(const TopicNotifier&) = delete;
