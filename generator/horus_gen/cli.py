@@ -29,7 +29,7 @@ def build_parser() -> argparse.ArgumentParser:
         sub.add_argument("--package", help="package of files that declare none (default: their folder's name)")
 
     def outputs(sub: argparse.ArgumentParser) -> None:
-        sub.add_argument("--lang", default="cpp", help="comma-separated languages: " + ",".join(emit.emitters()))
+        sub.add_argument("--lang", default="cpp", help="comma-separated languages: " + ",".join(emit.LANGUAGES))
         sub.add_argument("--out", required=True, metavar="OUT", help="output folder (OUT/cpp, OUT/python)")
 
     generate = commands.add_parser("generate", help="write C++ headers and Python modules")
@@ -75,9 +75,9 @@ def check_usage(args: argparse.Namespace) -> str | None:
         if not os.path.isdir(folder):
             return f"-I {folder}: no such folder"
     if hasattr(args, "lang"):
-        unknown = [lang for lang in args.lang.split(",") if lang not in emit.emitters()]
+        unknown = [lang for lang in args.lang.split(",") if lang not in emit.LANGUAGES]
         if unknown:
-            return f"unknown language '{unknown[0]}' (known: {', '.join(emit.emitters())})"
+            return f"unknown language '{unknown[0]}' (known: {', '.join(emit.LANGUAGES)})"
     if getattr(args, "depfile", None) and not getattr(args, "stamp", None):
         return "--depfile needs --stamp (the file the dependencies belong to)"
     return None
@@ -97,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
     languages = args.lang.split(",")
     files: dict[str, str] = {}
     for language in languages:
-        files.update(emit.emitters()[language](model))
+        files.update(emit.emitter(language)(model))
     if args.command == "list-outputs":
         for relative in sorted(files):
             print(os.path.abspath(os.path.join(args.out, relative)))
