@@ -31,6 +31,8 @@ def keyword_clash(name: str) -> str | None:
         return "a Python keyword"
     if name.startswith("__") or (name.startswith("_") and len(name) > 1 and name[1].isupper()):
         return "reserved in C++ (leading underscores)"
+    if name.startswith("_horus"):
+        return "reserved for the generated Python code"
     return None
 
 
