@@ -268,7 +268,8 @@ class Resolver:
             clash = keyword_clash(member.name)
             if clash:
                 self.reporter.error(member.span, f"member name '{member.name}' is {clash}",
-                                    f"rename it (for example '{member.name}_')")
+                                    f"rename it (for example '{member.name}_')" if "keyword" in clash
+                                    else "rename it")
             elif member.name in RESERVED_MEMBERS:
                 self.reporter.error(member.span, f"member name '{member.name}' is taken by the generated code",
                                     "rename it")
