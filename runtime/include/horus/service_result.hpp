@@ -21,11 +21,14 @@ class ServiceResult {
   using value_type = T;
 
   /// A value: anything T is constructible from (a response, std::nullopt for an optional).
+  /// The constraint excludes ServiceResult itself, so copies and moves are not hidden.
+  // NOLINTBEGIN(bugprone-forwarding-reference-overload)
   template <class U = T>
   requires(std::constructible_from<T, U&&> &&
            !std::same_as<std::remove_cvref_t<U>, ServiceResult> &&
            !std::same_as<std::remove_cvref_t<U>, ServiceError>) ServiceResult(U&& value)
       : state_(std::in_place_index<0>, std::forward<U>(value)) {}
+  // NOLINTEND(bugprone-forwarding-reference-overload)
   ServiceResult(ServiceError error) : state_(std::in_place_index<1>, std::move(error)) {}
 
   bool has_value() const noexcept { return state_.index() == 0; }

@@ -34,7 +34,7 @@ struct TopicOptions {
   std::size_t capacity = 64;
   /// Serialized types only: the largest encoded message a slot holds; send() of a larger one
   /// returns false and counts it in TopicStats::oversized.
-  std::size_t max_message_size = 16 * 1024;
+  std::size_t max_message_size = std::size_t{16} * 1024;
   /// Permissions of the segment (and of the namespace folder, when this creates it).
   unsigned mode = 0600;
   /// Empty: HORUS_NAMESPACE, or "default".

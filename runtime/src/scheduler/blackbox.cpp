@@ -1,4 +1,5 @@
 #include "horus/blackbox.hpp"
+#include "horus/detail/errno_text.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -213,12 +214,13 @@ void Blackbox::write_to(const std::filesystem::path& path) const {
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) {
     throw Error("horus::Blackbox: cannot open '" + path.string() +
-                "' for writing: " + std::strerror(errno));
+                "' for writing: " + detail::errno_text(errno));
   }
   const bool ok = write_to_fd(fd);
   const bool closed = ::close(fd) == 0;
   if (!ok || !closed) {
-    throw Error("horus::Blackbox: failed writing '" + path.string() + "': " + std::strerror(errno));
+    throw Error("horus::Blackbox: failed writing '" + path.string() +
+                "': " + detail::errno_text(errno));
   }
 }
 

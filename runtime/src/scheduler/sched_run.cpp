@@ -19,6 +19,7 @@
 #include <thread>
 #include <tuple>
 
+#include "horus/detail/errno_text.hpp"
 #include "horus/error.hpp"
 #include "sched_impl_class.hpp"
 
@@ -945,7 +946,7 @@ void SchedulerImpl::apply_thread_settings(const Executor& ex) noexcept {
     }
     if (pin) {
       if (const int rc = pthread_setaffinity_np(pthread_self(), sizeof(cpus), &cpus); rc != 0) {
-        add_degradation("could not pin thread " + ex.label + ": " + std::strerror(rc));
+        add_degradation("could not pin thread " + ex.label + ": " + detail::errno_text(rc));
       }
     }
     if (ex.realtime && config_.rt()) {

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <thread>
 
+#include "horus/detail/errno_text.hpp"
 #include "horus/error.hpp"
 #include "sched_impl_class.hpp"
 
@@ -82,7 +83,7 @@ void SchedulerImpl::probe_rt() {
     capabilities_.memory_locking = true;
   } else {
     add_degradation(std::string("mlockall failed (") +
-                    (errno == EPERM ? "EPERM" : std::strerror(errno)) +
+                    (errno == EPERM ? "EPERM" : detail::errno_text(errno)) +
                     ") - memory pages may be swapped");
   }
   bool fifo = false;

@@ -3,6 +3,7 @@
 // Every set-up step runs under flock(LOCK_EX) on the segment file: concurrent openers serialise,
 // and the kernel drops the lock of a process killed mid-set-up, so nobody waits on a dead one.
 #include "horus/detail/shm_segment.hpp"
+#include "horus/detail/errno_text.hpp"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -23,8 +24,6 @@
 namespace horus::detail {
 
 namespace {
-
-std::string errno_text(int error) { return std::strerror(error); }
 
 std::string hex(std::uint64_t value) {
   char text[19];
@@ -261,14 +260,14 @@ LayoutHeader make_layout(const TypeDescriptor& type, const SegmentOptions& optio
   header.type_alignment = alignment;
   header.capacity = std::bit_ceil(static_cast<std::uint64_t>(options.capacity));
   header.payload_offset = round_up(sizeof(SlotHeader), alignment);
-  if (header.payload_offset + payload > 2 * 64) {
+  if (header.payload_offset + payload > 2 * kCacheLine) {
     // A payload that does not fit beside `seq` starts on its own cache line: the writer then
     // fills it without fighting a subscriber that is polling `seq`.
-    header.payload_offset = round_up(2 * 64, alignment);
+    header.payload_offset = round_up(2 * kCacheLine, alignment);
   }
   header.payload_capacity = payload;
   header.slot_stride =
-      round_up(header.payload_offset + payload, std::max<std::uint64_t>(64, alignment));
+      round_up(header.payload_offset + payload, std::max<std::uint64_t>(kCacheLine, alignment));
   header.schema_offset = kControlSize + sizeof(LayoutHeader);
   header.schema_size = type.schema.size();
   header.slots_offset = round_up(header.schema_offset + header.schema_size, kControlSize);
@@ -287,7 +286,8 @@ bool same_type(const LayoutHeader& header, const TypeDescriptor& type) {
 }  // namespace
 
 std::string current_namespace() {
-  const char* value = std::getenv("HORUS_NAMESPACE");
+  // Read when a topic opens; programs set the variable before they start threads.
+  const char* value = std::getenv("HORUS_NAMESPACE");  // NOLINT(concurrency-mt-unsafe)
   if (value == nullptr || *value == '\0') {
     return "default";
   }
@@ -296,7 +296,7 @@ std::string current_namespace() {
 }
 
 std::string shm_root() {
-  const char* value = std::getenv("HORUS_SHM_DIR");
+  const char* value = std::getenv("HORUS_SHM_DIR");  // NOLINT(concurrency-mt-unsafe)
   return value != nullptr && *value != '\0' ? value : "/dev/shm/horus";
 }
 
@@ -368,7 +368,7 @@ std::string validate_layout(const LayoutHeader& h, std::uint64_t file_size) {
     return "invalid payload capacity " + std::to_string(h.payload_capacity);
   }
   if (h.payload_offset < sizeof(SlotHeader) || h.payload_offset % h.type_alignment != 0 ||
-      h.payload_offset > kControlSize || h.slot_stride % 64 != 0 ||
+      h.payload_offset > kControlSize || h.slot_stride % kCacheLine != 0 ||
       h.slot_stride % h.type_alignment != 0 ||
       h.slot_stride < h.payload_offset + h.payload_capacity ||
       h.slot_stride > kMaxSlotPayload + 2 * kControlSize) {
@@ -376,7 +376,7 @@ std::string validate_layout(const LayoutHeader& h, std::uint64_t file_size) {
            std::to_string(h.payload_offset) + ")";
   }
   if (h.schema_offset != kControlSize + sizeof(LayoutHeader) || h.schema_size > kMaxSchemaSize ||
-      h.slots_offset < h.schema_offset + h.schema_size || h.slots_offset % 64 != 0 ||
+      h.slots_offset < h.schema_offset + h.schema_size || h.slots_offset % kCacheLine != 0 ||
       h.slots_offset % h.type_alignment != 0) {
     return "invalid schema or slot offsets";
   }

@@ -1,5 +1,6 @@
 // Reading segments for tools: validated like any opener, mapped read-only, under a shared lock.
 #include "horus/topic_registry.hpp"
+#include "horus/detail/errno_text.hpp"
 
 #include <dirent.h>
 #include <fcntl.h>
@@ -30,9 +31,10 @@ std::vector<std::string> segment_names(const std::string& directory) {
     if (errno == ENOENT) {
       return names;
     }
-    throw Error("cannot list topic directory " + directory + ": " + std::strerror(errno));
+    throw Error("cannot list topic directory " + directory + ": " + detail::errno_text(errno));
   }
-  while (const dirent* entry = ::readdir(dir)) {
+  // This DIR stream is local to the call, which is all readdir needs to be safe.
+  while (const dirent* entry = ::readdir(dir)) {  // NOLINT(concurrency-mt-unsafe)
     const std::string_view name = entry->d_name;
     if (name != "." && name != "..") {
       names.emplace_back(name);
@@ -70,7 +72,7 @@ void inspect(const std::string& path, TopicInfo& info) {
   const LockedFile file(path, O_RDONLY, LOCK_SH);
   struct stat status {};
   if (file.fd() < 0 || ::fstat(file.fd(), &status) != 0) {
-    info.error = std::string("cannot open: ") + std::strerror(errno);
+    info.error = std::string("cannot open: ") + detail::errno_text(errno);
     return;
   }
   if (!S_ISREG(status.st_mode)) {
@@ -84,7 +86,7 @@ void inspect(const std::string& path, TopicInfo& info) {
   }
   void* base = ::mmap(nullptr, size, PROT_READ, MAP_SHARED, file.fd(), 0);
   if (base == MAP_FAILED) {
-    info.error = std::string("cannot map: ") + std::strerror(errno);
+    info.error = std::string("cannot map: ") + detail::errno_text(errno);
     return;
   }
   const auto* bytes = static_cast<const std::byte*>(base);

@@ -27,6 +27,7 @@ inline constexpr std::uint64_t kControlMagic = 0x4c54435355524f48ULL;  // "HORUS
 inline constexpr std::uint64_t kLayoutMagic = 0x504f545355524f48ULL;   // "HORUSTOP"
 inline constexpr std::uint32_t kSegmentVersion = 1;
 inline constexpr std::size_t kControlSize = 4096;
+inline constexpr std::uint64_t kCacheLine = 64;
 inline constexpr std::size_t kMaxUsers = 128;
 inline constexpr std::size_t kMaxTypeName = 256;
 inline constexpr std::size_t kMaxSchemaSize = std::size_t{1} << 20;
