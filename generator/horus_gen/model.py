@@ -230,6 +230,3 @@ class Model:
 
     def generated_items(self) -> list[Message | Enum | Service]:
         return [self.services.get(q) or self.types[q] for q in self.generated]
-
-    def packages(self) -> list[str]:
-        return sorted({item.package for item in self.generated_items()})

@@ -5,7 +5,6 @@ import os
 import struct
 
 from . import banner, environment
-from ..identity import spelling
 from ..model import (Bytes, DynString, Enum, EnumRef, EnumValue, Field, FixedArray, FixedString,
                      Message, MessageRef, Model, Optional, Primitive, Service, Type, Vec)
 from ..names import snake_case
@@ -159,7 +158,7 @@ FILTERS = {
     "namespace": namespace, "type_name": type_name, "initializer": initializer,
     "value_literal": value_literal, "padding_initializer": padding_initializer, "constant_type": constant_type, "constant_literal": constant_literal, "string_literal": string_literal,
     "header_path": header_path, "std_headers": std_headers, "type_headers": type_headers,
-    "doc_lines": doc_lines, "spelling": spelling, "snake_case": snake_case,
+    "doc_lines": doc_lines,
     "hex": lambda n: f"0x{n:016x}ULL",
 }
 
