@@ -171,32 +171,41 @@ inline std::string reply_topic(std::string_view response_topic, std::uint64_t in
   return std::string(response_topic) + "." + std::to_string(index);
 }
 
+inline constexpr std::string_view kRegistrationSuffix = ".service";
+
 /// The topic that holds a service's registration.
 inline std::string registration_topic(std::string_view service_name) {
-  return std::string(service_name) + ".service";
+  return std::string(service_name) + std::string(kRegistrationSuffix);
 }
-inline constexpr std::string_view kRegistrationSuffix = ".service";
+
+/// The identity every frame's TypeInfo shares: a name and schema built from the payload's, so two
+/// sides that disagree on the payload type disagree on the frame type too.
+template <class Frame, Message Payload, const std::string_view& NameOpen,
+          const std::string_view& Fields>
+struct FrameTypeInfo {
+  using type = Frame;
+  static constexpr std::string_view name =
+      JoinedText<NameOpen, TypeInfo<Payload>::name, kNameClose>::value;
+  static constexpr std::string_view package = "horus";
+  static constexpr std::string_view schema =
+      JoinedText<kSchemaOpen, name, Fields, TypeInfo<Payload>::name, kSchemaClose,
+                 TypeInfo<Payload>::schema>::value;
+  static constexpr std::uint64_t fingerprint = fnv1a(schema);
+  static constexpr bool is_pod = TypeInfo<Payload>::is_pod;
+  static constexpr std::size_t size = sizeof(type);
+  static constexpr std::size_t alignment = alignof(type);
+  // Frames are never encoded with horus::encode: the topic copies them whole.
+  static constexpr std::array<PaddingRange, 0> padding{};
+};
 
 }  // namespace horus::detail
 
 template <horus::Message Req>
-struct horus::TypeInfo<horus::detail::ServiceRequestFrame<Req>> {
-  using type = horus::detail::ServiceRequestFrame<Req>;
-  static constexpr std::string_view name =
-      horus::detail::JoinedText<horus::detail::kRequestFrameName, horus::TypeInfo<Req>::name,
-                                horus::detail::kNameClose>::value;
-  static constexpr std::string_view package = "horus";
-  static constexpr std::string_view schema =
-      horus::detail::JoinedText<horus::detail::kSchemaOpen, name,
-                                horus::detail::kRequestFrameFields, horus::TypeInfo<Req>::name,
-                                horus::detail::kSchemaClose, horus::TypeInfo<Req>::schema>::value;
-  static constexpr std::uint64_t fingerprint = horus::detail::fnv1a(schema);
-  static constexpr bool is_pod = horus::TypeInfo<Req>::is_pod;
-  static constexpr std::size_t size = sizeof(type);
-  static constexpr std::size_t alignment = alignof(type);
+struct horus::TypeInfo<horus::detail::ServiceRequestFrame<Req>>
+    : horus::detail::FrameTypeInfo<horus::detail::ServiceRequestFrame<Req>, Req,
+                                   horus::detail::kRequestFrameName,
+                                   horus::detail::kRequestFrameFields> {
   static constexpr std::size_t field_count = 4;
-  // Frames are never encoded with horus::encode: the topic copies them whole.
-  static constexpr std::array<horus::PaddingRange, 0> padding{};
 
   template <class Msg, class Fn>
   static constexpr void visit(Msg& msg, Fn&& fn) {
@@ -208,25 +217,12 @@ struct horus::TypeInfo<horus::detail::ServiceRequestFrame<Req>> {
 };
 
 template <horus::Message Res>
-struct horus::TypeInfo<horus::detail::ServiceResponseFrame<Res>> {
-  using type = horus::detail::ServiceResponseFrame<Res>;
-  static constexpr std::string_view name =
-      horus::detail::JoinedText<horus::detail::kResponseFrameName, horus::TypeInfo<Res>::name,
-                                horus::detail::kNameClose>::value;
-  static constexpr std::string_view package = "horus";
-  static constexpr std::string_view schema = horus::detail::JoinedText < horus::detail::kSchemaOpen,
-                                    name,
-                                    horus::TypeInfo<Res>::is_pod
-                                        ? horus::detail::kResponseFrameFieldsPod
-                                        : horus::detail::kResponseFrameFieldsSerialized,
-                                    horus::TypeInfo<Res>::name, horus::detail::kSchemaClose,
-                                    horus::TypeInfo<Res>::schema > ::value;
-  static constexpr std::uint64_t fingerprint = horus::detail::fnv1a(schema);
-  static constexpr bool is_pod = horus::TypeInfo<Res>::is_pod;
-  static constexpr std::size_t size = sizeof(type);
-  static constexpr std::size_t alignment = alignof(type);
+struct horus::TypeInfo<horus::detail::ServiceResponseFrame<Res>>
+    : horus::detail::FrameTypeInfo<
+          horus::detail::ServiceResponseFrame<Res>, Res, horus::detail::kResponseFrameName,
+          horus::TypeInfo<Res>::is_pod ? horus::detail::kResponseFrameFieldsPod
+                                       : horus::detail::kResponseFrameFieldsSerialized> {
   static constexpr std::size_t field_count = 5;
-  static constexpr std::array<horus::PaddingRange, 0> padding{};
 
   template <class Msg, class Fn>
   static constexpr void visit(Msg& msg, Fn&& fn) {
