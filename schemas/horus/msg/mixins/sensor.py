@@ -4,6 +4,9 @@ f32 fields are computed on in float32 (numpy) so that results equal the C++ ones
 """
 import math
 
+# horus-gen copies each #[py_mixin] file into the package as _mixin_<file name>.py, so the geometry
+# helpers sit beside this module (the standard library is always generated as one package).
+from ._mixin_geometry import quaternion_from_euler
 
 
 def _np():
@@ -19,16 +22,6 @@ def _f32(value):
     return _np().float32(value)
 
 
-def quaternion_from_euler(roll: float, pitch: float, yaw: float) -> tuple:
-    """(x, y, z, w) of R = Rz(yaw) * Ry(pitch) * Rx(roll), as in geometry.py (each mixin module
-    stands alone: the generator copies them one by one)."""
-    cr, sr = math.cos(roll / 2.0), math.sin(roll / 2.0)
-    cp, sp = math.cos(pitch / 2.0), math.sin(pitch / 2.0)
-    cy, sy = math.cos(yaw / 2.0), math.sin(yaw / 2.0)
-    return (sr * cp * cy - cr * sp * sy,
-            cr * sp * cy + sr * cp * sy,
-            cr * cp * sy - sr * sp * cy,
-            cr * cp * cy + sr * sp * sy)
 
 
 def _check_name(owner: str, what: str, text: str, capacity: int = 32) -> None:
