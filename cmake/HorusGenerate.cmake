@@ -6,11 +6,16 @@
 #                  [INCLUDE_DIRS dir...]           # extra import roots (-I)
 #                  [LANGUAGES cpp python]          # default: cpp
 #                  [DEPENDS other_msgs...]         # targets made by horus_generate()
-#                  [INSTALL | NO_INSTALL])
+#                  [INSTALL | NO_INSTALL]
+#                  [EXPORT export_set])            # install(TARGETS ... EXPORT export_set)
 #
-# Makes the INTERFACE library `my_msgs` (linking horus::headers and the DEPENDS targets) whose
-# include directory is the generated C++ folder:
+# With `cpp` in LANGUAGES, makes the static library `my_msgs` (position-independent; linking
+# horus::headers and the DEPENDS targets) whose include directory is the generated C++ folder:
 #   target_link_libraries(app PRIVATE my_msgs)      then  #include <my_robot/msg/motor.hpp>
+# The headers declare; the library defines what the headers leave out to stay quick to include
+# (log_summary(), the layout checks), so a program that uses the types links the target. Helpers
+# too big to be inline: declare them in the #[cpp_mixin] fragment and add the .cpp that defines
+# them with target_sources(my_msgs PRIVATE ...). Python only: an INTERFACE library.
 # With `python` in LANGUAGES the Python package folder (put it on sys.path) is the target property
 # HORUS_PYTHON_DIR and the variable <TARGET>_PYTHON_DIR. HORUS_SCHEMA_DIRS holds the folders that
 # horus-gen searches for imports and qualified names (-I), here and in every target that DEPENDS
@@ -19,12 +24,17 @@
 # of the DEPENDS targets.
 #
 # Installation (default INSTALL; set HORUS_GENERATE_INSTALL to OFF to change the default): the C++
-# headers go to <prefix>/${CMAKE_INSTALL_INCLUDEDIR}, the Python packages to
+# headers go to <prefix>/${CMAKE_INSTALL_INCLUDEDIR}, the library to
+# <prefix>/${CMAKE_INSTALL_LIBDIR}/lib<TARGET>.a, the Python packages to
 # <prefix>/${HORUS_PYTHON_INSTALL_DIR} (lib/python3.X/dist-packages: on the path of Debian's
-# /usr/bin/python3 for the default prefix /usr/local).
+# /usr/bin/python3 for the default prefix /usr/local). `EXPORT set` adds the target to the export
+# set `set`, so that the project's own install(EXPORT set ...) makes it an imported target for
+# its users (the DEPENDS targets must be exported too); without it, consumers of the installation
+# link lib<TARGET>.a and horus::headers themselves and add the include folder.
 #
 # Inputs: HORUS_GEN_EXECUTABLE (the horus-gen script; set by find_package(horus) or by the horus
-# build itself) and HORUS_PYTHON (the interpreter that runs it, default /usr/bin/python3).
+# build itself), HORUS_PYTHON (the interpreter that runs it, default /usr/bin/python3) and, when
+# set, HORUS_WARNINGS (compile options for the generated sources; horus's own build sets it).
 
 include_guard(GLOBAL)
 if(CMAKE_VERSION VERSION_LESS 3.20)
@@ -82,7 +92,7 @@ function(_horus_check_python)
 endfunction()
 
 function(horus_generate)
-  cmake_parse_arguments(PARSE_ARGV 0 ARG "INSTALL;NO_INSTALL" "TARGET;PACKAGE"
+  cmake_parse_arguments(PARSE_ARGV 0 ARG "INSTALL;NO_INSTALL" "TARGET;PACKAGE;EXPORT"
                         "FILES;INCLUDE_DIRS;LANGUAGES;DEPENDS")
   set(where "horus_generate(${ARG_TARGET})")
   if(ARG_UNPARSED_ARGUMENTS)
@@ -99,6 +109,10 @@ function(horus_generate)
   endif()
   if(ARG_INSTALL AND ARG_NO_INSTALL)
     message(FATAL_ERROR "${where}: INSTALL and NO_INSTALL exclude each other")
+  endif()
+  if(ARG_EXPORT AND ARG_NO_INSTALL)
+    message(FATAL_ERROR "${where}: EXPORT names an export set of the installation; "
+                        "it cannot go with NO_INSTALL")
   endif()
   if(NOT ARG_LANGUAGES)
     set(ARG_LANGUAGES cpp)
@@ -213,15 +227,29 @@ function(horus_generate)
   # needs the files.
   add_custom_target(${ARG_TARGET}_generate ALL DEPENDS "${stamp}")
 
-  add_library(${ARG_TARGET} INTERFACE)
-  add_dependencies(${ARG_TARGET} ${ARG_TARGET}_generate)
-  target_link_libraries(${ARG_TARGET} INTERFACE horus::headers ${ARG_DEPENDS})
-  set_target_properties(${ARG_TARGET} PROPERTIES HORUS_SCHEMA_DIRS "${search_dirs}")
+  # C++: a static library of the generated sources (one per schema file: log_summary() and the
+  # layout checks, compiled once here instead of in every file that includes the headers),
+  # position-independent so that it can go into shared libraries and Python extensions too.
+  # Python only: an INTERFACE target that carries the properties below.
   if("cpp" IN_LIST ARG_LANGUAGES)
-    target_include_directories(${ARG_TARGET} INTERFACE
+    set(sources ${outputs})
+    list(FILTER sources INCLUDE REGEX "\\.cpp$")
+    add_library(${ARG_TARGET} STATIC ${sources})
+    set_target_properties(${ARG_TARGET} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+    # Inside horus's own build, the generated code meets the project's warning flags (CI: -Werror).
+    if(HORUS_WARNINGS)
+      target_compile_options(${ARG_TARGET} PRIVATE ${HORUS_WARNINGS})
+    endif()
+    target_link_libraries(${ARG_TARGET} PUBLIC horus::headers ${ARG_DEPENDS})
+    target_include_directories(${ARG_TARGET} PUBLIC
       "$<BUILD_INTERFACE:${out}/cpp>"
       "$<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>")
+  else()
+    add_library(${ARG_TARGET} INTERFACE)
+    target_link_libraries(${ARG_TARGET} INTERFACE horus::headers ${ARG_DEPENDS})
   endif()
+  add_dependencies(${ARG_TARGET} ${ARG_TARGET}_generate)
+  set_target_properties(${ARG_TARGET} PROPERTIES HORUS_SCHEMA_DIRS "${search_dirs}")
   if("python" IN_LIST ARG_LANGUAGES)
     set_target_properties(${ARG_TARGET} PROPERTIES HORUS_PYTHON_DIR "${out}/python")
     set(${ARG_TARGET}_PYTHON_DIR "${out}/python" PARENT_SCOPE)
@@ -234,12 +262,21 @@ function(horus_generate)
     set(install OFF)
   endif()
   if(install)
+    # The library (an archive, or for Python only the target itself when it is exported).
+    if(ARG_EXPORT)
+      install(TARGETS ${ARG_TARGET} EXPORT ${ARG_EXPORT}
+              ARCHIVE DESTINATION "${CMAKE_INSTALL_LIBDIR}")
+    elseif("cpp" IN_LIST ARG_LANGUAGES)
+      install(TARGETS ${ARG_TARGET} ARCHIVE DESTINATION "${CMAKE_INSTALL_LIBDIR}")
+    endif()
     # File by file from the listed outputs, so a stale file left in the build folder by a removed
-    # type is never installed.
+    # type is never installed; the generated sources are compiled into the archive, not installed.
     foreach(output IN LISTS outputs)
       file(RELATIVE_PATH relative "${out}" "${output}")
       get_filename_component(subdir "${relative}" DIRECTORY)
-      if(subdir MATCHES "^cpp(/|$)")
+      if(output MATCHES "\\.cpp$")
+        continue()
+      elseif(subdir MATCHES "^cpp(/|$)")
         string(REGEX REPLACE "^cpp/?" "" subdir "${subdir}")
         install(FILES "${output}" DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}/${subdir}")
       elseif(subdir MATCHES "^python(/|$)")

@@ -2,7 +2,8 @@
 #   P/include/horus/...                 runtime headers
 #   P/lib/libhorus_runtime.a            horus::runtime
 #   P/lib/cmake/horus/                  horusConfig.cmake, targets, HorusGenerate.cmake
-#   P/include/horus/msg/..., P/lib/python3.X/dist-packages/horus/msg   the standard messages
+#   P/include/horus/msg/..., P/lib/libhorus_msgs.a, P/lib/python3.X/dist-packages/horus/msg
+#                                       the standard messages (horus::msgs)
 #   P/share/horus/{generator,templates,schemas}   the generator, its templates, the schemas
 #   P/bin/horus-gen                     the generator's command
 # so that user projects do find_package(horus CONFIG) and call horus_generate().
@@ -18,12 +19,12 @@ set(HORUS_INSTALL_SCHEMADIR "${CMAKE_INSTALL_DATADIR}/horus/schemas")
 set_target_properties(horus_headers PROPERTIES EXPORT_NAME headers)
 set_target_properties(horus_runtime PROPERTIES EXPORT_NAME runtime)
 set(horus_exported horus_headers horus_runtime)
-# The standard message library (schemas/), installed by its horus_generate(): exported as
-# horus::msgs, which users link and name in DEPENDS to use its types in their own schemas.
+# The standard message library (schemas/), installed by its horus_generate() into the export set
+# horusTargets: exported as horus::msgs, which users link and name in DEPENDS to use its types in
+# their own schemas.
 set(HORUS_MSGS_PYTHON OFF)
 if(TARGET horus_msgs)
   set_target_properties(horus_msgs PROPERTIES EXPORT_NAME msgs)
-  list(APPEND horus_exported horus_msgs)
   get_target_property(horus_msgs_python horus_msgs HORUS_PYTHON_DIR)
   if(horus_msgs_python)
     set(HORUS_MSGS_PYTHON ON)

@@ -2,6 +2,7 @@
 # One command for the topic benchmark: builds it in Release and runs it. The two processes pin
 # themselves to CPUs 0 and 1; run it on an otherwise idle machine. Output is Markdown.
 #   bench/topic/run.sh                 build in build-bench/ and print the tables
+#   bench/topic/run.sh throughput      only some tables (latency, wakeup, throughput)
 #   HORUS_BENCH_BUILD=dir bench/topic/run.sh   use another build folder
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
@@ -12,4 +13,4 @@ cmake --build "$build" --target topic_bench >/dev/null
 if [ "$(nproc)" -lt 2 ]; then
   echo "warning: fewer than 2 CPUs; both processes share one core" >&2
 fi
-exec "$build/bench/topic/topic_bench"
+exec "$build/bench/topic/topic_bench" "$@"

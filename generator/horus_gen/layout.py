@@ -48,7 +48,7 @@ def struct_layout(members: list[tuple[int, int, tuple[Padding, ...]]]
         offset = aligned + size
         alignment = max(alignment, align)
     size = max(1, (offset + alignment - 1) // alignment * alignment)
-    if size > offset and members:
+    if size > offset:  # an empty struct's one byte too: no field writes it
         holes.append(Padding(offset, size - offset))
     return offsets, size, alignment, _merge(holes)
 

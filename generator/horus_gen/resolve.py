@@ -84,7 +84,7 @@ class Resolver:
         self.resolve_all()
         self.model.generated = [q for q in dict.fromkeys(generated)
                                 if q in self.model.types or q in self.model.services]
-        self.check_file_names()
+        self.check_file_names(roots)
         return self.model
 
     def load(self, path: str, import_span: Span | None = None, root: bool = False) -> Unit | None:
@@ -195,7 +195,15 @@ class Resolver:
                             (Note(previous_span, "first declared here"),))
         return False
 
-    def check_file_names(self) -> None:
+    def check_file_names(self, roots: list[Unit]) -> None:
+        sources: dict[tuple[str, str], Unit] = {}
+        for unit in (u for u in roots if u.syntax.items):
+            key = (unit.package, os.path.basename(unit.path))
+            first = sources.setdefault(key, unit)
+            if first is not unit:
+                self.reporter.error(Span(unit.syntax.source, 1, 1),
+                                    f"schema files '{first.path}' and '{unit.path}' of package '{unit.package}' "
+                                    f"would both be compiled into '{key[1]}.cpp'", "rename one of them")
         seen: dict[tuple[str, str], str] = {}
         for qualified in self.model.generated:
             package, name = qualified.rsplit(".", 1)

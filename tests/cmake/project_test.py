@@ -77,7 +77,8 @@ def installed(args: argparse.Namespace) -> None:
     prefix = args.work / "prefix"
     install_horus(args.build, prefix)
     for path in ["lib/cmake/horus/horusConfig.cmake", "lib/cmake/horus/HorusGenerate.cmake",
-                 "include/horus/message.hpp", "bin/horus-gen",
+                 "include/horus/message.hpp", "include/horus/msg.hpp", "lib/libhorus_msgs.a",
+                 "bin/horus-gen",
                  "share/horus/generator/horus-gen", "share/horus/templates/cpp"]:
         expect((prefix / path).exists(), f"the installation to hold {path}")
 
@@ -100,6 +101,10 @@ def installed(args: argparse.Namespace) -> None:
     run(["cmake", "--install", build_dir])
     expect((app_prefix / "include/demo_robot/msg/motor_feedback.hpp").is_file(),
            "the generated headers to install under include/")
+    expect((app_prefix / "lib/libdemo_msgs.a").is_file(),
+           "the library of the generated code to install under lib/")
+    sources = sorted(str(p.relative_to(app_prefix)) for p in app_prefix.rglob("*.cpp"))
+    expect(not sources, "no generated source to be installed", "\n".join(sources))
     if re.search(r"LANGUAGES[^)]*python", (args.source / "CMakeLists.txt").read_text()):
         check_python(configured, app_prefix)
     else:
@@ -216,8 +221,10 @@ def rebuild(args: argparse.Namespace) -> None:
                   recompiled=set(), rewritten=False)
 
     p.edit("msg/geometry.hmsg", "    theta: f64,\n", "    theta: f64,\n    stamp_ns: u64,\n")
+    # The library's sources are the schema files' (geometry.hmsg.cpp, motor.hmsg.cpp): motor's
+    # types hold a Pose2D, so both are recompiled with the program.
     p.rebuild("field added to the imported schema", generated=everything,
-              recompiled={"main.cpp"}, rewritten=True)
+              recompiled={"main.cpp", "geometry.hmsg.cpp", "motor.hmsg.cpp"}, rewritten=True)
     run_example(p.build_dir, "stamp_ns")
 
     print("--- schema error")
@@ -234,7 +241,8 @@ def rebuild(args: argparse.Namespace) -> None:
 
     p.edit("msg/motor.hmsg", "/// A motor's health",
            "MotorLimits {\n    max_current: f32,\n}\n\n/// A motor's health")
-    p.rebuild("message added", generated=everything, recompiled={"main.cpp"}, rewritten=True)
+    p.rebuild("message added", generated=everything, recompiled={"main.cpp", "motor.hmsg.cpp"},
+              rewritten=True)
     expect((p.generated / TARGET / "cpp/demo_robot/msg/motor_limits.hpp").is_file(),
            "a header for the added message")
 
@@ -257,11 +265,12 @@ def depends(args: argparse.Namespace) -> None:
 
     p.edit("schemas/robot_app/route.hmsg", "    speed: f32,\n", "    speed: f32,\n    lane: u8,\n")
     p.rebuild("field added to the depending schema", generated={"app_msgs"},
-              recompiled={"route_main.cpp"}, rewritten=True)
+              recompiled={"route_main.cpp", "route.hmsg.cpp"}, rewritten=True)
 
     p.edit("schemas/robot_base/point.hmsg", "    y: f64,\n", "    y: f64,\n    z: f64,\n")
     p.rebuild("field added to the depended-on schema", generated={"base_msgs", "app_msgs"},
-              recompiled={"base_main.cpp", "route_main.cpp"}, rewritten=True)
+              recompiled={"base_main.cpp", "route_main.cpp", "point.hmsg.cpp", "route.hmsg.cpp"},
+              rewritten=True)
     out = run([p.build_dir / "route_main"]).stdout
     expect("z: 0" in out, "route_main to print the new field of robot_base::Point", out)
 

@@ -33,9 +33,10 @@ def test_layout_follows_cpp_rules(tmp_path):
     assert m.padding == (Padding(1, 7), Padding(21, 3))
 
 
-def test_empty_message_has_size_one_like_cpp(tmp_path):
+def test_empty_message_has_size_one_like_cpp_and_that_byte_is_padding(tmp_path):
+    # No field writes the byte, so C++ holds whatever was in memory: encode must zero it.
     m = ok(tmp_path, "package p; E {}").message("p.E")
-    assert (m.size, m.alignment, m.padding) == (1, 1, ())
+    assert (m.size, m.alignment, m.padding) == (1, 1, (Padding(0, 1),))
 
 
 def test_padding_inside_nested_arrays_is_repeated(tmp_path):

@@ -95,6 +95,33 @@ TEST(ShmSegment, HugeSchemaSizeIsAnError) {
   EXPECT_NE(open_error("schema").find("corrupt"), std::string::npos);
 }
 
+TEST(ShmSegment, ClaimsOffsetOutsideTheFileIsAnError) {
+  PrivateNamespace ns;
+  create("claims");
+  overwrite(segment_path(ns, "claims"), kControlSize + offsetof(LayoutHeader, claims_offset),
+            ~std::uint64_t{0} - 63);
+  EXPECT_NE(open_error("claims").find("invalid schema or slot offsets"), std::string::npos);
+}
+
+// Publishers' claim words sit apart from every line a subscriber reads (and from its
+// neighbour, which the adjacent-line prefetcher pulls in); a payload that does not fit beside
+// the sequence word starts on the next line, so writing it never disturbs a polling reader.
+TEST(ShmSegment, ClaimWordsLiveApartFromTheSlots) {
+  PrivateNamespace ns;
+  create("layout");
+  const int fd = ::open(segment_path(ns, "layout").c_str(), O_RDONLY);
+  ASSERT_GE(fd, 0);
+  LayoutHeader header{};
+  ASSERT_EQ(::pread(fd, &header, sizeof header, kControlSize), static_cast<ssize_t>(sizeof header));
+  ::close(fd);
+  const std::uint64_t claims_end =
+      header.claims_offset + header.capacity * sizeof(horus::detail::SlotClaim);
+  EXPECT_GE(header.slots_offset, claims_end + 2 * horus::detail::kCacheLine);
+  ASSERT_EQ(sizeof(Sample), 64u);
+  EXPECT_EQ(header.payload_offset, horus::detail::kCacheLine);
+  EXPECT_EQ(header.slot_stride, 2 * horus::detail::kCacheLine);
+}
+
 TEST(ShmSegment, CleanRemovesOnlySegmentsWithoutLiveUsers) {
   PrivateNamespace ns;
   create("abandoned");

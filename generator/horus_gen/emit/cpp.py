@@ -23,6 +23,12 @@ def header_path(qualified: str) -> str:
     return "/".join(package.split(".") + [snake_case(name) + ".hpp"])
 
 
+def source_path(package: str, schema: str) -> str:
+    """The .cpp holding the out-of-line code of one schema file's types, beside their headers:
+    geometry.hmsg -> geometry.hmsg.cpp (a .hmsg and a .hsrv may share a name)."""
+    return "/".join(package.split(".") + [os.path.basename(schema) + ".cpp"])
+
+
 def type_name(t: Type, package: str) -> str:
     if isinstance(t, Primitive):
         return PRIMITIVE_TYPES[t.name]
@@ -146,6 +152,20 @@ def std_headers(message: Message) -> list[str]:
     return sorted(needed | set(message.cpp_includes))
 
 
+# Standard headers included as a lighter one where the library has it, each with the comment that
+# says why in the generated header. GCC 12's <chrono> also parses calendars, time zones and
+# formatting: 0.1 s of every file that includes a message header asking for it, when helpers take
+# durations. Other standard libraries get the full header.
+LIGHTER_HEADERS = {"<chrono>": ("<bits/chrono.h>", (
+    "libstdc++'s durations, time points, clocks and chrono literals, without the calendars, time",
+    "zones and formatting that make the full <chrono> cost 0.1 s in every file including this one."))}
+
+
+def lighter_header(header: str) -> tuple[str, tuple[str, ...]] | None:
+    """(lighter header, comment lines saying why) to include instead of `header` when it exists."""
+    return LIGHTER_HEADERS.get(header)
+
+
 def type_headers(message: Message) -> list[str]:
     return [header_path(q) for q in message.uses]
 
@@ -158,6 +178,7 @@ FILTERS = {
     "namespace": namespace, "type_name": type_name, "initializer": initializer,
     "value_literal": value_literal, "padding_initializer": padding_initializer, "constant_type": constant_type, "constant_literal": constant_literal, "string_literal": string_literal,
     "header_path": header_path, "std_headers": std_headers, "type_headers": type_headers,
+    "lighter_header": lighter_header,
     "doc_lines": doc_lines,
     "hex": lambda n: f"0x{n:016x}ULL",
 }
@@ -167,6 +188,7 @@ def emit(model: Model) -> dict[str, str]:
     env = environment("cpp", FILTERS)
     files: dict[str, str] = {}
     by_package: dict[str, list[str]] = {}
+    by_schema: dict[str, list[Message | Enum | Service]] = {}
     for item in model.generated_items():
         path = header_path(item.qualified)
         if isinstance(item, Service):
@@ -181,6 +203,12 @@ def emit(model: Model) -> dict[str, str]:
         files[os.path.join("cpp", path)] = env.get_template(template).render(
             banner=banner("//", [item.source]), **context)
         by_package.setdefault(item.package, []).append(path)
+        by_schema.setdefault(item.source, []).append(item)
+    for schema, items in by_schema.items():
+        files[os.path.join("cpp", source_path(items[0].package, schema))] = env.get_template(
+            "source.cpp.j2").render(banner=banner("//", [schema]), package=items[0].package,
+                                    headers=[header_path(i.qualified) for i in items],
+                                    messages=[i for i in items if isinstance(i, Message)])
     for package, headers in by_package.items():
         sources = [i.source for i in model.generated_items() if i.package == package]
         files[os.path.join("cpp", *package.split(".")) + ".hpp"] = env.get_template("package.hpp.j2").render(

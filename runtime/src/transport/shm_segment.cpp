@@ -260,17 +260,21 @@ LayoutHeader make_layout(const TypeDescriptor& type, const SegmentOptions& optio
   header.type_alignment = alignment;
   header.capacity = std::bit_ceil(static_cast<std::uint64_t>(options.capacity));
   header.payload_offset = round_up(sizeof(SlotHeader), alignment);
-  if (header.payload_offset + payload > 2 * kCacheLine) {
+  if (header.payload_offset + payload > kCacheLine) {
     // A payload that does not fit beside `seq` starts on its own cache line: the writer then
     // fills it without fighting a subscriber that is polling `seq`.
-    header.payload_offset = round_up(2 * kCacheLine, alignment);
+    header.payload_offset = round_up(kCacheLine, alignment);
   }
   header.payload_capacity = payload;
   header.slot_stride =
       round_up(header.payload_offset + payload, std::max<std::uint64_t>(kCacheLine, alignment));
   header.schema_offset = kControlSize + sizeof(LayoutHeader);
   header.schema_size = type.schema.size();
-  header.slots_offset = round_up(header.schema_offset + header.schema_size, kControlSize);
+  header.claims_offset = round_up(header.schema_offset + header.schema_size, kCacheLine);
+  // Two free lines before the slots keep the last claims out of reach of the adjacent-line
+  // prefetch of the first slot.
+  header.slots_offset = round_up(
+      header.claims_offset + header.capacity * sizeof(SlotClaim) + 2 * kCacheLine, kControlSize);
   header.total_size = header.slots_offset + header.capacity * header.slot_stride;
   return header;
 }
@@ -376,8 +380,10 @@ std::string validate_layout(const LayoutHeader& h, std::uint64_t file_size) {
            std::to_string(h.payload_offset) + ")";
   }
   if (h.schema_offset != kControlSize + sizeof(LayoutHeader) || h.schema_size > kMaxSchemaSize ||
-      h.slots_offset < h.schema_offset + h.schema_size || h.slots_offset % kCacheLine != 0 ||
-      h.slots_offset % h.type_alignment != 0) {
+      h.claims_offset < h.schema_offset + h.schema_size || h.claims_offset % kCacheLine != 0 ||
+      h.slots_offset > h.total_size || h.claims_offset > h.slots_offset ||
+      h.slots_offset - h.claims_offset < h.capacity * sizeof(SlotClaim) ||
+      h.slots_offset % kCacheLine != 0 || h.slots_offset % h.type_alignment != 0) {
     return "invalid schema or slot offsets";
   }
   if (h.total_size != h.slots_offset + h.capacity * h.slot_stride) {
@@ -456,6 +462,7 @@ ShmSegment ShmSegment::open_topic(std::string_view topic, const TypeDescriptor& 
   segment.mapped_size_ = whole.size;
   auto* bytes = static_cast<std::byte*>(segment.base_);
   segment.ring_.control = &segment.control().ring;
+  segment.ring_.claims = reinterpret_cast<SlotClaim*>(bytes + header.claims_offset);
   segment.ring_.slots = bytes + header.slots_offset;
   segment.ring_.mask = header.capacity - 1;
   segment.ring_.stride = header.slot_stride;

@@ -123,12 +123,15 @@ void inspect(const std::string& path, TopicInfo& info) {
       const std::uint64_t depth = std::min(info.message_count, header.capacity);
       for (std::uint64_t back = 1; back <= depth; ++back) {
         const std::uint64_t ticket = info.message_count - back;
+        const std::uint64_t index = ticket & (header.capacity - 1);
         const auto& slot = *reinterpret_cast<const detail::SlotHeader*>(
-            bytes + header.slots_offset + (ticket & (header.capacity - 1)) * header.slot_stride);
+            bytes + header.slots_offset + index * header.slot_stride);
+        const auto& claim = *reinterpret_cast<const detail::SlotClaim*>(
+            bytes + header.claims_offset + index * sizeof(detail::SlotClaim));
         if (slot.seq.load(std::memory_order_acquire) == 2 * ticket + 2) {
           info.last_send = std::chrono::system_clock::time_point(
               std::chrono::duration_cast<std::chrono::system_clock::duration>(
-                  std::chrono::nanoseconds(slot.send_time_ns.load(std::memory_order_relaxed))));
+                  std::chrono::nanoseconds(claim.send_time_ns.load(std::memory_order_relaxed))));
           break;
         }
       }

@@ -32,24 +32,34 @@ inline constexpr std::uint64_t kIndexMask = (std::uint64_t{1} << 56) - 1;
 inline constexpr std::uint64_t kSleeper = std::uint64_t{1} << 56;
 inline constexpr std::uint64_t kMaxSleepers = 255;
 
+/// What subscribers read of a slot; the payload follows (on the next cache line when it does
+/// not fit beside this header, so a publisher filling it does not fight a subscriber polling
+/// `seq`).
 struct SlotHeader {
-  // First cache line, touched by publishers only: exclusion among them. Readers poll the second
-  // line, so a publisher's atomic read-modify-write never waits for a line a reader holds.
-  /// 2t+1 while the writer of ticket t holds the slot, 2t+2 once it let go.
-  std::atomic<std::uint64_t> claim;
-  /// Pid of that writer, so a successor can tell a dead writer from a slow one.
-  std::atomic<std::uint32_t> owner;
-  std::byte reserved0[52];
-  // Second cache line, read by subscribers (the payload follows).
   /// The seqlock: 2t+1 while ticket t is written, 2t+2 once it is committed.
   std::atomic<std::uint64_t> seq;
   /// Payload bytes, or kReleasedSlot for a ticket that carries no message.
   std::atomic<std::uint32_t> size;
-  std::uint32_t reserved1;
+  std::uint32_t reserved;
+};
+static_assert(sizeof(SlotHeader) == 16 && offsetof(SlotHeader, seq) == 0);
+
+/// Publishers' side of a slot: exclusion among them. These live in an array of their own, away
+/// from the slots, so that a subscriber never holds their cache lines: not by reading them, and
+/// not by the hardware prefetcher pulling in the neighbour of a line it reads. A publisher's
+/// compare-and-swap on a line that a subscriber holds waits for a cross-core round trip: with
+/// the claim word on its own line inside each slot, topic throughput was 1.5x lower.
+struct SlotClaim {
+  /// 2t+1 while the writer of ticket t holds the slot, 2t+2 once it let go.
+  std::atomic<std::uint64_t> claim;
+  /// Pid of that writer, so a successor can tell a dead writer from a slow one.
+  std::atomic<std::uint32_t> owner;
+  std::uint32_t reserved;
   /// CLOCK_REALTIME_COARSE nanoseconds at commit, for introspection.
   std::atomic<std::uint64_t> send_time_ns;
+  std::uint64_t reserved1;
 };
-static_assert(sizeof(SlotHeader) == 88 && offsetof(SlotHeader, seq) == 64);
+static_assert(sizeof(SlotClaim) == 32);
 static_assert(std::atomic<std::uint64_t>::is_always_lock_free);
 
 /// Size of a slot whose writer gave it up (an unpublished loan, an oversized message).
@@ -68,6 +78,7 @@ bool process_alive(std::uint32_t pid) noexcept;
 /// Pointers and geometry of a mapped ring, copied out of the validated header.
 struct RingView {
   RingControl* control = nullptr;
+  SlotClaim* claims = nullptr;
   std::byte* slots = nullptr;
   std::uint64_t mask = 0;
   std::uint64_t stride = 0;
@@ -78,6 +89,7 @@ struct RingView {
   SlotHeader& slot(std::uint64_t ticket) const noexcept {
     return *reinterpret_cast<SlotHeader*>(slots + (ticket & mask) * stride);
   }
+  SlotClaim& slot_claim(std::uint64_t ticket) const noexcept { return claims[ticket & mask]; }
   std::byte* payload(SlotHeader& slot) const noexcept {
     return reinterpret_cast<std::byte*>(&slot) + payload_offset;
   }
@@ -119,19 +131,20 @@ struct Claim {
 inline Claim ring_claim(const RingView& ring, std::uint32_t pid) noexcept {
   const std::uint64_t word = ring.control->write_index.fetch_add(1, std::memory_order_seq_cst);
   Claim claim{nullptr, word & kIndexMask, (word & ~kIndexMask) != 0};
-  SlotHeader& slot = ring.slot(claim.ticket);
+  SlotClaim& entry = ring.slot_claim(claim.ticket);
   const std::uint64_t writing = 2 * claim.ticket + 1;
-  std::uint64_t current = slot.claim.load(std::memory_order_relaxed);
+  std::uint64_t current = entry.claim.load(std::memory_order_relaxed);
   for (;;) {
     if (current >= writing) {
       return claim;
     }
-    if ((current & 1) != 0 && process_alive(slot.owner.load(std::memory_order_relaxed))) {
+    if ((current & 1) != 0 && process_alive(entry.owner.load(std::memory_order_relaxed))) {
       return claim;
     }
-    slot.owner.store(pid, std::memory_order_relaxed);
-    if (slot.claim.compare_exchange_weak(current, writing, std::memory_order_acquire,
-                                         std::memory_order_relaxed)) {
+    entry.owner.store(pid, std::memory_order_relaxed);
+    if (entry.claim.compare_exchange_weak(current, writing, std::memory_order_acquire,
+                                          std::memory_order_relaxed)) {
+      SlotHeader& slot = ring.slot(claim.ticket);
       slot.seq.store(writing, std::memory_order_relaxed);
       // Orders the odd sequence before the payload stores (the seqlock writer's fence).
       seqlock_fence(std::memory_order_release);
@@ -151,13 +164,14 @@ inline void ring_wake(const RingView& ring) noexcept {
 /// no syscall unless the claim saw a sleeper.
 inline void ring_commit(const RingView& ring, const Claim& claim, std::uint32_t size) noexcept {
   SlotHeader& slot = *claim.slot;
+  SlotClaim& entry = ring.slot_claim(claim.ticket);
   slot.size.store(size, std::memory_order_relaxed);
   // The coarse clock is a plain read of the kernel's tick (a few ns): introspection wants
   // "when did this topic last see traffic", not a message timestamp.
-  slot.send_time_ns.store(static_cast<std::uint64_t>(clock_ns(CLOCK_REALTIME_COARSE)),
-                          std::memory_order_relaxed);
+  entry.send_time_ns.store(static_cast<std::uint64_t>(clock_ns(CLOCK_REALTIME_COARSE)),
+                           std::memory_order_relaxed);
   slot.seq.store(2 * claim.ticket + 2, std::memory_order_release);
-  slot.claim.store(2 * claim.ticket + 2, std::memory_order_release);
+  entry.claim.store(2 * claim.ticket + 2, std::memory_order_release);
   ring.control->commits.store(claim.ticket + 1, std::memory_order_release);
   if (claim.wake) {
     ring_wake(ring);
@@ -197,8 +211,7 @@ inline void ring_resync(const RingView& ring, ReadCursor& cursor) noexcept {
 
 /// True when the writer of the reader's next ticket is gone, so the ticket must be skipped.
 /// Only a stall that outlasts kDeadCheckNs costs a syscall (the liveness check).
-inline bool ring_writer_gone(const RingView& ring, ReadCursor& cursor,
-                             const SlotHeader& slot) noexcept {
+inline bool ring_writer_gone(const RingView& ring, ReadCursor& cursor) noexcept {
   if (cursor.next >= ring_written(ring)) {
     cursor.stall_since_ns = 0;
     return false;
@@ -209,8 +222,10 @@ inline bool ring_writer_gone(const RingView& ring, ReadCursor& cursor,
     return false;
   }
   const std::int64_t stalled = now - cursor.stall_since_ns;
-  if (stalled > kDeadCheckNs && slot.claim.load(std::memory_order_relaxed) == 2 * cursor.next + 1 &&
-      !process_alive(slot.owner.load(std::memory_order_relaxed))) {
+  const SlotClaim& entry = ring.slot_claim(cursor.next);
+  if (stalled > kDeadCheckNs &&
+      entry.claim.load(std::memory_order_relaxed) == 2 * cursor.next + 1 &&
+      !process_alive(entry.owner.load(std::memory_order_relaxed))) {
     return true;
   }
   // Ticket taken but slot never claimed: the writer may have died between the two.
@@ -250,7 +265,7 @@ int ring_read(const RingView& ring, ReadCursor& cursor, bool check_stall, Copy&&
     if (!check_stall && ++cursor.empty_polls % kStallCheckInterval != 0) {
       return 0;
     }
-    if (!ring_writer_gone(ring, cursor, slot)) {
+    if (!ring_writer_gone(ring, cursor)) {
       return 0;
     }
     ++cursor.lost;

@@ -6,6 +6,7 @@
 //                        Exists alone while only TopicNotifiers know the topic.
 //   [4096, ...)          LayoutHeader: type identity (name, fingerprint) and geometry.
 //   [schema_offset, ..)  the schema text, so tools can decode without the type.
+//   [claims_offset, ..)  `capacity` SlotClaims: the publishers' side of each slot.
 //   [slots_offset, ..)   `capacity` slots of `slot_stride` bytes: SlotHeader, then the payload.
 //
 // Every header field is validated against the file size before anything is trusted, and the
@@ -25,7 +26,7 @@ namespace horus::detail {
 
 inline constexpr std::uint64_t kControlMagic = 0x4c54435355524f48ULL;  // "HORUSCTL"
 inline constexpr std::uint64_t kLayoutMagic = 0x504f545355524f48ULL;   // "HORUSTOP"
-inline constexpr std::uint32_t kSegmentVersion = 1;
+inline constexpr std::uint32_t kSegmentVersion = 2;
 inline constexpr std::size_t kControlSize = 4096;
 inline constexpr std::uint64_t kCacheLine = 64;
 inline constexpr std::size_t kMaxUsers = 128;
@@ -74,6 +75,7 @@ struct LayoutHeader {
   std::uint64_t payload_capacity;
   std::uint64_t schema_offset;  // from the start of the file
   std::uint64_t schema_size;
+  std::uint64_t claims_offset;
   std::uint64_t slots_offset;
   std::uint64_t total_size;
 };
