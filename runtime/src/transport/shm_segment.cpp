@@ -175,8 +175,30 @@ void read_all(int fd, void* data, std::size_t size, std::uint64_t offset, const 
 }
 
 /// Gives a new (empty) file its control page; validates an existing one.
+bool has_live_users(const ControlBlock& control, bool count_notifiers);
+
+/// A segment left by an older horus build that nobody uses any more is started afresh, so an
+/// upgrade does not strand its topics; one still in use stays an error (validate_control).
+/// Versions 1 and 2 share the control page layout, so its users table can be read.
+bool abandoned_older_version(int fd, std::uint64_t size) {
+  if (size < kControlSize) {
+    return false;
+  }
+  alignas(ControlBlock) std::byte page[sizeof(ControlBlock)];
+  if (::pread(fd, page, sizeof page, 0) != static_cast<ssize_t>(sizeof page)) {
+    return false;
+  }
+  const auto& control = *reinterpret_cast<const ControlBlock*>(page);
+  return control.magic == kControlMagic && control.version >= 1 &&
+         control.version < kSegmentVersion && !has_live_users(control, true);
+}
+
 void prepare_control(int fd, const std::string& path, unsigned mode) {
-  const std::uint64_t size = file_size(fd, path);
+  std::uint64_t size = file_size(fd, path);
+  if (abandoned_older_version(fd, size)) {
+    ::ftruncate(fd, 0);
+    size = 0;
+  }
   if (size == 0) {
     ::fchmod(fd, static_cast<mode_t>(mode));
     allocate(fd, kControlSize, path);
