@@ -175,7 +175,18 @@ void read_all(int fd, void* data, std::size_t size, std::uint64_t offset, const 
 }
 
 /// Gives a new (empty) file its control page; validates an existing one.
-bool has_live_users(const ControlBlock& control, bool count_notifiers);
+/// Whether a live process has the segment open (counting notifiers only if asked: they map the
+/// control page alone, so they do not stand in the way of re-typing).
+bool has_live_users(const ControlBlock& control, bool count_notifiers) {
+  for (const UserEntry& user : control.users) {
+    const std::uint32_t pid = user.pid.load(std::memory_order_acquire);
+    const bool notifier = (user.roles.load(std::memory_order_relaxed) & kRoleNotifier) != 0;
+    if (pid != 0 && (count_notifiers || !notifier) && process_alive(pid)) {
+      return true;
+    }
+  }
+  return false;
+}
 
 /// A segment left by an older horus build that nobody uses any more is started afresh, so an
 /// upgrade does not strand its topics; one still in use stays an error (validate_control).
@@ -214,19 +225,6 @@ void prepare_control(int fd, const std::string& path, unsigned mode) {
     throw Error("topic segment " + path + " is truncated (" + std::to_string(size) +
                 " bytes, the control page alone is " + std::to_string(kControlSize) + ")");
   }
-}
-
-/// Whether a live process has the segment open (counting notifiers only if asked: they map the
-/// control page alone, so they do not stand in the way of re-typing).
-bool has_live_users(const ControlBlock& control, bool count_notifiers) {
-  for (const UserEntry& user : control.users) {
-    const std::uint32_t pid = user.pid.load(std::memory_order_acquire);
-    const bool notifier = (user.roles.load(std::memory_order_relaxed) & kRoleNotifier) != 0;
-    if (pid != 0 && (count_notifiers || !notifier) && process_alive(pid)) {
-      return true;
-    }
-  }
-  return false;
 }
 
 int register_user(ControlBlock& control, std::uint32_t roles, const std::string& path) {
