@@ -1,9 +1,12 @@
 // Topic<T> against the raw floors, in one run, with the two processes pinned to two cores:
 //   latency     one-way (round trip / 2) p50/p99/p99.9, busy-polling try_recv, per size,
 //               against a raw shared-memory ping-pong (a sequence counter and a memcpy);
-//   wake-up     one-way through blocking recv() (futex), against a raw futex ping-pong;
-//   throughput  messages per second through a 1024-slot topic, against a raw seqlock ring
-//               carrying the same 64 bytes per message.
+//   wake-up     one-way through blocking recv() (futex), on a default and a single-publisher
+//               topic, against a raw futex ping-pong;
+//   throughput  messages per second through a 1024-slot topic (default send(); single-publisher
+//               send() and loan()), against a raw seqlock ring carrying the same messages: all
+//               writers fill in message i and hand it over, all readers check that message i
+//               arrives i-th.
 // The second process is this binary re-executed with --role.
 #include <fcntl.h>
 #include <sched.h>
@@ -44,7 +47,7 @@ constexpr std::size_t kMaxPayload = 65536;
 constexpr std::uint64_t kStop = UINT64_MAX;
 constexpr std::size_t kRingSlots = 1024;
 constexpr std::size_t kRingPayload = 64;
-constexpr std::uint64_t kThroughputMessages = 2'000'000;
+constexpr std::uint64_t kThroughputMessages = 1'000'000;
 constexpr std::uint64_t kAckEvery = 64;
 constexpr std::uint64_t kWindow = kRingSlots / 2;
 
@@ -58,6 +61,7 @@ struct alignas(64) RawSlot {
   std::atomic<std::uint64_t> seq;
   std::byte payload[kRingPayload];
 };
+static_assert(sizeof(topic_bench::Msg64) == kRingPayload);
 struct Shared {
   Mailbox ping;
   Mailbox pong;
@@ -67,6 +71,8 @@ struct Shared {
   std::atomic<std::uint64_t> stop;
   std::atomic<std::uint64_t> received;
   std::atomic<std::uint64_t> lost;
+  /// Messages that arrived out of place: must stay 0.
+  std::atomic<std::uint64_t> misordered;
   std::atomic<std::int64_t> finished_ns;
   /// The reader's position, published every kAckEvery messages: the writer's back-pressure.
   alignas(64) std::atomic<std::uint64_t> consumed;
@@ -126,10 +132,18 @@ constexpr std::size_t kLatencyCapacity = 4;
 
 // ---- Second process --------------------------------------------------------------------------
 
+/// Topic names of a ping-pong; single-publisher topics have their own ("sping.64").
+std::string ping_name(std::size_t size, bool single) {
+  return topic_name(single ? "sping" : "ping", size);
+}
+std::string pong_name(std::size_t size, bool single) {
+  return topic_name(single ? "spong" : "pong", size);
+}
+
 template <class M>
-void echo_topic(std::size_t size, bool blocking, Shared& shared) {
-  horus::Topic<M> ping(topic_name("ping", size));
-  horus::Topic<M> pong(topic_name("pong", size));
+void echo_topic(std::size_t size, bool blocking, bool single, Shared& shared) {
+  horus::Topic<M> ping(ping_name(size, single));
+  horus::Topic<M> pong(pong_name(size, single));
   shared.ready.store(1, std::memory_order_release);
   for (;;) {
     if (blocking) {
@@ -180,40 +194,57 @@ void echo_futex(Shared& shared) {
   }
 }
 
-void consume_topic(Shared& shared) {
-  horus::Topic<topic_bench::Msg64> topic("throughput");
+/// What both readers do with a message: check that it is the one expected next.
+struct OrderCheck {
+  std::uint64_t received = 0;
+  std::uint64_t misordered = 0;
+
+  void take(const topic_bench::Msg64& msg, std::uint64_t expected) {
+    misordered += msg.seq != expected ? 1 : 0;
+    ++received;
+  }
+  void report(Shared& shared, std::uint64_t lost) const {
+    shared.finished_ns.store(now_ns());
+    shared.received.store(received);
+    shared.lost.store(lost);
+    shared.misordered.store(misordered);
+  }
+};
+
+void consume_topic(const char* name, Shared& shared) {
+  horus::Topic<topic_bench::Msg64> topic(name);
   shared.consumed.store(0);
   shared.ready.store(1, std::memory_order_release);
-  std::uint64_t received = 0;
-  while (received + topic.lost() < kThroughputMessages) {
-    if (topic.try_recv()) {
-      if (++received % kAckEvery == 0) {
-        shared.consumed.store(received + topic.lost(), std::memory_order_release);
+  OrderCheck check;
+  while (check.received + topic.lost() < kThroughputMessages) {
+    if (const std::optional<topic_bench::Msg64> msg = topic.try_recv()) {
+      check.take(*msg, check.received + topic.lost());
+      if (check.received % kAckEvery == 0) {
+        shared.consumed.store(check.received + topic.lost(), std::memory_order_release);
       }
     }
   }
-  shared.finished_ns.store(now_ns());
-  shared.received.store(received);
-  shared.lost.store(topic.lost());
+  check.report(shared, topic.lost());
 }
 
 void consume_raw(Shared& shared) {
   shared.consumed.store(0);
   shared.ready.store(1, std::memory_order_release);
-  std::uint64_t received = 0;
+  OrderCheck check;
   std::uint64_t lost = 0;
   std::uint64_t next = 0;
-  std::byte local[kRingPayload];
+  topic_bench::Msg64 msg;
   while (next < kThroughputMessages) {
     RawSlot& slot = shared.ring[next % kRingSlots];
     const std::uint64_t committed = 2 * next + 2;
     const std::uint64_t before = slot.seq.load(std::memory_order_acquire);
     if (before == committed) {
-      std::memcpy(local, slot.payload, sizeof local);
+      std::memcpy(&msg, slot.payload, sizeof msg);
       std::atomic_thread_fence(std::memory_order_acquire);
       if (slot.seq.load(std::memory_order_relaxed) == before) {
+        check.take(msg, next);
         ++next;
-        if (++received % kAckEvery == 0) {
+        if (check.received % kAckEvery == 0) {
           shared.consumed.store(next, std::memory_order_release);
         }
         continue;
@@ -224,31 +255,30 @@ void consume_raw(Shared& shared) {
       ++next;
     }
   }
-  shared.finished_ns.store(now_ns());
-  shared.received.store(received);
-  shared.lost.store(lost);
+  check.report(shared, lost);
 }
 
 int run_role(const std::string& role, std::size_t size, const std::string& region) {
   pin(1);
   Shared& shared = *map_shared(region, false);
-  if (role == "echo_topic" || role == "wake_topic") {
-    const bool blocking = role == "wake_topic";
+  if (role == "echo_topic" || role == "wake_topic" || role == "wake_single") {
+    const bool blocking = role != "echo_topic";
+    const bool single = role == "wake_single";
     switch (size) {
       case 16:
-        echo_topic<topic_bench::Msg16>(size, blocking, shared);
+        echo_topic<topic_bench::Msg16>(size, blocking, single, shared);
         break;
       case 64:
-        echo_topic<topic_bench::Msg64>(size, blocking, shared);
+        echo_topic<topic_bench::Msg64>(size, blocking, single, shared);
         break;
       case 1536:
-        echo_topic<topic_bench::Msg1536>(size, blocking, shared);
+        echo_topic<topic_bench::Msg1536>(size, blocking, single, shared);
         break;
       case 4096:
-        echo_topic<topic_bench::Msg4096>(size, blocking, shared);
+        echo_topic<topic_bench::Msg4096>(size, blocking, single, shared);
         break;
       case 65536:
-        echo_topic<topic_bench::Msg65536>(size, blocking, shared);
+        echo_topic<topic_bench::Msg65536>(size, blocking, single, shared);
         break;
       default:
         return 3;
@@ -258,7 +288,9 @@ int run_role(const std::string& role, std::size_t size, const std::string& regio
   } else if (role == "echo_futex") {
     echo_futex(shared);
   } else if (role == "consume_topic") {
-    consume_topic(shared);
+    consume_topic("throughput", shared);
+  } else if (role == "consume_single") {
+    consume_topic("throughput.single", shared);
   } else if (role == "consume_raw") {
     consume_raw(shared);
   } else {
@@ -310,12 +342,14 @@ class Peer {
 };
 
 template <class M>
-void topic_latency(std::size_t size, bool blocking, std::size_t count, const std::string& region,
-                   Shared& shared, std::vector<std::int64_t>& samples) {
-  horus::Topic<M> ping(topic_name("ping", size), {.capacity = kLatencyCapacity});
-  horus::Topic<M> pong(topic_name("pong", size), {.capacity = kLatencyCapacity});
+void topic_latency(std::size_t size, bool blocking, bool single, std::size_t count,
+                   const std::string& region, Shared& shared, std::vector<std::int64_t>& samples) {
+  const horus::TopicOptions options{.capacity = kLatencyCapacity, .single_publisher = single};
+  horus::Topic<M> ping(ping_name(size, single), options);
+  horus::Topic<M> pong(pong_name(size, single), options);
   {
-    Peer peer(blocking ? "wake_topic" : "echo_topic", size, region, shared);
+    Peer peer(blocking ? (single ? "wake_single" : "wake_topic") : "echo_topic", size, region,
+              shared);
     M msg{};
     const std::size_t total = kWarmup + count;
     for (std::size_t i = 0; i < total; ++i) {
@@ -396,6 +430,7 @@ void futex_latency(std::size_t count, const std::string& region, Shared& shared,
 struct Throughput {
   double per_s;
   std::uint64_t lost;
+  std::uint64_t misordered;
 };
 
 /// Lossless throughput: the writer stays within half the ring of the reader's last ack.
@@ -404,43 +439,73 @@ void wait_for_reader(std::uint64_t sent, Shared& shared) {
   }
 }
 
-Throughput topic_throughput(const std::string& region, Shared& shared) {
-  horus::Topic<topic_bench::Msg64> topic("throughput", {.capacity = kRingSlots});
-  topic_bench::Msg64 msg{};
+/// Runs `write(i)` for every message with `reader` consuming in the second process.
+template <class Write>
+Throughput stream(const char* reader, const std::string& region, Shared& shared, Write&& write) {
   std::int64_t start = 0;
   {
-    Peer peer("consume_topic", 64, region, shared);
+    Peer peer(reader, kRingPayload, region, shared);
     start = now_ns();
     for (std::uint64_t i = 0; i < kThroughputMessages; ++i) {
       wait_for_reader(i, shared);
-      msg.seq = i;
-      topic.send(msg);
+      write(i);
     }
   }
   return {kThroughputMessages * 1e9 / static_cast<double>(shared.finished_ns.load() - start),
-          shared.lost.load()};
+          shared.lost.load(), shared.misordered.load()};
+}
+
+/// Message i, filled in by code the hand-over cannot see, as a publisher's is; inlined, the
+/// compiler would hand the raw ring's copy the sequence number straight from a register. (A raw
+/// ring that copies bytes nobody just wrote is not a floor: on this VM it runs 2-5x faster,
+/// because a copy that reads freshly written bytes waits for the store buffer to drain, and the
+/// previous message's stores there still wait for their cache lines.)
+[[gnu::noinline]] void fill(topic_bench::Msg64& msg, std::uint64_t i) { msg.seq = i; }
+
+/// The writers fill in message i the same way; only the hand-over differs.
+Throughput topic_throughput(const std::string& region, Shared& shared) {
+  horus::Topic<topic_bench::Msg64> topic("throughput", {.capacity = kRingSlots});
+  topic_bench::Msg64 msg{};
+  return stream("consume_topic", region, shared, [&](std::uint64_t i) {
+    fill(msg, i);
+    topic.send(msg);
+  });
+}
+
+Throughput single_throughput(const std::string& region, Shared& shared) {
+  horus::Topic<topic_bench::Msg64> topic("throughput.single",
+                                         {.capacity = kRingSlots, .single_publisher = true});
+  topic_bench::Msg64 msg{};
+  return stream("consume_single", region, shared, [&](std::uint64_t i) {
+    fill(msg, i);
+    topic.send(msg);
+  });
+}
+
+Throughput loan_throughput(const std::string& region, Shared& shared) {
+  horus::Topic<topic_bench::Msg64> topic("throughput.single",
+                                         {.capacity = kRingSlots, .single_publisher = true});
+  return stream("consume_single", region, shared, [&](std::uint64_t i) {
+    horus::Loan<topic_bench::Msg64> loan = topic.loan();
+    loan->payload = {};
+    fill(*loan, i);
+    topic.publish(std::move(loan));
+  });
 }
 
 Throughput raw_throughput(const std::string& region, Shared& shared) {
   for (RawSlot& slot : shared.ring) {
     slot.seq.store(0);
   }
-  std::byte payload[kRingPayload] = {};
-  std::int64_t start = 0;
-  {
-    Peer peer("consume_raw", 64, region, shared);
-    start = now_ns();
-    for (std::uint64_t i = 0; i < kThroughputMessages; ++i) {
-      wait_for_reader(i, shared);
-      RawSlot& slot = shared.ring[i % kRingSlots];
-      slot.seq.store(2 * i + 1, std::memory_order_relaxed);
-      std::atomic_thread_fence(std::memory_order_release);
-      std::memcpy(slot.payload, payload, sizeof payload);
-      slot.seq.store(2 * i + 2, std::memory_order_release);
-    }
-  }
-  return {kThroughputMessages * 1e9 / static_cast<double>(shared.finished_ns.load() - start),
-          shared.lost.load()};
+  topic_bench::Msg64 msg{};
+  return stream("consume_raw", region, shared, [&](std::uint64_t i) {
+    fill(msg, i);
+    RawSlot& slot = shared.ring[i % kRingSlots];
+    slot.seq.store(2 * i + 1, std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_release);
+    std::memcpy(slot.payload, &msg, sizeof msg);
+    slot.seq.store(2 * i + 2, std::memory_order_release);
+  });
 }
 
 /// Topic and raw runs alternate in rounds, so a disturbance (other load) hits both alike.
@@ -451,7 +516,7 @@ void latency_row(std::size_t size, const std::string& region, Shared& shared) {
   std::vector<std::int64_t> topic_samples;
   std::vector<std::int64_t> raw_samples;
   for (int round = 0; round < kRounds; ++round) {
-    topic_latency<M>(size, false, iterations(size) / kRounds, region, shared, topic_samples);
+    topic_latency<M>(size, false, false, iterations(size) / kRounds, region, shared, topic_samples);
     raw_latency(size, iterations(size) / kRounds, region, shared, raw_samples);
   }
   const Percentiles topic = percentiles(topic_samples);
@@ -477,53 +542,78 @@ void print_latency_table(const std::string& region, Shared& shared) {
 
 void print_wakeup_table(const std::string& region, Shared& shared) {
   std::vector<std::int64_t> wake_samples;
+  std::vector<std::int64_t> single_samples;
   std::vector<std::int64_t> futex_samples;
   for (int round = 0; round < kRounds; ++round) {
-    topic_latency<topic_bench::Msg64>(64, true, 1000, region, shared, wake_samples);
+    topic_latency<topic_bench::Msg64>(64, true, false, 1000, region, shared, wake_samples);
+    topic_latency<topic_bench::Msg64>(64, true, true, 1000, region, shared, single_samples);
     futex_latency(1000, region, shared, futex_samples);
   }
-  const Percentiles wake = percentiles(wake_samples);
   const Percentiles futex = percentiles(futex_samples);
-  std::printf("\nBlocking wake-up, one-way in ns (Topic recv() vs raw futex ping-pong):\n\n");
-  std::printf("| | p50 | p99 | p99.9 |\n|---|---:|---:|---:|\n");
-  std::printf("| Topic<Msg64> recv(timeout) | %.0f | %.0f | %.0f |\n", wake.p50, wake.p99,
-              wake.p999);
-  std::printf("| raw futex | %.0f | %.0f | %.0f |\n", futex.p50, futex.p99, futex.p999);
-  std::printf("| ratio | %.2fx | %.2fx | %.2fx |\n", wake.p50 / futex.p50, wake.p99 / futex.p99,
-              wake.p999 / futex.p999);
+  std::printf(
+      "\nBlocking wake-up, one-way in ns (Topic recv() vs raw futex ping-pong); ratio = Topic / "
+      "futex:\n\n");
+  std::printf("| | p50 | p99 | p99.9 | p50 ratio | p99 ratio |\n|---|---:|---:|---:|---:|---:|\n");
+  const auto row = [&futex](const char* label, const Percentiles& wake) {
+    std::printf("| %s | %.0f | %.0f | %.0f | %.2fx | %.2fx |\n", label, wake.p50, wake.p99,
+                wake.p999, wake.p50 / futex.p50, wake.p99 / futex.p99);
+  };
+  row("Topic<Msg64> recv(timeout)", percentiles(wake_samples));
+  row("Topic<Msg64> recv(timeout), single_publisher", percentiles(single_samples));
+  row("raw futex", futex);
 }
 
-/// Medians of alternating rounds: a writer and a spinning reader fall into either lock-step
-/// (the reader polls the slot being written, and every line crosses cores several times) or
-/// streaming (the reader trails, lines cross once), and one run can land in either.
+/// Throughput rounds: every row runs once per round, so rows of one round share the machine's
+/// state, and a row's ratio is the median of its per-round ratios to the floor. A writer and a
+/// spinning reader fall into either lock-step (the reader polls the slot being written, and
+/// every line crosses cores several times) or streaming (the reader trails, lines cross once),
+/// and on a shared VM the neighbours' load changes from second to second: single rounds swing
+/// by 2-5x, pairs of rounds far less.
+constexpr int kThroughputRounds = 9;
+
+struct Rates {
+  const char* label;
+  Throughput (*run)(const std::string&, Shared&);
+  std::vector<double> per_s{};
+  std::vector<double> ratios{};
+  std::uint64_t lost = 0;
+  std::uint64_t misordered = 0;
+};
+
+double median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  return values[values.size() / 2];
+}
+
 void print_throughput_table(const std::string& region, Shared& shared) {
-  std::vector<double> topic_rates;
-  std::vector<double> raw_rates;
-  std::uint64_t topic_lost = 0;
-  std::uint64_t raw_lost = 0;
-  for (int round = 0; round < kRounds; ++round) {
-    const Throughput topic = topic_throughput(region, shared);
-    const Throughput raw = raw_throughput(region, shared);
-    topic_rates.push_back(topic.per_s);
-    raw_rates.push_back(raw.per_s);
-    topic_lost += topic.lost;
-    raw_lost += raw.lost;
+  Rates rows[] = {{"raw seqlock ring (floor)", raw_throughput},
+                  {"Topic<Msg64> send()", topic_throughput},
+                  {"Topic<Msg64> send(), single_publisher", single_throughput},
+                  {"Topic<Msg64> loan() + publish(), single_publisher", loan_throughput}};
+  for (int round = 0; round < kThroughputRounds; ++round) {
+    for (Rates& row : rows) {
+      const Throughput result = row.run(region, shared);
+      row.per_s.push_back(result.per_s);
+      row.ratios.push_back(result.per_s / rows[0].per_s.back());
+      row.lost += result.lost;
+      row.misordered += result.misordered;
+    }
   }
-  std::sort(topic_rates.begin(), topic_rates.end());
-  std::sort(raw_rates.begin(), raw_rates.end());
-  const double topic = topic_rates[kRounds / 2];
-  const double raw = raw_rates[kRounds / 2];
   std::printf(
       "\nThroughput, 64 B messages through 1024 slots, %llu messages per round, the writer at most "
-      "%llu ahead of the reader (lossless); median (min-max) of %d alternating rounds:\n\n",
+      "%llu ahead of the reader (lossless); %d rounds, each running every row once; msg/s: "
+      "median (min-max); ratio: median of the per-round ratios to the floor:\n\n",
       static_cast<unsigned long long>(kThroughputMessages),
-      static_cast<unsigned long long>(kWindow), kRounds);
-  std::printf("| | msg/s | min | max | lost |\n|---|---:|---:|---:|---:|\n");
-  std::printf("| Topic<Msg64> | %.3g | %.3g | %.3g | %llu |\n", topic, topic_rates.front(),
-              topic_rates.back(), static_cast<unsigned long long>(topic_lost));
-  std::printf("| raw seqlock ring | %.3g | %.3g | %.3g | %llu |\n", raw, raw_rates.front(),
-              raw_rates.back(), static_cast<unsigned long long>(raw_lost));
-  std::printf("| ratio | %.2fx | | | |\n", topic / raw);
+      static_cast<unsigned long long>(kWindow), kThroughputRounds);
+  std::printf("| | msg/s | min | max | lost | misordered | ratio |\n");
+  std::printf("|---|---:|---:|---:|---:|---:|---:|\n");
+  for (const Rates& row : rows) {
+    std::printf("| %s | %.3g | %.3g | %.3g | %llu | %llu | %.2fx |\n", row.label,
+                median(row.per_s), *std::min_element(row.per_s.begin(), row.per_s.end()),
+                *std::max_element(row.per_s.begin(), row.per_s.end()),
+                static_cast<unsigned long long>(row.lost),
+                static_cast<unsigned long long>(row.misordered), median(row.ratios));
+  }
 }
 
 }  // namespace

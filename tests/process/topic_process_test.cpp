@@ -198,11 +198,13 @@ int role_send_plain(const std::vector<std::string>& args) {
   return 0;
 }
 
-/// stream_big <topic> <first seq>: sends sealed Bigs until killed.
+/// stream_big <topic> <first seq>: sends sealed Bigs until killed; exits 35 if a send fails.
 int role_stream_big(const std::vector<std::string>& args) {
   horus::Topic<Big> data(args.at(0), {.capacity = 16});
   for (std::uint64_t i = std::stoull(args.at(1));; ++i) {
-    data.send(sealed<Big>(i));
+    if (!data.send(sealed<Big>(i))) {
+      return 35;
+    }
   }
 }
 
@@ -292,6 +294,28 @@ int role_send_after(const std::vector<std::string>& args) {
   return data.send(sealed<Sample>(5)) ? 0 : 80;
 }
 
+/// send_and_hold <topic> <count>: sends `count` sealed Samples from 0, announces them on
+/// <topic>.held and waits to be killed, still holding a single-publisher topic's lease.
+int role_send_and_hold(const std::vector<std::string>& args) {
+  horus::Topic<Sample> data(args.at(0));
+  horus::Topic<Sample> held(args.at(0) + ".held");
+  for (std::uint64_t i = 0; i < std::stoull(args.at(1)); ++i) {
+    if (!data.send(sealed<Sample>(i))) {
+      return 37;
+    }
+  }
+  held.send(sealed<Sample>(1));
+  std::this_thread::sleep_for(kDeadline);
+  return 38;
+}
+
+/// try_send <topic>: one send; exits 0 if it was refused as not the publisher, 36 otherwise.
+int role_try_send(const std::vector<std::string>& args) {
+  horus::Topic<Sample> data(args.at(0));
+  const bool sent = data.send(sealed<Sample>(77));
+  return !sent && data.stats().not_the_publisher == 1 ? 0 : 36;
+}
+
 const bool kRolesRegistered = [] {
   auto& roles = topic_test::roles();
   roles["publish"] = role_publish;
@@ -304,6 +328,8 @@ const bool kRolesRegistered = [] {
   roles["send_blobs"] = role_send_blobs;
   roles["no_room"] = role_no_room;
   roles["send_after"] = role_send_after;
+  roles["try_send"] = role_try_send;
+  roles["send_and_hold"] = role_send_and_hold;
   return true;
 }();
 // Runs before main: a re-executed child plays its role and exits here.
@@ -311,13 +337,44 @@ const int kRoleStatus = topic_test::dispatch_role();
 
 // ---- Tests -------------------------------------------------------------------------------------
 
-TEST(TopicProcess, MillionMessagesArriveInOrderWithoutLoss) {
+void million_messages(bool single_publisher) {
   PrivateNamespace ns;
-  horus::Topic<Sample> create("million", {.capacity = 1024});
+  horus::Topic<Sample> create("million", {.capacity = 1024, .single_publisher = single_publisher});
   Child subscriber("subscribe", {"million", "0", "1", "1000000"});
   Child publisher("publish", {"million", "0", "1000000", "1", "768"});
   EXPECT_EQ(publisher.wait(), 0);
   EXPECT_EQ(subscriber.wait(), 0);
+}
+
+TEST(TopicProcess, MillionMessagesArriveInOrderWithoutLoss) { million_messages(false); }
+
+// The subscriber also sleeps in recv() whenever it catches up: every wake-up relies on the
+// sleepers' membarrier, as the publisher takes no barrier of its own.
+TEST(TopicProcess, MillionMessagesFromASinglePublisherArriveInOrderWithoutLoss) {
+  million_messages(true);
+}
+
+TEST(TopicProcess, SinglePublisherLeaseRefusesOthersUntilItsHolderDies) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> data("solo", {.capacity = 16, .single_publisher = true});
+  horus::Topic<Sample> held("solo.held");
+  Child holder("send_and_hold", {"solo", "5"});
+  ASSERT_TRUE(held.recv(10s).has_value()) << "the holder never came up";
+  Child refused("try_send", {"solo"});
+  EXPECT_EQ(refused.wait(), 0) << "another process published beside the lease holder";
+  EXPECT_FALSE(data.send(sealed<Sample>(50)));
+  EXPECT_EQ(data.stats().not_the_publisher, 1u);
+
+  holder.kill();
+  Child successor("send_plain", {"solo", "100", "3"});
+  EXPECT_EQ(successor.wait(), 0) << "the dead holder's lease was not taken over";
+  std::vector<std::uint64_t> got;
+  while (auto msg = data.try_recv()) {
+    EXPECT_TRUE(valid(*msg));
+    got.push_back(msg->seq);
+  }
+  EXPECT_EQ(got, (std::vector<std::uint64_t>{0, 1, 2, 3, 4, 100, 101, 102}));
+  EXPECT_EQ(data.lost(), 0u);
 }
 
 TEST(TopicProcess, SeveralPublishersAndSubscribersEachSeeEverything) {
@@ -458,9 +515,9 @@ TEST(TopicProcess, PublisherKilledWhileHoldingASlotNeitherTearsNorBlocks) {
   EXPECT_EQ(latest->seq, 205u);
 }
 
-TEST(TopicProcess, PublisherKilledMidStreamThenRestartedNeverShowsATornMessage) {
+void killed_mid_stream_then_restarted(bool single_publisher) {
   PrivateNamespace ns;
-  horus::Topic<Big> data("stream", {.capacity = 16});
+  horus::Topic<Big> data("stream", {.capacity = 16, .single_publisher = single_publisher});
   for (int round = 0; round < 3; ++round) {
     const std::uint64_t first = static_cast<std::uint64_t>(round) * 1'000'000'000ULL;
     Child publisher("stream_big", {"stream", std::to_string(first)});
@@ -478,6 +535,16 @@ TEST(TopicProcess, PublisherKilledMidStreamThenRestartedNeverShowsATornMessage) 
   while (auto msg = data.try_recv()) {
     ASSERT_TRUE(valid(*msg)) << "torn message " << msg->seq;
   }
+}
+
+TEST(TopicProcess, PublisherKilledMidStreamThenRestartedNeverShowsATornMessage) {
+  killed_mid_stream_then_restarted(false);
+}
+
+// Each restarted publisher takes the lease over from the killed one and rewrites its
+// half-written ticket.
+TEST(TopicProcess, SinglePublisherKilledMidStreamIsSucceededWithoutATornMessage) {
+  killed_mid_stream_then_restarted(true);
 }
 
 TEST(TopicProcess, SerializedMessagesCrossProcessesAndOversizedOnesAreCounted) {
@@ -499,15 +566,21 @@ TEST(TopicProcess, SerializedMessagesCrossProcessesAndOversizedOnesAreCounted) {
   EXPECT_EQ(data.lost(), 0u);
 }
 
-TEST(TopicProcess, BlockingRecvWakesOnASendFromAnotherProcess) {
+void blocking_recv_wakes(bool single_publisher) {
   PrivateNamespace ns;
-  horus::Topic<Sample> data("wake");
+  horus::Topic<Sample> data("wake", {.single_publisher = single_publisher});
   Child sender("send_after", {"wake", "50"});
   auto msg = data.recv(20s);
   ASSERT_TRUE(msg.has_value());
   EXPECT_EQ(msg->seq, 5u);
   EXPECT_EQ(sender.wait(), 0);
   EXPECT_FALSE(data.recv(50ms).has_value()) << "nothing else was sent";
+}
+
+TEST(TopicProcess, BlockingRecvWakesOnASendFromAnotherProcess) { blocking_recv_wakes(false); }
+
+TEST(TopicProcess, BlockingRecvWakesOnASinglePublishersSendFromAnotherProcess) {
+  blocking_recv_wakes(true);
 }
 
 TEST(TopicProcess, NotifierWaitsForATopicThatDoesNotExistYet) {
@@ -520,14 +593,19 @@ TEST(TopicProcess, NotifierWaitsForATopicThatDoesNotExistYet) {
   EXPECT_FALSE(notifier.wait(20ms)) << "one message wakes one wait";
 }
 
-TEST(TopicProcess, WaitSetWakesOnASendFromAnotherProcess) {
+void wait_set_wakes(bool single_publisher) {
   PrivateNamespace ns;
+  horus::Topic<Sample> create("loud", {.single_publisher = single_publisher});
   horus::detail::TopicWaitSet set({"quiet", "loud"});
   Child sender("send_after", {"loud", "20"});
   EXPECT_EQ(set.wait(20s), std::optional<std::size_t>(1));
   EXPECT_EQ(sender.wait(), 0);
   EXPECT_FALSE(set.wait(20ms).has_value());
 }
+
+TEST(TopicProcess, WaitSetWakesOnASendFromAnotherProcess) { wait_set_wakes(false); }
+
+TEST(TopicProcess, WaitSetWakesOnASinglePublishersSendFromAnotherProcess) { wait_set_wakes(true); }
 
 TEST(TopicProcess, FullShmIsAClearErrorNotSigbus) {
   PrivateNamespace ns;

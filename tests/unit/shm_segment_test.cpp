@@ -72,6 +72,31 @@ TEST(ShmSegment, CorruptControlMagicIsAnError) {
   EXPECT_NE(open_error("magic").find("control magic"), std::string::npos);
 }
 
+TEST(ShmSegment, OlderFormatIsStartedAfreshOnlyOnceNobodyUsesIt) {
+  PrivateNamespace ns;
+  const std::uint64_t version_2 = std::uint64_t{kControlSize} << 32 | 2;
+  const std::size_t version_offset = offsetof(horus::detail::ControlBlock, version);
+  {
+    horus::Topic<Sample> user("upgrade");
+    overwrite(segment_path(ns, "upgrade"), version_offset, version_2);
+    EXPECT_NE(open_error("upgrade").find("unsupported version 2"), std::string::npos)
+        << "a live user of the old format keeps it";
+  }
+  horus::Topic<Sample> data("upgrade");
+  ASSERT_TRUE(data.send(topic_test::sealed<Sample>(1)));
+  EXPECT_EQ(data.try_recv()->seq, 1u);
+}
+
+TEST(ShmSegment, InvalidPublisherModeIsAnError) {
+  PrivateNamespace ns;
+  create("mode");
+  overwrite(segment_path(ns, "mode"),
+            offsetof(horus::detail::ControlBlock, ring) +
+                offsetof(horus::detail::RingControl, single_publisher),
+            7);
+  EXPECT_NE(open_error("mode").find("invalid publisher mode 7"), std::string::npos);
+}
+
 TEST(ShmSegment, CorruptGeometryIsAnError) {
   PrivateNamespace ns;
   create("geometry");

@@ -240,4 +240,109 @@ TEST(TopicThread, SerializedOverMaximumSizeIsRefusedAndCounted) {
   EXPECT_EQ(sub.read_latest()->seq, 2u);
 }
 
+TEST(TopicThread, SinglePublisherTopicLetsOneHandleSendAtATime) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> sub("solo", {.capacity = 8, .single_publisher = true});
+  std::optional<horus::Topic<Sample>> first(std::in_place, "solo");
+  horus::Topic<Sample> second("solo");
+  ASSERT_TRUE(first->send(sealed<Sample>(0)));
+  ASSERT_TRUE(first->send(sealed<Sample>(1)));
+
+  EXPECT_FALSE(second.send(sealed<Sample>(100)));
+  {
+    auto loan = second.loan();
+    topic_test::seal(*loan, 101);
+    EXPECT_FALSE(second.publish(std::move(loan)));
+  }
+  EXPECT_EQ(second.stats().not_the_publisher, 2u);
+  EXPECT_EQ(second.stats().send_failures, 2u);
+
+  // The lease goes with the handle: once it is gone, another handle may publish.
+  first.reset();
+  ASSERT_TRUE(second.send(sealed<Sample>(2)));
+  auto loan = second.loan();
+  topic_test::seal(*loan, 3);
+  ASSERT_TRUE(second.publish(std::move(loan)));
+  {
+    auto dropped = second.loan();
+    dropped->seq = 99;
+  }
+  ASSERT_TRUE(second.send(sealed<Sample>(4)));
+
+  for (std::uint64_t i = 0; i < 5; ++i) {
+    auto msg = sub.try_recv();
+    ASSERT_TRUE(msg.has_value()) << i;
+    EXPECT_EQ(*msg, sealed<Sample>(i));
+  }
+  EXPECT_FALSE(sub.try_recv().has_value());
+  EXPECT_EQ(sub.lost(), 0u);
+  EXPECT_EQ(sub.read_latest()->seq, 4u);
+  EXPECT_FALSE(sub.send(sealed<Sample>(5))) << "second still holds the lease";
+
+  const auto topics = horus::list_topics();
+  ASSERT_EQ(topics.size(), 1u);
+  EXPECT_TRUE(topics[0].single_publisher);
+  EXPECT_EQ(topics[0].message_count, 6u) << "five messages and the dropped loan's ticket";
+}
+
+TEST(TopicThread, AssigningOverALeaseHolderGivesItsLeaseBack) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> holder("solo.a", {.single_publisher = true});
+  horus::Topic<Sample> other("solo.b", {.single_publisher = true});
+  ASSERT_TRUE(holder.send(sealed<Sample>(1)));
+  ASSERT_TRUE(other.send(sealed<Sample>(2)));
+  horus::Topic<Sample> successor("solo.a");
+  EXPECT_FALSE(successor.send(sealed<Sample>(3)));
+  holder = std::move(other);
+  EXPECT_TRUE(successor.send(sealed<Sample>(4))) << "solo.a's lease was not given back";
+  EXPECT_TRUE(holder.send(sealed<Sample>(5))) << "solo.b's lease moved with the handle";
+  EXPECT_EQ(holder.name(), "solo.b");
+}
+
+TEST(TopicThread, SinglePublisherRingLapsWithoutTearingAndCountsTheLoss) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> pub("solo.lap", {.capacity = 8, .single_publisher = true});
+  horus::Topic<Sample> sub("solo.lap");
+  for (std::uint64_t i = 0; i < 20; ++i) {
+    ASSERT_TRUE(pub.send(sealed<Sample>(i)));
+  }
+  for (std::uint64_t i = 12; i < 20; ++i) {
+    auto msg = sub.try_recv();
+    ASSERT_TRUE(msg.has_value());
+    EXPECT_EQ(*msg, sealed<Sample>(i));
+  }
+  EXPECT_EQ(sub.lost(), 12u);
+}
+
+TEST(TopicThread, SinglePublisherWakesBlockedReceiversEveryTime) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> ping("solo.ping", {.single_publisher = true});
+  horus::Topic<Sample> pong("solo.pong", {.single_publisher = true});
+  constexpr std::uint64_t kRounds = 2000;
+  std::atomic<bool> ready{false};
+  std::thread echo([&ready] {
+    horus::Topic<Sample> in("solo.ping");
+    horus::Topic<Sample> out("solo.pong");
+    ready.store(true);
+    for (std::uint64_t i = 0; i < kRounds; ++i) {
+      auto msg = in.recv(20s);
+      if (!msg || !out.send(*msg)) {
+        return;
+      }
+    }
+  });
+  while (!ready.load()) {
+    std::this_thread::yield();
+  }
+  std::uint64_t answered = 0;
+  for (std::uint64_t i = 0; i < kRounds && answered == i; ++i) {
+    EXPECT_TRUE(ping.send(sealed<Sample>(i)));
+    auto reply = pong.recv(20s);
+    EXPECT_TRUE(reply.has_value()) << "round " << i;
+    answered += reply && *reply == sealed<Sample>(i) ? 1 : 0;
+  }
+  echo.join();
+  EXPECT_EQ(answered, kRounds);
+}
+
 }  // namespace

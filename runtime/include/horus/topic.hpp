@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "horus/codec.hpp"
+#include "horus/detail/publisher_lease.hpp"
 #include "horus/detail/ring.hpp"
 #include "horus/detail/shm_segment.hpp"
 #include "horus/detail/topic_stream.hpp"
@@ -39,6 +40,12 @@ struct TopicOptions {
   unsigned mode = 0600;
   /// Empty: HORUS_NAMESPACE, or "default".
   std::string namespace_name{};
+  /// One handle at a time publishes (the first to send; another may take over once it is
+  /// destroyed or its process died). Its sends then take no atomic read-modify-write, which
+  /// waits for a cross-core round trip while a subscriber keeps up (bench/topic/RESULTS.md); a
+  /// blocking receiver pays a membarrier(2) each time it goes to sleep instead. Sends from
+  /// other handles fail and count in TopicStats::not_the_publisher.
+  bool single_publisher = false;
 };
 
 /// Per-handle counters: nothing fails silently.
@@ -51,6 +58,8 @@ struct TopicStats {
   std::uint64_t send_failures = 0;
   /// The part of send_failures due to messages over max_message_size.
   std::uint64_t oversized = 0;
+  /// The part of send_failures on a single-publisher topic whose lease another live handle holds.
+  std::uint64_t not_the_publisher = 0;
   /// Received slots whose content did not decode as T (a corrupted segment).
   std::uint64_t invalid = 0;
 };
@@ -67,28 +76,43 @@ class Loan {
   static_assert(PodMessage<T>, "only POD messages can be written in place");
 
  public:
-  Loan(Loan&& other) noexcept
-      : ring_(other.ring_),
-        claim_(std::exchange(other.claim_, detail::Claim{nullptr, 0, false})),
-        data_(other.data_) {}
+  Loan(Loan&& other) noexcept : ring_(other.ring_), claim_(other.claim_), data_(other.data_) {
+    other.claim_.slot = nullptr;
+    other.claim_.wake = false;
+  }
   Loan& operator=(Loan&&) = delete;
   Loan(const Loan&) = delete;
   Loan& operator=(const Loan&) = delete;
-  ~Loan() {
-    if (claim_.slot != nullptr) {
-      detail::ring_commit(ring_, claim_, detail::kReleasedSlot);
-    } else if (claim_.wake) {
-      detail::ring_wake(ring_);
-    }
-  }
+  ~Loan() { finish(detail::kReleasedSlot); }
 
   T& operator*() const noexcept { return *data_; }
   T* operator->() const noexcept { return data_; }
 
  private:
   friend class Topic<T>;
-  Loan(const detail::RingView& ring, const detail::Claim& claim, T* data) noexcept
-      : ring_(ring), claim_(claim), data_(data) {}
+  // The claim is built in place and finish() reads it field by field: copying it whole (16-byte
+  // loads of 8-byte stores just made) stalled every loan until the slot's cache line arrived.
+  template <class MakeClaim>
+  Loan(const detail::RingView& ring, MakeClaim&& make_claim, T* spare) noexcept
+      : ring_(ring),
+        claim_(make_claim()),
+        data_(claim_.slot != nullptr ? reinterpret_cast<T*>(ring.payload(*claim_.slot)) : spare) {}
+
+  /// Commits the slot with `size` bytes (or releases it); whether a message was published.
+  bool finish(std::uint32_t size) noexcept {
+    if (claim_.slot != nullptr) {
+      detail::ring_commit(ring_, claim_, size);
+      claim_.slot = nullptr;
+      claim_.wake = false;
+      return size != detail::kReleasedSlot;
+    }
+    if (claim_.wake) {
+      // The refused ticket's sleepers still wait for it.
+      detail::ring_wake(ring_);
+      claim_.wake = false;
+    }
+    return false;
+  }
 
   detail::RingView ring_;
   detail::Claim claim_;
@@ -110,7 +134,7 @@ class Topic {
                                    TypeInfo<T>::is_pod, TypeInfo<T>::is_pod ? sizeof(T) : 0,
                                    alignof(T)},
             detail::SegmentOptions{options.capacity, options.max_message_size, options.mode,
-                                   options.namespace_name})),
+                                   options.namespace_name, options.single_publisher})),
         ring_(segment_.ring()),
         pid_(static_cast<std::uint32_t>(::getpid())) {
     cursor_.next = detail::ring_written(ring_);
@@ -122,14 +146,21 @@ class Topic {
   }
 
   Topic(Topic&&) noexcept = default;
-  Topic& operator=(Topic&&) noexcept = default;
+  /// Not member-wise: the old segment would be unmapped before the old lease is given back.
+  Topic& operator=(Topic&& other) noexcept {
+    if (this != &other) {
+      std::destroy_at(this);
+      std::construct_at(this, std::move(other));
+    }
+    return *this;
+  }
 
   const std::string& name() const noexcept { return name_; }
 
   /// Publishes a copy of `msg`. Never blocks; false (and a counter) when nothing was published.
   bool send(const T& msg) noexcept {
     mark(detail::kRolePublisher);
-    const detail::Claim claim = detail::ring_claim(ring_, pid_);
+    const detail::Claim claim = claim_slot();
     if (claim.slot == nullptr) {
       if (claim.wake) {
         detail::ring_wake(ring_);
@@ -158,28 +189,21 @@ class Topic {
   }
 
   /// Lends the next slot for writing the message in place. Publish it with publish().
+  /// When the ring refuses the slot, the caller writes into a private spare and publish()
+  /// reports it.
   Loan<T> loan() noexcept requires PodMessage<T> {
     mark(detail::kRolePublisher);
-    const detail::Claim claim = detail::ring_claim(ring_, pid_);
-    if (claim.slot == nullptr) {
-      // The ring refused the slot: the caller writes into a private spare, publish() reports it.
-      return Loan<T>(ring_, claim, spare_.get());
-    }
-    return Loan<T>(ring_, claim, reinterpret_cast<T*>(ring_.payload(*claim.slot)));
+    return Loan<T>(
+        ring_, [this] { return claim_slot(); }, spare_.get());
   }
 
   /// Makes a loaned message visible. False (and a counter) when the loan had no slot.
   bool publish(Loan<T>&& loan) noexcept requires PodMessage<T> {
-    const detail::Claim claim = std::exchange(loan.claim_, detail::Claim{nullptr, 0, false});
-    if (claim.slot == nullptr) {
-      if (claim.wake) {
-        detail::ring_wake(ring_);
-      }
-      ++stats_.send_failures;
-      return false;
+    if (loan.finish(sizeof(T))) {
+      return true;
     }
-    detail::ring_commit(ring_, claim, sizeof(T));
-    return true;
+    ++stats_.send_failures;
+    return false;
   }
 
   /// The next message for this handle, if one is there. Never blocks.
@@ -195,12 +219,14 @@ class Topic {
     for (;;) {
       const std::uint32_t seen = control.notify.load(std::memory_order_seq_cst);
       const std::uint64_t claimed_before = detail::ring_add_sleeper(control);
+      const bool announced = detail::ring_sleeper_barrier(control);
       std::optional<T> msg = receive(true);
       const auto remaining = deadline - std::chrono::steady_clock::now();
       if (!msg && remaining > std::chrono::nanoseconds::zero()) {
         // A ticket claimed before this thread announced itself may still be in flight, and its
         // publisher will not wake us: only then sleep in short slices.
-        const bool unannounced = claimed_before == UINT64_MAX || cursor_.next < claimed_before;
+        const bool unannounced =
+            claimed_before == UINT64_MAX || !announced || cursor_.next < claimed_before;
         detail::futex_wait(
             control.notify, seen,
             unannounced ? std::min<std::chrono::nanoseconds>(remaining, kSlice) : remaining);
@@ -262,6 +288,19 @@ class Topic {
  private:
   static constexpr std::chrono::nanoseconds kSlice = std::chrono::microseconds(50);
 
+  /// A slot for the next message; no slot when the ring refused one (or, on a single-publisher
+  /// topic, when another handle holds the lease).
+  detail::Claim claim_slot() noexcept {
+    if (!ring_.single_publisher) {
+      return detail::ring_claim(ring_, pid_);
+    }
+    if (!lease_.held() && !lease_.acquire(ring_)) {
+      ++stats_.not_the_publisher;
+      return detail::Claim{nullptr, 0, false};
+    }
+    return detail::ring_claim_single(ring_, lease_.take_ticket());
+  }
+
   void mark(std::uint32_t role) noexcept {
     if ((roles_ & role) == 0) {
       roles_ |= role;
@@ -311,6 +350,8 @@ class Topic {
   std::string name_;
   detail::ShmSegment segment_;
   detail::RingView ring_;
+  /// Declared after segment_: released before the segment is unmapped.
+  detail::PublisherLease lease_;
   detail::ReadCursor cursor_;
   std::uint32_t pid_;
   std::uint32_t roles_ = 0;

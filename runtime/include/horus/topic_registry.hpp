@@ -23,6 +23,8 @@ struct TopicInfo {
   std::size_t capacity = 0;
   /// Payload bytes per slot (sizeof(T) for POD types).
   std::size_t max_message_size = 0;
+  /// Created with TopicOptions::single_publisher: one handle at a time may send.
+  bool single_publisher = false;
   /// Open handles in live processes that have sent / received at least once.
   std::size_t publishers = 0;
   std::size_t subscribers = 0;

@@ -12,6 +12,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <bit>
 #include <cerrno>
 #include <cstdio>
@@ -190,7 +191,7 @@ bool has_live_users(const ControlBlock& control, bool count_notifiers) {
 
 /// A segment left by an older horus build that nobody uses any more is started afresh, so an
 /// upgrade does not strand its topics; one still in use stays an error (validate_control).
-/// Versions 1 and 2 share the control page layout, so its users table can be read.
+/// Versions 1 to 3 share the control page layout, so its users table can be read.
 bool abandoned_older_version(int fd, std::uint64_t size) {
   if (size < kControlSize) {
     return false;
@@ -299,6 +300,24 @@ LayoutHeader make_layout(const TypeDescriptor& type, const SegmentOptions& optio
   return header;
 }
 
+/// Sets the mode of a topic being (re)created. The ticket count moves to the counter the new mode
+/// keeps and never goes backwards: notifiers and readers compare against it.
+void set_publisher_mode(RingControl& ring, bool single) {
+  const std::uint64_t committed = ring.commits.load(std::memory_order_acquire);
+  if (single) {
+    const std::uint64_t claimed = ring.write_index.load(std::memory_order_acquire) & kIndexMask;
+    ring.commits.store(std::max(committed, claimed), std::memory_order_release);
+    ring.publisher_lease.store(0, std::memory_order_release);
+  } else {
+    std::uint64_t word = ring.write_index.load(std::memory_order_acquire);
+    while ((word & kIndexMask) < committed &&
+           !ring.write_index.compare_exchange_weak(word, (word & ~kIndexMask) | committed,
+                                                   std::memory_order_acq_rel)) {
+    }
+  }
+  ring.single_publisher.store(single ? 1 : 0, std::memory_order_release);
+}
+
 bool same_type(const LayoutHeader& header, const TypeDescriptor& type) {
   return std::string_view(header.type_name, header.type_name_size) == type.name &&
          header.fingerprint == type.fingerprint && (header.is_pod != 0) == type.is_pod &&
@@ -365,6 +384,10 @@ std::string validate_control(const ControlBlock& control) {
   const std::uint32_t ready = control.layout_ready.load(std::memory_order_acquire);
   if (ready > 1) {
     return "invalid layout state " + std::to_string(ready);
+  }
+  const std::uint32_t single = control.ring.single_publisher.load(std::memory_order_acquire);
+  if (single > 1) {
+    return "invalid publisher mode " + std::to_string(single);
   }
   return {};
 }
@@ -466,6 +489,7 @@ ShmSegment ShmSegment::open_topic(std::string_view topic, const TypeDescriptor& 
     allocate(fd.get(), header.total_size, path);
     write_all(fd.get(), &header, sizeof header, kControlSize, path);
     write_all(fd.get(), type.schema.data(), type.schema.size(), header.schema_offset, path);
+    set_publisher_mode(control.ring, options.single_publisher);
     control.layout_ready.store(1, std::memory_order_release);
   }
 
@@ -488,6 +512,8 @@ ShmSegment ShmSegment::open_topic(std::string_view topic, const TypeDescriptor& 
   segment.ring_.stride = header.slot_stride;
   segment.ring_.payload_offset = header.payload_offset;
   segment.ring_.payload_capacity = header.payload_capacity;
+  segment.ring_.single_publisher =
+      segment.control().ring.single_publisher.load(std::memory_order_acquire) == 1;
   segment.user_index_ = register_user(segment.control(), 0, path);
   return segment;
 }

@@ -1,6 +1,7 @@
 // The lock-free slot ring of a topic: multi-publisher claim/commit and a seqlock-style read.
 //
-// Ticket t (from write_index, ever increasing) lives in slot t % capacity. The slot's `seq` is
+// Ticket t (ever increasing: from write_index, or on a single-publisher topic from the holder of
+// its publisher lease) lives in slot t % capacity. The slot's `seq` is
 // 2t+1 while ticket t is being written and 2t+2 once it is committed. A reader expecting ticket
 // t accepts the slot only if it reads 2t+2 before and after copying the payload, so a half-written
 // slot (a writer killed mid-memcpy, or one overwriting it a lap later) is never accepted.
@@ -20,13 +21,20 @@ struct RingControl {
   /// Low 56 bits: tickets handed out to publishers, ever (the count of messages sent). High 8
   /// bits: threads about to sleep or sleeping on `notify`. Sharing the word lets the claim's
   /// fetch_add tell a publisher whether to wake anybody, so a send needs no extra barrier.
+  /// On a single-publisher topic only the high bits are used (tickets are counted in `commits`).
   alignas(64) std::atomic<std::uint64_t> write_index;
+  /// 1 when the topic was created for a single publisher (TopicOptions::single_publisher).
+  std::atomic<std::uint32_t> single_publisher;
   /// Bumped (and futex-woken) after a commit whose publisher saw sleepers.
   alignas(64) std::atomic<std::uint32_t> notify;
   /// Ticket + 1 of the latest commit (a plain store, so not strictly monotonic across
-  /// publishers): how TopicNotifier learns of messages sent while it was not asleep.
+  /// publishers): how TopicNotifier learns of messages sent while it was not asleep. On a
+  /// single-publisher topic it is exact, and it is the count of tickets handed out.
   alignas(64) std::atomic<std::uint64_t> commits;
+  /// Single-publisher topics: pid << 32 | handle serial of the handle that may publish, or 0.
+  std::atomic<std::uint64_t> publisher_lease;
 };
+static_assert(sizeof(RingControl) == 192, "the control page layout is part of the format");
 
 inline constexpr std::uint64_t kIndexMask = (std::uint64_t{1} << 56) - 1;
 inline constexpr std::uint64_t kSleeper = std::uint64_t{1} << 56;
@@ -84,6 +92,11 @@ struct RingView {
   std::uint64_t stride = 0;
   std::uint64_t payload_offset = 0;
   std::uint64_t payload_capacity = 0;
+  /// Copied from RingControl::single_publisher when the segment is opened.
+  bool single_publisher = false;
+  /// Single-publisher topics: the sleepers' membarrier covers this process, so the publisher
+  /// needs no barrier of its own before looking for sleepers (set by PublisherLease).
+  bool fence_free = false;
 
   std::uint64_t capacity() const noexcept { return mask + 1; }
   SlotHeader& slot(std::uint64_t ticket) const noexcept {
@@ -154,6 +167,29 @@ inline Claim ring_claim(const RingView& ring, std::uint32_t pid) noexcept {
   }
 }
 
+/// A single-publisher topic's claim of the lease holder's next ticket: no read-modify-write, as
+/// nobody else writes the ring.
+inline Claim ring_claim_single(const RingView& ring, std::uint64_t ticket) noexcept {
+  SlotHeader& slot = ring.slot(ticket);
+  slot.seq.store(2 * ticket + 1, std::memory_order_relaxed);
+  seqlock_fence(std::memory_order_release);
+  return Claim{&slot, ticket, false};
+}
+
+/// Whether a thread sleeps on a single-publisher topic, asked once the commit is stored. The
+/// commit must be visible before the question is asked, or a sleeper re-checking the ring just
+/// before it and this load just before the sleeper's announcement would both miss. Sleepers
+/// make it so with a barrier on every CPU (membarrier) between announcing and re-checking, so
+/// the publisher's load costs nothing; a publisher that membarrier does not cover pays for a
+/// barrier itself.
+inline bool ring_sleepers_after_commit(const RingView& ring) noexcept {
+  if (ring.fence_free) {
+    std::atomic_signal_fence(std::memory_order_seq_cst);
+    return (ring.control->write_index.load(std::memory_order_relaxed) & ~kIndexMask) != 0;
+  }
+  return (ring.control->write_index.fetch_add(0, std::memory_order_seq_cst) & ~kIndexMask) != 0;
+}
+
 /// Wakes the sleepers a claim saw (also for a claim that got no slot: they wait for its ticket).
 inline void ring_wake(const RingView& ring) noexcept {
   ring.control->notify.fetch_add(1, std::memory_order_seq_cst);
@@ -161,7 +197,7 @@ inline void ring_wake(const RingView& ring) noexcept {
 }
 
 /// Makes the claimed ticket visible with `size` payload bytes (or kReleasedSlot). No barrier and
-/// no syscall unless the claim saw a sleeper.
+/// no syscall unless there is a sleeper.
 inline void ring_commit(const RingView& ring, const Claim& claim, std::uint32_t size) noexcept {
   SlotHeader& slot = *claim.slot;
   SlotClaim& entry = ring.slot_claim(claim.ticket);
@@ -171,16 +207,24 @@ inline void ring_commit(const RingView& ring, const Claim& claim, std::uint32_t 
   entry.send_time_ns.store(static_cast<std::uint64_t>(clock_ns(CLOCK_REALTIME_COARSE)),
                            std::memory_order_relaxed);
   slot.seq.store(2 * claim.ticket + 2, std::memory_order_release);
-  entry.claim.store(2 * claim.ticket + 2, std::memory_order_release);
+  if (!ring.single_publisher) {
+    entry.claim.store(2 * claim.ticket + 2, std::memory_order_release);
+  }
   ring.control->commits.store(claim.ticket + 1, std::memory_order_release);
-  if (claim.wake) {
+  if (ring.single_publisher ? ring_sleepers_after_commit(ring) : claim.wake) {
     ring_wake(ring);
   }
 }
 
 /// Tickets handed out so far.
+inline std::uint64_t ring_written(const RingControl& control) noexcept {
+  if (control.single_publisher.load(std::memory_order_relaxed) != 0) {
+    return control.commits.load(std::memory_order_acquire);
+  }
+  return control.write_index.load(std::memory_order_acquire) & kIndexMask;
+}
 inline std::uint64_t ring_written(const RingView& ring) noexcept {
-  return ring.control->write_index.load(std::memory_order_acquire) & kIndexMask;
+  return ring_written(*ring.control);
 }
 
 /// Announces a thread about to sleep on `notify`. Returns the tickets handed out before the
@@ -194,6 +238,12 @@ inline std::uint64_t ring_add_sleeper(RingControl& control) noexcept {
   }
   return word & kIndexMask;
 }
+
+/// Called between ring_add_sleeper and the sleeper's last look at the ring. On a single-publisher
+/// topic it runs a memory barrier on every CPU that runs a fence-free publisher (membarrier),
+/// after which the publisher has either made its commit visible or will see this sleeper.
+/// False when that failed: the caller then sleeps in short slices.
+bool ring_sleeper_barrier(const RingControl& control) noexcept;
 
 inline void ring_remove_sleeper(RingControl& control) noexcept {
   control.write_index.fetch_sub(kSleeper, std::memory_order_seq_cst);
