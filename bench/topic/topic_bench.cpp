@@ -608,8 +608,8 @@ void print_throughput_table(const std::string& region, Shared& shared) {
   std::printf("| | msg/s | min | max | lost | misordered | ratio |\n");
   std::printf("|---|---:|---:|---:|---:|---:|---:|\n");
   for (const Rates& row : rows) {
-    std::printf("| %s | %.3g | %.3g | %.3g | %llu | %llu | %.2fx |\n", row.label,
-                median(row.per_s), *std::min_element(row.per_s.begin(), row.per_s.end()),
+    std::printf("| %s | %.3g | %.3g | %.3g | %llu | %llu | %.2fx |\n", row.label, median(row.per_s),
+                *std::min_element(row.per_s.begin(), row.per_s.end()),
                 *std::max_element(row.per_s.begin(), row.per_s.end()),
                 static_cast<unsigned long long>(row.lost),
                 static_cast<unsigned long long>(row.misordered), median(row.ratios));
