@@ -463,23 +463,17 @@ Throughput stream(const char* reader, const std::string& region, Shared& shared,
 [[gnu::noinline]] void fill(topic_bench::Msg64& msg, std::uint64_t i) { msg.seq = i; }
 
 /// The writers fill in message i the same way; only the hand-over differs.
-Throughput topic_throughput(const std::string& region, Shared& shared) {
-  horus::Topic<topic_bench::Msg64> topic("throughput", {.capacity = kRingSlots});
+template <bool SinglePublisher>
+Throughput send_throughput(const std::string& region, Shared& shared) {
+  horus::Topic<topic_bench::Msg64> topic(
+      SinglePublisher ? "throughput.single" : "throughput",
+      {.capacity = kRingSlots, .single_publisher = SinglePublisher});
   topic_bench::Msg64 msg{};
-  return stream("consume_topic", region, shared, [&](std::uint64_t i) {
-    fill(msg, i);
-    topic.send(msg);
-  });
-}
-
-Throughput single_throughput(const std::string& region, Shared& shared) {
-  horus::Topic<topic_bench::Msg64> topic("throughput.single",
-                                         {.capacity = kRingSlots, .single_publisher = true});
-  topic_bench::Msg64 msg{};
-  return stream("consume_single", region, shared, [&](std::uint64_t i) {
-    fill(msg, i);
-    topic.send(msg);
-  });
+  return stream(SinglePublisher ? "consume_single" : "consume_topic", region, shared,
+                [&](std::uint64_t i) {
+                  fill(msg, i);
+                  topic.send(msg);
+                });
 }
 
 Throughput loan_throughput(const std::string& region, Shared& shared) {
@@ -587,8 +581,8 @@ double median(std::vector<double> values) {
 
 void print_throughput_table(const std::string& region, Shared& shared) {
   Rates rows[] = {{"raw seqlock ring (floor)", raw_throughput},
-                  {"Topic<Msg64> send()", topic_throughput},
-                  {"Topic<Msg64> send(), single_publisher", single_throughput},
+                  {"Topic<Msg64> send()", send_throughput<false>},
+                  {"Topic<Msg64> send(), single_publisher", send_throughput<true>},
                   {"Topic<Msg64> loan() + publish(), single_publisher", loan_throughput}};
   for (int round = 0; round < kThroughputRounds; ++round) {
     for (Rates& row : rows) {
