@@ -216,15 +216,17 @@ inline void ring_commit(const RingView& ring, const Claim& claim, std::uint32_t 
   }
 }
 
-/// Tickets handed out so far.
-inline std::uint64_t ring_written(const RingControl& control) noexcept {
-  if (control.single_publisher.load(std::memory_order_relaxed) != 0) {
+/// Tickets handed out so far, on a ring in either publisher mode.
+inline std::uint64_t ring_written(const RingControl& control, bool single_publisher) noexcept {
+  if (single_publisher) {
     return control.commits.load(std::memory_order_acquire);
   }
   return control.write_index.load(std::memory_order_acquire) & kIndexMask;
 }
+/// The mode is read once, when the segment is opened: it only changes when the segment is
+/// recreated, which needs every user gone.
 inline std::uint64_t ring_written(const RingView& ring) noexcept {
-  return ring_written(*ring.control);
+  return ring_written(*ring.control, ring.single_publisher);
 }
 
 /// Announces a thread about to sleep on `notify`. Returns the tickets handed out before the
