@@ -6,7 +6,8 @@
 //   throughput  messages per second through a 1024-slot topic (default send(); single-publisher
 //               send() and loan()), against a raw seqlock ring carrying the same messages: all
 //               writers fill in message i and hand it over, all readers check that message i
-//               arrives i-th.
+//               arrives i-th. A reference row adds to the raw ring only the last-send stamp a
+//               topic takes per send for introspection, so the stamp's cost is measured too.
 // The second process is this binary re-executed with --role.
 #include <fcntl.h>
 #include <sched.h>
@@ -28,6 +29,7 @@
 #include <vector>
 
 #include <horus/detail/futex.hpp>
+#include <horus/detail/ring.hpp>
 #include <horus/topic.hpp>
 #include <horus/topic_registry.hpp>
 #include <topic_bench/msg1536.hpp>
@@ -59,7 +61,9 @@ struct alignas(64) Mailbox {
 };
 struct alignas(64) RawSlot {
   std::atomic<std::uint64_t> seq;
-  std::byte payload[kRingPayload];
+  /// Written only by the reference row, as a topic writes its slot's last-send stamp.
+  std::atomic<std::uint32_t> send_time_s;
+  alignas(8) std::byte payload[kRingPayload];
 };
 static_assert(sizeof(topic_bench::Msg64) == kRingPayload);
 struct Shared {
@@ -487,6 +491,10 @@ Throughput loan_throughput(const std::string& region, Shared& shared) {
   });
 }
 
+/// The floor, and (Stamped) the floor plus the one thing a topic's send does that a raw ring
+/// does not need: the last-send stamp for introspection. Their ratio is what the stamp costs,
+/// measured in the same rounds.
+template <bool Stamped>
 Throughput raw_throughput(const std::string& region, Shared& shared) {
   for (RawSlot& slot : shared.ring) {
     slot.seq.store(0);
@@ -494,10 +502,16 @@ Throughput raw_throughput(const std::string& region, Shared& shared) {
   topic_bench::Msg64 msg{};
   return stream("consume_raw", region, shared, [&](std::uint64_t i) {
     fill(msg, i);
+    // Read before the slot's stores, as a topic does (its payload line is apart from the header;
+    // here the payload shares the header's line, which a clock call must not split).
+    const std::uint32_t sent = Stamped ? horus::detail::send_stamp_s() : 0;
     RawSlot& slot = shared.ring[i % kRingSlots];
     slot.seq.store(2 * i + 1, std::memory_order_relaxed);
     std::atomic_thread_fence(std::memory_order_release);
     std::memcpy(slot.payload, &msg, sizeof msg);
+    if constexpr (Stamped) {
+      slot.send_time_s.store(sent, std::memory_order_relaxed);
+    }
     slot.seq.store(2 * i + 2, std::memory_order_release);
   });
 }
@@ -580,7 +594,9 @@ double median(std::vector<double> values) {
 }
 
 void print_throughput_table(const std::string& region, Shared& shared) {
-  Rates rows[] = {{"raw seqlock ring (floor)", raw_throughput},
+  Rates rows[] = {{"raw seqlock ring (floor)", raw_throughput<false>},
+                  {"raw seqlock ring + the topic's last-send stamp per message (reference)",
+                   raw_throughput<true>},
                   {"Topic<Msg64> send()", send_throughput<false>},
                   {"Topic<Msg64> send(), single_publisher", send_throughput<true>},
                   {"Topic<Msg64> loan() + publish(), single_publisher", loan_throughput}};

@@ -5,6 +5,7 @@
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -377,6 +378,31 @@ TEST(TopicProcess, SinglePublisherLeaseRefusesOthersUntilItsHolderDies) {
   EXPECT_EQ(data.lost(), 0u);
 }
 
+TEST(TopicProcess, AForkedChildDoesNotPublishUnderItsParentsLease) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> publisher("forked", {.capacity = 16, .single_publisher = true});
+  horus::Topic<Sample> subscriber("forked");
+  ASSERT_TRUE(publisher.send(sealed<Sample>(1)));
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    // The inherited handle is a copy of one that holds the lease, in another process.
+    const bool refused = !publisher.send(sealed<Sample>(99));
+    ::_exit(refused && publisher.stats().not_the_publisher == 1 ? 0 : 1);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0)
+      << "the forked child published beside its parent";
+  EXPECT_TRUE(publisher.send(sealed<Sample>(2))) << "the parent lost its lease";
+  std::vector<std::uint64_t> got;
+  while (auto msg = subscriber.try_recv()) {
+    EXPECT_TRUE(valid(*msg));
+    got.push_back(msg->seq);
+  }
+  EXPECT_EQ(got, (std::vector<std::uint64_t>{1, 2}));
+}
+
 TEST(TopicProcess, SeveralPublishersAndSubscribersEachSeeEverything) {
   PrivateNamespace ns;
   horus::Topic<Sample> create("many", {.capacity = 512});
@@ -617,9 +643,10 @@ TEST(TopicProcess, IntrospectionListsTypesUsersAndTraffic) {
   PrivateNamespace ns;
   horus::Topic<Sample> listener("listed", {.capacity = 32});
   EXPECT_FALSE(listener.try_recv().has_value());
-  const auto before = std::chrono::system_clock::now() - 1s;
+  const auto before = std::chrono::floor<std::chrono::seconds>(std::chrono::system_clock::now());
   Child publisher("send_plain", {"listed", "0", "5"});
   ASSERT_EQ(publisher.wait(), 0);
+  const auto after = std::chrono::system_clock::now();
   horus::detail::TopicNotifier notifier("untyped");
 
   const auto topics = horus::list_topics();
@@ -637,7 +664,10 @@ TEST(TopicProcess, IntrospectionListsTypesUsersAndTraffic) {
   EXPECT_EQ(listed.subscribers, 1u);
   EXPECT_EQ(listed.message_count, 5u);
   ASSERT_TRUE(listed.last_send.has_value());
-  EXPECT_GT(*listed.last_send, before);
+  EXPECT_GE(*listed.last_send, before);
+  EXPECT_LE(*listed.last_send, after);
+  EXPECT_EQ(listed.last_send->time_since_epoch() % 1s, std::chrono::system_clock::duration::zero())
+      << "stamped to the whole second";
   EXPECT_EQ(topics[1].name, "untyped");
   EXPECT_EQ(topics[1].type_name, "");
   EXPECT_EQ(topics[1].error, "");

@@ -2,8 +2,6 @@
 // How the segment and the slots work: runtime/src/transport/README.md.
 #pragma once
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cstddef>
@@ -106,11 +104,8 @@ class Loan {
       claim_.wake = false;
       return size != detail::kReleasedSlot;
     }
-    if (claim_.wake) {
-      // The refused ticket's sleepers still wait for it.
-      detail::ring_wake(ring_);
-      claim_.wake = false;
-    }
+    detail::ring_refused(ring_, claim_);
+    claim_.wake = false;
     return false;
   }
 
@@ -135,8 +130,7 @@ class Topic {
                                    alignof(T)},
             detail::SegmentOptions{options.capacity, options.max_message_size, options.mode,
                                    options.namespace_name, options.single_publisher})),
-        ring_(segment_.ring()),
-        pid_(static_cast<std::uint32_t>(::getpid())) {
+        ring_(segment_.ring()) {
     cursor_.next = detail::ring_written(ring_);
     if constexpr (PodMessage<T>) {
       spare_ = std::make_unique<T>();
@@ -162,15 +156,13 @@ class Topic {
     mark(detail::kRolePublisher);
     const detail::Claim claim = claim_slot();
     if (claim.slot == nullptr) {
-      if (claim.wake) {
-        detail::ring_wake(ring_);
-      }
+      detail::ring_refused(ring_, claim);
       ++stats_.send_failures;
       return false;
     }
     std::byte* payload = ring_.payload(*claim.slot);
     if constexpr (PodMessage<T>) {
-      std::memcpy(payload, &msg, sizeof(T));
+      detail::copy_to_slot<sizeof(T)>(payload, &msg);
       detail::ring_commit(ring_, claim, sizeof(T));
       return true;
     } else {
@@ -207,11 +199,18 @@ class Topic {
   }
 
   /// The next message for this handle, if one is there. Never blocks.
-  std::optional<T> try_recv() noexcept(PodMessage<T>) { return receive(false); }
+  std::optional<T> try_recv() noexcept(PodMessage<T>) {
+    std::optional<T> msg;
+    receive(msg, false);
+    return msg;
+  }
 
   /// The next message, waiting up to `timeout` for one (asleep on a futex, no polling).
   std::optional<T> recv(std::chrono::nanoseconds timeout) noexcept(PodMessage<T>) {
-    if (auto msg = receive(false)) {
+    // One result object on every path: returning two different ones would copy a large message.
+    std::optional<T> msg;
+    receive(msg, false);
+    if (msg) {
       return msg;
     }
     detail::RingControl& control = *ring_.control;
@@ -220,7 +219,7 @@ class Topic {
       const std::uint32_t seen = control.notify.load(std::memory_order_seq_cst);
       const std::uint64_t claimed_before = detail::ring_add_sleeper(control);
       const bool announced = detail::ring_sleeper_barrier(control);
-      std::optional<T> msg = receive(true);
+      receive(msg, true);
       const auto remaining = deadline - std::chrono::steady_clock::now();
       if (!msg && remaining > std::chrono::nanoseconds::zero()) {
         // A ticket claimed before this thread announced itself may still be in flight, and its
@@ -292,7 +291,7 @@ class Topic {
   /// topic, when another handle holds the lease).
   detail::Claim claim_slot() noexcept {
     if (!ring_.single_publisher) {
-      return detail::ring_claim(ring_, pid_);
+      return detail::ring_claim(ring_, detail::this_pid());
     }
     if (!lease_.held() && !lease_.acquire(ring_)) {
       ++stats_.not_the_publisher;
@@ -308,10 +307,10 @@ class Topic {
     }
   }
 
-  std::optional<T> receive(bool check_stall) noexcept(PodMessage<T>) {
+  /// Fills `msg` with the next message, or empties it. The caller owns the result object, so
+  /// a (possibly large) message is copied once, from the slot straight into what it returns.
+  void receive(std::optional<T>& msg, bool check_stall) noexcept(PodMessage<T>) {
     mark(detail::kRoleSubscriber);
-    // One result object for every path, so the (possibly large) message is returned in place.
-    std::optional<T> msg;
     for (;;) {
       std::size_t length = 0;
       const int got = detail::ring_read(
@@ -333,14 +332,14 @@ class Topic {
           });
       if (got == 0) {
         msg.reset();
-        return msg;
+        return;
       }
       if (got > 0) {
         if constexpr (!PodMessage<T>) {
           msg = try_decode<T>(std::span<const std::uint8_t>(buffer_.data(), length));
         }
         if (msg) {
-          return msg;
+          return;
         }
       }
       ++stats_.invalid;
@@ -353,7 +352,6 @@ class Topic {
   /// Declared after segment_: released before the segment is unmapped.
   detail::PublisherLease lease_;
   detail::ReadCursor cursor_;
-  std::uint32_t pid_;
   std::uint32_t roles_ = 0;
   TopicStats stats_;
   std::unique_ptr<T> spare_;

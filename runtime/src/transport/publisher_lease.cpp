@@ -12,22 +12,30 @@ namespace horus::detail {
 
 namespace {
 
-/// Registers this process for the sleepers' membarrier, once. ThreadSanitizer cannot see a
-/// barrier run by the kernel on another CPU, so its builds keep the publisher's own barrier,
-/// which it can check.
+/// Registers this process for the sleepers' membarrier, once per process: a forked child
+/// registers itself again rather than trust its parent's registration. ThreadSanitizer cannot
+/// see a barrier run by the kernel on another CPU, so its builds keep the publisher's own
+/// barrier, which it can check.
 bool covered_by_sleeper_barrier() noexcept {
 #if defined(__SANITIZE_THREAD__)
   return false;
 #else
-  static const bool registered =
-      syscall(SYS_membarrier, MEMBARRIER_CMD_REGISTER_GLOBAL_EXPEDITED, 0, 0) == 0;
-  return registered;
+  static std::atomic<std::uint32_t> registered_pid{0};
+  const std::uint32_t pid = this_pid();
+  if (registered_pid.load(std::memory_order_acquire) == pid) {
+    return true;
+  }
+  if (syscall(SYS_membarrier, MEMBARRIER_CMD_REGISTER_GLOBAL_EXPEDITED, 0, 0) != 0) {
+    return false;
+  }
+  registered_pid.store(pid, std::memory_order_release);
+  return true;
 #endif
 }
 
 std::uint64_t make_token() noexcept {
   static std::atomic<std::uint32_t> serial{0};
-  return static_cast<std::uint64_t>(::getpid()) << 32 |
+  return static_cast<std::uint64_t>(this_pid()) << 32 |
          serial.fetch_add(1, std::memory_order_relaxed);
 }
 
@@ -79,7 +87,7 @@ bool PublisherLease::acquire(RingView& ring) noexcept {
 
 void PublisherLease::release() noexcept {
   // A forked child's copy of the handle does not give away its parent's lease.
-  if (control_ == nullptr || token_ >> 32 != static_cast<std::uint64_t>(::getpid())) {
+  if (!held()) {
     return;
   }
   std::uint64_t expected = token_;

@@ -126,13 +126,14 @@ void inspect(const std::string& path, TopicInfo& info) {
         const std::uint64_t index = ticket & (header.capacity - 1);
         const auto& slot = *reinterpret_cast<const detail::SlotHeader*>(
             bytes + header.slots_offset + index * header.slot_stride);
-        const auto& claim = *reinterpret_cast<const detail::SlotClaim*>(
-            bytes + header.claims_offset + index * sizeof(detail::SlotClaim));
-        if (slot.seq.load(std::memory_order_acquire) == 2 * ticket + 2) {
-          info.last_send = std::chrono::system_clock::time_point(
-              std::chrono::duration_cast<std::chrono::system_clock::duration>(
-                  std::chrono::nanoseconds(claim.send_time_ns.load(std::memory_order_relaxed))));
-          break;
+        const std::uint64_t committed = 2 * ticket + 2;
+        if (slot.seq.load(std::memory_order_acquire) == committed) {
+          const std::uint32_t sent = slot.send_time_s.load(std::memory_order_relaxed);
+          detail::seqlock_fence(std::memory_order_acquire);
+          if (slot.seq.load(std::memory_order_relaxed) == committed) {
+            info.last_send = std::chrono::system_clock::time_point(std::chrono::seconds(sent));
+            break;
+          }
         }
       }
     }

@@ -19,7 +19,10 @@ class PublisherLease {
   PublisherLease& operator=(const PublisherLease&) = delete;
   ~PublisherLease();
 
-  bool held() const noexcept { return control_ != nullptr; }
+  /// Only in the process that took it: a forked child's copy of the handle holds nothing.
+  bool held() const noexcept {
+    return control_ != nullptr && static_cast<std::uint32_t>(token_ >> 32) == this_pid();
+  }
   /// Takes the lease of `ring` unless a handle in a live process holds it; on success also
   /// marks `ring` fence-free when this process is covered by the sleepers' membarrier.
   bool acquire(RingView& ring) noexcept;

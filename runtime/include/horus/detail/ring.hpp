@@ -10,6 +10,7 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <ctime>
 
 #include "horus/detail/futex.hpp"
@@ -48,7 +49,10 @@ struct SlotHeader {
   std::atomic<std::uint64_t> seq;
   /// Payload bytes, or kReleasedSlot for a ticket that carries no message.
   std::atomic<std::uint32_t> size;
-  std::uint32_t reserved;
+  /// When the ticket was committed (send_stamp_s()), for introspection. Here rather than with
+  /// the publishers' claims because the commit writes this line anyway: a single publisher
+  /// then touches no claim line at all.
+  std::atomic<std::uint32_t> send_time_s;
 };
 static_assert(sizeof(SlotHeader) == 16 && offsetof(SlotHeader, seq) == 0);
 
@@ -62,10 +66,7 @@ struct SlotClaim {
   std::atomic<std::uint64_t> claim;
   /// Pid of that writer, so a successor can tell a dead writer from a slow one.
   std::atomic<std::uint32_t> owner;
-  std::uint32_t reserved;
-  /// CLOCK_REALTIME_COARSE nanoseconds at commit, for introspection.
-  std::atomic<std::uint64_t> send_time_ns;
-  std::uint64_t reserved1;
+  std::uint32_t reserved[5];
 };
 static_assert(sizeof(SlotClaim) == 32);
 static_assert(std::atomic<std::uint64_t>::is_always_lock_free);
@@ -82,6 +83,17 @@ inline constexpr std::uint32_t kStallCheckInterval = 1024;
 
 /// Whether a process exists (only on slow paths: it is a syscall). Pid 0 is nobody.
 bool process_alive(std::uint32_t pid) noexcept;
+
+/// This process's pid as of the last fork: 0 until first asked, and again in a forked child.
+inline std::atomic<std::uint32_t> cached_pid{0};
+/// Asks the kernel, caches the answer, and (once) has every forked child forget it.
+std::uint32_t refresh_pid() noexcept;
+/// This process's pid without a syscall. A forked child gets its own, so a handle it inherited
+/// neither claims slots nor holds a publisher lease in its parent's name.
+inline std::uint32_t this_pid() noexcept {
+  const std::uint32_t pid = cached_pid.load(std::memory_order_relaxed);
+  return pid != 0 ? pid : refresh_pid();
+}
 
 /// Pointers and geometry of a mapped ring, copied out of the validated header.
 struct RingView {
@@ -130,6 +142,30 @@ inline std::int64_t clock_ns(clockid_t clock) noexcept {
   timespec now{};
   clock_gettime(clock, &now);
   return static_cast<std::int64_t>(now.tv_sec) * 1'000'000'000 + now.tv_nsec;
+}
+
+/// Copies a POD message of N bytes into a slot. Small fixed-size copies compile to a few vector
+/// moves, but GCC expands fixed sizes from a few hundred bytes up to 8 KB as an inline
+/// `rep movsq`, which made a 1.5 KB one-way message about 0.1x of the floor slower than glibc's
+/// memcpy does when the slot's lines sit in a subscriber's cache (bench/topic/RESULTS.md).
+/// Past kInlineCopyLimit the size is hidden from the compiler, so the library copy runs.
+inline constexpr std::size_t kInlineCopyLimit = 256;
+template <std::size_t N>
+inline void copy_to_slot(std::byte* payload, const void* msg) noexcept {
+  std::size_t size = N;
+  if constexpr (N > kInlineCopyLimit) {
+    asm("" : "+r"(size));
+  }
+  std::memcpy(payload, msg, size);
+}
+
+/// The last-send stamp: CLOCK_REALTIME in whole seconds (unsigned 32 bits last until 2106).
+/// Tools want "when did this topic last see traffic" (message timing belongs in the messages'
+/// own timestamps), and time() is one load of a word the kernel keeps in the vDSO, nearly free.
+/// A finer clock is not: clock_gettime(CLOCK_REALTIME_COARSE) on every send cut a raw ring's
+/// throughput to about 0.6x on the benchmark machine (bench/topic/RESULTS.md).
+inline std::uint32_t send_stamp_s() noexcept {
+  return static_cast<std::uint32_t>(std::time(nullptr));
 }
 
 /// A claimed slot: where to write, and whether a sleeper must be woken after the commit.
@@ -196,19 +232,26 @@ inline void ring_wake(const RingView& ring) noexcept {
   futex_wake_all(ring.control->notify);
 }
 
+/// Lets go of a claim that got no slot. Its ticket is used up all the same, and the sleepers the
+/// claim saw wait for that ticket: they are woken to move past it.
+inline void ring_refused(const RingView& ring, const Claim& claim) noexcept {
+  if (claim.wake) {
+    ring_wake(ring);
+  }
+}
+
 /// Makes the claimed ticket visible with `size` payload bytes (or kReleasedSlot). No barrier and
 /// no syscall unless there is a sleeper.
 inline void ring_commit(const RingView& ring, const Claim& claim, std::uint32_t size) noexcept {
   SlotHeader& slot = *claim.slot;
-  SlotClaim& entry = ring.slot_claim(claim.ticket);
+  // Read before the header's stores, so they reach the line back to back: a subscriber polling
+  // it can take the line away during the clock call, and every store after that waits for it.
+  const std::uint32_t sent = send_stamp_s();
   slot.size.store(size, std::memory_order_relaxed);
-  // The coarse clock is a plain read of the kernel's tick (a few ns): introspection wants
-  // "when did this topic last see traffic", not a message timestamp.
-  entry.send_time_ns.store(static_cast<std::uint64_t>(clock_ns(CLOCK_REALTIME_COARSE)),
-                           std::memory_order_relaxed);
+  slot.send_time_s.store(sent, std::memory_order_relaxed);
   slot.seq.store(2 * claim.ticket + 2, std::memory_order_release);
   if (!ring.single_publisher) {
-    entry.claim.store(2 * claim.ticket + 2, std::memory_order_release);
+    ring.slot_claim(claim.ticket).claim.store(2 * claim.ticket + 2, std::memory_order_release);
   }
   ring.control->commits.store(claim.ticket + 1, std::memory_order_release);
   if (ring.single_publisher ? ring_sleepers_after_commit(ring) : claim.wake) {
