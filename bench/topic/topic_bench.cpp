@@ -6,8 +6,8 @@
 //   throughput  messages per second through a 1024-slot topic (default send(); single-publisher
 //               send() and loan()), against a raw seqlock ring carrying the same messages: all
 //               writers fill in message i and hand it over, all readers check that message i
-//               arrives i-th. A reference row adds to the raw ring only the last-send stamp a
-//               topic takes per send for introspection, so the stamp's cost is measured too.
+//               arrives i-th. Two reference rows add to the raw ring one thing each that a topic's
+//               send does: the last-send stamp for tools, and a multi-publisher claim.
 // The second process is this binary re-executed with --role.
 #include <fcntl.h>
 #include <sched.h>
@@ -81,6 +81,10 @@ struct Shared {
   /// The reader's position, published every kAckEvery messages: the writer's back-pressure.
   alignas(64) std::atomic<std::uint64_t> consumed;
   alignas(64) RawSlot ring[kRingSlots];
+  /// The claimed-ring reference's tickets and per-slot claim words, apart from the slots as a
+  /// topic keeps them.
+  alignas(64) std::atomic<std::uint64_t> tickets;
+  alignas(64) std::atomic<std::uint64_t> claims[kRingSlots];
 };
 
 Shared* map_shared(const std::string& name, bool create) {
@@ -491,28 +495,51 @@ Throughput loan_throughput(const std::string& region, Shared& shared) {
   });
 }
 
-/// The floor, and (Stamped) the floor plus the one thing a topic's send does that a raw ring
-/// does not need: the last-send stamp for introspection. Their ratio is what the stamp costs,
-/// measured in the same rounds.
-template <bool Stamped>
+/// What a raw ring's writer does besides odd sequence, copy, even sequence: nothing (the
+/// floor), or one thing a topic's send does that a one-writer raw ring need not, so that thing's
+/// cost is measured in the same rounds.
+enum class RawExtra {
+  none,
+  /// The last-send stamp tools read.
+  stamp,
+  /// A multi-publisher claim: the ticket's fetch_add and the slot's compare-and-swap.
+  claim,
+};
+
+template <RawExtra Extra>
 Throughput raw_throughput(const std::string& region, Shared& shared) {
   for (RawSlot& slot : shared.ring) {
     slot.seq.store(0);
   }
+  for (std::atomic<std::uint64_t>& claim : shared.claims) {
+    claim.store(0);
+  }
+  shared.tickets.store(0);
   topic_bench::Msg64 msg{};
   return stream("consume_raw", region, shared, [&](std::uint64_t i) {
     fill(msg, i);
     // Read before the slot's stores, as a topic does (its payload line is apart from the header;
     // here the payload shares the header's line, which a clock call must not split).
-    const std::uint32_t sent = Stamped ? horus::detail::send_stamp_s() : 0;
+    const std::uint32_t sent = Extra == RawExtra::stamp ? horus::detail::send_stamp_s() : 0;
+    if constexpr (Extra == RawExtra::claim) {
+      // The ticket is i: this writer is alone, but pays for the read-modify-writes all the same.
+      const std::uint64_t ticket = shared.tickets.fetch_add(1, std::memory_order_seq_cst);
+      // The slot's claim from one lap before: released by its commit, or never claimed.
+      std::uint64_t expected = ticket >= kRingSlots ? 2 * (ticket - kRingSlots) + 2 : 0;
+      shared.claims[ticket % kRingSlots].compare_exchange_strong(
+          expected, 2 * ticket + 1, std::memory_order_acquire, std::memory_order_relaxed);
+    }
     RawSlot& slot = shared.ring[i % kRingSlots];
     slot.seq.store(2 * i + 1, std::memory_order_relaxed);
     std::atomic_thread_fence(std::memory_order_release);
     std::memcpy(slot.payload, &msg, sizeof msg);
-    if constexpr (Stamped) {
+    if constexpr (Extra == RawExtra::stamp) {
       slot.send_time_s.store(sent, std::memory_order_relaxed);
     }
     slot.seq.store(2 * i + 2, std::memory_order_release);
+    if constexpr (Extra == RawExtra::claim) {
+      shared.claims[i % kRingSlots].store(2 * i + 2, std::memory_order_release);
+    }
   });
 }
 
@@ -594,9 +621,11 @@ double median(std::vector<double> values) {
 }
 
 void print_throughput_table(const std::string& region, Shared& shared) {
-  Rates rows[] = {{"raw seqlock ring (floor)", raw_throughput<false>},
+  Rates rows[] = {{"raw seqlock ring (floor)", raw_throughput<RawExtra::none>},
                   {"raw seqlock ring + the topic's last-send stamp per message (reference)",
-                   raw_throughput<true>},
+                   raw_throughput<RawExtra::stamp>},
+                  {"raw seqlock ring + a multi-publisher claim per message (reference)",
+                   raw_throughput<RawExtra::claim>},
                   {"Topic<Msg64> send()", send_throughput<false>},
                   {"Topic<Msg64> send(), single_publisher", send_throughput<true>},
                   {"Topic<Msg64> loan() + publish(), single_publisher", loan_throughput}};
