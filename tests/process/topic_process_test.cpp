@@ -14,6 +14,7 @@
 #include <cstring>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <horus/detail/shm_segment.hpp>
@@ -310,6 +311,12 @@ int role_send_and_hold(const std::vector<std::string>& args) {
   return 38;
 }
 
+/// sleep_in_recv <topic>: waits in recv() until killed; exits 39 if anything arrives.
+int role_sleep_in_recv(const std::vector<std::string>& args) {
+  horus::Topic<Sample> data(args.at(0));
+  return data.recv(kDeadline).has_value() ? 39 : 40;
+}
+
 /// try_send <topic>: one send; exits 0 if it was refused as not the publisher, 36 otherwise.
 int role_try_send(const std::vector<std::string>& args) {
   horus::Topic<Sample> data(args.at(0));
@@ -331,6 +338,7 @@ const bool kRolesRegistered = [] {
   roles["send_after"] = role_send_after;
   roles["try_send"] = role_try_send;
   roles["send_and_hold"] = role_send_and_hold;
+  roles["sleep_in_recv"] = role_sleep_in_recv;
   return true;
 }();
 // Runs before main: a re-executed child plays its role and exits here.
@@ -401,6 +409,53 @@ TEST(TopicProcess, AForkedChildDoesNotPublishUnderItsParentsLease) {
     got.push_back(msg->seq);
   }
   EXPECT_EQ(got, (std::vector<std::uint64_t>{1, 2}));
+}
+
+/// Sleepers announced on a topic (the high bits of its write index), read through a control-page
+/// handle of its own.
+std::uint64_t announced_sleepers(const horus::detail::ShmSegment& segment) {
+  return segment.control().ring.write_index.load() >> 56;
+}
+
+bool wait_for_sleepers(const horus::detail::ShmSegment& segment, std::uint64_t count) {
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  while (announced_sleepers(segment) != count) {
+    if (std::chrono::steady_clock::now() > deadline) {
+      return false;
+    }
+    std::this_thread::sleep_for(1ms);
+  }
+  return true;
+}
+
+TEST(TopicProcess, ASubscriberKilledAsleepIsGivenBackByTheNextSend) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> data("asleep", {.capacity = 16});
+  const auto control = horus::detail::ShmSegment::open_control("asleep", {0, 0, 0600, {}, false});
+  Child sleeper("sleep_in_recv", {"asleep"});
+  ASSERT_TRUE(wait_for_sleepers(control, 1)) << "the child never went to sleep";
+  sleeper.kill();
+  EXPECT_EQ(announced_sleepers(control), 1u) << "a dead sleeper's announcement stays";
+
+  // This send's wake finds nobody, so it looks for dead sleepers and gives theirs back: later
+  // sends make no syscall.
+  EXPECT_TRUE(data.send(sealed<Sample>(1)));
+  EXPECT_EQ(announced_sleepers(control), 0u);
+
+  // A live sleeper is left alone, and woken.
+  std::optional<Sample> woken;
+  std::thread waiter([&] {
+    horus::Topic<Sample> own("asleep");
+    woken = own.recv(10s);
+  });
+  ASSERT_TRUE(wait_for_sleepers(control, 1));
+  horus::detail::ring_reclaim_dead_sleepers(control.ring());
+  EXPECT_EQ(announced_sleepers(control), 1u) << "a live sleeper's announcement was taken";
+  EXPECT_TRUE(data.send(sealed<Sample>(2)));
+  waiter.join();
+  ASSERT_TRUE(woken.has_value());
+  EXPECT_EQ(woken->seq, 2u);
+  EXPECT_EQ(announced_sleepers(control), 0u);
 }
 
 TEST(TopicProcess, SeveralPublishersAndSubscribersEachSeeEverything) {

@@ -217,7 +217,7 @@ class Topic {
     const auto deadline = std::chrono::steady_clock::now() + timeout;
     for (;;) {
       const std::uint32_t seen = control.notify.load(std::memory_order_seq_cst);
-      const std::uint64_t claimed_before = detail::ring_add_sleeper(control);
+      const std::uint64_t claimed_before = segment_.announce_sleeper();
       const bool announced = detail::ring_sleeper_barrier(control);
       receive(msg, true);
       const auto remaining = deadline - std::chrono::steady_clock::now();
@@ -231,7 +231,7 @@ class Topic {
             unannounced ? std::min<std::chrono::nanoseconds>(remaining, kSlice) : remaining);
       }
       if (claimed_before != UINT64_MAX) {
-        detail::ring_remove_sleeper(control);
+        segment_.withdraw_sleeper();
       }
       if (msg || remaining <= std::chrono::nanoseconds::zero()) {
         return msg;

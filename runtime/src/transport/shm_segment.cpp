@@ -228,6 +228,14 @@ void prepare_control(int fd, const std::string& path, unsigned mode) {
   }
 }
 
+/// Withdraws the sleeper announcements left by the dead process whose entry the caller took.
+void give_back_sleepers(RingControl& ring, UserEntry& user) noexcept {
+  for (std::uint32_t left = user.sleepers.exchange(0, std::memory_order_acq_rel); left > 0;
+       --left) {
+    ring_remove_sleeper(ring);
+  }
+}
+
 int register_user(ControlBlock& control, std::uint32_t roles, const std::string& path) {
   const auto pid = static_cast<std::uint32_t>(::getpid());
   for (int pass = 0; pass < 2; ++pass) {
@@ -236,6 +244,7 @@ int register_user(ControlBlock& control, std::uint32_t roles, const std::string&
       std::uint32_t current = user.pid.load(std::memory_order_acquire);
       const bool free = pass == 0 ? current == 0 : current != 0 && !process_alive(current);
       if (free && user.pid.compare_exchange_strong(current, pid, std::memory_order_acq_rel)) {
+        give_back_sleepers(control.ring, user);
         user.roles.store(roles, std::memory_order_release);
         return static_cast<int>(i);
       }
@@ -506,6 +515,7 @@ ShmSegment ShmSegment::open_topic(std::string_view topic, const TypeDescriptor& 
   segment.mapped_size_ = whole.size;
   auto* bytes = static_cast<std::byte*>(segment.base_);
   segment.ring_.control = &segment.control().ring;
+  segment.ring_.users = segment.control().users;
   segment.ring_.claims = reinterpret_cast<SlotClaim*>(bytes + header.claims_offset);
   segment.ring_.slots = bytes + header.slots_offset;
   segment.ring_.mask = header.capacity - 1;
@@ -534,6 +544,7 @@ ShmSegment ShmSegment::open_control(std::string_view topic, const SegmentOptions
                 "; remove the file if no process uses it");
   }
   segment.ring_.control = &segment.control().ring;
+  segment.ring_.users = segment.control().users;
   segment.user_index_ = register_user(segment.control(), kRoleNotifier, segment.path_);
   return segment;
 }
@@ -562,6 +573,43 @@ ShmSegment::~ShmSegment() { release(); }
 void ShmSegment::add_role(std::uint32_t role) noexcept {
   if (user_index_ >= 0) {
     control().users[user_index_].roles.fetch_or(role, std::memory_order_relaxed);
+  }
+}
+
+std::uint64_t ShmSegment::announce_sleeper() noexcept {
+  const std::uint64_t claimed_before = ring_add_sleeper(control().ring);
+  if (claimed_before != UINT64_MAX && user_index_ >= 0) {
+    control().users[user_index_].sleepers.fetch_add(1, std::memory_order_release);
+  }
+  return claimed_before;
+}
+
+void ShmSegment::withdraw_sleeper() noexcept {
+  if (user_index_ >= 0) {
+    control().users[user_index_].sleepers.fetch_sub(1, std::memory_order_relaxed);
+  }
+  ring_remove_sleeper(control().ring);
+}
+
+void ring_reclaim_dead_sleepers(const RingView& ring) noexcept {
+  if (ring.users == nullptr) {
+    return;
+  }
+  for (std::size_t i = 0; i < kMaxUsers; ++i) {
+    UserEntry& user = ring.users[i];
+    if (user.sleepers.load(std::memory_order_acquire) == 0) {
+      continue;
+    }
+    std::uint32_t pid = user.pid.load(std::memory_order_acquire);
+    if (pid == 0 || process_alive(pid)) {
+      continue;
+    }
+    // Taken over as register_user takes a dead entry, so only one process gives it back.
+    if (user.pid.compare_exchange_strong(pid, this_pid(), std::memory_order_acq_rel)) {
+      give_back_sleepers(*ring.control, user);
+      user.roles.store(0, std::memory_order_relaxed);
+      user.pid.store(0, std::memory_order_release);
+    }
   }
 }
 

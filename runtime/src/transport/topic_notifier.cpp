@@ -121,7 +121,7 @@ std::optional<std::size_t> TopicWaitSet::wait(std::chrono::nanoseconds timeout) 
     for (std::size_t i = 0; i < state.topics.size(); ++i) {
       RingControl& control = state.topics[i].segment.control().ring;
       state.words[i].val = control.notify.load(std::memory_order_seq_cst);
-      state.claimed_before[i] = ring_add_sleeper(control);
+      state.claimed_before[i] = state.topics[i].segment.announce_sleeper();
       if (control.single_publisher.load(std::memory_order_relaxed) != 0) {
         single_publisher = &control;
       }
@@ -151,7 +151,7 @@ std::optional<std::size_t> TopicWaitSet::wait(std::chrono::nanoseconds timeout) 
     }
     for (std::size_t i = 0; i < state.topics.size(); ++i) {
       if (state.claimed_before[i] != UINT64_MAX) {
-        ring_remove_sleeper(state.topics[i].segment.control().ring);
+        state.topics[i].segment.withdraw_sleeper();
       }
     }
   }

@@ -17,6 +17,9 @@
 
 namespace horus::detail {
 
+/// One open handle in the segment's users table (shm_segment.hpp).
+struct UserEntry;
+
 /// The shared counters of a ring, in the type-independent control page.
 struct RingControl {
   /// Low 56 bits: tickets handed out to publishers, ever (the count of messages sent). High 8
@@ -109,6 +112,8 @@ struct RingView {
   /// Single-publisher topics: the sleepers' membarrier covers this process, so the publisher
   /// needs no barrier of its own before looking for sleepers (set by PublisherLease).
   bool fence_free = false;
+  /// The segment's users table, where a wake that found nobody looks for sleepers that died.
+  UserEntry* users = nullptr;
 
   std::uint64_t capacity() const noexcept { return mask + 1; }
   SlotHeader& slot(std::uint64_t ticket) const noexcept {
@@ -226,10 +231,19 @@ inline bool ring_sleepers_after_commit(const RingView& ring) noexcept {
   return (ring.control->write_index.fetch_add(0, std::memory_order_seq_cst) & ~kIndexMask) != 0;
 }
 
+/// Gives back the sleeper announcements of handles whose process died asleep. Left alone, they
+/// would make every later send wake nobody, with a syscall, until the topic is recreated.
+void ring_reclaim_dead_sleepers(const RingView& ring) noexcept;
+
 /// Wakes the sleepers a claim saw (also for a claim that got no slot: they wait for its ticket).
+/// A wake that finds nobody asleep is the sign of a sleeper that died (or of one about to sleep,
+/// which notices the bumped word): only then is the users table searched, on a path that has
+/// made a syscall anyway.
 inline void ring_wake(const RingView& ring) noexcept {
   ring.control->notify.fetch_add(1, std::memory_order_seq_cst);
-  futex_wake_all(ring.control->notify);
+  if (futex_wake_all(ring.control->notify) == 0) {
+    ring_reclaim_dead_sleepers(ring);
+  }
 }
 
 /// Lets go of a claim that got no slot. Its ticket is used up all the same, and the sleepers the

@@ -26,7 +26,7 @@ namespace horus::detail {
 
 inline constexpr std::uint64_t kControlMagic = 0x4c54435355524f48ULL;  // "HORUSCTL"
 inline constexpr std::uint64_t kLayoutMagic = 0x504f545355524f48ULL;   // "HORUSTOP"
-inline constexpr std::uint32_t kSegmentVersion = 4;
+inline constexpr std::uint32_t kSegmentVersion = 5;
 inline constexpr std::size_t kControlSize = 4096;
 inline constexpr std::uint64_t kCacheLine = 64;
 inline constexpr std::size_t kMaxUsers = 128;
@@ -45,6 +45,11 @@ inline constexpr std::uint32_t kRoleNotifier = 4;
 struct UserEntry {
   std::atomic<std::uint32_t> pid;
   std::atomic<std::uint32_t> roles;
+  /// Sleeper announcements this handle holds in RingControl::write_index: counted after they
+  /// are made and before they are withdrawn, so a dead process's count never exceeds what it
+  /// left there, and whoever takes over its entry can give them back.
+  std::atomic<std::uint32_t> sleepers;
+  std::uint32_t reserved;
 };
 
 struct ControlBlock {
@@ -134,6 +139,10 @@ class ShmSegment {
   const std::string& path() const noexcept { return path_; }
   /// Records that this handle publishes or subscribes (for introspection); idempotent.
   void add_role(std::uint32_t role) noexcept;
+  /// ring_add_sleeper, counted in this handle's user entry.
+  std::uint64_t announce_sleeper() noexcept;
+  /// ring_remove_sleeper for an announcement that announce_sleeper() made.
+  void withdraw_sleeper() noexcept;
 
  private:
   ShmSegment() = default;
