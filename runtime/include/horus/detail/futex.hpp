@@ -35,8 +35,8 @@ inline void futex_wait(std::atomic<std::uint32_t>& word, std::uint32_t expected,
           nullptr, 0);
 }
 
-/// Wakes every thread of every process sleeping on `word`.
-/// Wakes every thread waiting on `word`; returns how many there were (-1 on error).
+/// Wakes every thread of every process sleeping on `word`; returns how many there were (-1 on
+/// error).
 inline long futex_wake_all(std::atomic<std::uint32_t>& word) noexcept {
   return syscall(SYS_futex, reinterpret_cast<std::uint32_t*>(&word), FUTEX_WAKE, INT_MAX, nullptr,
                  nullptr, 0);
