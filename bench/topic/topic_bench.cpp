@@ -7,7 +7,8 @@
 //               send() and loan()), against a raw seqlock ring carrying the same messages: all
 //               writers fill in message i and hand it over, all readers check that message i
 //               arrives i-th. Two reference rows add to the raw ring one thing each that a topic's
-//               send does: the last-send stamp for tools, and a multi-publisher claim.
+//               send does: the last-send stamp for tools, and a multi-publisher claim. Then
+//               every writer alone, with nobody reading.
 // The second process is this binary re-executed with --role.
 #include <fcntl.h>
 #include <sched.h>
@@ -447,9 +448,19 @@ void wait_for_reader(std::uint64_t sent, Shared& shared) {
   }
 }
 
-/// Runs `write(i)` for every message with `reader` consuming in the second process.
+/// Runs `write(i)` for every message with `reader` consuming in the second process, or (without
+/// a reader) alone: what the writer's own code costs, without the cache-line traffic a subscriber
+/// brings.
 template <class Write>
-Throughput stream(const char* reader, const std::string& region, Shared& shared, Write&& write) {
+Throughput stream(const char* reader, bool with_reader, const std::string& region, Shared& shared,
+                  Write&& write) {
+  if (!with_reader) {
+    const std::int64_t begin = now_ns();
+    for (std::uint64_t i = 0; i < kThroughputMessages; ++i) {
+      write(i);
+    }
+    return {kThroughputMessages * 1e9 / static_cast<double>(now_ns() - begin), 0, 0};
+  }
   std::int64_t start = 0;
   {
     Peer peer(reader, kRingPayload, region, shared);
@@ -472,22 +483,22 @@ Throughput stream(const char* reader, const std::string& region, Shared& shared,
 
 /// The writers fill in message i the same way; only the hand-over differs.
 template <bool SinglePublisher>
-Throughput send_throughput(const std::string& region, Shared& shared) {
+Throughput send_throughput(const std::string& region, Shared& shared, bool with_reader) {
   horus::Topic<topic_bench::Msg64> topic(
       SinglePublisher ? "throughput.single" : "throughput",
       {.capacity = kRingSlots, .single_publisher = SinglePublisher});
   topic_bench::Msg64 msg{};
-  return stream(SinglePublisher ? "consume_single" : "consume_topic", region, shared,
+  return stream(SinglePublisher ? "consume_single" : "consume_topic", with_reader, region, shared,
                 [&](std::uint64_t i) {
                   fill(msg, i);
                   topic.send(msg);
                 });
 }
 
-Throughput loan_throughput(const std::string& region, Shared& shared) {
+Throughput loan_throughput(const std::string& region, Shared& shared, bool with_reader) {
   horus::Topic<topic_bench::Msg64> topic("throughput.single",
                                          {.capacity = kRingSlots, .single_publisher = true});
-  return stream("consume_single", region, shared, [&](std::uint64_t i) {
+  return stream("consume_single", with_reader, region, shared, [&](std::uint64_t i) {
     horus::Loan<topic_bench::Msg64> loan = topic.loan();
     loan->payload = {};
     fill(*loan, i);
@@ -507,7 +518,7 @@ enum class RawExtra {
 };
 
 template <RawExtra Extra>
-Throughput raw_throughput(const std::string& region, Shared& shared) {
+Throughput raw_throughput(const std::string& region, Shared& shared, bool with_reader) {
   for (RawSlot& slot : shared.ring) {
     slot.seq.store(0);
   }
@@ -516,7 +527,7 @@ Throughput raw_throughput(const std::string& region, Shared& shared) {
   }
   shared.tickets.store(0);
   topic_bench::Msg64 msg{};
-  return stream("consume_raw", region, shared, [&](std::uint64_t i) {
+  return stream("consume_raw", with_reader, region, shared, [&](std::uint64_t i) {
     fill(msg, i);
     // Read before the slot's stores, as a topic does (its payload line is apart from the header;
     // here the payload shares the header's line, which a clock call must not split).
@@ -608,7 +619,7 @@ constexpr int kThroughputRounds = 9;
 
 struct Rates {
   const char* label;
-  Throughput (*run)(const std::string&, Shared&);
+  Throughput (*run)(const std::string&, Shared&, bool with_reader);
   std::vector<double> per_s{};
   std::vector<double> ratios{};
   std::uint64_t lost = 0;
@@ -631,7 +642,7 @@ void print_throughput_table(const std::string& region, Shared& shared) {
                   {"Topic<Msg64> loan() + publish(), single_publisher", loan_throughput}};
   for (int round = 0; round < kThroughputRounds; ++round) {
     for (Rates& row : rows) {
-      const Throughput result = row.run(region, shared);
+      const Throughput result = row.run(region, shared, true);
       row.per_s.push_back(result.per_s);
       row.ratios.push_back(result.per_s / rows[0].per_s.back());
       row.lost += result.lost;
@@ -652,6 +663,20 @@ void print_throughput_table(const std::string& region, Shared& shared) {
                 *std::max_element(row.per_s.begin(), row.per_s.end()),
                 static_cast<unsigned long long>(row.lost),
                 static_cast<unsigned long long>(row.misordered), median(row.ratios));
+  }
+
+  // The same writers with nobody reading: the difference to the table above is what the
+  // subscriber's cache-line traffic costs each one.
+  std::printf(
+      "\nEach writer alone (nobody reading, the ring lapping), ns per message: median of %d "
+      "rounds:\n\n| | ns per message |\n|---|---:|\n",
+      kThroughputRounds);
+  for (Rates& row : rows) {
+    std::vector<double> ns;
+    for (int round = 0; round < kThroughputRounds; ++round) {
+      ns.push_back(1e9 / row.run(region, shared, false).per_s);
+    }
+    std::printf("| %s | %.1f |\n", row.label, median(ns));
   }
 }
 
