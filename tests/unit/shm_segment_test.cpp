@@ -87,6 +87,20 @@ TEST(ShmSegment, OlderFormatIsStartedAfreshOnlyOnceNobodyUsesIt) {
   EXPECT_EQ(data.try_recv()->seq, 1u);
 }
 
+TEST(ShmSegment, AnOlderFormatsUsersAreReadInThatFormatsLayout) {
+  PrivateNamespace ns;
+  create("old_users");
+  const std::string path = segment_path(ns, "old_users");
+  overwrite(path, offsetof(horus::detail::ControlBlock, version),
+            std::uint64_t{kControlSize} << 32 | 4);
+  // Versions 1 to 4 kept 8-byte entries {pid, roles}: a live subscriber in the second one.
+  overwrite(
+      path, offsetof(horus::detail::ControlBlock, users) + 8,
+      std::uint64_t{horus::detail::kRoleSubscriber} << 32 | static_cast<std::uint32_t>(::getpid()));
+  EXPECT_NE(open_error("old_users").find("unsupported version 4"), std::string::npos)
+      << "a segment an older build still uses was started afresh under it";
+}
+
 TEST(ShmSegment, InvalidPublisherModeIsAnError) {
   PrivateNamespace ns;
   create("mode");

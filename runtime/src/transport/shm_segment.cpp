@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <span>
 #include <utility>
 
 #include "horus/error.hpp"
@@ -178,8 +179,9 @@ void read_all(int fd, void* data, std::size_t size, std::uint64_t offset, const 
 /// Gives a new (empty) file its control page; validates an existing one.
 /// Whether a live process has the segment open (counting notifiers only if asked: they map the
 /// control page alone, so they do not stand in the way of re-typing).
-bool has_live_users(const ControlBlock& control, bool count_notifiers) {
-  for (const UserEntry& user : control.users) {
+template <class Entry>
+bool has_live_users(std::span<const Entry> users, bool count_notifiers) {
+  for (const Entry& user : users) {
     const std::uint32_t pid = user.pid.load(std::memory_order_acquire);
     const bool notifier = (user.roles.load(std::memory_order_relaxed) & kRoleNotifier) != 0;
     if (pid != 0 && (count_notifiers || !notifier) && process_alive(pid)) {
@@ -189,9 +191,20 @@ bool has_live_users(const ControlBlock& control, bool count_notifiers) {
   return false;
 }
 
+bool has_live_users(const ControlBlock& control, bool count_notifiers) {
+  return has_live_users(std::span<const UserEntry>(control.users), count_notifiers);
+}
+
+/// A users table entry of versions 1 to 4, before entries counted their sleepers.
+struct UserEntryV4 {
+  std::atomic<std::uint32_t> pid;
+  std::atomic<std::uint32_t> roles;
+};
+static_assert(sizeof(UserEntryV4) * kMaxUsers <= sizeof(ControlBlock::users));
+
 /// A segment left by an older horus build that nobody uses any more is started afresh, so an
 /// upgrade does not strand its topics; one still in use stays an error (validate_control).
-/// Versions 1 to 3 share the control page layout, so its users table can be read.
+/// Versions 1 to 4 put their users table where this one is, with smaller entries.
 bool abandoned_older_version(int fd, std::uint64_t size) {
   if (size < kControlSize) {
     return false;
@@ -201,8 +214,12 @@ bool abandoned_older_version(int fd, std::uint64_t size) {
     return false;
   }
   const auto& control = *reinterpret_cast<const ControlBlock*>(page);
-  return control.magic == kControlMagic && control.version >= 1 &&
-         control.version < kSegmentVersion && !has_live_users(control, true);
+  if (control.magic != kControlMagic || control.version < 1 || control.version >= kSegmentVersion) {
+    return false;
+  }
+  const std::span<const UserEntryV4> users(reinterpret_cast<const UserEntryV4*>(&control.users[0]),
+                                           kMaxUsers);
+  return !has_live_users(users, true);
 }
 
 void prepare_control(int fd, const std::string& path, unsigned mode) {
@@ -237,7 +254,7 @@ void give_back_sleepers(RingControl& ring, UserEntry& user) noexcept {
 }
 
 int register_user(ControlBlock& control, std::uint32_t roles, const std::string& path) {
-  const auto pid = static_cast<std::uint32_t>(::getpid());
+  const std::uint32_t pid = this_pid();
   for (int pass = 0; pass < 2; ++pass) {
     for (std::size_t i = 0; i < kMaxUsers; ++i) {
       UserEntry& user = control.users[i];
