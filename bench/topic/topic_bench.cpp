@@ -1,14 +1,16 @@
 // Topic<T> against the raw floors, in one run, with the two processes pinned to two cores:
 //   latency     one-way (round trip / 2) p50/p99/p99.9, busy-polling try_recv, per size,
 //               against a raw shared-memory ping-pong (a sequence counter and a memcpy);
-//   wake-up     one-way through blocking recv() (futex), on a default and a single-publisher
-//               topic, against a raw futex ping-pong;
-//   throughput  messages per second through a 1024-slot topic (default send(); single-publisher
-//               send() and loan()), against a raw seqlock ring carrying the same messages: all
-//               writers fill in message i and hand it over, all readers check that message i
-//               arrives i-th. Two reference rows add to the raw ring one thing each that a topic's
-//               send does: the last-send stamp for tools, and a multi-publisher claim. Then
-//               every writer alone, with nobody reading.
+//   wake-up     one-way through blocking recv() (futex), on a topic with one publisher, on one
+//               whose ring a second publisher shared, and on a single-publisher topic, against a
+//               raw futex ping-pong;
+//   throughput  messages per second through a 1024-slot topic (send() by its one publisher and
+//               after a second one shared the ring; single-publisher send() and loan()), against
+//               a raw seqlock ring carrying the same messages: all writers fill in message i and
+//               hand it over, all readers check that message i arrives i-th. Two reference rows
+//               add to the raw ring one thing each that a topic's send may do: the last-send
+//               stamp for tools, and a shared ring's claim. Then every writer alone, with nobody
+//               reading.
 // The second process is this binary re-executed with --role.
 #include <fcntl.h>
 #include <sched.h>
@@ -350,10 +352,25 @@ class Peer {
   pid_t pid_ = -1;
 };
 
+/// Who publishes on a measured topic: its one publisher (holding the publisher lease), that
+/// publisher after a second handle shared the ring, or a single_publisher topic's publisher.
+enum class Publishers { one, shared_ring, single };
+
 template <class M>
-void topic_latency(std::size_t size, bool blocking, bool single, std::size_t count,
+void topic_latency(std::size_t size, bool blocking, Publishers publishers, std::size_t count,
                    const std::string& region, Shared& shared, std::vector<std::int64_t>& samples) {
+  const bool single = publishers == Publishers::single;
   const horus::TopicOptions options{.capacity = kLatencyCapacity, .single_publisher = single};
+  // A handle that sent first, before the measured handles open (so they never see it), makes
+  // the measured publisher the second one on each topic.
+  std::optional<horus::Topic<M>> first_ping;
+  std::optional<horus::Topic<M>> first_pong;
+  if (publishers == Publishers::shared_ring) {
+    first_ping.emplace(ping_name(size, single), options);
+    first_pong.emplace(pong_name(size, single), options);
+    first_ping->send(M{});
+    first_pong->send(M{});
+  }
   horus::Topic<M> ping(ping_name(size, single), options);
   horus::Topic<M> pong(pong_name(size, single), options);
   {
@@ -482,13 +499,20 @@ Throughput stream(const char* reader, bool with_reader, const std::string& regio
 [[gnu::noinline]] void fill(topic_bench::Msg64& msg, std::uint64_t i) { msg.seq = i; }
 
 /// The writers fill in message i the same way; only the hand-over differs.
-template <bool SinglePublisher>
+template <Publishers Setup>
 Throughput send_throughput(const std::string& region, Shared& shared, bool with_reader) {
-  horus::Topic<topic_bench::Msg64> topic(
-      SinglePublisher ? "throughput.single" : "throughput",
-      {.capacity = kRingSlots, .single_publisher = SinglePublisher});
+  constexpr bool kSingle = Setup == Publishers::single;
+  horus::Topic<topic_bench::Msg64> topic(kSingle ? "throughput.single" : "throughput",
+                                         {.capacity = kRingSlots, .single_publisher = kSingle});
   topic_bench::Msg64 msg{};
-  return stream(SinglePublisher ? "consume_single" : "consume_topic", with_reader, region, shared,
+  // Sent before the reader opens the topic, so it never sees them.
+  std::optional<horus::Topic<topic_bench::Msg64>> second;
+  if constexpr (Setup == Publishers::shared_ring) {
+    topic.send(msg);
+    second.emplace("throughput");
+    second->send(msg);
+  }
+  return stream(kSingle ? "consume_single" : "consume_topic", with_reader, region, shared,
                 [&](std::uint64_t i) {
                   fill(msg, i);
                   topic.send(msg);
@@ -562,7 +586,8 @@ void latency_row(std::size_t size, const std::string& region, Shared& shared) {
   std::vector<std::int64_t> topic_samples;
   std::vector<std::int64_t> raw_samples;
   for (int round = 0; round < kRounds; ++round) {
-    topic_latency<M>(size, false, false, iterations(size) / kRounds, region, shared, topic_samples);
+    topic_latency<M>(size, false, Publishers::one, iterations(size) / kRounds, region, shared,
+                     topic_samples);
     raw_latency(size, iterations(size) / kRounds, region, shared, raw_samples);
   }
   const Percentiles topic = percentiles(topic_samples);
@@ -588,11 +613,16 @@ void print_latency_table(const std::string& region, Shared& shared) {
 
 void print_wakeup_table(const std::string& region, Shared& shared) {
   std::vector<std::int64_t> wake_samples;
+  std::vector<std::int64_t> shared_samples;
   std::vector<std::int64_t> single_samples;
   std::vector<std::int64_t> futex_samples;
   for (int round = 0; round < kRounds; ++round) {
-    topic_latency<topic_bench::Msg64>(64, true, false, 1000, region, shared, wake_samples);
-    topic_latency<topic_bench::Msg64>(64, true, true, 1000, region, shared, single_samples);
+    topic_latency<topic_bench::Msg64>(64, true, Publishers::one, 1000, region, shared,
+                                      wake_samples);
+    topic_latency<topic_bench::Msg64>(64, true, Publishers::shared_ring, 1000, region, shared,
+                                      shared_samples);
+    topic_latency<topic_bench::Msg64>(64, true, Publishers::single, 1000, region, shared,
+                                      single_samples);
     futex_latency(1000, region, shared, futex_samples);
   }
   const Percentiles futex = percentiles(futex_samples);
@@ -605,6 +635,7 @@ void print_wakeup_table(const std::string& region, Shared& shared) {
                 wake.p999, wake.p50 / futex.p50, wake.p99 / futex.p99);
   };
   row("Topic<Msg64> recv(timeout)", percentiles(wake_samples));
+  row("Topic<Msg64> recv(timeout), ring shared by two publishers", percentiles(shared_samples));
   row("Topic<Msg64> recv(timeout), single_publisher", percentiles(single_samples));
   row("raw futex", futex);
 }
@@ -637,8 +668,10 @@ void print_throughput_table(const std::string& region, Shared& shared) {
                    raw_throughput<RawExtra::stamp>},
                   {"raw seqlock ring + a multi-publisher claim per message (reference)",
                    raw_throughput<RawExtra::claim>},
-                  {"Topic<Msg64> send()", send_throughput<false>},
-                  {"Topic<Msg64> send(), single_publisher", send_throughput<true>},
+                  {"Topic<Msg64> send()", send_throughput<Publishers::one>},
+                  {"Topic<Msg64> send(), ring shared by two publishers",
+                   send_throughput<Publishers::shared_ring>},
+                  {"Topic<Msg64> send(), single_publisher", send_throughput<Publishers::single>},
                   {"Topic<Msg64> loan() + publish(), single_publisher", loan_throughput}};
   for (int round = 0; round < kThroughputRounds; ++round) {
     for (Rates& row : rows) {

@@ -346,21 +346,38 @@ const int kRoleStatus = topic_test::dispatch_role();
 
 // ---- Tests -------------------------------------------------------------------------------------
 
-void million_messages(bool single_publisher) {
+/// Who sends to a subscriber: the topic's first publisher (the lease holder), a second one (the
+/// ring is shared), or the holder of a single-publisher topic.
+enum class Sender { first, second, single };
+
+void million_messages(Sender who) {
   PrivateNamespace ns;
-  horus::Topic<Sample> create("million", {.capacity = 1024, .single_publisher = single_publisher});
+  horus::Topic<Sample> create("million",
+                              {.capacity = 1024, .single_publisher = who == Sender::single});
+  if (who == Sender::second) {
+    // Before the subscriber opens, so it never sees this one.
+    ASSERT_TRUE(create.send(sealed<Sample>(0, 9)));
+  }
   Child subscriber("subscribe", {"million", "0", "1", "1000000"});
   Child publisher("publish", {"million", "0", "1000000", "1", "768"});
   EXPECT_EQ(publisher.wait(), 0);
   EXPECT_EQ(subscriber.wait(), 0);
+  const auto control = horus::detail::ShmSegment::open_control("million", {0, 0, 0600, {}, false});
+  EXPECT_EQ(horus::detail::ring_shared_base(control.control().ring) != horus::detail::kUnshared,
+            who == Sender::second)
+      << "the ring is shared exactly when a second publisher sent";
 }
 
-TEST(TopicProcess, MillionMessagesArriveInOrderWithoutLoss) { million_messages(false); }
+// The subscriber also sleeps in recv() whenever it catches up: while one publisher holds the
+// lease, every wake-up relies on the sleepers' membarrier, as it takes no barrier of its own.
+TEST(TopicProcess, MillionMessagesArriveInOrderWithoutLoss) { million_messages(Sender::first); }
 
-// The subscriber also sleeps in recv() whenever it catches up: every wake-up relies on the
-// sleepers' membarrier, as the publisher takes no barrier of its own.
+TEST(TopicProcess, MillionMessagesThroughASharedRingArriveInOrderWithoutLoss) {
+  million_messages(Sender::second);
+}
+
 TEST(TopicProcess, MillionMessagesFromASinglePublisherArriveInOrderWithoutLoss) {
-  million_messages(true);
+  million_messages(Sender::single);
 }
 
 TEST(TopicProcess, SinglePublisherLeaseRefusesOthersUntilItsHolderDies) {
@@ -458,6 +475,7 @@ TEST(TopicProcess, ASubscriberKilledAsleepIsGivenBackByTheNextSend) {
   EXPECT_EQ(announced_sleepers(control), 0u);
 }
 
+// The first publisher to send holds the lease until the others share the ring, mid-stream.
 TEST(TopicProcess, SeveralPublishersAndSubscribersEachSeeEverything) {
   PrivateNamespace ns;
   horus::Topic<Sample> create("many", {.capacity = 512});
@@ -565,6 +583,9 @@ TEST(TopicProcess, PublisherKilledWhileHoldingASlotNeitherTearsNorBlocks) {
   PrivateNamespace ns;
   horus::Topic<Sample> data("held", {.capacity = 8});
   horus::Topic<Sample> held("held.held");
+  // This handle takes the publisher lease, so the child's loan is a shared claim.
+  ASSERT_TRUE(data.send(sealed<Sample>(1)));
+  ASSERT_TRUE(data.try_recv().has_value());
   Child holder("hold_loan", {"held"});
   ASSERT_TRUE(held.recv(10s).has_value()) << "the child never took its loan";
   EXPECT_FALSE(data.try_recv().has_value());
@@ -594,6 +615,25 @@ TEST(TopicProcess, PublisherKilledWhileHoldingASlotNeitherTearsNorBlocks) {
   auto latest = data.read_latest();
   ASSERT_TRUE(latest.has_value());
   EXPECT_EQ(latest->seq, 205u);
+}
+
+// The lease holder's half-written ticket was never visible: its successor writes it again.
+TEST(TopicProcess, LeaseHolderKilledWithALoanOutIsSucceededWithoutALoss) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> data("held", {.capacity = 8});
+  horus::Topic<Sample> held("held.held");
+  Child holder("hold_loan", {"held"});
+  ASSERT_TRUE(held.recv(10s).has_value()) << "the child never took its loan";
+  holder.kill();
+  Child successor("send_plain", {"held", "100", "3"});
+  ASSERT_EQ(successor.wait(), 0);
+  for (std::uint64_t seq = 100; seq < 103; ++seq) {
+    auto msg = data.try_recv();
+    ASSERT_TRUE(msg.has_value());
+    EXPECT_EQ(*msg, sealed<Sample>(seq));
+  }
+  EXPECT_FALSE(data.try_recv().has_value());
+  EXPECT_EQ(data.lost(), 0u);
 }
 
 void killed_mid_stream_then_restarted(bool single_publisher) {
@@ -647,9 +687,13 @@ TEST(TopicProcess, SerializedMessagesCrossProcessesAndOversizedOnesAreCounted) {
   EXPECT_EQ(data.lost(), 0u);
 }
 
-void blocking_recv_wakes(bool single_publisher) {
+void blocking_recv_wakes(Sender who) {
   PrivateNamespace ns;
-  horus::Topic<Sample> data("wake", {.single_publisher = single_publisher});
+  horus::Topic<Sample> data("wake", {.single_publisher = who == Sender::single});
+  if (who == Sender::second) {
+    ASSERT_TRUE(data.send(sealed<Sample>(1)));
+    ASSERT_TRUE(data.try_recv().has_value());
+  }
   Child sender("send_after", {"wake", "50"});
   auto msg = data.recv(20s);
   ASSERT_TRUE(msg.has_value());
@@ -658,10 +702,16 @@ void blocking_recv_wakes(bool single_publisher) {
   EXPECT_FALSE(data.recv(50ms).has_value()) << "nothing else was sent";
 }
 
-TEST(TopicProcess, BlockingRecvWakesOnASendFromAnotherProcess) { blocking_recv_wakes(false); }
+TEST(TopicProcess, BlockingRecvWakesOnASendFromAnotherProcess) {
+  blocking_recv_wakes(Sender::first);
+}
+
+TEST(TopicProcess, BlockingRecvWakesOnASecondPublishersSendFromAnotherProcess) {
+  blocking_recv_wakes(Sender::second);
+}
 
 TEST(TopicProcess, BlockingRecvWakesOnASinglePublishersSendFromAnotherProcess) {
-  blocking_recv_wakes(true);
+  blocking_recv_wakes(Sender::single);
 }
 
 TEST(TopicProcess, NotifierWaitsForATopicThatDoesNotExistYet) {
@@ -674,9 +724,12 @@ TEST(TopicProcess, NotifierWaitsForATopicThatDoesNotExistYet) {
   EXPECT_FALSE(notifier.wait(20ms)) << "one message wakes one wait";
 }
 
-void wait_set_wakes(bool single_publisher) {
+void wait_set_wakes(Sender who) {
   PrivateNamespace ns;
-  horus::Topic<Sample> create("loud", {.single_publisher = single_publisher});
+  horus::Topic<Sample> create("loud", {.single_publisher = who == Sender::single});
+  if (who == Sender::second) {
+    ASSERT_TRUE(create.send(sealed<Sample>(1)));
+  }
   horus::detail::TopicWaitSet set({"quiet", "loud"});
   Child sender("send_after", {"loud", "20"});
   EXPECT_EQ(set.wait(20s), std::optional<std::size_t>(1));
@@ -684,9 +737,15 @@ void wait_set_wakes(bool single_publisher) {
   EXPECT_FALSE(set.wait(20ms).has_value());
 }
 
-TEST(TopicProcess, WaitSetWakesOnASendFromAnotherProcess) { wait_set_wakes(false); }
+TEST(TopicProcess, WaitSetWakesOnASendFromAnotherProcess) { wait_set_wakes(Sender::first); }
 
-TEST(TopicProcess, WaitSetWakesOnASinglePublishersSendFromAnotherProcess) { wait_set_wakes(true); }
+TEST(TopicProcess, WaitSetWakesOnASecondPublishersSendFromAnotherProcess) {
+  wait_set_wakes(Sender::second);
+}
+
+TEST(TopicProcess, WaitSetWakesOnASinglePublishersSendFromAnotherProcess) {
+  wait_set_wakes(Sender::single);
+}
 
 TEST(TopicProcess, FullShmIsAClearErrorNotSigbus) {
   PrivateNamespace ns;

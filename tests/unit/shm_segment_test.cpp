@@ -87,18 +87,28 @@ TEST(ShmSegment, OlderFormatIsStartedAfreshOnlyOnceNobodyUsesIt) {
   EXPECT_EQ(data.try_recv()->seq, 1u);
 }
 
-TEST(ShmSegment, AnOlderFormatsUsersAreReadInThatFormatsLayout) {
-  PrivateNamespace ns;
-  create("old_users");
-  const std::string path = segment_path(ns, "old_users");
+/// Opens a segment left at an older `version` whose users table holds, 8 bytes in, this live
+/// process as a subscriber: the second entry of versions 1 to 4 (8-byte entries {pid, roles}),
+/// but only the sleeper count of the first entry of version 5 (16-byte entries).
+std::string open_older_with_word_at_users_plus_8(const PrivateNamespace& ns,
+                                                 const std::string& topic, std::uint32_t version) {
+  create(topic);
+  const std::string path = segment_path(ns, topic);
   overwrite(path, offsetof(horus::detail::ControlBlock, version),
-            std::uint64_t{kControlSize} << 32 | 4);
-  // Versions 1 to 4 kept 8-byte entries {pid, roles}: a live subscriber in the second one.
+            std::uint64_t{kControlSize} << 32 | version);
   overwrite(
       path, offsetof(horus::detail::ControlBlock, users) + 8,
       std::uint64_t{horus::detail::kRoleSubscriber} << 32 | static_cast<std::uint32_t>(::getpid()));
-  EXPECT_NE(open_error("old_users").find("unsupported version 4"), std::string::npos)
+  return open_error(topic);
+}
+
+TEST(ShmSegment, AnOlderFormatsUsersAreReadInThatFormatsLayout) {
+  PrivateNamespace ns;
+  EXPECT_NE(open_older_with_word_at_users_plus_8(ns, "v4_users", 4).find("unsupported version 4"),
+            std::string::npos)
       << "a segment an older build still uses was started afresh under it";
+  EXPECT_EQ(open_older_with_word_at_users_plus_8(ns, "v5_users", 5), "")
+      << "an abandoned version-5 segment was not started afresh";
 }
 
 TEST(ShmSegment, InvalidPublisherModeIsAnError) {

@@ -1,5 +1,6 @@
 // Topics between threads of one process: the API contract, loans, blocking and the notifier.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <chrono>
@@ -8,6 +9,7 @@
 #include <thread>
 #include <vector>
 
+#include <horus/detail/shm_segment.hpp>
 #include <horus/detail/topic_notifier.hpp>
 #include <horus/detail/topic_wait_set.hpp>
 #include <horus/topic.hpp>
@@ -343,6 +345,150 @@ TEST(TopicThread, SinglePublisherWakesBlockedReceiversEveryTime) {
   }
   echo.join();
   EXPECT_EQ(answered, kRounds);
+}
+
+// The first handle to send numbers the tickets itself (the publisher lease); a second handle's
+// send shares the ring. Nothing is lost or reordered on the way, and the holder's next send
+// joins the shared claims.
+TEST(TopicThread, ASecondPublisherSharesTheRingWithoutALossOrAStall) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> first("shared");
+  horus::Topic<Sample> second("shared");
+  horus::Topic<Sample> sub("shared");
+  for (std::uint64_t i = 0; i < 3; ++i) {
+    ASSERT_TRUE(first.send(sealed<Sample>(i)));
+  }
+  ASSERT_TRUE(second.send(sealed<Sample>(100)));
+  ASSERT_TRUE(first.send(sealed<Sample>(3)));
+  ASSERT_TRUE(second.send(sealed<Sample>(101)));
+  // Each arrives at once: a ticket left unwritten by the hand-over would hold the reader up.
+  for (const std::uint64_t seq : {0, 1, 2, 100, 3, 101}) {
+    auto msg = sub.try_recv();
+    ASSERT_TRUE(msg.has_value()) << "waiting before " << seq;
+    EXPECT_EQ(*msg, sealed<Sample>(seq));
+  }
+  EXPECT_FALSE(sub.try_recv().has_value());
+  EXPECT_EQ(sub.lost(), 0u);
+  EXPECT_EQ(first.stats().send_failures + second.stats().send_failures, 0u);
+  const auto topics = horus::list_topics();
+  ASSERT_EQ(topics.size(), 1u);
+  EXPECT_EQ(topics[0].message_count, 6u);
+  EXPECT_FALSE(topics[0].single_publisher);
+}
+
+// A loan taken under the lease is still its holder's to publish after the ring was shared, and
+// a shared publisher going a whole lap round does not write over it meanwhile.
+TEST(TopicThread, ALoanTakenUnderTheLeaseSurvivesTheHandOver) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> first("handover", {.capacity = 8});
+  horus::Topic<Sample> second("handover");
+  horus::Topic<Sample> sub("handover");
+  ASSERT_TRUE(first.send(sealed<Sample>(0)));
+  auto msg = sub.try_recv();
+  ASSERT_TRUE(msg.has_value());
+  EXPECT_EQ(*msg, sealed<Sample>(0));
+  auto loan = first.loan();
+  topic_test::seal(*loan, 1);
+  // Tickets 2 to 8; the 8th is a lap after ticket 0, in its slot, which was long committed.
+  for (std::uint64_t seq = 2; seq < 9; ++seq) {
+    ASSERT_TRUE(second.send(sealed<Sample>(seq)));
+  }
+  EXPECT_FALSE(second.send(sealed<Sample>(9))) << "this lap's slot holds the open loan";
+  EXPECT_EQ(second.stats().send_failures, 1u);
+  EXPECT_FALSE(sub.try_recv().has_value()) << "the loan's ticket comes first";
+  ASSERT_TRUE(first.publish(std::move(loan)));
+  for (std::uint64_t seq = 1; seq < 9; ++seq) {
+    msg = sub.try_recv();
+    ASSERT_TRUE(msg.has_value()) << seq;
+    EXPECT_EQ(*msg, sealed<Sample>(seq));
+  }
+  EXPECT_EQ(sub.lost(), 0u);
+}
+
+// Publishers that start together race for the lease and for sharing the ring, while blocked
+// receivers sleep across the hand-over; under ThreadSanitizer this checks the hand-over's
+// ordering.
+TEST(TopicThread, PublishersStartingTogetherShareTheRingWhileReceiversSleep) {
+  PrivateNamespace ns;
+  constexpr std::size_t kPublishers = 2;
+  constexpr std::uint64_t kEach = 2000;
+  horus::Topic<Sample> create("race", {.capacity = 8192});
+  horus::Topic<Sample> sub("race");
+  std::atomic<bool> go{false};
+  std::atomic<int> failures{0};
+  std::vector<std::thread> publishers;
+  for (std::size_t p = 0; p < kPublishers; ++p) {
+    publishers.emplace_back([p, &go, &failures] {
+      horus::Topic<Sample> pub("race");
+      while (!go.load()) {
+        std::this_thread::yield();
+      }
+      for (std::uint64_t i = 0; i < kEach; ++i) {
+        failures += pub.send(sealed<Sample>(i, p)) ? 0 : 1;
+        if (i % 500 == 0) {
+          std::this_thread::sleep_for(1ms);
+        }
+      }
+    });
+  }
+  go.store(true);
+  std::vector<std::uint64_t> next(kPublishers, 0);
+  for (std::uint64_t got = 0; got < kPublishers * kEach; ++got) {
+    auto msg = sub.recv(10s);
+    ASSERT_TRUE(msg.has_value()) << "after " << got;
+    std::size_t from = kPublishers;
+    for (std::size_t p = 0; p < kPublishers; ++p) {
+      if (msg->seq == next[p] && *msg == sealed<Sample>(msg->seq, p)) {
+        from = p;
+      }
+    }
+    ASSERT_LT(from, kPublishers) << "unexpected message " << msg->seq;
+    ++next[from];
+  }
+  for (auto& thread : publishers) {
+    thread.join();
+  }
+  EXPECT_EQ(failures.load(), 0);
+  EXPECT_EQ(sub.lost(), 0u);
+}
+
+// A shared publisher preempted between the two stores of its commit (the slot's sequence, then
+// its claim word) still holds the claim word a lap later, but its message is complete: the slot
+// is free. A writer whose slot still shows it writing keeps the slot.
+TEST(TopicThread, AWriterLateLettingGoOfItsSlotDoesNotHoldUpTheNextLap) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> first("late", {.capacity = 8});
+  horus::Topic<Sample> second("late");
+  ASSERT_TRUE(first.send(sealed<Sample>(0)));
+  // Shares the ring from ticket 1; ticket 8 lands in slot 0.
+  for (std::uint64_t seq = 1; seq < 9; ++seq) {
+    ASSERT_TRUE(second.send(sealed<Sample>(seq)));
+  }
+  // A second mapping of the segment plays the writers caught in the middle.
+  const horus::detail::ShmSegment segment = horus::detail::ShmSegment::open_topic(
+      "late",
+      horus::detail::TypeDescriptor{
+          horus::TypeInfo<Sample>::name, horus::TypeInfo<Sample>::fingerprint,
+          horus::TypeInfo<Sample>::schema, true, sizeof(Sample), alignof(Sample)},
+      horus::detail::SegmentOptions{8, 0, 0600, {}});
+  const horus::detail::RingView& ring = segment.ring();
+  const auto this_process = static_cast<std::uint32_t>(::getpid());
+  ring.slot_claim(8).owner.store(this_process);
+  ring.slot_claim(8).claim.store(2 * 8 + 1);
+  for (std::uint64_t seq = 9; seq < 17; ++seq) {
+    EXPECT_TRUE(second.send(sealed<Sample>(seq))) << seq;
+  }
+  EXPECT_EQ(second.stats().send_failures, 0u);
+  EXPECT_EQ(first.read_latest()->seq, 16u);
+
+  // Ticket 16's writer has marked the slot and not committed it: the next lap must wait.
+  ring.slot_claim(16).claim.store(2 * 16 + 1);
+  ring.slot(16).seq.store(2 * 16 + 1);
+  for (std::uint64_t seq = 17; seq < 24; ++seq) {
+    EXPECT_TRUE(second.send(sealed<Sample>(seq))) << seq;
+  }
+  EXPECT_FALSE(second.send(sealed<Sample>(24))) << "wrote over a slot being written";
+  EXPECT_EQ(second.stats().send_failures, 1u);
 }
 
 }  // namespace

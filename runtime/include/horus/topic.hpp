@@ -38,11 +38,13 @@ struct TopicOptions {
   unsigned mode = 0600;
   /// Empty: HORUS_NAMESPACE, or "default".
   std::string namespace_name{};
-  /// One handle at a time publishes (the first to send; another may take over once it is
-  /// destroyed or its process died). Its sends then take no atomic read-modify-write, which
-  /// waits for a cross-core round trip while a subscriber keeps up (bench/topic/RESULTS.md); a
-  /// blocking receiver pays a membarrier(2) each time it goes to sleep instead. Sends from
-  /// other handles fail and count in TopicStats::not_the_publisher.
+  /// Only one handle at a time may publish (the first to send; another may take over once it is
+  /// destroyed or its process died); sends from other handles fail and count in
+  /// TopicStats::not_the_publisher. Without it, any number of handles publish: the first one
+  /// alone sends as fast as this (its sends take no atomic read-modify-write, which waits for a
+  /// cross-core round trip while a subscriber keeps up, bench/topic/RESULTS.md), until a second
+  /// handle sends; from then on every send claims its slot with two. Either way, while one
+  /// handle publishes alone, a blocking receiver pays a membarrier(2) each time it goes to sleep.
   bool single_publisher = false;
 };
 
@@ -56,7 +58,8 @@ struct TopicStats {
   std::uint64_t send_failures = 0;
   /// The part of send_failures due to messages over max_message_size.
   std::uint64_t oversized = 0;
-  /// The part of send_failures on a single-publisher topic whose lease another live handle holds.
+  /// The part of send_failures on a single-publisher topic whose lease another live handle
+  /// holds.
   std::uint64_t not_the_publisher = 0;
   /// Received slots whose content did not decode as T (a corrupted segment).
   std::uint64_t invalid = 0;
@@ -68,13 +71,14 @@ class Topic;
 /// A slot of a POD topic lent for writing in place (zero copy); give it back with
 /// Topic::publish(). Its content is unspecified (an old message): write every field.
 /// Dropping it unpublished releases the slot without sending anything. It must not outlive
-/// its Topic, and while it is held the ring cannot reuse its slot.
+/// its Topic nor be held while its Topic is moved, and while it is held the ring cannot reuse
+/// its slot.
 template <Message T>
 class Loan {
   static_assert(PodMessage<T>, "only POD messages can be written in place");
 
  public:
-  Loan(Loan&& other) noexcept : ring_(other.ring_), claim_(other.claim_), data_(other.data_) {
+  Loan(Loan&& other) noexcept : claim_(other.claim_), ring_(other.ring_), data_(other.data_) {
     other.claim_.slot = nullptr;
     other.claim_.wake = false;
   }
@@ -90,27 +94,29 @@ class Loan {
   friend class Topic<T>;
   // The claim is built in place and finish() reads it field by field: copying it whole (16-byte
   // loads of 8-byte stores just made) stalled every loan until the slot's cache line arrived.
+  // The ring is the Topic's own, not a copy: while the subscriber holds the lines of the last
+  // message, every store of a send waits in a full store buffer, and a copy is ten more.
   template <class MakeClaim>
   Loan(const detail::RingView& ring, MakeClaim&& make_claim, T* spare) noexcept
-      : ring_(ring),
-        claim_(make_claim()),
+      : claim_(make_claim()),
+        ring_(&ring),
         data_(claim_.slot != nullptr ? reinterpret_cast<T*>(ring.payload(*claim_.slot)) : spare) {}
 
   /// Commits the slot with `size` bytes (or releases it); whether a message was published.
   bool finish(std::uint32_t size) noexcept {
     if (claim_.slot != nullptr) {
-      detail::ring_commit(ring_, claim_, size);
+      detail::ring_commit(*ring_, claim_, size);
       claim_.slot = nullptr;
       claim_.wake = false;
       return size != detail::kReleasedSlot;
     }
-    detail::ring_refused(ring_, claim_);
+    detail::ring_refused(*ring_, claim_);
     claim_.wake = false;
     return false;
   }
 
-  detail::RingView ring_;
   detail::Claim claim_;
+  const detail::RingView* ring_;
   T* data_;
 };
 
@@ -288,16 +294,22 @@ class Topic {
   static constexpr std::chrono::nanoseconds kSlice = std::chrono::microseconds(50);
 
   /// A slot for the next message; no slot when the ring refused one (or, on a single-publisher
-  /// topic, when another handle holds the lease).
-  detail::Claim claim_slot() noexcept {
-    if (!ring_.single_publisher) {
-      return detail::ring_claim(ring_, detail::this_pid());
+  /// topic, when another handle holds the lease). Every path returns its callee's claim as is,
+  /// so the claim is never copied (see PublisherLease::claim).
+  [[gnu::always_inline]] detail::Claim claim_slot() noexcept {
+    if (ring_.shared_base == detail::kUnshared) {
+      if (lease_.held() || lease_.acquire(ring_)) {
+        return lease_.claim(ring_);
+      }
+      if (ring_.single_publisher) {
+        ++stats_.not_the_publisher;
+        return detail::Claim{nullptr, 0, false, false};
+      }
+      if (!detail::ring_share(ring_)) {
+        return detail::Claim{nullptr, 0, false, false};
+      }
     }
-    if (!lease_.held() && !lease_.acquire(ring_)) {
-      ++stats_.not_the_publisher;
-      return detail::Claim{nullptr, 0, false};
-    }
-    return detail::ring_claim_single(ring_, lease_.take_ticket());
+    return detail::ring_claim(ring_, detail::this_pid());
   }
 
   void mark(std::uint32_t role) noexcept {

@@ -1,4 +1,5 @@
-// The single-publisher lease and the asymmetric barrier that lets its holder skip its own.
+// The publisher lease, the hand-over to shared claims, and the asymmetric barrier that lets a
+// lease holder skip its own.
 #include "horus/detail/publisher_lease.hpp"
 
 #include <linux/membarrier.h>
@@ -33,19 +34,49 @@ bool covered_by_sleeper_barrier() noexcept {
 #endif
 }
 
-std::uint64_t make_token() noexcept {
+bool global_barrier() noexcept {
+  return syscall(SYS_membarrier, MEMBARRIER_CMD_GLOBAL_EXPEDITED, 0, 0) == 0;
+}
+
+std::uint64_t make_token(bool fence_free) noexcept {
   static std::atomic<std::uint32_t> serial{0};
-  return static_cast<std::uint64_t>(this_pid()) << 32 |
-         serial.fetch_add(1, std::memory_order_relaxed);
+  return static_cast<std::uint64_t>(this_pid()) << 32 | (fence_free ? kLeaseFenceFree : 0) |
+         (serial.fetch_add(1, std::memory_order_relaxed) & kLeaseSerialMask);
+}
+
+/// The first ticket write_index numbers: `proposed`, unless somebody settled it first.
+std::uint64_t settle_shared_base(RingControl& control, std::uint64_t proposed) noexcept {
+  std::uint64_t unset = 0;
+  control.shared_base.compare_exchange_strong(unset, proposed + 1, std::memory_order_acq_rel,
+                                              std::memory_order_acquire);
+  return ring_shared_base(control);
 }
 
 }  // namespace
 
 bool ring_sleeper_barrier(const RingControl& control) noexcept {
-  if (control.single_publisher.load(std::memory_order_relaxed) == 0) {
-    return true;
+  return !ring_leased(control) || global_barrier();
+}
+
+bool ring_share(RingView& ring) noexcept {
+  RingControl& control = *ring.control;
+  std::uint64_t base = ring_shared_base(control);
+  if (base == kUnshared) {
+    std::uint64_t lease = control.publisher_lease.load(std::memory_order_acquire);
+    while ((lease & kLeaseShared) == 0 &&
+           !control.publisher_lease.compare_exchange_weak(
+               lease, lease | kLeaseShared, std::memory_order_seq_cst, std::memory_order_acquire)) {
+    }
+    // Past the barrier, every claim the holder made without seeing kLeaseShared has its
+    // announcement visible here; every later one sees kLeaseShared. A holder that does not rely
+    // on membarrier orders the two itself.
+    if ((lease & kLeaseFenceFree) != 0 && !global_barrier()) {
+      return false;
+    }
+    base = settle_shared_base(control, control.lease_announce.load(std::memory_order_seq_cst));
   }
-  return syscall(SYS_membarrier, MEMBARRIER_CMD_GLOBAL_EXPEDITED, 0, 0) == 0;
+  ring.shared_base = base;
+  return true;
 }
 
 PublisherLease::PublisherLease(PublisherLease&& other) noexcept
@@ -68,11 +99,12 @@ PublisherLease::~PublisherLease() { release(); }
 bool PublisherLease::acquire(RingView& ring) noexcept {
   // Registered before the lease is taken, so no commit under the lease is ever unfenced.
   const bool fence_free = covered_by_sleeper_barrier();
-  const std::uint64_t token = make_token();
+  const std::uint64_t token = make_token(fence_free);
   RingControl& control = *ring.control;
   std::uint64_t holder = control.publisher_lease.load(std::memory_order_acquire);
   do {
-    if (holder != 0 && process_alive(static_cast<std::uint32_t>(holder >> 32))) {
+    if ((holder & kLeaseShared) != 0 ||
+        (holder != 0 && process_alive(static_cast<std::uint32_t>(holder >> 32)))) {
       return false;
     }
   } while (!control.publisher_lease.compare_exchange_weak(holder, token, std::memory_order_acq_rel,
@@ -83,6 +115,19 @@ bool PublisherLease::acquire(RingView& ring) noexcept {
   next_ticket_ = control.commits.load(std::memory_order_acquire);
   ring.fence_free = fence_free;
   return true;
+}
+
+Claim PublisherLease::let_go(RingView& ring, std::uint64_t ticket) noexcept {
+  // Proposing `ticket` says this holder has not written it. Whoever shared the ring proposes
+  // the announcement it saw, which may already count it: the ticket is then still ours.
+  const std::uint64_t base = settle_shared_base(*control_, ticket);
+  ring.shared_base = base;
+  // The lease word keeps kLeaseShared, so nobody takes the lease again: nothing to release.
+  control_ = nullptr;
+  if (ticket < base) {
+    return ring_claim_leased(ring, ticket);
+  }
+  return ring_claim(ring, this_pid());
 }
 
 void PublisherLease::release() noexcept {

@@ -204,7 +204,7 @@ static_assert(sizeof(UserEntryV4) * kMaxUsers <= sizeof(ControlBlock::users));
 
 /// A segment left by an older horus build that nobody uses any more is started afresh, so an
 /// upgrade does not strand its topics; one still in use stays an error (validate_control).
-/// Versions 1 to 4 put their users table where this one is, with smaller entries.
+/// Versions 1 to 5 put their users table where this one is; 1 to 4 with smaller entries.
 bool abandoned_older_version(int fd, std::uint64_t size) {
   if (size < kControlSize) {
     return false;
@@ -216,6 +216,9 @@ bool abandoned_older_version(int fd, std::uint64_t size) {
   const auto& control = *reinterpret_cast<const ControlBlock*>(page);
   if (control.magic != kControlMagic || control.version < 1 || control.version >= kSegmentVersion) {
     return false;
+  }
+  if (control.version >= 5) {
+    return !has_live_users(control, true);
   }
   const std::span<const UserEntryV4> users(reinterpret_cast<const UserEntryV4*>(&control.users[0]),
                                            kMaxUsers);
@@ -326,21 +329,17 @@ LayoutHeader make_layout(const TypeDescriptor& type, const SegmentOptions& optio
   return header;
 }
 
-/// Sets the mode of a topic being (re)created. The ticket count moves to the counter the new mode
-/// keeps and never goes backwards: notifiers and readers compare against it.
-void set_publisher_mode(RingControl& ring, bool single) {
-  const std::uint64_t committed = ring.commits.load(std::memory_order_acquire);
-  if (single) {
-    const std::uint64_t claimed = ring.write_index.load(std::memory_order_acquire) & kIndexMask;
-    ring.commits.store(std::max(committed, claimed), std::memory_order_release);
-    ring.publisher_lease.store(0, std::memory_order_release);
-  } else {
-    std::uint64_t word = ring.write_index.load(std::memory_order_acquire);
-    while ((word & kIndexMask) < committed &&
-           !ring.write_index.compare_exchange_weak(word, (word & ~kIndexMask) | committed,
-                                                   std::memory_order_acq_rel)) {
-    }
-  }
+/// Starts the publishers' side of a ring afresh, for a topic being (re)created or one whose every
+/// user died: no lease, not shared, the next lease holder numbering tickets from the count so far.
+/// That count never goes backwards: notifiers and readers compare against it.
+void start_publishers_afresh(RingControl& ring, bool single) {
+  const std::uint64_t written = ring_written(ring);
+  ring.commits.store(written, std::memory_order_release);
+  ring.lease_announce.store(written, std::memory_order_release);
+  ring.first_ticket.store(written, std::memory_order_release);
+  ring.write_index.fetch_and(~kIndexMask, std::memory_order_acq_rel);
+  ring.publisher_lease.store(0, std::memory_order_release);
+  ring.shared_base.store(0, std::memory_order_release);
   ring.single_publisher.store(single ? 1 : 0, std::memory_order_release);
 }
 
@@ -515,14 +514,17 @@ ShmSegment ShmSegment::open_topic(std::string_view topic, const TypeDescriptor& 
     allocate(fd.get(), header.total_size, path);
     write_all(fd.get(), &header, sizeof header, kControlSize, path);
     write_all(fd.get(), type.schema.data(), type.schema.size(), header.schema_offset, path);
-    set_publisher_mode(control.ring, options.single_publisher);
+    start_publishers_afresh(control.ring, options.single_publisher);
     control.layout_ready.store(1, std::memory_order_release);
   }
 
   if (!has_live_users(control, true)) {
     // Sleepers killed while waiting never took themselves off the count; with nobody alive,
-    // clear it, or every send would keep making a wake-up syscall for nobody.
+    // clear it, or every send would keep making a wake-up syscall for nobody. A ring that was
+    // shared goes back to its fast lease for whoever publishes first now.
     control.ring.write_index.fetch_and(kIndexMask, std::memory_order_acq_rel);
+    start_publishers_afresh(control.ring,
+                            control.ring.single_publisher.load(std::memory_order_acquire) == 1);
   }
 
   ::munmap(segment.base_, segment.mapped_size_);

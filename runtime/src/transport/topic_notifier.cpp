@@ -117,29 +117,28 @@ std::optional<std::size_t> TopicWaitSet::wait(std::chrono::nanoseconds timeout) 
       break;
     }
     bool unannounced = false;
-    const RingControl* single_publisher = nullptr;
+    const RingControl* leased = nullptr;
     for (std::size_t i = 0; i < state.topics.size(); ++i) {
       RingControl& control = state.topics[i].segment.control().ring;
       state.words[i].val = control.notify.load(std::memory_order_seq_cst);
       state.claimed_before[i] = state.topics[i].segment.announce_sleeper();
-      if (control.single_publisher.load(std::memory_order_relaxed) != 0) {
-        single_publisher = &control;
+      if (ring_leased(control)) {
+        leased = &control;
       }
     }
-    // The barrier runs on every CPU, so one covers all the single-publisher topics at once.
-    if (single_publisher != nullptr && !ring_sleeper_barrier(*single_publisher)) {
+    // The barrier runs on every CPU, so one covers all the topics a lease holder publishes on.
+    if (leased != nullptr && !ring_sleeper_barrier(*leased)) {
       unannounced = true;
     }
     // Re-checked after announcing this sleeper: later publishers will wake it, but one that
-    // claimed before may be committing right now without knowing about it (not on a
-    // single-publisher topic, past the barrier).
+    // claimed before may be committing right now without knowing about it (not a lease
+    // holder, past the barrier).
     for (std::size_t i = 0; i < state.topics.size(); ++i) {
       const RingControl& control = state.topics[i].segment.control().ring;
       const std::uint64_t committed = control.commits.load(std::memory_order_seq_cst);
       const std::uint64_t claimed = state.claimed_before[i];
-      const bool single = control.single_publisher.load(std::memory_order_relaxed) != 0;
       unannounced = unannounced || claimed == UINT64_MAX ||
-                    (!single && claimed != committed && now - start < kSlicedFor);
+                    (!ring_leased(control) && claimed != committed && now - start < kSlicedFor);
     }
     bool changed = false;
     for (const State::Watched& topic : state.topics) {

@@ -94,7 +94,7 @@ void inspect(const std::string& path, TopicInfo& info) {
   info.error = detail::validate_control(control);
   if (info.error.empty()) {
     info.single_publisher = control.ring.single_publisher.load(std::memory_order_acquire) == 1;
-    info.message_count = detail::ring_written(control.ring, info.single_publisher);
+    info.message_count = detail::ring_written(control.ring);
     for (const detail::UserEntry& user : control.users) {
       const std::uint32_t pid = user.pid.load(std::memory_order_acquire);
       const std::uint32_t roles = user.roles.load(std::memory_order_relaxed);

@@ -1,10 +1,12 @@
-// The lock-free slot ring of a topic: multi-publisher claim/commit and a seqlock-style read.
+// The lock-free slot ring of a topic: claim/commit by a lease holder or by publishers sharing the
+// ring, and a seqlock-style read.
 //
-// Ticket t (ever increasing: from write_index, or on a single-publisher topic from the holder of
-// its publisher lease) lives in slot t % capacity. The slot's `seq` is
-// 2t+1 while ticket t is being written and 2t+2 once it is committed. A reader expecting ticket
-// t accepts the slot only if it reads 2t+2 before and after copying the payload, so a half-written
-// slot (a writer killed mid-memcpy, or one overwriting it a lap later) is never accepted.
+// Ticket t (ever increasing: numbered by the holder of the publisher lease while one publisher
+// sends, then by write_index once a second one shares the ring) lives in slot t % capacity. The
+// slot's `seq` is 2t+1 while ticket t is being written and 2t+2 once it is committed. A reader
+// expecting ticket t accepts the slot only if it reads 2t+2 before and after copying the payload,
+// so a half-written slot (a writer killed mid-memcpy, or one overwriting it a lap later) is never
+// accepted.
 #pragma once
 
 #include <atomic>
@@ -22,23 +24,42 @@ struct UserEntry;
 
 /// The shared counters of a ring, in the type-independent control page.
 struct RingControl {
-  /// Low 56 bits: tickets handed out to publishers, ever (the count of messages sent). High 8
-  /// bits: threads about to sleep or sleeping on `notify`. Sharing the word lets the claim's
-  /// fetch_add tell a publisher whether to wake anybody, so a send needs no extra barrier.
-  /// On a single-publisher topic only the high bits are used (tickets are counted in `commits`).
+  /// Low 56 bits: tickets handed out by fetch_add once the ring is shared (counted from
+  /// `shared_base`; 0 before). High 8 bits: threads about to sleep or sleeping on `notify`.
+  /// Sharing the word lets a shared claim's fetch_add tell a publisher whether to wake anybody,
+  /// so a send needs no extra barrier.
   alignas(64) std::atomic<std::uint64_t> write_index;
-  /// 1 when the topic was created for a single publisher (TopicOptions::single_publisher).
+  /// 1 when the topic was created for a single publisher (TopicOptions::single_publisher): the
+  /// lease is never shared, and other handles cannot send.
   std::atomic<std::uint32_t> single_publisher;
   /// Bumped (and futex-woken) after a commit whose publisher saw sleepers.
   alignas(64) std::atomic<std::uint32_t> notify;
-  /// Ticket + 1 of the latest commit (a plain store, so not strictly monotonic across
-  /// publishers): how TopicNotifier learns of messages sent while it was not asleep. On a
-  /// single-publisher topic it is exact, and it is the count of tickets handed out.
+  /// Ticket + 1 of the latest commit (a plain store, so not strictly monotonic once several
+  /// publishers share the ring): how TopicNotifier learns of messages sent while it was not
+  /// asleep. While a lease holder numbers the tickets it is exact: the count handed out.
   alignas(64) std::atomic<std::uint64_t> commits;
-  /// Single-publisher topics: pid << 32 | handle serial of the handle that may publish, or 0.
+  /// pid << 32 | flags | handle serial of the handle that numbers tickets itself, or 0.
+  /// kLeaseShared once a second publisher arrived: the lease is then never taken again.
   std::atomic<std::uint64_t> publisher_lease;
+  /// Stored by the lease holder before each claim: its ticket + 1. No ticket at or past the
+  /// value read after the holder's barrier (ring_share) is written under the lease.
+  std::atomic<std::uint64_t> lease_announce;
+  /// 0 while the lease numbers the tickets; then 1 + the first ticket that write_index numbers.
+  /// Set once, by the first compare-and-swap (ring_share, or the holder letting its lease go).
+  std::atomic<std::uint64_t> shared_base;
+  /// The first ticket since the ring was last started afresh: the slots of earlier tickets may
+  /// hold anything (a re-typed segment's slots are zeroed, its ticket count is kept).
+  std::atomic<std::uint64_t> first_ticket;
 };
 static_assert(sizeof(RingControl) == 192, "the control page layout is part of the format");
+
+/// RingControl::publisher_lease: the lease was given up for a second publisher.
+inline constexpr std::uint64_t kLeaseShared = std::uint64_t{1} << 31;
+/// RingControl::publisher_lease: the holder skips its own barrier, relying on membarrier(2).
+inline constexpr std::uint64_t kLeaseFenceFree = std::uint64_t{1} << 30;
+inline constexpr std::uint64_t kLeaseSerialMask = kLeaseFenceFree - 1;
+/// RingView::shared_base of a ring whose tickets a lease holder still numbers.
+inline constexpr std::uint64_t kUnshared = UINT64_MAX;
 
 inline constexpr std::uint64_t kIndexMask = (std::uint64_t{1} << 56) - 1;
 inline constexpr std::uint64_t kSleeper = std::uint64_t{1} << 56;
@@ -53,7 +74,7 @@ struct SlotHeader {
   /// Payload bytes, or kReleasedSlot for a ticket that carries no message.
   std::atomic<std::uint32_t> size;
   /// When the ticket was committed (send_stamp_s()), for introspection. Here rather than with
-  /// the publishers' claims because the commit writes this line anyway: a single publisher
+  /// the publishers' claims because the commit writes this line anyway: a lease holder
   /// then touches no claim line at all.
   std::atomic<std::uint32_t> send_time_s;
 };
@@ -109,9 +130,12 @@ struct RingView {
   std::uint64_t payload_capacity = 0;
   /// Copied from RingControl::single_publisher when the segment is opened.
   bool single_publisher = false;
-  /// Single-publisher topics: the sleepers' membarrier covers this process, so the publisher
-  /// needs no barrier of its own before looking for sleepers (set by PublisherLease).
+  /// The sleepers' membarrier covers this process, so a lease holder needs no barrier of its
+  /// own before looking for sleepers (set by PublisherLease).
   bool fence_free = false;
+  /// The first ticket write_index numbers, once this handle saw the ring shared (it never
+  /// changes after); kUnshared before.
+  std::uint64_t shared_base = kUnshared;
   /// The segment's users table, where a wake that found nobody looks for sleepers that died.
   UserEntry* users = nullptr;
 
@@ -173,26 +197,72 @@ inline std::uint32_t send_stamp_s() noexcept {
   return static_cast<std::uint32_t>(std::time(nullptr));
 }
 
-/// A claimed slot: where to write, and whether a sleeper must be woken after the commit.
+/// A claimed slot: where to write, under which lease, and whether a sleeper must be woken after
+/// the commit.
 struct Claim {
   SlotHeader* slot;
   std::uint64_t ticket;
+  /// Numbered by the lease holder (no claim word), rather than by write_index.
+  bool leased;
   bool wake;
 };
 
-/// Claims the slot of a fresh ticket for writing; slot is nullptr when it cannot be taken without
-/// racing a live writer (one stalled for a whole lap) or this ticket was already overtaken.
+/// The first ticket write_index numbers, or kUnshared while a lease holder numbers them.
+inline std::uint64_t ring_shared_base(const RingControl& control) noexcept {
+  const std::uint64_t stored = control.shared_base.load(std::memory_order_acquire);
+  return stored == 0 ? kUnshared : stored - 1;
+}
+
+/// Whether the ring was just shared and the slot of `ticket` still holds, a lap before, a ticket
+/// numbered under the lease that its holder has not committed: the holder writes it without a
+/// claim word, so only its liveness says whether the slot is still being written.
+inline bool ring_lease_ticket_pending(const RingView& ring, std::uint64_t ticket) noexcept {
+  if (ticket - ring.shared_base >= ring.capacity() || ticket < ring.capacity()) {
+    return false;
+  }
+  const std::uint64_t previous = ticket - ring.capacity();
+  if (previous < ring.control->first_ticket.load(std::memory_order_relaxed) ||
+      ring.slot(ticket).seq.load(std::memory_order_acquire) >= 2 * previous + 2) {
+    return false;
+  }
+  const std::uint64_t lease = ring.control->publisher_lease.load(std::memory_order_acquire);
+  return process_alive(static_cast<std::uint32_t>(lease >> 32));
+}
+
+/// Whether a shared claim may take a slot whose claim word is not what the previous lap's
+/// commit left there (`current`, below the ticket being claimed). Odd: a writer holds it, but if
+/// the slot shows that writer's ticket committed, it is only late letting go (preempted between
+/// its two commit stores) and the slot is free. Even: either the previous lap's writer has not
+/// claimed it yet (it will find itself overtaken), or that writer's claim was overwritten by
+/// the late release of the lap before it; then the slot's odd sequence shows it writing. A
+/// writer still writing keeps the slot while its process lives.
+inline bool ring_stale_claim_free(const RingView& ring, std::uint64_t ticket,
+                                  std::uint64_t current) noexcept {
+  const std::uint64_t seq = ring.slot(ticket).seq.load(std::memory_order_acquire);
+  const bool writing = (seq & 1) != 0 || ((current & 1) != 0 && seq < current + 1);
+  return !writing || !process_alive(ring.slot_claim(ticket).owner.load(std::memory_order_relaxed));
+}
+
+/// Claims the slot of a fresh ticket of a shared ring for writing; slot is nullptr when it cannot
+/// be taken without racing a live writer (one stalled for a whole lap) or this ticket was
+/// already overtaken.
 inline Claim ring_claim(const RingView& ring, std::uint32_t pid) noexcept {
   const std::uint64_t word = ring.control->write_index.fetch_add(1, std::memory_order_seq_cst);
-  Claim claim{nullptr, word & kIndexMask, (word & ~kIndexMask) != 0};
+  Claim claim{nullptr, ring.shared_base + (word & kIndexMask), false, (word & ~kIndexMask) != 0};
+  if (ring_lease_ticket_pending(ring, claim.ticket)) {
+    return claim;
+  }
   SlotClaim& entry = ring.slot_claim(claim.ticket);
   const std::uint64_t writing = 2 * claim.ticket + 1;
+  // The claim word once the previous lap's ticket was committed and let go: the common case.
+  const std::uint64_t released =
+      claim.ticket >= ring.capacity() ? writing + 1 - 2 * ring.capacity() : 0;
   std::uint64_t current = entry.claim.load(std::memory_order_relaxed);
   for (;;) {
     if (current >= writing) {
       return claim;
     }
-    if ((current & 1) != 0 && process_alive(entry.owner.load(std::memory_order_relaxed))) {
+    if (current != released && !ring_stale_claim_free(ring, claim.ticket, current)) {
       return claim;
     }
     entry.owner.store(pid, std::memory_order_relaxed);
@@ -208,27 +278,33 @@ inline Claim ring_claim(const RingView& ring, std::uint32_t pid) noexcept {
   }
 }
 
-/// A single-publisher topic's claim of the lease holder's next ticket: no read-modify-write, as
-/// nobody else writes the ring.
-inline Claim ring_claim_single(const RingView& ring, std::uint64_t ticket) noexcept {
+/// The lease holder's claim of its next ticket: no read-modify-write, as nobody else writes
+/// the ring while the lease is held.
+[[gnu::always_inline]] inline Claim ring_claim_leased(const RingView& ring,
+                                                      std::uint64_t ticket) noexcept {
   SlotHeader& slot = ring.slot(ticket);
   slot.seq.store(2 * ticket + 1, std::memory_order_relaxed);
   seqlock_fence(std::memory_order_release);
-  return Claim{&slot, ticket, false};
+  return Claim{&slot, ticket, true, false};
 }
 
-/// Whether a thread sleeps on a single-publisher topic, asked once the commit is stored. The
+/// Whether a thread sleeps on the ring, asked by a lease holder once its commit is stored. The
 /// commit must be visible before the question is asked, or a sleeper re-checking the ring just
 /// before it and this load just before the sleeper's announcement would both miss. Sleepers
 /// make it so with a barrier on every CPU (membarrier) between announcing and re-checking, so
 /// the publisher's load costs nothing; a publisher that membarrier does not cover pays for a
-/// barrier itself.
-inline bool ring_sleepers_after_commit(const RingView& ring) noexcept {
+/// barrier itself, and so does one whose lease was shared meanwhile: once the ring is shared,
+/// sleepers stop paying for that barrier. (A lease word without kLeaseShared is still the
+/// caller's: only a dead holder's lease is ever taken.)
+[[gnu::always_inline]] inline bool ring_sleepers_after_commit(const RingView& ring) noexcept {
+  RingControl& control = *ring.control;
   if (ring.fence_free) {
     std::atomic_signal_fence(std::memory_order_seq_cst);
-    return (ring.control->write_index.load(std::memory_order_relaxed) & ~kIndexMask) != 0;
+    if ((control.publisher_lease.load(std::memory_order_relaxed) & kLeaseShared) == 0) {
+      return (control.write_index.load(std::memory_order_relaxed) & ~kIndexMask) != 0;
+    }
   }
-  return (ring.control->write_index.fetch_add(0, std::memory_order_seq_cst) & ~kIndexMask) != 0;
+  return (control.write_index.fetch_add(0, std::memory_order_seq_cst) & ~kIndexMask) != 0;
 }
 
 /// Gives back the sleeper announcements of handles whose process died asleep. Left alone, they
@@ -256,7 +332,8 @@ inline void ring_refused(const RingView& ring, const Claim& claim) noexcept {
 
 /// Makes the claimed ticket visible with `size` payload bytes (or kReleasedSlot). No barrier and
 /// no syscall unless there is a sleeper.
-inline void ring_commit(const RingView& ring, const Claim& claim, std::uint32_t size) noexcept {
+[[gnu::always_inline]] inline void ring_commit(const RingView& ring, const Claim& claim,
+                                               std::uint32_t size) noexcept {
   SlotHeader& slot = *claim.slot;
   // Read before the header's stores, so they reach the line back to back: a subscriber polling
   // it can take the line away during the clock call, and every store after that waits for it.
@@ -264,44 +341,54 @@ inline void ring_commit(const RingView& ring, const Claim& claim, std::uint32_t 
   slot.size.store(size, std::memory_order_relaxed);
   slot.send_time_s.store(sent, std::memory_order_relaxed);
   slot.seq.store(2 * claim.ticket + 2, std::memory_order_release);
-  if (!ring.single_publisher) {
+  if (!claim.leased) {
     ring.slot_claim(claim.ticket).claim.store(2 * claim.ticket + 2, std::memory_order_release);
   }
   ring.control->commits.store(claim.ticket + 1, std::memory_order_release);
-  if (ring.single_publisher ? ring_sleepers_after_commit(ring) : claim.wake) {
+  if (claim.leased ? ring_sleepers_after_commit(ring) : claim.wake) {
     ring_wake(ring);
   }
 }
 
-/// Tickets handed out so far, on a ring in either publisher mode.
-inline std::uint64_t ring_written(const RingControl& control, bool single_publisher) noexcept {
-  if (single_publisher) {
+/// Tickets handed out so far (not all committed yet).
+inline std::uint64_t ring_written(const RingControl& control) noexcept {
+  const std::uint64_t base = ring_shared_base(control);
+  if (base == kUnshared) {
     return control.commits.load(std::memory_order_acquire);
   }
-  return control.write_index.load(std::memory_order_acquire) & kIndexMask;
+  return base + (control.write_index.load(std::memory_order_acquire) & kIndexMask);
 }
-/// The mode is read once, when the segment is opened: it only changes when the segment is
-/// recreated, which needs every user gone.
 inline std::uint64_t ring_written(const RingView& ring) noexcept {
-  return ring_written(*ring.control, ring.single_publisher);
+  return ring_written(*ring.control);
 }
 
-/// Announces a thread about to sleep on `notify`. Returns the tickets handed out before the
-/// announcement (publishers of later ones will wake it), or nullopt-like UINT64_MAX when the
-/// sleeper count is full and the caller must sleep in short slices instead.
+/// Announces a thread about to sleep on `notify`. Returns the shared tickets handed out before
+/// the announcement (their publishers will not wake it; later ones will), 0 while a lease holder
+/// numbers the tickets (ring_sleeper_barrier covers it), or UINT64_MAX when the sleeper count is
+/// full and the caller must sleep in short slices instead.
 inline std::uint64_t ring_add_sleeper(RingControl& control) noexcept {
   const std::uint64_t word = control.write_index.fetch_add(kSleeper, std::memory_order_seq_cst);
   if ((word >> 56) >= kMaxSleepers) {
     control.write_index.fetch_sub(kSleeper, std::memory_order_seq_cst);
     return UINT64_MAX;
   }
-  return word & kIndexMask;
+  // Read after the announcement: a shared claim that came before it was made after the base
+  // was set, so the base is seen here whenever `word` counts such a claim.
+  const std::uint64_t base = ring_shared_base(control);
+  return base == kUnshared ? 0 : base + (word & kIndexMask);
 }
 
-/// Called between ring_add_sleeper and the sleeper's last look at the ring. On a single-publisher
-/// topic it runs a memory barrier on every CPU that runs a fence-free publisher (membarrier),
-/// after which the publisher has either made its commit visible or will see this sleeper.
-/// False when that failed: the caller then sleeps in short slices.
+/// Whether a lease holder may be numbering the ring's tickets, so that a sleeper needs
+/// ring_sleeper_barrier before its last look at the ring.
+inline bool ring_leased(const RingControl& control) noexcept {
+  return control.single_publisher.load(std::memory_order_relaxed) != 0 ||
+         ring_shared_base(control) == kUnshared;
+}
+
+/// Called between ring_add_sleeper and the sleeper's last look at the ring. While a lease holder
+/// numbers the tickets it runs a memory barrier on every CPU that runs a fence-free publisher
+/// (membarrier), after which the holder has either made its commit visible or will see this
+/// sleeper. False when that failed: the caller then sleeps in short slices.
 bool ring_sleeper_barrier(const RingControl& control) noexcept;
 
 inline void ring_remove_sleeper(RingControl& control) noexcept {

@@ -26,7 +26,7 @@ namespace horus::detail {
 
 inline constexpr std::uint64_t kControlMagic = 0x4c54435355524f48ULL;  // "HORUSCTL"
 inline constexpr std::uint64_t kLayoutMagic = 0x504f545355524f48ULL;   // "HORUSTOP"
-inline constexpr std::uint32_t kSegmentVersion = 5;
+inline constexpr std::uint32_t kSegmentVersion = 6;
 inline constexpr std::size_t kControlSize = 4096;
 inline constexpr std::uint64_t kCacheLine = 64;
 inline constexpr std::size_t kMaxUsers = 128;
