@@ -71,7 +71,8 @@ class PublisherLease {
 /// handle holds the lease (the first time only; later calls just learn the base). Marks the
 /// lease word kLeaseShared, waits out the holder's announcement with a barrier on the holder's
 /// CPU (membarrier, when the holder relies on it), and proposes the holder's announced ticket
-/// as the first that write_index numbers. False when that barrier failed: nothing is shared yet.
+/// as the first that write_index numbers. False when that barrier failed: the holder, seeing the
+/// mark, then shares the ring at its next send, and until it does this handle cannot send.
 bool ring_share(RingView& ring) noexcept;
 
 }  // namespace horus::detail
