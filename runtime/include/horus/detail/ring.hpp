@@ -235,9 +235,14 @@ inline bool ring_lease_ticket_pending(const RingView& ring, std::uint64_t ticket
 /// its two commit stores) and the slot is free. Even: either the previous lap's writer has not
 /// claimed it yet (it will find itself overtaken), or that writer's claim was overwritten by
 /// the late release of the lap before it; then the slot's odd sequence shows it writing. A
-/// writer still writing keeps the slot while its process lives.
+/// writer still writing keeps the slot while its process lives. In the first lap after the ring
+/// was shared, no claim word is the previous lap's release, and the lease holder's tickets there
+/// have none at all: those slots are checked against the holder.
 inline bool ring_stale_claim_free(const RingView& ring, std::uint64_t ticket,
                                   std::uint64_t current) noexcept {
+  if (ring_lease_ticket_pending(ring, ticket)) {
+    return false;
+  }
   const std::uint64_t seq = ring.slot(ticket).seq.load(std::memory_order_acquire);
   const bool writing = (seq & 1) != 0 || ((current & 1) != 0 && seq < current + 1);
   return !writing || !process_alive(ring.slot_claim(ticket).owner.load(std::memory_order_relaxed));
@@ -249,9 +254,6 @@ inline bool ring_stale_claim_free(const RingView& ring, std::uint64_t ticket,
 inline Claim ring_claim(const RingView& ring, std::uint32_t pid) noexcept {
   const std::uint64_t word = ring.control->write_index.fetch_add(1, std::memory_order_seq_cst);
   Claim claim{nullptr, ring.shared_base + (word & kIndexMask), false, (word & ~kIndexMask) != 0};
-  if (ring_lease_ticket_pending(ring, claim.ticket)) {
-    return claim;
-  }
   SlotClaim& entry = ring.slot_claim(claim.ticket);
   const std::uint64_t writing = 2 * claim.ticket + 1;
   // The claim word once the previous lap's ticket was committed and let go: the common case.
