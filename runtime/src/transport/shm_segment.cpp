@@ -506,8 +506,8 @@ ShmSegment ShmSegment::open_topic(std::string_view topic, const TypeDescriptor& 
     }
   }
   if (!usable) {
-    // New, abandoned half-way by a dead creator, or re-typed after every user died. The write
-    // index is kept: it only grows, so notifiers never see it go backwards.
+    // New, abandoned half-way by a dead creator, or re-typed after every user died. The ticket
+    // count is kept: it only grows, so notifiers never see it go backwards.
     header = make_layout(type, options, path);
     control.layout_ready.store(0, std::memory_order_release);
     ::ftruncate(fd.get(), static_cast<off_t>(kControlSize));
@@ -520,11 +520,14 @@ ShmSegment ShmSegment::open_topic(std::string_view topic, const TypeDescriptor& 
 
   if (!has_live_users(control, true)) {
     // Sleepers killed while waiting never took themselves off the count; with nobody alive,
-    // clear it, or every send would keep making a wake-up syscall for nobody. A ring that was
-    // shared goes back to its fast lease for whoever publishes first now.
+    // clear it, or every send would keep making a wake-up syscall for nobody.
     control.ring.write_index.fetch_and(kIndexMask, std::memory_order_acq_rel);
-    start_publishers_afresh(control.ring,
-                            control.ring.single_publisher.load(std::memory_order_acquire) == 1);
+    if (usable) {
+      // A ring that was shared goes back to its fast lease for whoever publishes first now (a
+      // re-created one was started afresh above).
+      start_publishers_afresh(control.ring,
+                              control.ring.single_publisher.load(std::memory_order_acquire) == 1);
+    }
   }
 
   ::munmap(segment.base_, segment.mapped_size_);

@@ -213,16 +213,18 @@ inline std::uint64_t ring_shared_base(const RingControl& control) noexcept {
   return stored == 0 ? kUnshared : stored - 1;
 }
 
-/// Whether the ring was just shared and the slot of `ticket` still holds, a lap before, a ticket
-/// numbered under the lease that its holder has not committed: the holder writes it without a
-/// claim word, so only its liveness says whether the slot is still being written.
-inline bool ring_lease_ticket_pending(const RingView& ring, std::uint64_t ticket) noexcept {
+/// Whether the ring was just shared and the slot of `ticket` (whose sequence reads `seq`) still
+/// holds, a lap before, a ticket numbered under the lease that its holder has not committed: the
+/// holder writes it without a claim word, so only its liveness says whether the slot is still
+/// being written.
+inline bool ring_lease_ticket_pending(const RingView& ring, std::uint64_t ticket,
+                                      std::uint64_t seq) noexcept {
   if (ticket - ring.shared_base >= ring.capacity() || ticket < ring.capacity()) {
     return false;
   }
   const std::uint64_t previous = ticket - ring.capacity();
   if (previous < ring.control->first_ticket.load(std::memory_order_relaxed) ||
-      ring.slot(ticket).seq.load(std::memory_order_acquire) >= 2 * previous + 2) {
+      seq >= 2 * previous + 2) {
     return false;
   }
   const std::uint64_t lease = ring.control->publisher_lease.load(std::memory_order_acquire);
@@ -240,10 +242,10 @@ inline bool ring_lease_ticket_pending(const RingView& ring, std::uint64_t ticket
 /// have none at all: those slots are checked against the holder.
 inline bool ring_stale_claim_free(const RingView& ring, std::uint64_t ticket,
                                   std::uint64_t current) noexcept {
-  if (ring_lease_ticket_pending(ring, ticket)) {
+  const std::uint64_t seq = ring.slot(ticket).seq.load(std::memory_order_acquire);
+  if (ring_lease_ticket_pending(ring, ticket, seq)) {
     return false;
   }
-  const std::uint64_t seq = ring.slot(ticket).seq.load(std::memory_order_acquire);
   const bool writing = (seq & 1) != 0 || ((current & 1) != 0 && seq < current + 1);
   return !writing || !process_alive(ring.slot_claim(ticket).owner.load(std::memory_order_relaxed));
 }
