@@ -445,6 +445,24 @@ bool wait_for_sleepers(const horus::detail::ShmSegment& segment, std::uint64_t c
   return true;
 }
 
+TEST(TopicProcess, AForkedChildLettingGoOfAnInheritedHandleLeavesItsParentsEntry) {
+  PrivateNamespace ns;
+  std::optional<horus::Topic<Sample>> publisher(std::in_place, "inherited");
+  ASSERT_TRUE(publisher->send(sealed<Sample>(1)));
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    publisher.reset();
+    ::_exit(0);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  const auto topics = horus::list_topics();
+  ASSERT_EQ(topics.size(), 1u);
+  EXPECT_EQ(topics[0].publishers, 1u) << "the child freed its parent's entry";
+}
+
 TEST(TopicProcess, ASubscriberKilledAsleepIsGivenBackByTheNextSend) {
   PrivateNamespace ns;
   horus::Topic<Sample> data("asleep", {.capacity = 16});
@@ -473,6 +491,64 @@ TEST(TopicProcess, ASubscriberKilledAsleepIsGivenBackByTheNextSend) {
   ASSERT_TRUE(woken.has_value());
   EXPECT_EQ(woken->seq, 2u);
   EXPECT_EQ(announced_sleepers(control), 0u);
+}
+
+/// The entry of the users table that names process `pid`, or nullptr.
+horus::detail::UserEntry* entry_of(const horus::detail::ShmSegment& segment, pid_t pid) {
+  for (horus::detail::UserEntry& user : segment.control().users) {
+    if (horus::detail::identity_pid(user.process.load()) == static_cast<std::uint32_t>(pid)) {
+      return &user;
+    }
+  }
+  return nullptr;
+}
+
+/// Makes a dead process's entry look as it does once the kernel has given its pid to another
+/// process: the pid of a live process (init, which started long before it), its own start time.
+void give_its_pid_to_a_live_process(horus::detail::UserEntry& user) {
+  const std::uint64_t dead = user.process.load();
+  user.process.store((dead & ~std::uint64_t{0xffffffff}) | 1);
+  ASSERT_NE(dead >> 32, 0u) << "the dead process's start time was not recorded";
+}
+
+TEST(TopicProcess, ASleeperKilledAsleepIsGivenBackEvenOnceItsPidIsReused) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> data("reused", {.capacity = 16});
+  const auto control = horus::detail::ShmSegment::open_control("reused", {0, 0, 0600, {}, false});
+  Child sleeper("sleep_in_recv", {"reused"});
+  ASSERT_TRUE(wait_for_sleepers(control, 1)) << "the child never went to sleep";
+  const pid_t pid = sleeper.pid();
+  sleeper.kill();
+  horus::detail::UserEntry* entry = entry_of(control, pid);
+  ASSERT_NE(entry, nullptr);
+  give_its_pid_to_a_live_process(*entry);
+
+  EXPECT_TRUE(data.send(sealed<Sample>(1)));
+  EXPECT_EQ(announced_sleepers(control), 0u)
+      << "a dead sleeper whose pid a live process has now was taken for alive";
+  EXPECT_EQ(entry->process.load(), 0u) << "its entry was not freed";
+}
+
+TEST(TopicProcess, EntriesOfDeadProcessesWithReusedPidsAreNeitherCountedNorInTheWay) {
+  PrivateNamespace ns;
+  { horus::Topic<Sample> placeholder("crowded"); }
+  const auto control = horus::detail::ShmSegment::open_control("crowded", {0, 0, 0600, {}, false});
+  // Every entry but the control handle's own names pid 1 with a start time it never had: the
+  // state a table is left in when its users were killed and their pids went to live processes.
+  const std::uint64_t wrong_start = std::uint64_t{0xfffffffe} << 32 | 1;
+  for (horus::detail::UserEntry& user : control.control().users) {
+    if (user.process.load() == 0) {
+      user.roles.store(horus::detail::kRolePublisher | horus::detail::kRoleSubscriber);
+      user.process.store(wrong_start);
+    }
+  }
+  const auto topics = horus::list_topics();
+  ASSERT_EQ(topics.size(), 1u);
+  EXPECT_EQ(topics[0].publishers, 0u);
+  EXPECT_EQ(topics[0].subscribers, 0u);
+
+  std::optional<horus::Topic<Sample>> opened;
+  EXPECT_NO_THROW(opened.emplace("crowded")) << "the dead entries were taken for live handles";
 }
 
 // The first publisher to send holds the lease until the others share the ring, mid-stream.

@@ -1,6 +1,7 @@
 // Segments that cannot be trusted: every opener validates the headers before using them.
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstddef>
@@ -89,7 +90,7 @@ TEST(ShmSegment, OlderFormatIsStartedAfreshOnlyOnceNobodyUsesIt) {
 
 /// Opens a segment left at an older `version` whose users table holds, 8 bytes in, this live
 /// process as a subscriber: the second entry of versions 1 to 4 (8-byte entries {pid, roles}),
-/// but only the sleeper count of the first entry of version 5 (16-byte entries).
+/// but only the sleeper count of the first entry of versions 5 and 6 (16-byte entries).
 std::string open_older_with_word_at_users_plus_8(const PrivateNamespace& ns,
                                                  const std::string& topic, std::uint32_t version) {
   create(topic);
@@ -109,6 +110,51 @@ TEST(ShmSegment, AnOlderFormatsUsersAreReadInThatFormatsLayout) {
       << "a segment an older build still uses was started afresh under it";
   EXPECT_EQ(open_older_with_word_at_users_plus_8(ns, "v5_users", 5), "")
       << "an abandoned version-5 segment was not started afresh";
+  EXPECT_EQ(open_older_with_word_at_users_plus_8(ns, "v6_users", 6), "")
+      << "an abandoned version-6 segment was not started afresh";
+}
+
+TEST(ShmSegment, AVersion6UserIsKnownByItsPidAlone) {
+  PrivateNamespace ns;
+  create("v6_user");
+  const std::string path = segment_path(ns, "v6_user");
+  overwrite(path, offsetof(horus::detail::ControlBlock, version),
+            std::uint64_t{kControlSize} << 32 | 6);
+  // {pid, roles} at the start of a version-6 entry: read as this version's identity, the roles
+  // would be a start time this process never had.
+  overwrite(
+      path, offsetof(horus::detail::ControlBlock, users),
+      std::uint64_t{horus::detail::kRoleSubscriber} << 32 | static_cast<std::uint32_t>(::getpid()));
+  EXPECT_NE(open_error("v6_user").find("unsupported version 6"), std::string::npos)
+      << "a segment an older build still uses was started afresh under it";
+  EXPECT_EQ(horus::clean_namespace(ns.name()), 0u) << "a segment in use was removed";
+}
+
+TEST(ShmSegment, AProcessIsItsPidAndWhenItStarted) {
+  using horus::detail::identity_alive;
+  using horus::detail::identity_pid;
+  const std::uint64_t me = horus::detail::this_process_identity();
+  EXPECT_EQ(identity_pid(me), static_cast<std::uint32_t>(::getpid()));
+  EXPECT_NE(me >> 32, 0u) << "the start time was not read";
+  EXPECT_TRUE(identity_alive(me));
+  EXPECT_FALSE(identity_alive(me + (std::uint64_t{1} << 32)))
+      << "a process started at another time is another process with the same pid";
+  EXPECT_TRUE(identity_alive(identity_pid(me))) << "an unknown start time goes by the pid";
+  EXPECT_FALSE(identity_alive(0));
+
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    const std::uint64_t own = horus::detail::this_process_identity();
+    ::_exit(identity_pid(own) == static_cast<std::uint32_t>(::getpid()) && own != me ? 0 : 1);
+  }
+  siginfo_t exited{};
+  ASSERT_EQ(::waitid(P_PID, static_cast<id_t>(child), &exited, WEXITED | WNOWAIT), 0);
+  EXPECT_EQ(exited.si_status, 0) << "a forked child kept its parent's identity";
+  EXPECT_TRUE(horus::detail::process_alive(static_cast<std::uint32_t>(child)))
+      << "kill(pid, 0) no longer finds an unreaped child";
+  EXPECT_FALSE(identity_alive(static_cast<std::uint32_t>(child))) << "a zombie has exited";
+  ::waitpid(child, nullptr, 0);
 }
 
 TEST(ShmSegment, InvalidPublisherModeIsAnError) {

@@ -176,15 +176,23 @@ void read_all(int fd, void* data, std::size_t size, std::uint64_t offset, const 
   }
 }
 
-/// Gives a new (empty) file its control page; validates an existing one.
+/// Whether an entry's process runs: by its identity in this version's table, by its pid alone
+/// in an older one's.
+bool entry_alive(const UserEntry& user) {
+  return identity_alive(user.process.load(std::memory_order_acquire));
+}
+template <class OlderEntry>
+bool entry_alive(const OlderEntry& user) {
+  return process_alive(user.pid.load(std::memory_order_acquire));
+}
+
 /// Whether a live process has the segment open (counting notifiers only if asked: they map the
 /// control page alone, so they do not stand in the way of re-typing).
 template <class Entry>
 bool has_live_users(std::span<const Entry> users, bool count_notifiers) {
   for (const Entry& user : users) {
-    const std::uint32_t pid = user.pid.load(std::memory_order_acquire);
     const bool notifier = (user.roles.load(std::memory_order_relaxed) & kRoleNotifier) != 0;
-    if (pid != 0 && (count_notifiers || !notifier) && process_alive(pid)) {
+    if ((count_notifiers || !notifier) && entry_alive(user)) {
       return true;
     }
   }
@@ -201,10 +209,30 @@ struct UserEntryV4 {
   std::atomic<std::uint32_t> roles;
 };
 static_assert(sizeof(UserEntryV4) * kMaxUsers <= sizeof(ControlBlock::users));
+/// A users table entry of versions 5 and 6, which named the process by its pid alone.
+struct UserEntryV6 {
+  std::atomic<std::uint32_t> pid;
+  std::atomic<std::uint32_t> roles;
+  std::atomic<std::uint32_t> sleepers;
+  std::uint32_t reserved;
+};
+static_assert(sizeof(UserEntryV6) * kMaxUsers <= sizeof(ControlBlock::users));
+
+template <class Entry>
+bool has_live_users_in_older_table(const ControlBlock& control) {
+  return has_live_users(
+      std::span<const Entry>(reinterpret_cast<const Entry*>(&control.users[0]), kMaxUsers), true);
+}
+
+bool older_version(const ControlBlock& control) {
+  return control.magic == kControlMagic && control.version >= 1 &&
+         control.version < kSegmentVersion;
+}
 
 /// A segment left by an older horus build that nobody uses any more is started afresh, so an
 /// upgrade does not strand its topics; one still in use stays an error (validate_control).
-/// Versions 1 to 5 put their users table where this one is; 1 to 4 with smaller entries.
+/// Versions 1 to 6 put their users table where this one is: 1 to 4 with 8-byte entries, 5 and
+/// 6 with 16-byte ones that named the process by its pid alone.
 bool abandoned_older_version(int fd, std::uint64_t size) {
   if (size < kControlSize) {
     return false;
@@ -214,17 +242,11 @@ bool abandoned_older_version(int fd, std::uint64_t size) {
     return false;
   }
   const auto& control = *reinterpret_cast<const ControlBlock*>(page);
-  if (control.magic != kControlMagic || control.version < 1 || control.version >= kSegmentVersion) {
-    return false;
-  }
-  if (control.version >= 5) {
-    return !has_live_users(control, true);
-  }
-  const std::span<const UserEntryV4> users(reinterpret_cast<const UserEntryV4*>(&control.users[0]),
-                                           kMaxUsers);
-  return !has_live_users(users, true);
+  return older_version(control) && !segment_in_use(control);
 }
 
+/// Gives a new (empty) file its control page, starting afresh one an older build abandoned;
+/// refuses a file too short to hold one.
 void prepare_control(int fd, const std::string& path, unsigned mode) {
   std::uint64_t size = file_size(fd, path);
   if (abandoned_older_version(fd, size)) {
@@ -257,13 +279,13 @@ void give_back_sleepers(RingControl& ring, UserEntry& user) noexcept {
 }
 
 int register_user(ControlBlock& control, std::uint32_t roles, const std::string& path) {
-  const std::uint32_t pid = this_pid();
+  const std::uint64_t me = this_process_identity();
   for (int pass = 0; pass < 2; ++pass) {
     for (std::size_t i = 0; i < kMaxUsers; ++i) {
       UserEntry& user = control.users[i];
-      std::uint32_t current = user.pid.load(std::memory_order_acquire);
-      const bool free = pass == 0 ? current == 0 : current != 0 && !process_alive(current);
-      if (free && user.pid.compare_exchange_strong(current, pid, std::memory_order_acq_rel)) {
+      std::uint64_t current = user.process.load(std::memory_order_acquire);
+      const bool free = pass == 0 ? current == 0 : current != 0 && !identity_alive(current);
+      if (free && user.process.compare_exchange_strong(current, me, std::memory_order_acq_rel)) {
         give_back_sleepers(control.ring, user);
         user.roles.store(roles, std::memory_order_release);
         return static_cast<int>(i);
@@ -385,6 +407,14 @@ void validate_segment_name(std::string_view what, std::string_view name) {
     throw Error(std::string(what) + " '" + std::string(name) +
                 "' is not valid: use 1 to 200 of [A-Za-z0-9_.-] (and not . or ..)");
   }
+}
+
+bool segment_in_use(const ControlBlock& control) {
+  if (older_version(control)) {
+    return control.version >= 5 ? has_live_users_in_older_table<UserEntryV6>(control)
+                                : has_live_users_in_older_table<UserEntryV4>(control);
+  }
+  return has_live_users(control, true);
 }
 
 bool process_alive(std::uint32_t pid) noexcept {
@@ -622,15 +652,16 @@ void ring_reclaim_dead_sleepers(const RingView& ring) noexcept {
     if (user.sleepers.load(std::memory_order_acquire) == 0) {
       continue;
     }
-    std::uint32_t pid = user.pid.load(std::memory_order_acquire);
-    if (pid == 0 || process_alive(pid)) {
+    std::uint64_t process = user.process.load(std::memory_order_acquire);
+    if (process == 0 || identity_alive(process)) {
       continue;
     }
     // Taken over as register_user takes a dead entry, so only one process gives it back.
-    if (user.pid.compare_exchange_strong(pid, this_pid(), std::memory_order_acq_rel)) {
+    const std::uint64_t me = this_process_identity();
+    if (user.process.compare_exchange_strong(process, me, std::memory_order_acq_rel)) {
       give_back_sleepers(*ring.control, user);
       user.roles.store(0, std::memory_order_relaxed);
-      user.pid.store(0, std::memory_order_release);
+      user.process.store(0, std::memory_order_release);
     }
   }
 }
@@ -640,9 +671,13 @@ void ShmSegment::release() noexcept {
     return;
   }
   if (user_index_ >= 0) {
+    // Only the process that registered the handle frees its entry: a forked child letting go of
+    // a handle it inherited leaves its parent's entry alone.
     UserEntry& user = control().users[user_index_];
-    user.roles.store(0, std::memory_order_relaxed);
-    user.pid.store(0, std::memory_order_release);
+    if (user.process.load(std::memory_order_relaxed) == this_process_identity()) {
+      user.roles.store(0, std::memory_order_relaxed);
+      user.process.store(0, std::memory_order_release);
+    }
     user_index_ = -1;
   }
   ::munmap(base_, mapped_size_);

@@ -1,17 +1,93 @@
-// This process's pid, cached for the hot path and forgotten in every forked child.
+// Who this process is (its pid for the hot path, its identity for the users table), cached and
+// forgotten in every forked child; and whether the process a users table entry names still runs.
 #include <pthread.h>
+#include <signal.h>
 #include <unistd.h>
 
-#include "horus/detail/ring.hpp"
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+
+#include "horus/detail/shm_segment.hpp"
 
 namespace horus::detail {
 
+namespace {
+
+std::atomic<std::uint64_t> cached_identity{0};
+
+/// What /proc/<pid>/stat says of a process: its state letter and its start time in clock ticks
+/// since boot.
+struct ProcessStat {
+  char state = '?';
+  std::uint64_t start_ticks = 0;
+};
+
+bool read_process_stat(std::uint32_t pid, ProcessStat& stat) noexcept {
+  char path[32];
+  std::snprintf(path, sizeof path, "/proc/%u/stat", pid);
+  std::FILE* file = std::fopen(path, "re");
+  if (file == nullptr) {
+    return false;
+  }
+  char text[1024];
+  const std::size_t length = std::fread(text, 1, sizeof text - 1, file);
+  std::fclose(file);
+  text[length] = '\0';
+  // The command name (field 2) may hold spaces and parentheses: fields 3 on follow its last ')'.
+  // Field 3 is the state; the start time is field 22, past the 18 fields in between.
+  const char* fields = std::strrchr(text, ')');
+  if (fields == nullptr) {
+    return false;
+  }
+  unsigned long long start = 0;
+  const int read =
+      std::sscanf(fields + 1,
+                  " %c %*s %*s %*s %*s %*s %*s %*s %*s %*s %*s %*s %*s %*s %*s %*s %*s "
+                  "%*s %*s %llu",
+                  &stat.state, &start);
+  stat.start_ticks = start;
+  return read == 2;
+}
+
+}  // namespace
+
 std::uint32_t refresh_pid() noexcept {
-  [[maybe_unused]] static const int forgotten_on_fork =
-      ::pthread_atfork(nullptr, nullptr, [] { cached_pid.store(0, std::memory_order_relaxed); });
+  [[maybe_unused]] static const int forgotten_on_fork = ::pthread_atfork(nullptr, nullptr, [] {
+    cached_pid.store(0, std::memory_order_relaxed);
+    cached_identity.store(0, std::memory_order_relaxed);
+  });
   const auto pid = static_cast<std::uint32_t>(::getpid());
   cached_pid.store(pid, std::memory_order_relaxed);
   return pid;
+}
+
+std::uint64_t this_process_identity() noexcept {
+  const std::uint32_t pid = this_pid();
+  if (const std::uint64_t identity = cached_identity.load(std::memory_order_relaxed);
+      identity_pid(identity) == pid) {
+    return identity;
+  }
+  ProcessStat stat;
+  const std::uint64_t start = read_process_stat(pid, stat) ? stat.start_ticks & 0xffffffffU : 0;
+  const std::uint64_t identity = start << 32 | pid;
+  cached_identity.store(identity, std::memory_order_relaxed);
+  return identity;
+}
+
+bool identity_alive(std::uint64_t identity) noexcept {
+  const std::uint32_t pid = identity_pid(identity);
+  if (!process_alive(pid)) {
+    return false;
+  }
+  ProcessStat stat;
+  if (!read_process_stat(pid, stat)) {
+    // No /proc to ask (or not allowed to): the pid is all there is to go by.
+    return true;
+  }
+  const std::uint64_t start = identity >> 32;
+  const bool exited = stat.state == 'Z' || stat.state == 'X';
+  return !exited && (start == 0 || (stat.start_ticks & 0xffffffffU) == start);
 }
 
 }  // namespace horus::detail

@@ -96,9 +96,8 @@ void inspect(const std::string& path, TopicInfo& info) {
     info.single_publisher = control.ring.single_publisher.load(std::memory_order_acquire) == 1;
     info.message_count = detail::ring_written(control.ring);
     for (const detail::UserEntry& user : control.users) {
-      const std::uint32_t pid = user.pid.load(std::memory_order_acquire);
       const std::uint32_t roles = user.roles.load(std::memory_order_relaxed);
-      if (pid != 0 && detail::process_alive(pid)) {
+      if (detail::identity_alive(user.process.load(std::memory_order_acquire))) {
         info.publishers += (roles & detail::kRolePublisher) != 0 ? 1 : 0;
         info.subscribers += (roles & detail::kRoleSubscriber) != 0 ? 1 : 0;
       }
@@ -152,11 +151,7 @@ bool abandoned(const std::string& path) {
   if (base == MAP_FAILED) {
     return false;
   }
-  const auto& control = *static_cast<const ControlBlock*>(base);
-  bool in_use = false;
-  for (const detail::UserEntry& user : control.users) {
-    in_use = in_use || detail::process_alive(user.pid.load(std::memory_order_acquire));
-  }
+  const bool in_use = detail::segment_in_use(*static_cast<const ControlBlock*>(base));
   ::munmap(base, kControlSize);
   // Unlinked while the exclusive lock is held, so no opener can be setting it up meanwhile;
   // an opener that opened the path before re-checks the inode after locking (open_locked).

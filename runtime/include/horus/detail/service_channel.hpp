@@ -11,8 +11,6 @@
 #include <charconv>
 #include <chrono>
 #include <cstdint>
-#include <cstdio>
-#include <cstring>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -22,6 +20,7 @@
 #include <vector>
 
 #include "horus/detail/service_frame.hpp"
+#include "horus/detail/shm_segment.hpp"
 #include "horus/service_error.hpp"
 #include "horus/service_result.hpp"
 #include "horus/service_type.hpp"
@@ -48,22 +47,7 @@ inline bool service_process_alive(std::uint64_t pid) noexcept {
 /// Whether a process has exited, counting one that its parent has not reaped yet (a zombie still
 /// answers kill(pid, 0)). Reads /proc: only while waiting, every kServerCheckInterval.
 inline bool service_process_gone(std::uint64_t pid) noexcept {
-  if (!service_process_alive(pid)) {
-    return true;
-  }
-  char path[32];
-  std::snprintf(path, sizeof path, "/proc/%llu/stat", static_cast<unsigned long long>(pid));
-  std::FILE* file = std::fopen(path, "re");
-  if (file == nullptr) {
-    return false;
-  }
-  char text[512];
-  const std::size_t size = std::fread(text, 1, sizeof text - 1, file);
-  std::fclose(file);
-  text[size] = '\0';
-  // "pid (comm) S ...": the state follows the last ')' (comm may itself hold parentheses).
-  const char* close = std::strrchr(text, ')');
-  return close != nullptr && close[1] == ' ' && (close[2] == 'Z' || close[2] == 'X');
+  return !identity_alive(static_cast<std::uint32_t>(pid));
 }
 
 /// A process-unique, machine-unique (among live processes) non-zero id for a client or a server.

@@ -26,7 +26,7 @@ namespace horus::detail {
 
 inline constexpr std::uint64_t kControlMagic = 0x4c54435355524f48ULL;  // "HORUSCTL"
 inline constexpr std::uint64_t kLayoutMagic = 0x504f545355524f48ULL;   // "HORUSTOP"
-inline constexpr std::uint32_t kSegmentVersion = 6;
+inline constexpr std::uint32_t kSegmentVersion = 7;
 inline constexpr std::size_t kControlSize = 4096;
 inline constexpr std::uint64_t kCacheLine = 64;
 inline constexpr std::size_t kMaxUsers = 128;
@@ -41,16 +41,32 @@ inline constexpr std::uint32_t kRoleSubscriber = 2;
 /// A TopicNotifier: maps only the control page, so it never prevents re-typing a dead topic.
 inline constexpr std::uint32_t kRoleNotifier = 4;
 
-/// One open Topic handle: its process (0 when free) and whether it has sent or received.
+/// A process as the users table records it: the pid in the low half and, in the high half, when
+/// it started (clock ticks since boot, the low 32 bits; 0 when unknown). With the start time, a
+/// dead process whose pid the kernel gave to another is still seen dead; both halves are one
+/// word, so whoever takes an entry over replaces them together.
+inline std::uint32_t identity_pid(std::uint64_t identity) noexcept {
+  return static_cast<std::uint32_t>(identity);
+}
+/// This process's identity: read once, and again in a forked child.
+std::uint64_t this_process_identity() noexcept;
+/// Whether the process with this identity runs: its pid exists, it has not exited (a zombie
+/// has), and (when known) it started when the identity says. A syscall and a read of /proc:
+/// slow paths only.
+bool identity_alive(std::uint64_t identity) noexcept;
+
+/// One open Topic handle: its process and whether it has sent or received.
 struct UserEntry {
-  std::atomic<std::uint32_t> pid;
+  /// The identity of the process that opened the handle; 0 when the entry is free. A forked
+  /// child using a handle it inherited is not recorded: the entry stays its parent's.
+  std::atomic<std::uint64_t> process;
   std::atomic<std::uint32_t> roles;
   /// Sleeper announcements this handle holds in RingControl::write_index: counted after they
   /// are made and before they are withdrawn, so a dead process's count never exceeds what it
   /// left there, and whoever takes over its entry can give them back.
   std::atomic<std::uint32_t> sleepers;
-  std::uint32_t reserved;
 };
+static_assert(sizeof(UserEntry) == 16);
 
 struct ControlBlock {
   std::uint64_t magic;
@@ -115,6 +131,9 @@ void validate_segment_name(std::string_view what, std::string_view name);
 /// Why a segment's headers cannot be trusted with `file_size` bytes, or empty when they can.
 std::string validate_layout(const LayoutHeader& header, std::uint64_t file_size);
 std::string validate_control(const ControlBlock& control);
+/// Whether a live process has the segment open, reading the users table in the layout of the
+/// segment's version (older versions named processes by their pid alone).
+bool segment_in_use(const ControlBlock& control);
 
 /// An open, validated, mapped segment. Move-only; unmaps and leaves the users table on destruction.
 class ShmSegment {
