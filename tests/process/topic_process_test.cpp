@@ -463,13 +463,21 @@ TEST(TopicProcess, AForkedChildLettingGoOfAnInheritedHandleLeavesItsParentsEntry
   EXPECT_EQ(topics[0].publishers, 1u) << "the child freed its parent's entry";
 }
 
+/// Starts a subscriber process that goes to sleep in recv() on `topic`, and kills it there.
+void kill_a_subscriber_asleep(const std::string& topic, const horus::detail::ShmSegment& control,
+                              pid_t& pid) {
+  Child sleeper("sleep_in_recv", {topic});
+  ASSERT_TRUE(wait_for_sleepers(control, 1)) << "the child never went to sleep";
+  pid = sleeper.pid();
+  sleeper.kill();
+}
+
 TEST(TopicProcess, ASubscriberKilledAsleepIsGivenBackByTheNextSend) {
   PrivateNamespace ns;
   horus::Topic<Sample> data("asleep", {.capacity = 16});
   const auto control = horus::detail::ShmSegment::open_control("asleep", {0, 0, 0600, {}, false});
-  Child sleeper("sleep_in_recv", {"asleep"});
-  ASSERT_TRUE(wait_for_sleepers(control, 1)) << "the child never went to sleep";
-  sleeper.kill();
+  pid_t pid = -1;
+  ASSERT_NO_FATAL_FAILURE(kill_a_subscriber_asleep("asleep", control, pid));
   EXPECT_EQ(announced_sleepers(control), 1u) << "a dead sleeper's announcement stays";
 
   // This send's wake finds nobody, so it looks for dead sleepers and gives theirs back: later
@@ -515,13 +523,11 @@ TEST(TopicProcess, ASleeperKilledAsleepIsGivenBackEvenOnceItsPidIsReused) {
   PrivateNamespace ns;
   horus::Topic<Sample> data("reused", {.capacity = 16});
   const auto control = horus::detail::ShmSegment::open_control("reused", {0, 0, 0600, {}, false});
-  Child sleeper("sleep_in_recv", {"reused"});
-  ASSERT_TRUE(wait_for_sleepers(control, 1)) << "the child never went to sleep";
-  const pid_t pid = sleeper.pid();
-  sleeper.kill();
+  pid_t pid = -1;
+  ASSERT_NO_FATAL_FAILURE(kill_a_subscriber_asleep("reused", control, pid));
   horus::detail::UserEntry* entry = entry_of(control, pid);
   ASSERT_NE(entry, nullptr);
-  give_its_pid_to_a_live_process(*entry);
+  ASSERT_NO_FATAL_FAILURE(give_its_pid_to_a_live_process(*entry));
 
   EXPECT_TRUE(data.send(sealed<Sample>(1)));
   EXPECT_EQ(announced_sleepers(control), 0u)
