@@ -1,10 +1,8 @@
 // Who this process is (its pid for the hot path, its identity for the users table), cached and
 // forgotten in every forked child; and whether the process a users table entry names still runs.
 #include <pthread.h>
-#include <signal.h>
 #include <unistd.h>
 
-#include <cerrno>
 #include <cstdio>
 #include <cstring>
 
