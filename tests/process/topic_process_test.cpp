@@ -512,11 +512,12 @@ horus::detail::UserEntry* entry_of(const horus::detail::ShmSegment& segment, pid
 }
 
 /// Makes a dead process's entry look as it does once the kernel has given its pid to another
-/// process: the pid of a live process (init, which started long before it), its own start time.
+/// process: the pid of a live one (this test's parent, which started long before it), its own
+/// start time.
 void give_its_pid_to_a_live_process(horus::detail::UserEntry& user) {
   const std::uint64_t dead = user.process.load();
-  user.process.store((dead & ~std::uint64_t{0xffffffff}) | 1);
   ASSERT_NE(dead >> 32, 0u) << "the dead process's start time was not recorded";
+  user.process.store((dead & ~std::uint64_t{0xffffffff}) | static_cast<std::uint32_t>(::getppid()));
 }
 
 TEST(TopicProcess, ASleeperKilledAsleepIsGivenBackEvenOnceItsPidIsReused) {
@@ -539,9 +540,10 @@ TEST(TopicProcess, EntriesOfDeadProcessesWithReusedPidsAreNeitherCountedNorInThe
   PrivateNamespace ns;
   { horus::Topic<Sample> placeholder("crowded"); }
   const auto control = horus::detail::ShmSegment::open_control("crowded", {0, 0, 0600, {}, false});
-  // Every entry but the control handle's own names pid 1 with a start time it never had: the
-  // state a table is left in when its users were killed and their pids went to live processes.
-  const std::uint64_t wrong_start = std::uint64_t{0xfffffffe} << 32 | 1;
+  // Every entry but the control handle's own names this process with a start time it never had:
+  // the state a table is left in when its users were killed and their pids went to live ones.
+  const std::uint64_t wrong_start =
+      std::uint64_t{0xfffffffe} << 32 | static_cast<std::uint32_t>(::getpid());
   for (horus::detail::UserEntry& user : control.control().users) {
     if (user.process.load() == 0) {
       user.roles.store(horus::detail::kRolePublisher | horus::detail::kRoleSubscriber);
