@@ -501,6 +501,28 @@ TEST(TopicProcess, ASubscriberKilledAsleepIsGivenBackByTheNextSend) {
   EXPECT_EQ(announced_sleepers(control), 0u);
 }
 
+TEST(TopicProcess, AForkedChildKilledAsleepOnAnInheritedHandleIsGivenBack) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> data("forked_asleep", {.capacity = 16});
+  const auto control =
+      horus::detail::ShmSegment::open_control("forked_asleep", {0, 0, 0600, {}, false});
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    static_cast<void>(data.recv(30s));
+    ::_exit(0);
+  }
+  const bool slept = wait_for_sleepers(control, 1);
+  ::kill(child, SIGKILL);
+  ASSERT_EQ(::waitpid(child, nullptr, 0), child);
+  ASSERT_TRUE(slept) << "the child never went to sleep";
+
+  EXPECT_TRUE(data.send(sealed<Sample>(1)));
+  EXPECT_EQ(announced_sleepers(control), 0u)
+      << "the child's announcement was counted in its live parent's entry";
+  EXPECT_EQ(data.try_recv()->seq, 1u) << "the parent's handle no longer works";
+}
+
 /// The entry of the users table that names process `pid`, or nullptr.
 horus::detail::UserEntry* entry_of(const horus::detail::ShmSegment& segment, pid_t pid) {
   for (horus::detail::UserEntry& user : segment.control().users) {

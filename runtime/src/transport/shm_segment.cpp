@@ -629,6 +629,16 @@ void ShmSegment::add_role(std::uint32_t role) noexcept {
 }
 
 std::uint64_t ShmSegment::announce_sleeper() noexcept {
+  if (user_index_ >= 0 && control().users[user_index_].process.load(std::memory_order_relaxed) !=
+                              this_process_identity()) {
+    const std::uint32_t roles = control().users[user_index_].roles.load(std::memory_order_relaxed);
+    try {
+      user_index_ = register_user(control(), roles, path_);
+    } catch (const std::exception&) {
+      // Every entry is a live handle's: sleep uncounted, as a handle without an entry does.
+      user_index_ = -1;
+    }
+  }
   const std::uint64_t claimed_before = ring_add_sleeper(control().ring);
   if (claimed_before != UINT64_MAX && user_index_ >= 0) {
     control().users[user_index_].sleepers.fetch_add(1, std::memory_order_release);

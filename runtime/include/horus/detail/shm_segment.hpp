@@ -158,7 +158,9 @@ class ShmSegment {
   const std::string& path() const noexcept { return path_; }
   /// Records that this handle publishes or subscribes (for introspection); idempotent.
   void add_role(std::uint32_t role) noexcept;
-  /// ring_add_sleeper, counted in this handle's user entry.
+  /// ring_add_sleeper, counted in this handle's user entry. A forked child sleeping on a handle
+  /// it inherited first takes an entry of its own, so that its announcements are given back if
+  /// it dies asleep (its parent's entry would keep them while the parent lives).
   std::uint64_t announce_sleeper() noexcept;
   /// ring_remove_sleeper for an announcement that announce_sleeper() made.
   void withdraw_sleeper() noexcept;
