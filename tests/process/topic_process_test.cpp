@@ -41,6 +41,11 @@ using topic_test::Sample;
 using topic_test::sealed;
 using topic_test::valid;
 
+/// A handle on a topic's control page only, for looking at its ring and users table.
+horus::detail::ShmSegment control_page(const std::string& topic) {
+  return horus::detail::ShmSegment::open_control(topic, {0, 0, 0600, {}, false});
+}
+
 constexpr auto kDeadline = 30s;
 
 bool past(std::chrono::steady_clock::time_point deadline) {
@@ -362,7 +367,7 @@ void million_messages(Sender who) {
   Child publisher("publish", {"million", "0", "1000000", "1", "768"});
   EXPECT_EQ(publisher.wait(), 0);
   EXPECT_EQ(subscriber.wait(), 0);
-  const auto control = horus::detail::ShmSegment::open_control("million", {0, 0, 0600, {}, false});
+  const auto control = control_page("million");
   EXPECT_EQ(horus::detail::ring_shared_base(control.control().ring) != horus::detail::kUnshared,
             who == Sender::second)
       << "the ring is shared exactly when a second publisher sent";
@@ -463,27 +468,30 @@ TEST(TopicProcess, AForkedChildLettingGoOfAnInheritedHandleLeavesItsParentsEntry
   EXPECT_EQ(topics[0].publishers, 1u) << "the child freed its parent's entry";
 }
 
-/// Starts a subscriber process that goes to sleep in recv() on `topic`, and kills it there.
-void kill_a_subscriber_asleep(const std::string& topic, const horus::detail::ShmSegment& control,
-                              pid_t& pid) {
-  Child sleeper("sleep_in_recv", {topic});
-  ASSERT_TRUE(wait_for_sleepers(control, 1)) << "the child never went to sleep";
-  pid = sleeper.pid();
-  sleeper.kill();
-}
+/// A topic whose subscriber, another process, was killed while asleep in recv(): its sleeper
+/// announcement is still counted.
+class TopicProcessWithASubscriberKilledAsleep : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    Child sleeper("sleep_in_recv", {"asleep"});
+    ASSERT_TRUE(wait_for_sleepers(control_, 1)) << "the child never went to sleep";
+    sleeper_pid_ = sleeper.pid();
+    sleeper.kill();
+  }
 
-TEST(TopicProcess, ASubscriberKilledAsleepIsGivenBackByTheNextSend) {
-  PrivateNamespace ns;
-  horus::Topic<Sample> data("asleep", {.capacity = 16});
-  const auto control = horus::detail::ShmSegment::open_control("asleep", {0, 0, 0600, {}, false});
-  pid_t pid = -1;
-  ASSERT_NO_FATAL_FAILURE(kill_a_subscriber_asleep("asleep", control, pid));
-  EXPECT_EQ(announced_sleepers(control), 1u) << "a dead sleeper's announcement stays";
+  PrivateNamespace ns_;
+  horus::Topic<Sample> data_{"asleep", {.capacity = 16}};
+  horus::detail::ShmSegment control_ = control_page("asleep");
+  pid_t sleeper_pid_ = -1;
+};
+
+TEST_F(TopicProcessWithASubscriberKilledAsleep, ItsAnnouncementIsGivenBackByTheNextSend) {
+  EXPECT_EQ(announced_sleepers(control_), 1u) << "a dead sleeper's announcement stays";
 
   // This send's wake finds nobody, so it looks for dead sleepers and gives theirs back: later
   // sends make no syscall.
-  EXPECT_TRUE(data.send(sealed<Sample>(1)));
-  EXPECT_EQ(announced_sleepers(control), 0u);
+  EXPECT_TRUE(data_.send(sealed<Sample>(1)));
+  EXPECT_EQ(announced_sleepers(control_), 0u);
 
   // A live sleeper is left alone, and woken.
   std::optional<Sample> woken;
@@ -491,21 +499,20 @@ TEST(TopicProcess, ASubscriberKilledAsleepIsGivenBackByTheNextSend) {
     horus::Topic<Sample> own("asleep");
     woken = own.recv(10s);
   });
-  ASSERT_TRUE(wait_for_sleepers(control, 1));
-  horus::detail::ring_reclaim_dead_sleepers(control.ring());
-  EXPECT_EQ(announced_sleepers(control), 1u) << "a live sleeper's announcement was taken";
-  EXPECT_TRUE(data.send(sealed<Sample>(2)));
+  ASSERT_TRUE(wait_for_sleepers(control_, 1));
+  horus::detail::ring_reclaim_dead_sleepers(control_.ring());
+  EXPECT_EQ(announced_sleepers(control_), 1u) << "a live sleeper's announcement was taken";
+  EXPECT_TRUE(data_.send(sealed<Sample>(2)));
   waiter.join();
   ASSERT_TRUE(woken.has_value());
   EXPECT_EQ(woken->seq, 2u);
-  EXPECT_EQ(announced_sleepers(control), 0u);
+  EXPECT_EQ(announced_sleepers(control_), 0u);
 }
 
 TEST(TopicProcess, AForkedChildKilledAsleepOnAnInheritedHandleIsGivenBack) {
   PrivateNamespace ns;
   horus::Topic<Sample> data("forked_asleep", {.capacity = 16});
-  const auto control =
-      horus::detail::ShmSegment::open_control("forked_asleep", {0, 0, 0600, {}, false});
+  const auto control = control_page("forked_asleep");
   const pid_t child = ::fork();
   ASSERT_GE(child, 0);
   if (child == 0) {
@@ -542,18 +549,13 @@ void give_its_pid_to_a_live_process(horus::detail::UserEntry& user) {
   user.process.store((dead & ~std::uint64_t{0xffffffff}) | static_cast<std::uint32_t>(::getppid()));
 }
 
-TEST(TopicProcess, ASleeperKilledAsleepIsGivenBackEvenOnceItsPidIsReused) {
-  PrivateNamespace ns;
-  horus::Topic<Sample> data("reused", {.capacity = 16});
-  const auto control = horus::detail::ShmSegment::open_control("reused", {0, 0, 0600, {}, false});
-  pid_t pid = -1;
-  ASSERT_NO_FATAL_FAILURE(kill_a_subscriber_asleep("reused", control, pid));
-  horus::detail::UserEntry* entry = entry_of(control, pid);
+TEST_F(TopicProcessWithASubscriberKilledAsleep, ItsAnnouncementIsGivenBackEvenOnceItsPidIsReused) {
+  horus::detail::UserEntry* entry = entry_of(control_, sleeper_pid_);
   ASSERT_NE(entry, nullptr);
   ASSERT_NO_FATAL_FAILURE(give_its_pid_to_a_live_process(*entry));
 
-  EXPECT_TRUE(data.send(sealed<Sample>(1)));
-  EXPECT_EQ(announced_sleepers(control), 0u)
+  EXPECT_TRUE(data_.send(sealed<Sample>(1)));
+  EXPECT_EQ(announced_sleepers(control_), 0u)
       << "a dead sleeper whose pid a live process has now was taken for alive";
   EXPECT_EQ(entry->process.load(), 0u) << "its entry was not freed";
 }
@@ -561,7 +563,7 @@ TEST(TopicProcess, ASleeperKilledAsleepIsGivenBackEvenOnceItsPidIsReused) {
 TEST(TopicProcess, EntriesOfDeadProcessesWithReusedPidsAreNeitherCountedNorInTheWay) {
   PrivateNamespace ns;
   { horus::Topic<Sample> placeholder("crowded"); }
-  const auto control = horus::detail::ShmSegment::open_control("crowded", {0, 0, 0600, {}, false});
+  const auto control = control_page("crowded");
   // Every entry but the control handle's own names this process with a start time it never had:
   // the state a table is left in when its users were killed and their pids went to live ones.
   const std::uint64_t wrong_start =
