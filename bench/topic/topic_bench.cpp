@@ -457,12 +457,19 @@ struct Throughput {
   double per_s;
   std::uint64_t lost;
   std::uint64_t misordered;
+  /// Messages before which the writer found itself a whole window ahead: many when the reader
+  /// sets the pace (streaming), next to none when the two run in lock-step.
+  std::uint64_t writer_waits;
 };
 
-/// Lossless throughput: the writer stays within half the ring of the reader's last ack.
-void wait_for_reader(std::uint64_t sent, Shared& shared) {
+/// Lossless throughput: the writer stays within half the ring of the reader's last ack. Whether
+/// it had to wait.
+bool wait_for_reader(std::uint64_t sent, Shared& shared) {
+  bool waited = false;
   while (sent - shared.consumed.load(std::memory_order_acquire) >= kWindow) {
+    waited = true;
   }
+  return waited;
 }
 
 /// Runs `write(i)` for every message with `reader` consuming in the second process, or (without
@@ -476,19 +483,20 @@ Throughput stream(const char* reader, bool with_reader, const std::string& regio
     for (std::uint64_t i = 0; i < kThroughputMessages; ++i) {
       write(i);
     }
-    return {kThroughputMessages * 1e9 / static_cast<double>(now_ns() - begin), 0, 0};
+    return {kThroughputMessages * 1e9 / static_cast<double>(now_ns() - begin), 0, 0, 0};
   }
   std::int64_t start = 0;
+  std::uint64_t waits = 0;
   {
     Peer peer(reader, kRingPayload, region, shared);
     start = now_ns();
     for (std::uint64_t i = 0; i < kThroughputMessages; ++i) {
-      wait_for_reader(i, shared);
+      waits += wait_for_reader(i, shared) ? 1 : 0;
       write(i);
     }
   }
   return {kThroughputMessages * 1e9 / static_cast<double>(shared.finished_ns.load() - start),
-          shared.lost.load(), shared.misordered.load()};
+          shared.lost.load(), shared.misordered.load(), waits};
 }
 
 /// Message i, filled in by code the hand-over cannot see, as a publisher's is; inlined, the
@@ -553,8 +561,7 @@ Throughput raw_throughput(const std::string& region, Shared& shared, bool with_r
   topic_bench::Msg64 msg{};
   return stream("consume_raw", with_reader, region, shared, [&](std::uint64_t i) {
     fill(msg, i);
-    // Read before the slot's stores, as a topic does (its payload line is apart from the header;
-    // here the payload shares the header's line, which a clock call must not split).
+    // Read before the slot's stores, as a topic's send() does.
     const std::uint32_t sent = Extra == RawExtra::stamp ? horus::detail::send_stamp_s() : 0;
     if constexpr (Extra == RawExtra::claim) {
       // The ticket is i: this writer is alone, but pays for the read-modify-writes all the same.
@@ -653,6 +660,7 @@ struct Rates {
   Throughput (*run)(const std::string&, Shared&, bool with_reader);
   std::vector<double> per_s{};
   std::vector<double> ratios{};
+  std::vector<double> writer_waits{};
   std::uint64_t lost = 0;
   std::uint64_t misordered = 0;
 };
@@ -678,6 +686,7 @@ void print_throughput_table(const std::string& region, Shared& shared) {
       const Throughput result = row.run(region, shared, true);
       row.per_s.push_back(result.per_s);
       row.ratios.push_back(result.per_s / rows[0].per_s.back());
+      row.writer_waits.push_back(static_cast<double>(result.writer_waits));
       row.lost += result.lost;
       row.misordered += result.misordered;
     }
@@ -685,17 +694,20 @@ void print_throughput_table(const std::string& region, Shared& shared) {
   std::printf(
       "\nThroughput, 64 B messages through 1024 slots, %llu messages per round, the writer at most "
       "%llu ahead of the reader (lossless); %d rounds, each running every row once; msg/s: "
-      "median (min-max); ratio: median of the per-round ratios to the floor:\n\n",
+      "median (min-max); ratio: median of the per-round ratios to the floor; writer waits: median "
+      "per round of the messages before which the writer found itself a whole window ahead "
+      "(thousands when the reader sets the pace, tens in lock-step):\n\n",
       static_cast<unsigned long long>(kThroughputMessages),
       static_cast<unsigned long long>(kWindow), kThroughputRounds);
-  std::printf("| | msg/s | min | max | lost | misordered | ratio |\n");
-  std::printf("|---|---:|---:|---:|---:|---:|---:|\n");
+  std::printf("| | msg/s | min | max | lost | misordered | ratio | writer waits |\n");
+  std::printf("|---|---:|---:|---:|---:|---:|---:|---:|\n");
   for (const Rates& row : rows) {
-    std::printf("| %s | %.3g | %.3g | %.3g | %llu | %llu | %.2fx |\n", row.label, median(row.per_s),
-                *std::min_element(row.per_s.begin(), row.per_s.end()),
+    std::printf("| %s | %.3g | %.3g | %.3g | %llu | %llu | %.2fx | %.0f |\n", row.label,
+                median(row.per_s), *std::min_element(row.per_s.begin(), row.per_s.end()),
                 *std::max_element(row.per_s.begin(), row.per_s.end()),
                 static_cast<unsigned long long>(row.lost),
-                static_cast<unsigned long long>(row.misordered), median(row.ratios));
+                static_cast<unsigned long long>(row.misordered), median(row.ratios),
+                median(row.writer_waits));
   }
 
   // The same writers with nobody reading: the difference to the table above is what the

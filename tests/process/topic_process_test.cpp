@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <optional>
 #include <string>
 #include <thread>
@@ -865,7 +866,9 @@ TEST(TopicProcess, IntrospectionListsTypesUsersAndTraffic) {
   PrivateNamespace ns;
   horus::Topic<Sample> listener("listed", {.capacity = 32});
   EXPECT_FALSE(listener.try_recv().has_value());
-  const auto before = std::chrono::floor<std::chrono::seconds>(std::chrono::system_clock::now());
+  // The stamp's own clock: time() reads the second the kernel last ticked into, which lags
+  // system_clock (whose floor could already be the next second) by up to a tick.
+  const auto before = std::chrono::system_clock::from_time_t(std::time(nullptr));
   Child publisher("send_plain", {"listed", "0", "5"});
   ASSERT_EQ(publisher.wait(), 0);
   const auto after = std::chrono::system_clock::now();

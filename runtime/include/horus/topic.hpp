@@ -105,7 +105,7 @@ class Loan {
   /// Commits the slot with `size` bytes (or releases it); whether a message was published.
   bool finish(std::uint32_t size) noexcept {
     if (claim_.slot != nullptr) {
-      detail::ring_commit(*ring_, claim_, size);
+      detail::ring_commit(*ring_, claim_, size, detail::send_stamp_s());
       claim_.slot = nullptr;
       claim_.wake = false;
       return size != detail::kReleasedSlot;
@@ -160,6 +160,7 @@ class Topic {
   /// Publishes a copy of `msg`. Never blocks; false (and a counter) when nothing was published.
   bool send(const T& msg) noexcept {
     mark(detail::kRolePublisher);
+    const std::uint32_t sent = detail::send_stamp_s();
     const detail::Claim claim = claim_slot();
     if (claim.slot == nullptr) {
       detail::ring_refused(ring_, claim);
@@ -169,19 +170,19 @@ class Topic {
     std::byte* payload = ring_.payload(*claim.slot);
     if constexpr (PodMessage<T>) {
       detail::copy_to_slot<sizeof(T)>(payload, &msg);
-      detail::ring_commit(ring_, claim, sizeof(T));
+      detail::ring_commit(ring_, claim, sizeof(T), sent);
       return true;
     } else {
       detail::FixedBufferStream stream(payload, ring_.payload_capacity);
       msgpack::packer<detail::FixedBufferStream> packer(stream);
       packer.pack(msg);
       if (stream.overflowed()) {
-        detail::ring_commit(ring_, claim, detail::kReleasedSlot);
+        detail::ring_commit(ring_, claim, detail::kReleasedSlot, sent);
         ++stats_.send_failures;
         ++stats_.oversized;
         return false;
       }
-      detail::ring_commit(ring_, claim, static_cast<std::uint32_t>(stream.size()));
+      detail::ring_commit(ring_, claim, static_cast<std::uint32_t>(stream.size()), sent);
       return true;
     }
   }

@@ -30,8 +30,9 @@ struct TopicInfo {
   std::size_t subscribers = 0;
   /// Messages sent since the segment was created.
   std::uint64_t message_count = 0;
-  /// When the newest message still in the ring was sent, to the whole second (a finer stamp
-  /// would cost every send a clock read); empty before the first message.
+  /// When the newest message still in the ring was sent, to the whole second of time() (a finer
+  /// stamp would cost every send a clock read; time() may lag system_clock by a kernel tick);
+  /// empty before the first message.
   std::optional<std::chrono::system_clock::time_point> last_send;
   /// Why the segment could not be read (corrupt, truncated, unreadable); empty when it was.
   std::string error;

@@ -334,14 +334,13 @@ inline void ring_refused(const RingView& ring, const Claim& claim) noexcept {
   }
 }
 
-/// Makes the claimed ticket visible with `size` payload bytes (or kReleasedSlot). No barrier and
-/// no syscall unless there is a sleeper.
+/// Makes the claimed ticket visible with `size` payload bytes (or kReleasedSlot), stamped `sent`
+/// (send_stamp_s(), read by a sender before its claim: a subscriber polling the slot's header
+/// line takes it away while the slot is marked written, and a clock call there would give it
+/// time to). No barrier and no syscall unless there is a sleeper.
 [[gnu::always_inline]] inline void ring_commit(const RingView& ring, const Claim& claim,
-                                               std::uint32_t size) noexcept {
+                                               std::uint32_t size, std::uint32_t sent) noexcept {
   SlotHeader& slot = *claim.slot;
-  // Read before the header's stores, so they reach the line back to back: a subscriber polling
-  // it can take the line away during the clock call, and every store after that waits for it.
-  const std::uint32_t sent = send_stamp_s();
   slot.size.store(size, std::memory_order_relaxed);
   slot.send_time_s.store(sent, std::memory_order_relaxed);
   slot.seq.store(2 * claim.ticket + 2, std::memory_order_release);
