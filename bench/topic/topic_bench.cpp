@@ -4,6 +4,8 @@
 //   wake-up     one-way through blocking recv() (futex), on a topic with one publisher, on one
 //               whose ring a second publisher shared, and on a single-publisher topic, against a
 //               raw futex ping-pong;
+//   iceoryx     when built with iceoryx and its daemon runs (bench/topic/run.sh does both), the
+//               latency table's ping-pong through iceoryx side by side, in the same rounds;
 //   throughput  messages per second through a 1024-slot topic (send() by its one publisher and
 //               after a second one shared the ring; single-publisher send() and loan()), against
 //               a raw seqlock ring carrying the same messages: all writers fill in message i and
@@ -29,6 +31,8 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <tuple>
+#include <type_traits>
 #include <vector>
 
 #include <horus/detail/futex.hpp>
@@ -40,6 +44,13 @@
 #include <topic_bench/msg4096.hpp>
 #include <topic_bench/msg64.hpp>
 #include <topic_bench/msg65536.hpp>
+
+#if defined(HORUS_BENCH_ICEORYX)
+#include <iceoryx_hoofs/log/logmanager.hpp>
+#include <iceoryx_posh/popo/publisher.hpp>
+#include <iceoryx_posh/popo/subscriber.hpp>
+#include <iceoryx_posh/runtime/posh_runtime.hpp>
+#endif
 
 extern char** environ;
 
@@ -141,6 +152,72 @@ constexpr std::size_t kWarmup = 2000;
 /// Ping-pong keeps one message in flight; a ring of 64 large slots would only measure L2 misses.
 constexpr std::size_t kLatencyCapacity = 4;
 
+/// The message types of the latency table, each exactly its size in bytes.
+using LatencyMessages = std::tuple<topic_bench::Msg16, topic_bench::Msg64, topic_bench::Msg1536,
+                                   topic_bench::Msg4096, topic_bench::Msg65536>;
+
+/// Calls `run.template operator()<M>()` with the message type of `size` bytes; false for a size
+/// the benchmark has none of.
+template <class Run>
+bool with_message_of_size(std::size_t size, Run&& run) {
+  return [&]<class... M>(std::type_identity<std::tuple<M...>>) {
+    return ((sizeof(M) == size && (run.template operator()<M>(), true)) || ...);
+  }(std::type_identity<LatencyMessages>{});
+}
+
+#if defined(HORUS_BENCH_ICEORYX)
+/// Whether iceoryx runs side by side: its daemon (RouDi) is up, which bench/topic/run.sh says
+/// with HORUS_BENCH_ICEORYX=1 (without RouDi, registering would wait for it forever).
+bool iceoryx_enabled() {
+  const char* flag = std::getenv("HORUS_BENCH_ICEORYX");
+  return flag != nullptr && std::string_view(flag) == "1";
+}
+
+/// The iceoryx service of one direction of a ping-pong: ("horus_bench", "ping", "64").
+iox::capro::ServiceDescription iceoryx_service(const char* direction, std::size_t size) {
+  const std::string event = std::to_string(size);
+  return {"horus_bench", iox::capro::IdString_t(iox::cxx::TruncateToCapacity, direction),
+          iox::capro::IdString_t(iox::cxx::TruncateToCapacity, event.c_str())};
+}
+
+/// Registers this process with RouDi, once (iceoryx allows one registration per process).
+void iceoryx_register(const char* role) {
+  static const bool registered = [role] {
+    const std::string name = std::string("horus_bench_") + role + "_" + std::to_string(::getpid());
+    // Its default, every registration at length, would interleave with the tables.
+    iox::log::LogManager::GetLogManager().SetDefaultLogLevel(
+        iox::log::LogLevel::kWarn, iox::log::LogLevelOutput::kHideLogLevel);
+    iox::runtime::PoshRuntime::initRuntime(
+        iox::RuntimeName_t(iox::cxx::TruncateToCapacity, name.c_str()));
+    return true;
+  }();
+  static_cast<void>(registered);
+}
+
+/// Until RouDi has connected this process's subscriber and someone subscribes to its publisher.
+template <class Publisher, class Subscriber>
+void wait_for_iceoryx_peer(Publisher& publisher, Subscriber& subscriber) {
+  while (subscriber.getSubscriptionState() != iox::SubscribeState::SUBSCRIBED ||
+         !publisher.hasSubscribers()) {
+    std::this_thread::sleep_for(1ms);
+  }
+}
+
+/// iceoryx's publisher writes the whole message into its loan, as a topic's send() copies it.
+template <class M>
+void iceoryx_publish(iox::popo::Publisher<M>& publisher, const M& msg) {
+  publisher.loan()
+      .and_then([&](auto& sample) {
+        *sample = msg;
+        sample.publish();
+      })
+      .or_else([](auto&) {
+        std::fprintf(stderr, "iceoryx refused a loan\n");
+        std::exit(2);
+      });
+}
+#endif
+
 // ---- Second process --------------------------------------------------------------------------
 
 /// Topic names of a ping-pong; single-publisher topics have their own ("sping.64").
@@ -171,6 +248,20 @@ void echo_topic(std::size_t size, bool blocking, bool single, Shared& shared) {
     }
   }
 }
+
+#if defined(HORUS_BENCH_ICEORYX)
+template <class M>
+void echo_iceoryx(std::size_t size, Shared& shared) {
+  iceoryx_register("echo");
+  iox::popo::Subscriber<M> ping(iceoryx_service("ping", size));
+  iox::popo::Publisher<M> pong(iceoryx_service("pong", size));
+  wait_for_iceoryx_peer(pong, ping);
+  shared.ready.store(1, std::memory_order_release);
+  while (shared.stop.load(std::memory_order_acquire) == 0) {
+    ping.take().and_then([&](auto& sample) { iceoryx_publish(pong, *sample); });
+  }
+}
+#endif
 
 void echo_raw(std::size_t size, Shared& shared) {
   std::vector<std::byte> local(size);
@@ -275,25 +366,16 @@ int run_role(const std::string& role, std::size_t size, const std::string& regio
   if (role == "echo_topic" || role == "wake_topic" || role == "wake_single") {
     const bool blocking = role != "echo_topic";
     const bool single = role == "wake_single";
-    switch (size) {
-      case 16:
-        echo_topic<topic_bench::Msg16>(size, blocking, single, shared);
-        break;
-      case 64:
-        echo_topic<topic_bench::Msg64>(size, blocking, single, shared);
-        break;
-      case 1536:
-        echo_topic<topic_bench::Msg1536>(size, blocking, single, shared);
-        break;
-      case 4096:
-        echo_topic<topic_bench::Msg4096>(size, blocking, single, shared);
-        break;
-      case 65536:
-        echo_topic<topic_bench::Msg65536>(size, blocking, single, shared);
-        break;
-      default:
-        return 3;
+    if (!with_message_of_size(size,
+                              [&]<class M>() { echo_topic<M>(size, blocking, single, shared); })) {
+      return 3;
     }
+#if defined(HORUS_BENCH_ICEORYX)
+  } else if (role == "echo_iceoryx") {
+    if (!with_message_of_size(size, [&]<class M>() { echo_iceoryx<M>(size, shared); })) {
+      return 3;
+    }
+#endif
   } else if (role == "echo_raw") {
     echo_raw(size, shared);
   } else if (role == "echo_futex") {
@@ -430,6 +512,40 @@ void raw_latency(std::size_t size, std::size_t count, const std::string& region,
   }
   shared.ping.seq.store(kStop, std::memory_order_release);
 }
+
+#if defined(HORUS_BENCH_ICEORYX)
+/// The same ping-pong through iceoryx: loan, copy in and publish; the peer polls take().
+template <class M>
+void iceoryx_latency(std::size_t size, std::size_t count, const std::string& region, Shared& shared,
+                     std::vector<std::int64_t>& samples) {
+  iceoryx_register("leader");
+  iox::popo::Publisher<M> ping(iceoryx_service("ping", size));
+  iox::popo::Subscriber<M> pong(iceoryx_service("pong", size));
+  Peer peer("echo_iceoryx", size, region, shared);
+  wait_for_iceoryx_peer(ping, pong);
+  M msg{};
+  for (std::size_t i = 0; i < kWarmup + count; ++i) {
+    msg.seq = i;
+    const std::int64_t start = now_ns();
+    iceoryx_publish(ping, msg);
+    std::int64_t end = 0;
+    bool intact = false;
+    while (end == 0) {
+      pong.take().and_then([&](auto& back) {
+        end = now_ns();
+        intact = back->seq == i;
+      });
+    }
+    if (!intact) {
+      std::fprintf(stderr, "iceoryx echo lost message %zu\n", i);
+      std::exit(2);
+    }
+    if (i >= kWarmup) {
+      samples.push_back(end - start);
+    }
+  }
+}
+#endif
 
 void futex_latency(std::size_t count, const std::string& region, Shared& shared,
                    std::vector<std::int64_t>& samples) {
@@ -585,24 +701,40 @@ Throughput raw_throughput(const std::string& region, Shared& shared, bool with_r
   });
 }
 
-/// Topic and raw runs alternate in rounds, so a disturbance (other load) hits both alike.
+/// Topic, raw (and iceoryx) runs alternate in rounds, so a disturbance (other load) hits all alike.
 constexpr int kRounds = 5;
 
+/// One size's percentiles; iceoryx's stay empty unless it runs side by side.
+struct LatencyRow {
+  std::size_t size;
+  Percentiles topic, raw;
+  std::optional<Percentiles> iceoryx;
+};
+
 template <class M>
-void latency_row(std::size_t size, const std::string& region, Shared& shared) {
+LatencyRow latency_row(std::size_t size, const std::string& region, Shared& shared) {
   std::vector<std::int64_t> topic_samples;
   std::vector<std::int64_t> raw_samples;
+  std::vector<std::int64_t> iceoryx_samples;
+  const std::size_t count = iterations(size) / kRounds;
   for (int round = 0; round < kRounds; ++round) {
-    topic_latency<M>(size, false, Publishers::one, iterations(size) / kRounds, region, shared,
-                     topic_samples);
-    raw_latency(size, iterations(size) / kRounds, region, shared, raw_samples);
+    topic_latency<M>(size, false, Publishers::one, count, region, shared, topic_samples);
+    raw_latency(size, count, region, shared, raw_samples);
+#if defined(HORUS_BENCH_ICEORYX)
+    if (iceoryx_enabled()) {
+      iceoryx_latency<M>(size, count, region, shared, iceoryx_samples);
+    }
+#endif
   }
-  const Percentiles topic = percentiles(topic_samples);
-  const Percentiles raw = percentiles(raw_samples);
+  LatencyRow row{size, percentiles(topic_samples), percentiles(raw_samples), std::nullopt};
+  if (!iceoryx_samples.empty()) {
+    row.iceoryx = percentiles(iceoryx_samples);
+  }
   std::printf("| %6zu B | %8.0f | %8.0f | %8.0f | %8.0f | %8.0f | %8.0f | %5.2fx | %5.2fx |\n",
-              size, topic.p50, topic.p99, topic.p999, raw.p50, raw.p99, raw.p999,
-              topic.p50 / raw.p50, topic.p99 / raw.p99);
+              size, row.topic.p50, row.topic.p99, row.topic.p999, row.raw.p50, row.raw.p99,
+              row.raw.p999, row.topic.p50 / row.raw.p50, row.topic.p99 / row.raw.p99);
   std::fflush(stdout);
+  return row;
 }
 
 void print_latency_table(const std::string& region, Shared& shared) {
@@ -611,11 +743,31 @@ void print_latency_table(const std::string& region, Shared& shared) {
       "| size | topic p50 | topic p99 | topic p99.9 | raw p50 | raw p99 | raw p99.9 | p50 ratio | "
       "p99 ratio |\n");
   std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
-  latency_row<topic_bench::Msg16>(16, region, shared);
-  latency_row<topic_bench::Msg64>(64, region, shared);
-  latency_row<topic_bench::Msg1536>(1536, region, shared);
-  latency_row<topic_bench::Msg4096>(4096, region, shared);
-  latency_row<topic_bench::Msg65536>(65536, region, shared);
+  std::vector<LatencyRow> rows;
+  for (const std::size_t size : {16, 64, 1536, 4096, 65536}) {
+    with_message_of_size(size,
+                         [&]<class M>() { rows.push_back(latency_row<M>(size, region, shared)); });
+  }
+#if defined(HORUS_BENCH_ICEORYX)
+  if (!iceoryx_enabled()) {
+    return;
+  }
+  // HORUS_BENCH_ICEORYX is the version CMake found.
+  std::printf(
+      "\niceoryx %s (Debian) side by side, in the same rounds: its publisher loans a chunk, "
+      "copies the message in and publishes; its subscriber polls take(). One-way in ns.\n\n"
+      "| size | topic p50 | iceoryx p50 | iceoryx p99 | iceoryx p99.9 | raw p50 | iceoryx / raw "
+      "p50 | topic / iceoryx p50 | topic / iceoryx p99 |\n"
+      "|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+      HORUS_BENCH_ICEORYX);
+  for (const LatencyRow& row : rows) {
+    const Percentiles& iceoryx = *row.iceoryx;
+    std::printf("| %6zu B | %8.0f | %8.0f | %8.0f | %8.0f | %8.0f | %5.2fx | %5.2fx | %5.2fx |\n",
+                row.size, row.topic.p50, iceoryx.p50, iceoryx.p99, iceoryx.p999, row.raw.p50,
+                iceoryx.p50 / row.raw.p50, row.topic.p50 / iceoryx.p50,
+                row.topic.p99 / iceoryx.p99);
+  }
+#endif
 }
 
 void print_wakeup_table(const std::string& region, Shared& shared) {
