@@ -574,7 +574,7 @@ struct Throughput {
   std::uint64_t lost;
   std::uint64_t misordered;
   /// Messages before which the writer found itself a whole window ahead: many when the reader
-  /// sets the pace (streaming), next to none when the two run in lock-step.
+  /// sets the pace, next to none when the writer does.
   std::uint64_t writer_waits;
 };
 
@@ -801,10 +801,10 @@ void print_wakeup_table(const std::string& region, Shared& shared) {
 
 /// Throughput rounds: every row runs once per round, so rows of one round share the machine's
 /// state, and a row's ratio is the median of its per-round ratios to the floor. A writer and a
-/// spinning reader fall into either lock-step (the reader polls the slot being written, and
-/// every line crosses cores several times) or streaming (the reader trails, lines cross once),
-/// and on a shared VM the neighbours' load changes from second to second: single rounds swing
-/// by 2-5x, pairs of rounds far less.
+/// spinning reader settle into being paced by the writer (the reader keeps up and polls the slot
+/// being written, whose lines cross cores several times) or by the reader (the writer runs a
+/// window ahead, lines cross once), and on a shared VM the neighbours' load changes from second
+/// to second: single rounds swing by 2-5x, pairs of rounds far less.
 constexpr int kThroughputRounds = 9;
 
 struct Rates {
@@ -848,7 +848,7 @@ void print_throughput_table(const std::string& region, Shared& shared) {
       "%llu ahead of the reader (lossless); %d rounds, each running every row once; msg/s: "
       "median (min-max); ratio: median of the per-round ratios to the floor; writer waits: median "
       "per round of the messages before which the writer found itself a whole window ahead "
-      "(thousands when the reader sets the pace, tens in lock-step):\n\n",
+      "(thousands when the reader sets the pace, tens when the writer does):\n\n",
       static_cast<unsigned long long>(kThroughputMessages),
       static_cast<unsigned long long>(kWindow), kThroughputRounds);
   std::printf("| | msg/s | min | max | lost | misordered | ratio | writer waits |\n");
