@@ -156,13 +156,26 @@ constexpr std::size_t kLatencyCapacity = 4;
 using LatencyMessages = std::tuple<topic_bench::Msg16, topic_bench::Msg64, topic_bench::Msg1536,
                                    topic_bench::Msg4096, topic_bench::Msg65536>;
 
+/// Calls `run.template operator()<M>()` for every message type of the latency table.
+template <class Run>
+void for_each_latency_message(Run&& run) {
+  [&]<class... M>(std::type_identity<std::tuple<M...>>) {
+    (run.template operator()<M>(), ...);
+  }(std::type_identity<LatencyMessages>{});
+}
+
 /// Calls `run.template operator()<M>()` with the message type of `size` bytes; false for a size
 /// the benchmark has none of.
 template <class Run>
 bool with_message_of_size(std::size_t size, Run&& run) {
-  return [&]<class... M>(std::type_identity<std::tuple<M...>>) {
-    return ((sizeof(M) == size && (run.template operator()<M>(), true)) || ...);
-  }(std::type_identity<LatencyMessages>{});
+  bool found = false;
+  for_each_latency_message([&]<class M>() {
+    if (sizeof(M) == size) {
+      run.template operator()<M>();
+      found = true;
+    }
+  });
+  return found;
 }
 
 #if defined(HORUS_BENCH_ICEORYX)
@@ -744,10 +757,8 @@ void print_latency_table(const std::string& region, Shared& shared) {
       "p99 ratio |\n");
   std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
   std::vector<LatencyRow> rows;
-  for (const std::size_t size : {16, 64, 1536, 4096, 65536}) {
-    with_message_of_size(size,
-                         [&]<class M>() { rows.push_back(latency_row<M>(size, region, shared)); });
-  }
+  for_each_latency_message(
+      [&]<class M>() { rows.push_back(latency_row<M>(sizeof(M), region, shared)); });
 #if defined(HORUS_BENCH_ICEORYX)
   if (!iceoryx_enabled()) {
     return;
