@@ -1,0 +1,15 @@
+// The parts of the horus._core extension, each in its own source file.
+#pragma once
+
+#include <pybind11/pybind11.h>
+
+namespace horus::python {
+
+/// horus._core: Scheduler, node trampolines, the framework clock, logging.
+void bind_scheduler(pybind11::module_& m);
+/// horus._core: type-erased topics (bytes in, bytes or zero-copy views out).
+void bind_topics(pybind11::module_& m);
+/// horus._core: type-erased service clients and servers.
+void bind_services(pybind11::module_& m);
+
+}  // namespace horus::python
