@@ -79,7 +79,8 @@ def installed(args: argparse.Namespace) -> None:
     for path in ["lib/cmake/horus/horusConfig.cmake", "lib/cmake/horus/HorusGenerate.cmake",
                  "include/horus/message.hpp", "include/horus/msg.hpp", "lib/libhorus_msgs.a",
                  "bin/horus-gen",
-                 "share/horus/generator/horus-gen", "share/horus/templates/cpp"]:
+                 "share/horus/generator/horus_gen/cli.py", "share/horus/templates/cpp",
+                 "share/horus/python/_horus_gen_support_v1.py"]:
         expect((prefix / path).exists(), f"the installation to hold {path}")
 
     schemas = sorted((args.source / "msg").glob("*.hmsg"))

@@ -1,13 +1,33 @@
-"""C++ spelling of the model: type names, literals, include lists, file paths."""
+"""C++: keywords, and the spelling of the model (type names, literals, include lists, file paths)."""
 from __future__ import annotations
 
 import os
 import struct
 
-from . import banner, environment
+from ..data import DataPaths
 from ..model import (Bytes, DynString, Enum, EnumRef, EnumValue, Field, FixedArray, FixedString,
                      Message, MessageRef, Model, Optional, Primitive, Service, Type, Vec)
 from ..names import snake_case
+from .common import banner, environment
+
+DISPLAY_NAME = "C++"
+
+KEYWORDS = frozenset("""
+alignas alignof and and_eq asm auto bitand bitor bool break case catch char char8_t char16_t
+char32_t class compl concept const consteval constexpr constinit const_cast continue co_await
+co_return co_yield decltype default delete do double dynamic_cast else enum explicit export extern
+false float for friend goto if inline int long mutable namespace new noexcept not not_eq nullptr
+operator or or_eq private protected public register reinterpret_cast requires return short signed
+sizeof static static_assert static_cast struct switch template this thread_local throw true try
+typedef typeid typename union unsigned using virtual void volatile wchar_t while xor xor_eq
+""".split())
+
+
+def reserved(name: str) -> str | None:
+    if name.startswith("__") or (name.startswith("_") and len(name) > 1 and name[1].isupper()):
+        return "reserved in C++ (leading underscores)"
+    return None
+
 
 PRIMITIVE_TYPES = {"bool": "bool", "u8": "std::uint8_t", "u16": "std::uint16_t", "u32": "std::uint32_t",
                    "u64": "std::uint64_t", "i8": "std::int8_t", "i16": "std::int16_t", "i32": "std::int32_t",
@@ -21,6 +41,12 @@ def namespace(package: str) -> str:
 def header_path(qualified: str) -> str:
     package, name = qualified.rsplit(".", 1)
     return "/".join(package.split(".") + [snake_case(name) + ".hpp"])
+
+
+def mixin_path(package: str, relative: str) -> str:
+    """Where a #[cpp_mixin] fragment is copied, and the path the message's header includes it by:
+    its path relative to the schema's folder, under the package's folder."""
+    return os.path.join(*package.split("."), relative)
 
 
 def source_path(package: str, schema: str) -> str:
@@ -178,14 +204,14 @@ FILTERS = {
     "namespace": namespace, "type_name": type_name, "initializer": initializer,
     "value_literal": value_literal, "padding_initializer": padding_initializer, "constant_type": constant_type, "constant_literal": constant_literal, "string_literal": string_literal,
     "header_path": header_path, "std_headers": std_headers, "type_headers": type_headers,
-    "lighter_header": lighter_header,
+    "lighter_header": lighter_header, "mixin_path": mixin_path,
     "doc_lines": doc_lines,
     "hex": lambda n: f"0x{n:016x}ULL",
 }
 
 
-def emit(model: Model) -> dict[str, str]:
-    env = environment("cpp", FILTERS)
+def emit(model: Model, data: DataPaths) -> dict[str, str]:
+    env = environment(data, "cpp", FILTERS)
     files: dict[str, str] = {}
     by_package: dict[str, list[str]] = {}
     by_schema: dict[str, list[Message | Enum | Service]] = {}
@@ -199,7 +225,7 @@ def emit(model: Model) -> dict[str, str]:
             template, context = "message.hpp.j2", {"message": item, "model": model}
             if item.cpp_mixin is not None:
                 with open(item.cpp_mixin.source_path, encoding="utf-8") as handle:
-                    files[os.path.join("cpp", item.cpp_mixin.output_path)] = handle.read()
+                    files[os.path.join("cpp", mixin_path(item.package, item.cpp_mixin.relative))] = handle.read()
         files[os.path.join("cpp", path)] = env.get_template(template).render(
             banner=banner("//", [item.source]), **context)
         by_package.setdefault(item.package, []).append(path)
