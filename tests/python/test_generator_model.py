@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import SCHEMAS
+from generator_testing import SCHEMAS
 from horus_gen.diagnostics import Reporter
 from horus_gen.model import EnumValue, FixedArray, FixedString, Message, MessageRef, Padding
 from horus_gen.loader import Options
