@@ -512,7 +512,7 @@ class Resolver:
         normalized = os.path.normpath(relative)
         if os.path.isabs(relative) or normalized.startswith(".."):
             self.reporter.error(span, f"#[{key}] path '{relative}' must stay inside the schema's folder",
-                                "keep helper files in a folder beside the schema, e.g. 'mixins/name.hpp'")
+                                "keep helper files in a folder beside the schema, e.g. 'mixins/name.inc'")
             return None
         source = os.path.join(directory, normalized)
         if not os.path.isfile(source):
