@@ -4,6 +4,7 @@ Python imported, and the C++ tools of the cross-language suite found in the buil
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import os
 import subprocess
 import sys
@@ -38,6 +39,15 @@ def import_from(root: Path, *packages: str):
     if str(root) not in sys.path:
         sys.path.insert(0, str(root))
     return [importlib.import_module(p) for p in packages]
+
+
+def load_support_module():
+    """runtime/python/_horus_gen_support_v1.py as it is in the repository."""
+    path = ROOT / "runtime" / "python" / "_horus_gen_support_v1.py"
+    spec = importlib.util.spec_from_file_location("_horus_gen_support_v1", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 CROSSLANG_TOOLS = {"HORUS_CROSSLANG_TOOL": "horus_crosslang", "HORUS_CROSSLANG_ECHO": "horus_crosslang_echo"}

@@ -8,6 +8,12 @@ from typing import TYPE_CHECKING, Callable
 
 from ..data import DataPaths
 
+# The version of the contract between generated code and the runtime it compiles against or imports:
+# HORUS_GENERATED_CONTRACT_VERSION in runtime/include/horus/generated_contract.hpp and
+# CONTRACT_VERSION in runtime/python/_horus_gen_support_v1.py. Generated code checks it (C++ at
+# compile time, Python on import), so code generated for another runtime says so.
+CONTRACT_VERSION = 1
+
 if TYPE_CHECKING:
     import jinja2
 

@@ -16,7 +16,7 @@ from ..data import DataPaths
 from ..model import (Bytes, DynString, Enum, EnumRef, EnumValue, Field, FixedArray, FixedString, Message,
                      MessageRef, Model, Optional, Primitive, Service, Type, Vec)
 from ..names import snake_case
-from .common import banner, environment
+from .common import CONTRACT_VERSION, banner, environment
 
 DISPLAY_NAME = "Python"
 KEYWORDS = frozenset(keyword.kwlist)
@@ -360,7 +360,8 @@ def emit(model: Model, data: DataPaths) -> dict[str, str]:
     exports: dict[str, list[tuple[str, str]]] = {}  # package -> (module, class name)
     for item in model.generated_items():
         path = os.path.join("python", module_path(item.qualified))
-        common = {"banner": banner("#", [item.source]), "support": SUPPORT_MODULE, "model": model}
+        common = {"banner": banner("#", [item.source]), "support": SUPPORT_MODULE, "model": model,
+                  "contract": CONTRACT_VERSION}
         if isinstance(item, Service):
             names = Names(item.package, item.name, [item.request.qualified, item.response.qualified])
             text = env.get_template("service.py.j2").render(service=item, names=names, **common)
