@@ -144,13 +144,19 @@ def pack_str(out: list, text) -> None:
     n = len(data)
     if n < 32:
         out.append(_FIX[0xA0 | n])
-    elif n < 0x100:
-        out.append(_B(0xD9, n))
-    elif n < 0x10000:
-        out.append(_H(0xDA, n))
     else:
-        out.append(_I(0xDB, n))
+        _pack_length(out, 0xD9, n)
     out.append(data)
+
+
+def _pack_length(out: list, code8: int, n: int) -> None:
+    """The header of a str or bin of n bytes: code8, code8 + 1 or code8 + 2 for an 8-, 16- or 32-bit length."""
+    if n < 0x100:
+        out.append(_B(code8, n))
+    elif n < 0x10000:
+        out.append(_H(code8 + 1, n))
+    else:
+        out.append(_I(code8 + 2, n))
 
 
 def _as_bytes(value) -> bytes:
@@ -172,13 +178,7 @@ def _as_bytes(value) -> bytes:
 
 
 def pack_bin(out: list, data: bytes) -> None:
-    n = len(data)
-    if n < 0x100:
-        out.append(_B(0xC4, n))
-    elif n < 0x10000:
-        out.append(_H(0xC5, n))
-    else:
-        out.append(_I(0xC6, n))
+    _pack_length(out, 0xC4, len(data))
     out.append(data)
 
 
@@ -700,22 +700,12 @@ class ListArray(Codec):
             raise FieldError(f"expected {self.length} elements, got {n}")
 
     def eq(self, a, b) -> bool:
-        try:
-            return len(a) == len(b) and all(self.element.eq(x, y) for x, y in zip(a, b))
-        except TypeError:
-            return False
+        return _elements_equal(self.element, a, b)
 
     def pack(self, out: list, value) -> None:
         self._check_length(value)
         pack_array_header(out, self.length)
-        element = self.element
-        for i, v in enumerate(value):
-            try:
-                element.pack(out, v)
-            except FieldError as error:
-                raise error.within(f"[{i}]") from None
-            except ENCODE_ERRORS as error:
-                raise FieldError(str(error)).within(f"[{i}]") from None
+        _pack_elements(out, self.element, value)
 
     def unpack(self, obj):
         if type(obj) is not list:
@@ -754,6 +744,24 @@ class ListArray(Codec):
         return (inner, (self.length,))
 
 
+def _elements_equal(element: Codec, a, b) -> bool:
+    try:
+        return len(a) == len(b) and all(element.eq(x, y) for x, y in zip(a, b))
+    except TypeError:
+        return False
+
+
+def _pack_elements(out: list, element: Codec, values) -> None:
+    """Each of `values` packed by `element`; an error names the element's index."""
+    for i, v in enumerate(values):
+        try:
+            element.pack(out, v)
+        except FieldError as error:
+            raise error.within(f"[{i}]") from None
+        except ENCODE_ERRORS as error:
+            raise FieldError(str(error)).within(f"[{i}]") from None
+
+
 def _unpack_list(element: Codec, obj: list) -> list:
     unpack = element.unpack
     try:
@@ -778,10 +786,7 @@ class Vec(Codec):
         return []
 
     def eq(self, a, b) -> bool:
-        try:
-            return len(a) == len(b) and all(self.element.eq(x, y) for x, y in zip(a, b))
-        except TypeError:
-            return False
+        return _elements_equal(self.element, a, b)
 
     def pack(self, out: list, value) -> None:
         if isinstance(value, (str, bytes)) or value is None:
@@ -793,14 +798,7 @@ class Vec(Codec):
         except TypeError:
             raise FieldError(f"expected a sequence, got {_kind(value)}") from None
         pack_array_header(out, n)
-        element = self.element
-        for i, v in enumerate(value):
-            try:
-                element.pack(out, v)
-            except FieldError as error:
-                raise error.within(f"[{i}]") from None
-            except ENCODE_ERRORS as error:
-                raise FieldError(str(error)).within(f"[{i}]") from None
+        _pack_elements(out, self.element, value)
 
     def unpack(self, obj):
         if type(obj) is not list:
