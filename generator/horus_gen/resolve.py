@@ -67,7 +67,7 @@ class Resolver:
         self.resolve_all()
         self.model.generated = [q for q in dict.fromkeys(generated)
                                 if q in self.model.types or q in self.model.services]
-        self.check_file_names(roots)
+        self.check_file_names()
         return self.model
 
     # -- declarations ----------------------------------------------------------------------------
@@ -106,17 +106,7 @@ class Resolver:
                             (Note(previous_span, "first declared here"),))
         return False
 
-    def check_file_names(self, roots: list[Unit]) -> None:
-        sources: dict[tuple[str, str], Unit] = {}
-        for unit in (u for u in roots if u.syntax.items):
-            key = (unit.package, os.path.basename(unit.path))
-            first = sources.setdefault(key, unit)
-            if first is not unit:
-                self.reporter.error(Span(unit.syntax.source, 1, 1),
-                                    f"schema files '{first.path}' and '{unit.path}' of package '{unit.package}' "
-                                    f"would both be compiled into "
-                                    f"'{os.path.basename(cpp.source_path(unit.package, unit.path))}'",
-                                    "rename one of them")
+    def check_file_names(self) -> None:
         seen: dict[str, str] = {}
         for qualified in self.model.generated:
             name = qualified.rsplit(".", 1)[1]

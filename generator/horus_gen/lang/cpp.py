@@ -49,10 +49,16 @@ def mixin_path(package: str, relative: str) -> str:
     return os.path.join(*package.split("."), relative)
 
 
-def source_path(package: str, schema: str) -> str:
-    """The .cpp holding the out-of-line code of one schema file's types, beside their headers:
-    geometry.hmsg -> geometry.hmsg.cpp (a .hmsg and a .hsrv may share a name)."""
-    return "/".join(package.split(".") + [os.path.basename(schema) + ".cpp"])
+def package_header_path(package: str) -> str:
+    """The header including every header of a package: horus.msg -> horus/msg.hpp."""
+    return "/".join(package.split(".")) + ".hpp"
+
+
+def package_source_path(package: str) -> str:
+    """The one .cpp holding the out-of-line code of a package's types, beside the package header:
+    horus.msg -> horus/msg.cpp. One translation unit per package, not one per schema file: each
+    costs about as much as <string> to compile, whatever it holds."""
+    return "/".join(package.split(".")) + ".cpp"
 
 
 def type_name(t: Type, package: str) -> str:
@@ -221,8 +227,7 @@ FILTERS = {
 def emit(model: Model, data: DataPaths) -> dict[str, str]:
     env = environment(data, "cpp", FILTERS)
     files: dict[str, str] = {}
-    by_package: dict[str, list[str]] = {}
-    by_schema: dict[str, list[Message | Enum | Service]] = {}
+    by_package: dict[str, list[Message | Enum | Service]] = {}
     for item in model.generated_items():
         path = header_path(item.qualified)
         if isinstance(item, Service):
@@ -236,15 +241,14 @@ def emit(model: Model, data: DataPaths) -> dict[str, str]:
                     files[os.path.join("cpp", mixin_path(item.package, item.cpp_mixin.relative))] = handle.read()
         files[os.path.join("cpp", path)] = env.get_template(template).render(
             banner=banner("//", [item.source]), **context)
-        by_package.setdefault(item.package, []).append(path)
-        by_schema.setdefault(item.source, []).append(item)
-    for schema, items in by_schema.items():
-        files[os.path.join("cpp", source_path(items[0].package, schema))] = env.get_template(
-            "source.cpp.j2").render(banner=banner("//", [schema]), package=items[0].package,
-                                    headers=[header_path(i.qualified) for i in items],
-                                    messages=[i for i in items if isinstance(i, Message)])
-    for package, headers in by_package.items():
-        sources = [i.source for i in model.generated_items() if i.package == package]
-        files[os.path.join("cpp", *package.split(".")) + ".hpp"] = env.get_template("package.hpp.j2").render(
-            banner=banner("//", sources), package=package, headers=sorted(headers))
+        by_package.setdefault(item.package, []).append(item)
+    for package, items in by_package.items():
+        package_banner = banner("//", [i.source for i in items])
+        files[os.path.join("cpp", package_header_path(package))] = env.get_template("package.hpp.j2").render(
+            banner=package_banner, package=package, headers=sorted(header_path(i.qualified) for i in items))
+        messages = [i for i in items if isinstance(i, Message)]
+        if messages:
+            files[os.path.join("cpp", package_source_path(package))] = env.get_template("source.cpp.j2").render(
+                banner=package_banner, package=package, messages=messages,
+                headers=sorted(header_path(m.qualified) for m in messages))
     return files
