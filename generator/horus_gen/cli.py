@@ -106,7 +106,11 @@ def run(args: argparse.Namespace, data: DataPaths) -> int:
         for relative in sorted(files):
             print(os.path.abspath(os.path.join(args.out, relative)))
         return 0
-    write_outputs(args.out, files)
+    try:
+        write_outputs(args.out, files)
+    except OSError as error:
+        print(f"horus-gen: error: cannot write the output to '{args.out}': {error}", file=sys.stderr)
+        return 1
     if args.depfile:
         write_depfile(args.depfile, args.stamp, model.inputs + template_files(data, languages) + generator_sources(data)
                       + ([data.python_support] if "python" in languages else []))

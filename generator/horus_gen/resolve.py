@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from . import identity
 from .diagnostics import Note, Reporter, Source, Span, did_you_mean
 from .lang import cpp, keyword_clash, python
-from .layout import struct_layout, type_layout
+from .layout import MAX_POD_SIZE, LayoutTooLarge, struct_layout, type_layout
 from .loader import Loader, Options, Unit
 from .model import (PRIMITIVES, Bytes, Constant, DynString, Enum, EnumRef, Field, FixedArray,
                     FixedString, Message, MessageRef, Mixin, Model, Optional, Padding, Primitive,
@@ -250,6 +250,10 @@ class Resolver:
                                     "use string<32> for inline text of up to 32 bytes, or String for any length")
                 return None
             capacity = expr.args[0]
+            if capacity.kind == "int" and capacity.value > MAX_POD_SIZE:
+                self.reporter.error(capacity.span, f"string capacity {capacity.value} is more than {MAX_POD_SIZE}",
+                                    "use String for long text")
+                return None
             if capacity.kind != "int" or capacity.value < 1:
                 self.reporter.error(capacity.span, f"string capacity must be a positive integer, found {capacity.value}",
                                     "string<0> holds nothing; use string<N> with N >= 1")
@@ -271,6 +275,10 @@ class Resolver:
         if literal.value < 1:
             self.reporter.error(literal.span, f"array length must be at least 1, found {literal.value}",
                                 "a zero-length array holds nothing; remove the field or use Vec<T>")
+            return None
+        if literal.value > MAX_POD_SIZE:
+            self.reporter.error(literal.span, f"array length {literal.value} is more than {MAX_POD_SIZE}",
+                                "use Vec<T> or bytes for bulk data")
             return None
         return literal.value
 
@@ -434,8 +442,13 @@ class Resolver:
         size = alignment = None
         padding: tuple[Padding, ...] = ()
         if is_pod:
-            layouts = [type_layout(f.type, self.nested_layout, self.enum_underlying) for f in fields]
-            offsets, size, alignment, padding = struct_layout(layouts)
+            try:
+                layouts = [type_layout(f.type, self.nested_layout, self.enum_underlying) for f in fields]
+                offsets, size, alignment, padding = struct_layout(layouts)
+            except LayoutTooLarge as error:
+                self.reporter.error(item.span, f"message '{item.name}' is too large: {error}",
+                                    "use Vec<T> or bytes for bulk data, which are serialized instead")
+                return
             fields = [_with_offset(f, o, lay[0]) for f, o, lay in zip(fields, offsets, layouts)]
 
         fingerprints = {q: t.fingerprint for q, t in self.model.types.items()}

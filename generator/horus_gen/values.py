@@ -79,7 +79,7 @@ def convert_value(reporter: Reporter, types: dict[str, Message | Enum], literal:
                 error(f"value {literal.value} of {owner} is out of range for {t.name} ({low}..{high})")
                 return None
             return literal.value
-        value = float(literal.value)
+        value = float(literal.value)  # the lexer's length limit keeps integers within a double's range
         if not math.isfinite(value):
             error(f"value {literal.value} of {owner} is out of range for {t.name}")
             return None
@@ -91,6 +91,10 @@ def convert_value(reporter: Reporter, types: dict[str, Message | Enum], literal:
     if isinstance(t, (FixedString, DynString)):
         if literal.kind != "string":
             error(wrong + _describe(literal), 'write a quoted string: "text"')
+            return None
+        if isinstance(t, FixedString) and "\0" in literal.value:
+            error(f"value of {owner} holds a NUL character, which string<{t.capacity}> cannot hold",
+                  "string<N> ends at its first NUL; use bytes for binary data")
             return None
         if isinstance(t, FixedString) and len(literal.value.encode("utf-8")) > t.capacity:
             error(f"value of {owner} is {len(literal.value.encode('utf-8'))} bytes, more than "

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import re
 import struct
 
 from ..data import DataPaths
@@ -23,9 +24,25 @@ typedef typeid typename union unsigned using virtual void volatile wchar_t while
 """.split())
 
 
+# Macros of the C and C++ standard headers that generated code includes, and those GCC predefines
+# in its default GNU mode (-std=gnu++20, CMake's default): a member, type or enumerator so named
+# would be replaced by the preprocessor.
+MACROS = frozenset("""
+NULL errno assert stdin stdout stderr EOF BUFSIZ FILENAME_MAX offsetof setjmp va_arg va_copy
+va_end va_start CHAR_BIT MB_LEN_MAX RAND_MAX EXIT_SUCCESS EXIT_FAILURE SIG_DFL SIG_ERR SIG_IGN
+INFINITY NAN HUGE_VAL EDOM ERANGE EILSEQ FP_NAN FP_INFINITE FP_ZERO FP_NORMAL FP_SUBNORMAL
+SEEK_SET SEEK_CUR SEEK_END TMP_MAX CLOCKS_PER_SEC unix linux i386
+""".split())
+_LIMIT_MACRO = re.compile(r"(U?INT(8|16|32|64|MAX|PTR)?|U?INT_(LEAST|FAST)(8|16|32|64)|SIZE|PTRDIFF|"
+                          r"S?CHAR|U?CHAR|U?SHRT|U?LONG|LLONG|ULLONG|SIG_ATOMIC|WCHAR|WINT|FLT|DBL|LDBL)"
+                          r"_(MAX|MIN|C|EPSILON|DIG|MANT_DIG|MAX_EXP|MIN_EXP|TRUE_MIN|WIDTH)")
+
+
 def reserved(name: str) -> str | None:
     if name.startswith("__") or (name.startswith("_") and len(name) > 1 and name[1].isupper()):
         return "reserved in C++ (leading underscores)"
+    if name in MACROS or _LIMIT_MACRO.fullmatch(name):
+        return "a macro of the C/C++ standard library"
     return None
 
 

@@ -23,7 +23,8 @@ KEYWORDS = frozenset(keyword.kwlist)
 
 
 def reserved(name: str) -> str | None:
-    return "reserved for the generated Python code" if name.startswith("_horus") else None
+    # `self` is the first parameter of every generated method (a field so named could not be one).
+    return "reserved for the generated Python code" if name.startswith("_horus") or name == "self" else None
 
 
 SUPPORT_MODULE = "_horus_gen_support_v1"
