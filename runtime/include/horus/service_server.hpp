@@ -258,7 +258,7 @@ class ServiceServerBuilder {
     using State = typename ServiceServer<S>::State;
     auto state = std::make_unique<State>(handler_, options_);
     const std::optional<detail::ServiceRegistration> current = state->registration.read_latest();
-    if (current && current->server_pid != 0 && !detail::service_process_gone(current->server_pid)) {
+    if (current && current->server_pid != 0 && !detail::server_process_gone(current->server_pid)) {
       throw Error("service " + std::string(S::name()) + " in namespace " + namespace_name() +
                   " already has a server (pid " + std::to_string(current->server_pid) + ")");
     }

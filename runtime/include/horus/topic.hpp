@@ -17,9 +17,12 @@
 #include <vector>
 
 #include "horus/codec.hpp"
+#include "horus/detail/process.hpp"
 #include "horus/detail/publisher_lease.hpp"
 #include "horus/detail/ring.hpp"
+#include "horus/detail/send_clock.hpp"
 #include "horus/detail/shm_segment.hpp"
+#include "horus/detail/slot_copy.hpp"
 #include "horus/detail/topic_stream.hpp"
 #include "horus/msgpack.hpp"
 #include "horus/type_info.hpp"

@@ -6,7 +6,6 @@
 #include "horus/detail/errno_text.hpp"
 
 #include <fcntl.h>
-#include <signal.h>
 #include <sys/file.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
@@ -18,7 +17,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <span>
 #include <utility>
 
 #include "horus/error.hpp"
@@ -176,83 +174,22 @@ void read_all(int fd, void* data, std::size_t size, std::uint64_t offset, const 
   }
 }
 
-/// Whether an entry's process runs: by its identity in this version's table, by its pid alone
-/// in an older one's.
-bool entry_alive(const UserEntry& user) {
-  return identity_alive(user.process.load(std::memory_order_acquire));
-}
-template <class OlderEntry>
-bool entry_alive(const OlderEntry& user) {
-  return process_alive(user.pid.load(std::memory_order_acquire));
-}
-
 /// Whether a live process has the segment open (counting notifiers only if asked: they map the
 /// control page alone, so they do not stand in the way of re-typing).
-template <class Entry>
-bool has_live_users(std::span<const Entry> users, bool count_notifiers) {
-  for (const Entry& user : users) {
+bool has_live_users(const ControlBlock& control, bool count_notifiers) {
+  for (const UserEntry& user : control.users) {
     const bool notifier = (user.roles.load(std::memory_order_relaxed) & kRoleNotifier) != 0;
-    if ((count_notifiers || !notifier) && entry_alive(user)) {
+    if ((count_notifiers || !notifier) &&
+        identity_alive(user.process.load(std::memory_order_acquire))) {
       return true;
     }
   }
   return false;
 }
 
-bool has_live_users(const ControlBlock& control, bool count_notifiers) {
-  return has_live_users(std::span<const UserEntry>(control.users), count_notifiers);
-}
-
-/// A users table entry of versions 1 to 4, before entries counted their sleepers.
-struct UserEntryV4 {
-  std::atomic<std::uint32_t> pid;
-  std::atomic<std::uint32_t> roles;
-};
-static_assert(sizeof(UserEntryV4) * kMaxUsers <= sizeof(ControlBlock::users));
-/// A users table entry of versions 5 and 6, which named the process by its pid alone.
-struct UserEntryV6 {
-  std::atomic<std::uint32_t> pid;
-  std::atomic<std::uint32_t> roles;
-  std::atomic<std::uint32_t> sleepers;
-  std::uint32_t reserved;
-};
-static_assert(sizeof(UserEntryV6) * kMaxUsers <= sizeof(ControlBlock::users));
-
-template <class Entry>
-bool has_live_users_in_older_table(const ControlBlock& control) {
-  return has_live_users(
-      std::span<const Entry>(reinterpret_cast<const Entry*>(&control.users[0]), kMaxUsers), true);
-}
-
-bool older_version(const ControlBlock& control) {
-  return control.magic == kControlMagic && control.version >= 1 &&
-         control.version < kSegmentVersion;
-}
-
-/// A segment left by an older horus build that nobody uses any more is started afresh, so an
-/// upgrade does not strand its topics; one still in use stays an error (validate_control).
-/// Versions 1 to 6 put their users table where this one is: 1 to 4 with 8-byte entries, 5 and
-/// 6 with 16-byte ones that named the process by its pid alone.
-bool abandoned_older_version(int fd, std::uint64_t size) {
-  if (size < kControlSize) {
-    return false;
-  }
-  alignas(ControlBlock) std::byte page[sizeof(ControlBlock)];
-  if (::pread(fd, page, sizeof page, 0) != static_cast<ssize_t>(sizeof page)) {
-    return false;
-  }
-  const auto& control = *reinterpret_cast<const ControlBlock*>(page);
-  return older_version(control) && !segment_in_use(control);
-}
-
-/// Gives a new (empty) file its control page, starting afresh one an older build abandoned;
-/// refuses a file too short to hold one.
+/// Gives a new (empty) file its control page; refuses a file too short to hold one.
 void prepare_control(int fd, const std::string& path, unsigned mode) {
-  std::uint64_t size = file_size(fd, path);
-  if (abandoned_older_version(fd, size)) {
-    ::ftruncate(fd, 0);
-    size = 0;
-  }
+  const std::uint64_t size = file_size(fd, path);
   if (size == 0) {
     ::fchmod(fd, static_cast<mode_t>(mode));
     allocate(fd, kControlSize, path);
@@ -409,20 +346,7 @@ void validate_segment_name(std::string_view what, std::string_view name) {
   }
 }
 
-bool segment_in_use(const ControlBlock& control) {
-  if (older_version(control)) {
-    return control.version >= 5 ? has_live_users_in_older_table<UserEntryV6>(control)
-                                : has_live_users_in_older_table<UserEntryV4>(control);
-  }
-  return has_live_users(control, true);
-}
-
-bool process_alive(std::uint32_t pid) noexcept {
-  if (pid == 0) {
-    return false;
-  }
-  return ::kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM;
-}
+bool segment_in_use(const ControlBlock& control) { return has_live_users(control, true); }
 
 std::string validate_control(const ControlBlock& control) {
   if (control.magic != kControlMagic) {

@@ -41,24 +41,11 @@ inline constexpr std::uint32_t kRoleSubscriber = 2;
 /// A TopicNotifier: maps only the control page, so it never prevents re-typing a dead topic.
 inline constexpr std::uint32_t kRoleNotifier = 4;
 
-/// A process as the users table records it: the pid in the low half and, in the high half, when
-/// it started (clock ticks since boot, the low 32 bits; 0 when unknown). With the start time, a
-/// dead process whose pid the kernel gave to another is still seen dead; both halves are one
-/// word, so whoever takes an entry over replaces them together.
-inline std::uint32_t identity_pid(std::uint64_t identity) noexcept {
-  return static_cast<std::uint32_t>(identity);
-}
-/// This process's identity: read once, and again in a forked child.
-std::uint64_t this_process_identity() noexcept;
-/// Whether the process with this identity runs: its pid exists, it has not exited (a zombie
-/// has), and (when known) it started when the identity says. A syscall and a read of /proc:
-/// slow paths only.
-bool identity_alive(std::uint64_t identity) noexcept;
-
 /// One open Topic handle: its process and whether it has sent or received.
 struct UserEntry {
-  /// The identity of the process that opened the handle; 0 when the entry is free. A forked
-  /// child using a handle it inherited is not recorded: the entry stays its parent's.
+  /// The identity (detail/process.hpp) of the process that opened the handle; 0 when the entry
+  /// is free. A forked child using a handle it inherited is not recorded: the entry stays its
+  /// parent's.
   std::atomic<std::uint64_t> process;
   std::atomic<std::uint32_t> roles;
   /// Sleeper announcements this handle holds in RingControl::write_index: counted after they
@@ -131,8 +118,7 @@ void validate_segment_name(std::string_view what, std::string_view name);
 /// Why a segment's headers cannot be trusted with `file_size` bytes, or empty when they can.
 std::string validate_layout(const LayoutHeader& header, std::uint64_t file_size);
 std::string validate_control(const ControlBlock& control);
-/// Whether a live process has the segment open, reading the users table in the layout of the
-/// segment's version (older versions named processes by their pid alone).
+/// Whether a live process has the segment open (a notifier counts).
 bool segment_in_use(const ControlBlock& control);
 
 /// An open, validated, mapped segment. Move-only; unmaps and leaves the users table on destruction.
