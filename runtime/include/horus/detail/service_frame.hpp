@@ -26,34 +26,12 @@
 #include <string_view>
 #include <type_traits>
 
+#include "horus/detail/static_text.hpp"
 #include "horus/fixed_string.hpp"
 #include "horus/message.hpp"
 #include "horus/msgpack.hpp"
 
 namespace horus::detail {
-
-/// The concatenation of static strings as one static string_view (for TypeInfo names and schemas).
-template <const std::string_view&... Parts>
-struct JoinedText {
-  static constexpr std::size_t size = (Parts.size() + ... + 0);
-  static constexpr std::array<char, size + 1> storage = [] {
-    std::array<char, size + 1> out{};
-    std::size_t at = 0;
-    ((std::copy(Parts.begin(), Parts.end(), out.begin() + static_cast<std::ptrdiff_t>(at)),
-      at += Parts.size()),
-     ...);
-    return out;
-  }();
-  static constexpr std::string_view value{storage.data(), size};
-};
-
-constexpr std::uint64_t fnv1a(std::string_view text) noexcept {
-  std::uint64_t hash = 0xcbf29ce484222325ULL;
-  for (const char c : text) {
-    hash = (hash ^ static_cast<std::uint8_t>(c)) * 0x100000001b3ULL;
-  }
-  return hash;
-}
 
 inline constexpr std::string_view kRequestFrameName = "horus.ServiceRequest<";
 inline constexpr std::string_view kResponseFrameName = "horus.ServiceResponse<";
