@@ -157,7 +157,8 @@ class ServiceChannel {
       pending_.emplace(request_id, std::nullopt);
     }
     const std::uint64_t oversized_before = requests_.stats().oversized;
-    if (!requests_.send(RequestFrame{client_id_, request_id, reply_index_, request})) {
+    if (!requests_.send(request_frame(client_id_, reply_index_,
+                                      ServiceRequest<Request>{request_id, request}))) {
       forget(request_id);
       return ServiceError::transport(
           requests_.stats().oversized != oversized_before
@@ -245,10 +246,7 @@ class ServiceChannel {
   }
 
   static ServiceResult<Response> to_result(ResponseFrame&& frame) {
-    if (frame.status == kStatusOk) {
-      return std::move(frame.payload);
-    }
-    return ServiceError::service_failed(std::string(std::string_view(frame.error)));
+    return response_of(std::move(frame)).into_result();
   }
 
  private:
