@@ -38,7 +38,9 @@ struct TopicOptions {
   /// Serialized types only: the largest encoded message a slot holds; send() of a larger one
   /// returns false and counts it in TopicStats::oversized.
   std::size_t max_message_size = std::size_t{16} * 1024;
-  /// Permissions of the segment (and of the namespace folder, when this creates it).
+  /// Permissions of the segment (and of the namespace folder, when this creates it). Group bits
+  /// (e.g. 0660) share the topic with a group: then segments and folders other members created
+  /// are accepted too (runtime/src/transport/README.md). Write access for every user is refused.
   unsigned mode = 0600;
   /// Empty: HORUS_NAMESPACE, or "default".
   std::string namespace_name{};
@@ -130,7 +132,8 @@ template <TopicValue T>
 class Topic {
  public:
   /// Opens (or creates) the topic `name` in the namespace. Throws horus::Error when the topic
-  /// carries another type, its segment is corrupt, or /dev/shm has no room.
+  /// carries another type, its segment is corrupt, /dev/shm has no room, or its folder or
+  /// segment belongs to another user (outside a shared group) or is writable by every user.
   explicit Topic(std::string_view name, const TopicOptions& options = {})
       : name_(name),
         segment_(detail::ShmSegment::open_topic(

@@ -1,6 +1,7 @@
 // The shared-memory segment behind one topic: its layout, its validation and its set-up.
 //
-// A segment is one file under the namespace folder (by default /dev/shm/horus/<namespace>/<topic>):
+// A segment is one file under the namespace folder (by default
+// /dev/shm/horus-<uid>/<namespace>/<topic>):
 //
 //   [0, 4096)            ControlBlock: type-independent (write index, futex word, users table).
 //                        Exists alone while only TopicNotifiers know the topic.
@@ -21,6 +22,7 @@
 #include <string_view>
 
 #include "horus/detail/ring.hpp"
+#include "horus/detail/shm_access.hpp"
 
 namespace horus::detail {
 
@@ -109,10 +111,21 @@ struct SegmentOptions {
 
 /// HORUS_NAMESPACE, or "default".
 std::string current_namespace();
-/// HORUS_SHM_DIR, or /dev/shm/horus.
+/// HORUS_SHM_DIR, or /dev/shm/horus-<effective uid>.
 std::string shm_root();
 /// Folder holding the segments of a namespace (empty: the current one).
 std::string namespace_directory(std::string_view namespace_name);
+
+/// A namespace folder opened and checked (detail/shm_access.hpp).
+struct NamespaceFolder {
+  /// -1 when the folder does not exist and was not to be created.
+  FileDescriptor descriptor;
+  std::string path;
+};
+/// Opens the folder of a namespace (empty: the current one) and the root above it, creating
+/// them (for segments of `mode`) when missing and `create`. Throws horus::Error naming the
+/// folder and its owner when another user could have planted or could write it.
+NamespaceFolder open_namespace_folder(std::string_view namespace_name, unsigned mode, bool create);
 /// Throws horus::Error unless `name` is usable as one path component ([A-Za-z0-9_.-], not . or ..).
 void validate_segment_name(std::string_view what, std::string_view name);
 /// Why a segment's headers cannot be trusted with `file_size` bytes, or empty when they can.
