@@ -159,6 +159,23 @@ horus::TopicOptions in_namespace(unsigned mode = 0600) {
   return options;
 }
 
+/// As `user`: opens topic `name` of the test namespace with `mode` and sends `value`.
+int send_as(const char* user, const SharedRoot& root, const char* name, unsigned mode,
+            std::uint64_t value) {
+  return as_user(user, root.path(), [&] {
+    horus::Topic<std::uint64_t> topic(name, in_namespace(mode));
+    return topic.send(value) ? 0 : 1;
+  });
+}
+
+/// As `user`: 0 when opening topic `name` with `mode` is refused with all of `expected`.
+int refused_as(const char* user, const std::string& root, const char* name, unsigned mode,
+               std::initializer_list<std::string> expected) {
+  return as_user(user, root, [&] {
+    return refused([&] { horus::Topic<std::uint64_t>(name, in_namespace(mode)); }, expected);
+  });
+}
+
 class ShmOwnership : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -170,9 +187,9 @@ class ShmOwnership : public ::testing::Test {
 
 TEST_F(ShmOwnership, EachUserHasAPrivateRootByDefault) {
   const std::string ns = "ownership_" + std::to_string(::getpid());
-  const auto open_and_send = [&ns](std::uint64_t value) {
-    horus::TopicOptions options;
-    options.namespace_name = ns;
+  horus::TopicOptions options;
+  options.namespace_name = ns;
+  const auto open_and_send = [&options](std::uint64_t value) {
     horus::Topic<std::uint64_t> cmd("cmd", options);
     return cmd.send(value) ? 0 : 1;
   };
@@ -180,8 +197,6 @@ TEST_F(ShmOwnership, EachUserHasAPrivateRootByDefault) {
   ASSERT_EQ(as_user(kUserM, "", [&] { return open_and_send(666); }), 0);
   EXPECT_EQ(as_user(kUserA, "",
                     [&] {
-                      horus::TopicOptions options;
-                      options.namespace_name = ns;
                       const horus::Topic<std::uint64_t> cmd("cmd", options);
                       return cmd.read_latest() == std::optional<std::uint64_t>(1) ? 0 : 1;
                     }),
@@ -201,112 +216,55 @@ TEST_F(ShmOwnership, ARootCreatedByAnotherUserIsRefusedNamingItsOwner) {
   const std::string squatted = parent.path() + "/squatted";
   ASSERT_EQ(as_user(kUserM, "", [&] { return ::mkdir(squatted.c_str(), 0777) == 0 ? 0 : 1; }), 0);
   ::chmod(squatted.c_str(), 0777);
-  EXPECT_EQ(as_user(kUserA, squatted,
-                    [] {
-                      return refused([] { horus::Topic<std::uint64_t>("cmd", in_namespace()); },
-                                     {"squatted", kUserM});
-                    }),
-            0);
+  EXPECT_EQ(refused_as(kUserA, squatted, "cmd", 0600, {squatted, kUserM}), 0);
 }
 
 TEST_F(ShmOwnership, ANamespaceFolderCreatedByAnotherUserIsRefusedNamingItsOwner) {
   SharedRoot root;
-  // M is first after a reboot: it creates the robot's namespace, opens it to everyone (0777, as
-  // in the report) and a topic in it.
-  ASSERT_EQ(as_user(kUserM, root.path(),
-                    [&root] {
-                      horus::Topic<std::uint64_t> cmd("cmd", in_namespace());
-                      return ::chmod(root.folder().c_str(), 0777) == 0 && cmd.send(666) ? 0 : 1;
-                    }),
-            0);
-  EXPECT_EQ(as_user(kUserA, root.path(),
-                    [&root] {
-                      return refused([] { horus::Topic<std::uint64_t>("cmd", in_namespace()); },
-                                     {root.folder(), kUserM});
-                    }),
-            0);
+  // M is first after a reboot: it creates the robot's namespace and a topic in it, and opens the
+  // folder to everyone (0777, as in the report).
+  ASSERT_EQ(send_as(kUserM, root, "cmd", 0600, 666), 0);
+  ::chmod(root.folder().c_str(), 0777);
+  EXPECT_EQ(refused_as(kUserA, root.path(), "cmd", 0600, {root.folder(), kUserM}), 0);
   // Not writable by A, but still M's: its segments would be M's to write.
   ::chmod(root.folder().c_str(), 0755);
-  EXPECT_EQ(as_user(kUserA, root.path(),
-                    [&root] {
-                      return refused([] { horus::Topic<std::uint64_t>("cmd", in_namespace()); },
-                                     {root.folder(), kUserM});
-                    }),
-            0);
+  EXPECT_EQ(refused_as(kUserA, root.path(), "cmd", 0600, {root.folder(), kUserM}), 0);
 }
 
 TEST_F(ShmOwnership, ASegmentCreatedByAnotherUserIsRefusedWithoutGroupSharing) {
   SharedRoot root;
   // A shares one topic with its group, so its namespace folder is group-writable; B (in the
   // group) plants the topic A will open privately.
-  ASSERT_EQ(as_user(kUserA, root.path(),
-                    [] {
-                      horus::Topic<std::uint64_t> status("status", in_namespace(0660));
-                      return status.send(1) ? 0 : 1;
-                    }),
-            0);
-  ASSERT_EQ(as_user(kUserB, root.path(),
-                    [] {
-                      horus::Topic<std::uint64_t> cmd("cmd", in_namespace(0660));
-                      return cmd.send(666) ? 0 : 1;
-                    }),
-            0);
-  EXPECT_EQ(as_user(kUserA, root.path(),
-                    [&root] {
-                      return refused([] { horus::Topic<std::uint64_t>("cmd", in_namespace()); },
-                                     {root.segment("cmd"), kUserB});
-                    }),
-            0);
+  ASSERT_EQ(send_as(kUserA, root, "status", 0660, 1), 0);
+  ASSERT_EQ(send_as(kUserB, root, "cmd", 0660, 666), 0);
+  EXPECT_EQ(refused_as(kUserA, root.path(), "cmd", 0600, {root.segment("cmd"), kUserB}), 0);
 }
 
 TEST_F(ShmOwnership, AWorldWritableSegmentIsRefusedAndCannotBeAskedFor) {
   SharedRoot root;
-  ASSERT_EQ(as_user(kUserA, root.path(),
-                    [&root] {
-                      { horus::Topic<std::uint64_t> cmd("cmd", in_namespace()); }
-                      return ::chmod(root.segment("cmd").c_str(), 0666);
-                    }),
-            0);
-  EXPECT_EQ(as_user(kUserA, root.path(),
-                    [&root] {
-                      return refused([] { horus::Topic<std::uint64_t>("cmd", in_namespace()); },
-                                     {root.segment("cmd"), "writable by every user"}) +
-                             refused(
-                                 [] { horus::Topic<std::uint64_t>("other", in_namespace(0666)); },
-                                 {"0666", "every local user"});
-                    }),
-            0);
+  ASSERT_EQ(send_as(kUserA, root, "cmd", 0600, 1), 0);
+  ::chmod(root.segment("cmd").c_str(), 0666);
+  EXPECT_EQ(
+      refused_as(kUserA, root.path(), "cmd", 0600, {root.segment("cmd"), "writable by every user"}),
+      0);
+  EXPECT_EQ(refused_as(kUserA, root.path(), "other", 0666, {"0666", "every local user"}), 0);
 }
 
 TEST_F(ShmOwnership, ASymbolicLinkInPlaceOfASegmentIsRefused) {
   SharedRoot root;
-  ASSERT_EQ(as_user(kUserA, root.path(),
-                    [] {
-                      horus::Topic<std::uint64_t> status("status", in_namespace(0660));
-                      return status.send(1) ? 0 : 1;
-                    }),
-            0);
+  ASSERT_EQ(send_as(kUserA, root, "status", 0660, 1), 0);
   ASSERT_EQ(as_user(kUserB, root.path(),
                     [&root] {
                       return ::symlink(root.segment("status").c_str(), root.segment("cmd").c_str());
                     }),
             0);
-  EXPECT_EQ(as_user(kUserA, root.path(),
-                    [&root] {
-                      return refused([] { horus::Topic<std::uint64_t>("cmd", in_namespace(0660)); },
-                                     {root.segment("cmd"), "symbolic link"});
-                    }),
+  EXPECT_EQ(refused_as(kUserA, root.path(), "cmd", 0660, {root.segment("cmd"), "symbolic link"}),
             0);
 }
 
 TEST_F(ShmOwnership, TwoUsersOfAGroupShareTopicsWhenBothAskForIt) {
   SharedRoot root;
-  ASSERT_EQ(as_user(kUserA, root.path(),
-                    [] {
-                      horus::Topic<std::uint64_t> cmd("cmd", in_namespace(0660));
-                      return 0;
-                    }),
-            0);
+  ASSERT_EQ(send_as(kUserA, root, "cmd", 0660, 1), 0);
   struct stat info {};
   ASSERT_EQ(::stat(root.segment("cmd").c_str(), &info), 0);
   EXPECT_EQ(info.st_gid, ::getgrnam(kGroup)->gr_gid);
@@ -314,12 +272,7 @@ TEST_F(ShmOwnership, TwoUsersOfAGroupShareTopicsWhenBothAskForIt) {
   ASSERT_EQ(::stat(root.folder().c_str(), &info), 0);
   EXPECT_EQ(info.st_mode & 07777, 02770U) << "a shared folder passes its group on (setgid)";
 
-  EXPECT_EQ(as_user(kUserB, root.path(),
-                    [&root] {
-                      horus::Topic<std::uint64_t> cmd("cmd", in_namespace(0660));
-                      return cmd.send(42) ? 0 : 1;
-                    }),
-            0);
+  EXPECT_EQ(send_as(kUserB, root, "cmd", 0660, 42), 0);
   EXPECT_EQ(as_user(kUserA, root.path(),
                     [] {
                       const horus::Topic<std::uint64_t> cmd("cmd", in_namespace(0660));
@@ -327,30 +280,16 @@ TEST_F(ShmOwnership, TwoUsersOfAGroupShareTopicsWhenBothAskForIt) {
                     }),
             0)
       << "a group member's send did not arrive";
-  EXPECT_EQ(as_user(kUserB, root.path(),
-                    [&root] {
-                      return refused([] { horus::Topic<std::uint64_t>("cmd", in_namespace()); },
-                                     {root.folder(), kUserA});
-                    }),
-            0)
+  EXPECT_EQ(refused_as(kUserB, root.path(), "cmd", 0600, {root.folder(), kUserA}), 0)
       << "B did not ask to share (mode 0600) and still took A's topic";
-  EXPECT_EQ(as_user(kUserM, root.path(),
-                    [&root] {
-                      return refused([] { horus::Topic<std::uint64_t>("cmd", in_namespace(0660)); },
-                                     {root.folder()});
-                    }),
-            0)
+  EXPECT_EQ(refused_as(kUserM, root.path(), "cmd", 0660, {root.folder()}), 0)
       << "a user outside the group reached the group's topics";
 }
 
 TEST_F(ShmOwnership, AServiceInASquattedNamespaceIsRefused) {
   SharedRoot root;
-  ASSERT_EQ(as_user(kUserM, root.path(),
-                    [&root] {
-                      horus::Topic<std::uint64_t> bait("bait", in_namespace());
-                      return ::chmod(root.folder().c_str(), 0777);
-                    }),
-            0);
+  ASSERT_EQ(send_as(kUserM, root, "bait", 0600, 1), 0);
+  ::chmod(root.folder().c_str(), 0777);
   EXPECT_EQ(
       as_user(kUserA, root.path(),
               [&root] {
