@@ -2,10 +2,12 @@
 
 #include <cxxabi.h>
 
-#include <cstdio>
 #include <cstdlib>
 #include <memory>
 #include <typeinfo>
+
+#include "horus/log.hpp"
+#include "logger.hpp"
 
 namespace horus {
 namespace {
@@ -42,8 +44,10 @@ std::string_view Node::name() const {
 }
 
 void Node::on_error(std::string_view error) {
-  std::fprintf(stderr, "[horus] node '%.*s' error: %.*s\n", static_cast<int>(name().size()),
-               name().data(), static_cast<int>(error.size()), error.data());
+  // Inside a callback the line carries the node's name already; elsewhere it is given.
+  const std::string_view source = log::current_node().empty() ? name() : log::current_node();
+  detail::log_as(LogLevel::Error, source, "Node error: %.*s", static_cast<int>(error.size()),
+                 error.data());
 }
 
 }  // namespace horus

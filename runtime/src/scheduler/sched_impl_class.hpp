@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "horus/blackbox.hpp"
+#include "horus/log.hpp"
 #include "horus/scheduler.hpp"
 #include "sched_impl.hpp"
 
@@ -96,11 +97,13 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   void record(BlackboxEventKind kind, const NodeSlot& slot, std::int64_t value = 0,
               std::string_view detail = {}) noexcept;
   void record_scheduler(BlackboxEventKind kind, std::string_view detail = {}) noexcept;
-  void log(const char* level, const char* format, ...) const noexcept
+  /// The scheduler's own lines, from the source "@<name>".
+  void log(LogLevel level, const char* format, ...) const noexcept
       __attribute__((format(printf, 3, 4)));
 
   SchedulerConfig config_;
   std::int64_t tick_period_ns_;
+  std::string log_source_;
   std::filesystem::path blackbox_path_;
   std::unique_ptr<Blackbox> blackbox_;
   RtCapabilities capabilities_;

@@ -209,7 +209,7 @@ bool SchedulerImpl::init_node(NodeSlot& slot) noexcept {
     slot.publishers = std::move(publishers);
     slot.subscribers = std::move(subscribers);
   } catch (...) {
-    log("warn", "node '%s': publishers()/subscribers() threw; topic metadata left empty",
+    log(LogLevel::Warn, "node '%s': publishers()/subscribers() threw; topic metadata left empty",
         slot.name.c_str());
   }
   slot.state.store(NodeState::Running);
@@ -361,7 +361,7 @@ void SchedulerImpl::handle_failure(NodeSlot& slot, Phase phase, const std::strin
     TickContextScope scope(&slot.context);
     slot.node->on_error(what);
   } catch (...) {
-    log("error", "node '%s': on_error() threw while handling: %s", slot.name.c_str(), what.c_str());
+    log(LogLevel::Error, "node '%s': on_error() threw while handling: %s", slot.name.c_str(), what.c_str());
   }
   if (phase == Phase::Shutdown) return;
 
@@ -401,7 +401,7 @@ void SchedulerImpl::handle_failure(NodeSlot& slot, Phase phase, const std::strin
         slot.consecutive_failures = 0;
         slot.resume_at_ns = now + s.cooldown.count();
         if (config_.verbose()) {
-          log("warn", "node '%s': %u consecutive failures, cooling down", slot.name.c_str(),
+          log(LogLevel::Warn, "node '%s': %u consecutive failures, cooling down", slot.name.c_str(),
               s.max_failures);
         }
       }
@@ -412,7 +412,7 @@ void SchedulerImpl::handle_failure(NodeSlot& slot, Phase phase, const std::strin
       break;
   }
   if (phase == Phase::Init && slot.state.load() == NodeState::Error) {
-    log("error", "node '%s' excluded: init() failed: %s", slot.name.c_str(), what.c_str());
+    log(LogLevel::Error, "node '%s' excluded: init() failed: %s", slot.name.c_str(), what.c_str());
   }
 }
 
@@ -425,7 +425,7 @@ void SchedulerImpl::deadline_missed(NodeSlot& slot, std::int64_t late_ns) noexce
     case Miss::Warn:
       slot.warnings.fetch_add(1, std::memory_order_relaxed);
       if (mine == 1 || config_.verbose()) {
-        log("warn", "node '%s' missed its deadline by %lld us%s", slot.name.c_str(),
+        log(LogLevel::Warn, "node '%s' missed its deadline by %lld us%s", slot.name.c_str(),
             static_cast<long long>(late_ns / 1000),
             mine == 1 ? " (further misses counted only)" : "");
       }
@@ -474,14 +474,14 @@ void SchedulerImpl::escalate(NodeSlot& slot, std::uint8_t level) noexcept {
   if (target == NodeHealthState::Isolated) {
     // A frozen critical node puts the whole system in its safe state. Each node enters it on its
     // own thread at its next release, never concurrently with its own tick().
-    log("error", "critical node '%s' frozen (3x watchdog): isolating it, all nodes to safe state",
+    log(LogLevel::Error, "critical node '%s' frozen (3x watchdog): isolating it, all nodes to safe state",
         slot.name.c_str());
     slot.pending_safe_state.store(true, std::memory_order_release);
     for (const SlotPtr& other : loop_slots_) {
       if (other.get() != &slot) other->pending_safe_state.store(true, std::memory_order_release);
     }
   } else if (config_.verbose() || target == NodeHealthState::Unhealthy) {
-    log("warn", "node '%s' exceeded %dx its watchdog timeout: %s", slot.name.c_str(), level,
+    log(LogLevel::Warn, "node '%s' exceeded %dx its watchdog timeout: %s", slot.name.c_str(), level,
         std::string(to_string(target)).c_str());
   }
 }
@@ -500,7 +500,7 @@ void SchedulerImpl::enter_safe(NodeSlot& slot) noexcept {
     TickContextScope scope(&slot.context);
     slot.node->enter_safe_state();
   } catch (...) {
-    log("error", "node '%s': enter_safe_state() threw", slot.name.c_str());
+    log(LogLevel::Error, "node '%s': enter_safe_state() threw", slot.name.c_str());
   }
   set_health(slot, NodeHealthState::Isolated);
   record(BlackboxEventKind::SafeStateEntered, slot);
@@ -515,7 +515,7 @@ void SchedulerImpl::request_stop(std::string_view reason, bool failure) noexcept
     stop_reason_set_.store(true, std::memory_order_release);
     record_scheduler(BlackboxEventKind::StopRequested, reason);
     if (failure || config_.verbose()) {
-      log(failure ? "error" : "info", "stopping: %s", stop_reason_);
+      log(failure ? LogLevel::Error : LogLevel::Info, "stopping: %s", stop_reason_);
     }
   }
   wake(wake_word_);
@@ -541,7 +541,7 @@ void SchedulerImpl::shutdown_node(const SlotPtr& slot, bool removing) noexcept {
       // Its thread is still inside tick() (detached at teardown): calling shutdown() now would
       // run two methods of one node at once.
       record(BlackboxEventKind::NodeShutdownFailed, s, 0, "still inside tick(); skipped");
-      log("error", "node '%s' never returned from tick(); shutdown() skipped", s.name.c_str());
+      log(LogLevel::Error, "node '%s' never returned from tick(); shutdown() skipped", s.name.c_str());
       s.state.store(NodeState::Error);
       s.shut_down = true;
     } else {
@@ -586,7 +586,7 @@ void SchedulerImpl::shutdown_node(const SlotPtr& slot, bool removing) noexcept {
           worker.detach();
         }
       } catch (...) {
-        log("error", "node '%s': could not start its shutdown thread", s.name.c_str());
+        log(LogLevel::Error, "node '%s': could not start its shutdown thread", s.name.c_str());
       }
       s.shut_down = true;
       if (!finished) {
@@ -733,11 +733,12 @@ int SchedulerImpl::run(std::optional<std::int64_t> duration_ns) {
   if (failed_.load() && blackbox_) {
     try {
       blackbox_->write_to(blackbox_path_);
-      log("error", "blackbox written to %s", blackbox_path_.c_str());
+      log(LogLevel::Error, "blackbox written to %s", blackbox_path_.c_str());
     } catch (const Error& e) {
-      log("error", "%s", e.what());
+      log(LogLevel::Error, "%s", e.what());
     }
   }
+  log::flush();  // the run's lines precede whatever the caller prints next
   if (config_.verbose()) std::fprintf(stderr, "%s", timing_report().c_str());
   return failed_.load() ? 1 : 0;
 }
@@ -925,7 +926,7 @@ void SchedulerImpl::real_loop(std::optional<std::int64_t> duration_ns,
       t.thread.join();
     } else {
       t.thread.detach();
-      log("error", "a scheduler thread did not finish within the shutdown timeout; detached");
+      log(LogLevel::Error, "a scheduler thread did not finish within the shutdown timeout; detached");
     }
   }
   // Ready for another loop (tick_for may be called again) unless a stop was requested.
@@ -957,7 +958,7 @@ void SchedulerImpl::apply_thread_settings(const Executor& ex) noexcept {
       }
     }
   } catch (...) {
-    log("warn", "could not apply thread settings to %s", ex.label.c_str());
+    log(LogLevel::Warn, "could not apply thread settings to %s", ex.label.c_str());
   }
 }
 

@@ -12,6 +12,7 @@
 
 #include "horus/detail/errno_text.hpp"
 #include "horus/error.hpp"
+#include "logger.hpp"
 #include "sched_impl_class.hpp"
 
 namespace horus {
@@ -44,7 +45,8 @@ std::uint64_t fnv1a(std::string_view text) {
 }  // namespace
 
 SchedulerImpl::SchedulerImpl(SchedulerConfig config)
-    : config_(std::move(config)), tick_period_ns_(0) {
+    : config_(std::move(config)), tick_period_ns_(0), log_source_("@" + config_.name()) {
+  prepare_logging();
   const std::string where = "horus::Scheduler '" + config_.name() + "': ";
   if (!config_.tick_rate().valid()) {
     throw Error(where + "tick_rate must be a positive, finite rate");
@@ -113,7 +115,7 @@ void SchedulerImpl::add_degradation(const std::string& message) {
     degradations_.push_back(message);
   }
   record_scheduler(BlackboxEventKind::Degradation, message);
-  if (config_.verbose()) log("warn", "RT degraded: %s", message.c_str());
+  if (config_.verbose()) log(LogLevel::Warn, "RT degraded: %s", message.c_str());
 }
 
 NodeConfig* SchedulerImpl::add(std::shared_ptr<Node> node) {
@@ -278,6 +280,7 @@ void SchedulerImpl::prepare() {
     s->context.deterministic = config_.deterministic();
     s->context.rng = &s->rng;
     s->context.start_ns = start_mono_ns_;
+    s->context.node_name = s->name;
     s->next_release_ns = sim_now_ns_;
   }
   for (const SlotPtr& s : fresh) {
@@ -439,13 +442,11 @@ std::vector<std::string> SchedulerImpl::degradations() const {
   return degradations_;
 }
 
-void SchedulerImpl::log(const char* level, const char* format, ...) const noexcept {
-  char message[512];
+void SchedulerImpl::log(LogLevel level, const char* format, ...) const noexcept {
   va_list args;
   va_start(args, format);
-  std::vsnprintf(message, sizeof(message), format, args);
+  vlog_as(level, log_source_, format, args);
   va_end(args);
-  std::fprintf(stderr, "[horus:%s] %s: %s\n", config_.name().c_str(), level, message);
 }
 
 void SchedulerImpl::record(BlackboxEventKind kind, const NodeSlot& slot, std::int64_t value,
