@@ -126,6 +126,7 @@ NodeConfig* SchedulerImpl::add(std::shared_ptr<Node> node) {
   }
   auto slot = std::make_shared<NodeSlot>();
   slot->name = std::string(node->name());
+  node->scheduler_ = weak_from_this();
   slot->node = std::move(node);
   std::lock_guard lock(mutex_);
   slot->registration = registrations_++;
