@@ -10,7 +10,7 @@
 
 #include "horus/log.hpp"
 #include "logger.hpp"
-#include "sched_impl_class.hpp"
+#include "scheduler_impl.hpp"
 
 namespace horus {
 namespace {
