@@ -1,0 +1,117 @@
+#include "py_node.hpp"
+
+#include <cstdio>
+#include <stdexcept>
+#include <utility>
+
+#include "horus/clock.hpp"
+
+namespace py = pybind11;
+
+namespace horus::python {
+
+namespace {
+
+double seconds(std::chrono::nanoseconds ns) { return static_cast<double>(ns.count()) * 1e-9; }
+
+/// Marks this thread as inside a Python callback and, on the way out, keeps the clock it saw.
+class CallbackScope {
+ public:
+  CallbackScope() : clock_(thread_clock()), outer_(clock_.in_callback) {
+    clock_.in_callback = true;
+  }
+  ~CallbackScope() {
+    clock_.now_s = seconds(horus::now());
+    clock_.dt_s = seconds(horus::dt());
+    clock_.elapsed_s = seconds(horus::elapsed());
+    clock_.tick = horus::tick();
+    clock_.valid = true;
+    clock_.in_callback = outer_;
+  }
+  CallbackScope(const CallbackScope&) = delete;
+  CallbackScope& operator=(const CallbackScope&) = delete;
+
+ private:
+  ClockSnapshot& clock_;
+  bool outer_;
+};
+
+std::string python_traceback(py::error_already_set& error) {
+  try {
+    py::object format = py::module_::import("traceback").attr("format_exception");
+    py::list lines = format(error.type(), error.value(), error.trace());
+    std::string text;
+    for (const auto& line : lines) {
+      text += line.cast<std::string>();
+    }
+    while (!text.empty() && text.back() == '\n') {
+      text.pop_back();
+    }
+    return text;
+  } catch (const py::error_already_set&) {
+    return error.what();
+  }
+}
+
+}  // namespace
+
+ClockSnapshot& thread_clock() noexcept {
+  thread_local ClockSnapshot clock;
+  return clock;
+}
+
+PyNode::PyNode(std::string name, py::tuple callbacks, std::vector<TopicMetadata> publishers,
+               std::vector<TopicMetadata> subscribers)
+    : name_(std::move(name)),
+      publishers_(std::move(publishers)),
+      subscribers_(std::move(subscribers)) {
+  if (callbacks.size() != 5) {
+    throw std::invalid_argument("PyNode needs (init, tick, shutdown, enter_safe_state, "
+                                "is_safe_state)");
+  }
+  init_ = callbacks[0];
+  tick_ = callbacks[1];
+  shutdown_ = callbacks[2];
+  enter_safe_state_ = callbacks[3];
+  is_safe_state_ = callbacks[4];
+}
+
+PyNode::~PyNode() {
+  // The scheduler may drop its last reference on one of its threads.
+  py::gil_scoped_acquire gil;
+  init_ = py::object();
+  tick_ = py::object();
+  shutdown_ = py::object();
+  enter_safe_state_ = py::object();
+  is_safe_state_ = py::object();
+}
+
+void PyNode::call(const py::object& callback) const {
+  CallbackScope scope;
+  py::gil_scoped_acquire gil;
+  if (callback.is_none()) {
+    return;
+  }
+  try {
+    callback();
+  } catch (py::error_already_set& error) {
+    throw std::runtime_error(python_traceback(error));
+  }
+}
+
+bool PyNode::is_safe_state() const {
+  py::gil_scoped_acquire gil;
+  if (is_safe_state_.is_none()) {
+    return true;
+  }
+  try {
+    return is_safe_state_().cast<bool>();
+  } catch (py::error_already_set& error) {
+    // The scheduler asks this outside any failure policy: an error keeps the node isolated.
+    std::fprintf(stderr, "[horus] node '%s': is_safe_state() raised:\n%s\n", name_.c_str(),
+                 python_traceback(error).c_str());
+    return false;
+  }
+}
+
+}  // namespace horus::python
