@@ -123,6 +123,9 @@ class Topic:
 
     def _drop_view(self) -> None:
         if self._loan_buffer is not None:
+            # The view holds a memoryview of its own over the slot: released too, so a write
+            # after publish() raises instead of changing a message subscribers may be reading.
+            self._loan_view._horus_buf.release()
             self._loan_buffer.release()
             self._loan_buffer = None
             self._loan_view = None
