@@ -7,6 +7,7 @@
 #include "bindings.hpp"
 #include "erased_topic.hpp"
 #include "horus/error.hpp"
+#include "horus/topic_registry.hpp"
 
 namespace py = pybind11;
 
@@ -116,6 +117,28 @@ void bind_topics(py::module_& m) {
            })
       .def_property_readonly("capacity", &ErasedTopic::capacity)
       .def_property_readonly("payload_capacity", &ErasedTopic::payload_capacity);
+
+  m.def(
+      "list_topics",
+      [](const std::string& namespace_name) {
+        py::list out;
+        for (const TopicInfo& info : list_topics(namespace_name)) {
+          py::dict topic;
+          topic["name"] = info.name;
+          topic["type_name"] = info.type_name;
+          topic["fingerprint"] = info.fingerprint;
+          topic["is_pod"] = info.is_pod;
+          topic["publishers"] = info.publishers;
+          topic["subscribers"] = info.subscribers;
+          topic["message_count"] = info.message_count;
+          topic["error"] = info.error;
+          out.append(topic);
+        }
+        return out;
+      },
+      py::arg("namespace_name") = "",
+      "The topics of a namespace (empty: HORUS_NAMESPACE), with their users.");
+  m.def("current_namespace", [] { return current_namespace(); });
 }
 
 }  // namespace horus::python
