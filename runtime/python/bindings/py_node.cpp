@@ -36,6 +36,53 @@ class CallbackScope {
   bool outer_;
 };
 
+/// Takes the GIL for one callback. A scheduler thread makes its Python thread state once and keeps
+/// it until the thread ends: creating and destroying one per callback (what a plain
+/// PyGILState_Ensure/Release pair does on a thread Python did not start) costs microseconds.
+class CallbackGil {
+ public:
+  CallbackGil() {
+    if (PyGILState_Check() != 0) {
+      return;  // this thread holds it already
+    }
+    Keeper& keeper = keeper_of_this_thread();
+    if (keeper.state == nullptr) {
+      keeper.gil_state = PyGILState_Ensure();
+      keeper.state = PyThreadState_Get();
+    } else {
+      PyEval_RestoreThread(keeper.state);
+    }
+    taken_ = true;
+  }
+  ~CallbackGil() {
+    if (taken_) {
+      PyEval_SaveThread();
+    }
+  }
+  CallbackGil(const CallbackGil&) = delete;
+  CallbackGil& operator=(const CallbackGil&) = delete;
+
+ private:
+  struct Keeper {
+    PyThreadState* state = nullptr;
+    PyGILState_STATE gil_state{};
+    Keeper() = default;
+    Keeper(const Keeper&) = delete;
+    Keeper& operator=(const Keeper&) = delete;
+    ~Keeper() {
+      if (state != nullptr && Py_IsInitialized() != 0) {
+        PyEval_RestoreThread(state);
+        PyGILState_Release(gil_state);
+      }
+    }
+  };
+  static Keeper& keeper_of_this_thread() {
+    thread_local Keeper keeper;
+    return keeper;
+  }
+  bool taken_ = false;
+};
+
 std::string python_traceback(py::error_already_set& error) {
   try {
     py::object format = py::module_::import("traceback").attr("format_exception");
@@ -87,11 +134,11 @@ PyNode::~PyNode() {
 }
 
 void PyNode::call(const py::object& callback) const {
-  CallbackScope scope;
-  py::gil_scoped_acquire gil;
   if (callback.is_none()) {
     return;
   }
+  CallbackScope scope;
+  CallbackGil gil;
   try {
     callback();
   } catch (py::error_already_set& error) {
@@ -100,7 +147,7 @@ void PyNode::call(const py::object& callback) const {
 }
 
 bool PyNode::is_safe_state() const {
-  py::gil_scoped_acquire gil;
+  CallbackGil gil;
   if (is_safe_state_.is_none()) {
     return true;
   }
