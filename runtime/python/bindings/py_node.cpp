@@ -36,21 +36,20 @@ class CallbackScope {
   bool outer_;
 };
 
-/// Takes the GIL for one callback. A scheduler thread makes its Python thread state once and keeps
-/// it until the thread ends: creating and destroying one per callback (what a plain
-/// PyGILState_Ensure/Release pair does on a thread Python did not start) costs microseconds.
+/// Takes the GIL for one callback. A scheduler thread that Python does not know gets a Python
+/// thread state once, kept until the thread ends: making and destroying one per callback (what a
+/// PyGILState_Ensure/Release pair does there) costs microseconds. A thread Python started (the
+/// one that called run() or tick_once()) uses its own state, which Python owns.
 class CallbackGil {
  public:
   CallbackGil() {
     if (PyGILState_Check() != 0) {
       return;  // this thread holds it already
     }
-    Keeper& keeper = keeper_of_this_thread();
-    if (keeper.state == nullptr) {
-      keeper.gil_state = PyGILState_Ensure();
-      keeper.state = PyThreadState_Get();
+    if (PyThreadState* state = PyGILState_GetThisThreadState()) {
+      PyEval_RestoreThread(state);
     } else {
-      PyEval_RestoreThread(keeper.state);
+      keeper_of_this_thread().adopt();
     }
     taken_ = true;
   }
@@ -63,12 +62,18 @@ class CallbackGil {
   CallbackGil& operator=(const CallbackGil&) = delete;
 
  private:
+  /// The thread state made for this (non-Python) thread, released when the thread ends.
   struct Keeper {
     PyThreadState* state = nullptr;
     PyGILState_STATE gil_state{};
     Keeper() = default;
     Keeper(const Keeper&) = delete;
     Keeper& operator=(const Keeper&) = delete;
+    /// Makes the state and takes the GIL with it.
+    void adopt() {
+      gil_state = PyGILState_Ensure();
+      state = PyThreadState_Get();
+    }
     ~Keeper() {
       if (state != nullptr && Py_IsInitialized() != 0) {
         PyEval_RestoreThread(state);

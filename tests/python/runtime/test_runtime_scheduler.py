@@ -136,3 +136,26 @@ def test_signal_stops_run_cleanly_with_reverse_shutdown(signo):
     assert child.returncode == 0, err
     lines = [line for line in out.splitlines() if line != "running"]
     assert lines == ["down c", "down b", "down a", "returned 0"]
+
+
+def test_run_from_a_python_thread_that_then_ends():
+    # Callbacks on the thread that called run() use that thread's own Python state, which Python
+    # frees when the thread ends; a C++ scheduler thread's state is freed by the runtime.
+    child = python_child(textwrap.dedent("""
+        import threading, horus
+        ticks = []
+        nodes = [horus.Node(name="main", tick=lambda n: ticks.append(1)),
+                 horus.Node(name="rt", tick=lambda n: ticks.append(2), rate=200)]
+        sched = horus.Scheduler(tick_rate=200)
+        for node in nodes:
+            sched.add(node)
+        runner = threading.Thread(target=sched.run, kwargs={"duration": 0.2})
+        runner.start()
+        runner.join()
+        again = horus.Scheduler(tick_rate=200).add(horus.Node(name="x", tick=lambda n: None))
+        again.run(duration=0.05)
+        print(1 in ticks, 2 in ticks, flush=True)
+    """))
+    out, err = child.communicate(timeout=60)
+    assert child.returncode == 0, err
+    assert out.split() == ["True", "True"]
