@@ -27,7 +27,7 @@ class ClockProbe : public horus::Node {
   explicit ClockProbe(std::string name) : name_(std::move(name)) {}
   std::string_view name() const override { return name_; }
   void tick() override {
-    samples.push_back({horus::now().count(), horus::dt().count(), horus::tick()});
+    samples.push_back({horus::now().count(), horus::dt().count(), horus::tick_index()});
   }
   std::vector<Sample> samples;
 
@@ -121,7 +121,7 @@ TEST(ClockDeterministic, RandomNumbersAreInUnitInterval) {
 TEST(ClockDeterministic, OutsideACallbackThereIsNoTick) {
   EXPECT_EQ(horus::dt(), 0_ms);
   EXPECT_EQ(horus::elapsed(), 0_ms);
-  EXPECT_EQ(horus::tick(), 0U);
+  EXPECT_EQ(horus::tick_index(), 0U);
   EXPECT_EQ(horus::budget_remaining(), std::chrono::nanoseconds::max());
   EXPECT_EQ(horus::lateness(), 0_ms);
   // Wall clock: after 2020-01-01.
@@ -140,4 +140,24 @@ TEST(ClockDeterministic, RealModeDtFollowsTheWallClock) {
   EXPECT_EQ(p->samples[0].dt_ns, 10'000'000) << "first tick: the nominal period";
   EXPECT_GE(p->samples[1].dt_ns, 5'000'000) << "second tick: at least the sleep in between";
   EXPECT_EQ(p->samples[1].tick, 1U);
+}
+
+namespace with_horus_names {
+using namespace horus;  // NOLINT(google-build-using-namespace): what the rename is for
+
+// Inside a node, Node::tick() hides a free function of the same name; tick_index() is not hidden.
+class CountsItsTicks : public Node {
+ public:
+  void tick() override { seen.push_back(tick_index()); }
+  std::vector<std::uint64_t> seen;
+};
+
+}  // namespace with_horus_names
+
+TEST(Clock, TickIndexIsReachableUnqualifiedInsideANode) {
+  auto node = std::make_shared<with_horus_names::CountsItsTicks>();
+  horus::Scheduler sched{horus::SchedulerConfig{}.deterministic(true)};
+  sched.add(node).build();
+  for (int i = 0; i < 3; ++i) sched.tick_once();
+  EXPECT_EQ(node->seen, (std::vector<std::uint64_t>{0, 1, 2}));
 }

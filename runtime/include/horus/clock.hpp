@@ -23,8 +23,9 @@ std::chrono::nanoseconds dt() noexcept;
 /// Time since the scheduler started (simulated time in deterministic mode).
 std::chrono::nanoseconds elapsed() noexcept;
 
-/// Index of the calling node's current tick: 0 for its first tick, then 1, 2, ...
-std::uint64_t tick() noexcept;
+/// Index of the calling node's current tick: 0 for its first tick, then 1, 2, ... (Python's
+/// horus.tick(); in C++ a plain tick() inside a node would name Node::tick()).
+std::uint64_t tick_index() noexcept;
 
 /// What is left of this tick's budget (negative once overrun); nanoseconds::max() when the node
 /// has no budget. In deterministic mode simulated time does not move inside a tick, so this is

@@ -1,6 +1,7 @@
 // horus::Node: the unit of work the scheduler runs (init once, tick repeatedly, shutdown once).
 #pragma once
 
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -8,6 +9,10 @@
 #include "horus/topic_metadata.hpp"
 
 namespace horus {
+
+namespace detail {
+class SchedulerImpl;
+}  // namespace detail
 
 /// Derive from Node and implement tick(); everything else has a sensible default.
 ///
@@ -52,8 +57,15 @@ class Node {
   virtual std::vector<TopicMetadata> publishers() const { return {}; }
   virtual std::vector<TopicMetadata> subscribers() const { return {}; }
 
+  /// Asks the scheduler running this node to stop (as Ctrl+C would): the loop ends and every
+  /// node is shut down in reverse order. Safe from any thread, inside or outside a callback; a
+  /// node that no scheduler holds ignores it.
+  void request_stop() noexcept;
+
  private:
+  friend class detail::SchedulerImpl;
   mutable std::string default_name_;
+  std::weak_ptr<detail::SchedulerImpl> scheduler_;  // set when a scheduler adds the node
 };
 
 }  // namespace horus

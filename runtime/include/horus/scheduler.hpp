@@ -178,67 +178,84 @@ struct NodeConfig {
   std::optional<std::chrono::nanoseconds> watchdog;
 };
 
+/// The chained node settings shared by Scheduler::add()'s NodeBuilder and horus::RunNode.
+template <class Self>
+class NodeSettings {
+ public:
+  Self& order(std::int32_t o) {
+    settings().order = o;
+    return self();
+  }
+  Self& rate(Rate r) {
+    settings().rate = r;
+    return self();
+  }
+  Self& budget(std::chrono::nanoseconds b) {
+    settings().budget = b;
+    return self();
+  }
+  Self& deadline(std::chrono::nanoseconds d) {
+    settings().deadline = d;
+    return self();
+  }
+  Self& on_miss(Miss m) {
+    settings().on_miss = m;
+    return self();
+  }
+  Self& failure_policy(FailurePolicy p) {
+    settings().failure_policy = p;
+    return self();
+  }
+  Self& compute(bool on = true) {
+    settings().compute = on;
+    return self();
+  }
+  /// Event node: tick only when `topic` receives a message (the thread sleeps meanwhile).
+  Self& on(std::string topic) {
+    settings().on_topic = std::move(topic);
+    return self();
+  }
+  Self& async_io(bool on = true) {
+    settings().async_io = on;
+    return self();
+  }
+  Self& priority(int p) {
+    settings().priority = p;
+    return self();
+  }
+  Self& core(int c) {
+    settings().core = c;
+    return self();
+  }
+  Self& watchdog(std::chrono::nanoseconds t) {
+    settings().watchdog = t;
+    return self();
+  }
+  /// Replaces every setting at once (language bindings).
+  Self& configure(const NodeConfig& config) {
+    settings() = config;
+    return self();
+  }
+
+ private:
+  NodeConfig& settings() { return static_cast<Self&>(*this).node_config(); }
+  Self& self() { return static_cast<Self&>(*this); }
+};
+
 class Scheduler;
 
 /// Returned by Scheduler::add(); set what you need, then build() (which validates and throws
 /// horus::Error). A node added without build() makes the next run()/tick_once() throw.
-class [[nodiscard]] NodeBuilder {
+class [[nodiscard]] NodeBuilder : public NodeSettings<NodeBuilder> {
  public:
-  NodeBuilder& order(std::int32_t o) {
-    config_->order = o;
-    return *this;
-  }
-  NodeBuilder& rate(Rate r) {
-    config_->rate = r;
-    return *this;
-  }
-  NodeBuilder& budget(std::chrono::nanoseconds b) {
-    config_->budget = b;
-    return *this;
-  }
-  NodeBuilder& deadline(std::chrono::nanoseconds d) {
-    config_->deadline = d;
-    return *this;
-  }
-  NodeBuilder& on_miss(Miss m) {
-    config_->on_miss = m;
-    return *this;
-  }
-  NodeBuilder& failure_policy(FailurePolicy p) {
-    config_->failure_policy = p;
-    return *this;
-  }
-  NodeBuilder& compute(bool on = true) {
-    config_->compute = on;
-    return *this;
-  }
-  /// Event node: tick only when `topic` receives a message (the thread sleeps meanwhile).
-  NodeBuilder& on(std::string topic) {
-    config_->on_topic = std::move(topic);
-    return *this;
-  }
-  NodeBuilder& async_io(bool on = true) {
-    config_->async_io = on;
-    return *this;
-  }
-  NodeBuilder& priority(int p) {
-    config_->priority = p;
-    return *this;
-  }
-  NodeBuilder& core(int c) {
-    config_->core = c;
-    return *this;
-  }
-  NodeBuilder& watchdog(std::chrono::nanoseconds t) {
-    config_->watchdog = t;
-    return *this;
-  }
   /// Validates the settings and the name's uniqueness; throws horus::Error saying what is wrong.
   Scheduler& build();
 
  private:
   friend class Scheduler;
+  friend class NodeSettings<NodeBuilder>;
   NodeBuilder(Scheduler& s, NodeConfig* c) : scheduler_(&s), config_(c) {}
+  NodeConfig& node_config() { return *config_; }
   Scheduler* scheduler_;
   NodeConfig* config_;
 };

@@ -50,7 +50,7 @@ std::chrono::nanoseconds elapsed() noexcept {
   return std::chrono::nanoseconds(detail::monotonic_ns() - ctx->start_ns);
 }
 
-std::uint64_t tick() noexcept {
+std::uint64_t tick_index() noexcept {
   const detail::TickContext* ctx = current_tick_context();
   return ctx != nullptr ? ctx->tick_index : 0;
 }

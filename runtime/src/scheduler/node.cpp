@@ -2,10 +2,15 @@
 
 #include <cxxabi.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
 #include <typeinfo>
+
+#include "horus/log.hpp"
+#include "logger.hpp"
+#include "scheduler_impl.hpp"
 
 namespace horus {
 namespace {
@@ -42,8 +47,19 @@ std::string_view Node::name() const {
 }
 
 void Node::on_error(std::string_view error) {
-  std::fprintf(stderr, "[horus] node '%.*s' error: %.*s\n", static_cast<int>(name().size()),
-               name().data(), static_cast<int>(error.size()), error.data());
+  // Inside a callback the line carries the node's name already; elsewhere it is given.
+  const std::string_view source = log::current_node().empty() ? name() : log::current_node();
+  detail::log_as(LogLevel::Error, source, "Node error: %.*s", static_cast<int>(error.size()),
+                 error.data());
+}
+
+void Node::request_stop() noexcept {
+  if (const auto scheduler = scheduler_.lock()) {
+    char reason[96];
+    std::snprintf(reason, sizeof(reason), "node '%.*s' called request_stop()",
+                  static_cast<int>(std::min<std::size_t>(name().size(), 64)), name().data());
+    scheduler->request_stop(reason, false);
+  }
 }
 
 }  // namespace horus

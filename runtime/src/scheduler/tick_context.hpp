@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <ctime>
+#include <string_view>
 
 namespace horus::detail {
 
@@ -34,6 +35,7 @@ struct TickContext {
   std::int64_t budget_ns = 0;  // 0: no budget
   std::uint64_t tick_index = 0;
   Rng* rng = nullptr;
+  std::string_view node_name;  // what log lines from this node's callbacks carry
 };
 
 /// The calling thread's context while inside a node callback, else nullptr.

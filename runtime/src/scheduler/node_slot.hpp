@@ -1,6 +1,7 @@
-// Internals of horus::Scheduler shared by its source files.
+// detail::NodeSlot: one registered node with its settings, runtime state and counters.
 #pragma once
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdint>
@@ -93,17 +94,13 @@ struct NodeSlot : std::enable_shared_from_this<NodeSlot> {
 
 using SlotPtr = std::shared_ptr<NodeSlot>;
 
-/// A set of nodes run by one thread on their release grids, in order.
-struct Executor {
-  std::string label;
-  std::vector<SlotPtr> slots;
-  bool main = false;      // the main loop: passes on the scheduler's tick grid
-  bool realtime = false;  // apply SCHED_FIFO when rt is on
-  std::optional<int> priority;
-  std::optional<int> core;
-  std::atomic<bool> exited{false};
-};
-
-enum class Phase : std::uint8_t { Init, Tick, Shutdown };
+/// Rt nodes without an explicit budget get 80 % of their period, and a deadline of 95 % (never
+/// below the budget): room for the thread to wake and for earlier nodes in the same release.
+inline std::int64_t automatic_budget_ns(std::int64_t period_ns) noexcept {
+  return period_ns * 8 / 10;
+}
+inline std::int64_t automatic_deadline_ns(std::int64_t period_ns, std::int64_t budget_ns) noexcept {
+  return std::max(period_ns * 95 / 100, budget_ns);
+}
 
 }  // namespace horus::detail

@@ -1,8 +1,10 @@
-// horus::detail::SchedulerImpl: the scheduler's state and algorithms (see README.md).
+// horus::detail::SchedulerImpl: the scheduler's state and algorithms (see README.md), and the
+// executors its loops hand nodes to.
 #pragma once
 
 #include <atomic>
 #include <cstdint>
+#include <exception>
 #include <filesystem>
 #include <memory>
 #include <mutex>
@@ -12,10 +14,45 @@
 #include <vector>
 
 #include "horus/blackbox.hpp"
+#include "horus/log.hpp"
 #include "horus/scheduler.hpp"
-#include "sched_impl.hpp"
+#include "node_slot.hpp"
 
 namespace horus::detail {
+
+/// A set of nodes run by one thread on their release grids, in order.
+struct Executor {
+  std::string label;
+  std::vector<SlotPtr> slots;
+  bool main = false;      // the main loop: passes on the scheduler's tick grid
+  bool realtime = false;  // apply SCHED_FIFO when rt is on
+  std::optional<int> priority;
+  std::optional<int> core;
+  std::atomic<bool> exited{false};
+};
+
+enum class Phase : std::uint8_t { Init, Tick, Shutdown };
+
+/// what() of the exception, or "unknown exception".
+std::string exception_text(std::exception_ptr error);
+
+/// The first point of the grid `release + k * period` after `now`: a late thread skips the
+/// releases it overran instead of drifting or bursting to catch up.
+inline std::int64_t next_on_grid(std::int64_t release, std::int64_t period, std::int64_t now) {
+  std::int64_t next = release + period;
+  if (next <= now) next += ((now - next) / period + 1) * period;
+  return next;
+}
+
+/// Who runs what during one real loop.
+struct LoopPlan {
+  std::shared_ptr<Executor> main;                    // BestEffort nodes, on the caller's thread
+  std::vector<std::shared_ptr<Executor>> executors;  // Rt groups, AsyncIo nodes, the compute pool
+  std::vector<SlotPtr> events;                       // one waiting thread each
+  std::vector<SlotPtr> watched;                      // nodes with a watchdog timeout
+};
+
+class ThreadGroup;
 
 class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
  public:
@@ -80,8 +117,16 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   void purge_removed() noexcept;
 
   // Loops.
+  /// Services the node when its release is due (on the simulated grid in deterministic mode)
+  /// and moves its release to the next grid point after now.
+  void release_if_due(NodeSlot& slot, std::int64_t& mono) noexcept;
   void pass_once(const std::vector<std::string>* names);
   void real_loop(std::optional<std::int64_t> duration_ns, const std::vector<std::string>* names);
+  void simulated_loop(std::optional<std::int64_t> duration_ns,
+                      const std::vector<std::string>* names);
+  LoopPlan plan_loop(const std::vector<SlotPtr>& slots, std::int64_t loop_start);
+  void start_threads(const LoopPlan& plan, std::int64_t end_ns, ThreadGroup& threads);
+  void run_main_loop(const Executor& main, std::int64_t loop_start, std::int64_t end_ns);
   void run_executor(Executor& ex, std::int64_t end_ns) noexcept;
   void run_event(NodeSlot& slot, std::int64_t end_ns) noexcept;
   void run_watchdog(const std::vector<SlotPtr>& watched, std::int64_t end_ns) noexcept;
@@ -96,11 +141,13 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   void record(BlackboxEventKind kind, const NodeSlot& slot, std::int64_t value = 0,
               std::string_view detail = {}) noexcept;
   void record_scheduler(BlackboxEventKind kind, std::string_view detail = {}) noexcept;
-  void log(const char* level, const char* format, ...) const noexcept
+  /// The scheduler's own lines, from the source "@<name>".
+  void log(LogLevel level, const char* format, ...) const noexcept
       __attribute__((format(printf, 3, 4)));
 
   SchedulerConfig config_;
   std::int64_t tick_period_ns_;
+  std::string log_source_;
   std::filesystem::path blackbox_path_;
   std::unique_ptr<Blackbox> blackbox_;
   RtCapabilities capabilities_;
@@ -115,6 +162,7 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   std::atomic<std::uint64_t> structure_version_{1};  // bumped when nodes are built or removed
   std::atomic<bool> removals_pending_{false};
 
+  bool topic_cycle_reported_ = false;
   bool prepared_ = false;
   bool finished_ = false;
   std::atomic<bool> active_{false};   // run/tick_once/tick_for in progress

@@ -1,21 +1,20 @@
-// Scheduler set-up, validation, runtime mutation and introspection.
+// Scheduler set-up: configuration checks, RT probing, registering, validating and deriving
+// nodes, lazy initialisation, and changes to nodes at runtime.
 #include <sys/mman.h>
 
 #include <algorithm>
-#include <cmath>
-#include <cstdarg>
+#include <cerrno>
 #include <cstdio>
-#include <cstring>
 #include <fstream>
-#include <sstream>
 #include <thread>
 
 #include "horus/detail/errno_text.hpp"
 #include "horus/error.hpp"
-#include "sched_impl_class.hpp"
+#include "logger.hpp"
+#include "scheduler_impl.hpp"
+#include "topic_order.hpp"
 
-namespace horus {
-namespace detail {
+namespace horus::detail {
 namespace {
 
 std::string ns_text(std::int64_t ns) {
@@ -44,7 +43,8 @@ std::uint64_t fnv1a(std::string_view text) {
 }  // namespace
 
 SchedulerImpl::SchedulerImpl(SchedulerConfig config)
-    : config_(std::move(config)), tick_period_ns_(0) {
+    : config_(std::move(config)), tick_period_ns_(0), log_source_("@" + config_.name()) {
+  prepare_logging();
   const std::string where = "horus::Scheduler '" + config_.name() + "': ";
   if (!config_.tick_rate().valid()) {
     throw Error(where + "tick_rate must be a positive, finite rate");
@@ -113,7 +113,7 @@ void SchedulerImpl::add_degradation(const std::string& message) {
     degradations_.push_back(message);
   }
   record_scheduler(BlackboxEventKind::Degradation, message);
-  if (config_.verbose()) log("warn", "RT degraded: %s", message.c_str());
+  if (config_.verbose()) log(LogLevel::Warn, "RT degraded: %s", message.c_str());
 }
 
 NodeConfig* SchedulerImpl::add(std::shared_ptr<Node> node) {
@@ -124,6 +124,7 @@ NodeConfig* SchedulerImpl::add(std::shared_ptr<Node> node) {
   }
   auto slot = std::make_shared<NodeSlot>();
   slot->name = std::string(node->name());
+  node->scheduler_ = weak_from_this();
   slot->node = std::move(node);
   std::lock_guard lock(mutex_);
   slot->registration = registrations_++;
@@ -187,9 +188,9 @@ void SchedulerImpl::derive(NodeSlot& slot) const {
   const bool timed = slot.execution_class == ExecutionClass::Rt;
   slot.budget_auto = !c.budget && timed;
   slot.deadline_auto = !c.deadline && timed;
-  const std::int64_t budget = c.budget ? c.budget->count() : timed ? period * 8 / 10 : 0;
+  const std::int64_t budget = c.budget ? c.budget->count() : timed ? automatic_budget_ns(period) : 0;
   const std::int64_t deadline = c.deadline ? c.deadline->count()
-                                : timed    ? std::max(period * 95 / 100, budget)
+                                : timed    ? automatic_deadline_ns(period, budget)
                                            : 0;
   slot.budget_ns.store(budget);
   slot.deadline_ns.store(deadline);
@@ -278,6 +279,7 @@ void SchedulerImpl::prepare() {
     s->context.deterministic = config_.deterministic();
     s->context.rng = &s->rng;
     s->context.start_ns = start_mono_ns_;
+    s->context.node_name = s->name;
     s->next_release_ns = sim_now_ns_;
   }
   for (const SlotPtr& s : fresh) {
@@ -292,6 +294,19 @@ void SchedulerImpl::refresh_loop_slots() {
   if (version == loop_slots_version_) return;
   loop_slots_ = ordered_slots();
   loop_slots_version_ = version;
+  if (!config_.deterministic()) return;
+  std::vector<std::string> cycle_breaks;
+  {
+    std::lock_guard lock(mutex_);  // publishers/subscribers are written under it
+    loop_slots_ = order_by_topics(loop_slots_, cycle_breaks);
+  }
+  if (!cycle_breaks.empty() && !topic_cycle_reported_) {
+    topic_cycle_reported_ = true;
+    std::string names;
+    for (const std::string& n : cycle_breaks) names += (names.empty() ? "'" : ", '") + n + "'";
+    log(LogLevel::Warn, "topic cycle: %s run before their publishers (by order())",
+        names.c_str());
+  }
 }
 
 bool SchedulerImpl::set_node_rate(std::string_view name, Rate rate) {
@@ -304,9 +319,9 @@ bool SchedulerImpl::set_node_rate(std::string_view name, Rate rate) {
   slot->config.rate = rate;
   const std::int64_t period = rate.period().count();
   slot->period_ns.store(period);
-  if (slot->budget_auto) slot->budget_ns.store(period * 8 / 10);
+  if (slot->budget_auto) slot->budget_ns.store(automatic_budget_ns(period));
   if (slot->deadline_auto) {
-    slot->deadline_ns.store(std::max(period * 95 / 100, slot->budget_ns.load()));
+    slot->deadline_ns.store(automatic_deadline_ns(period, slot->budget_ns.load()));
   }
   return true;
 }
@@ -341,273 +356,4 @@ bool SchedulerImpl::remove_node(std::string_view name) {
   return true;
 }
 
-SlotPtr SchedulerImpl::find(std::string_view name) const {
-  std::lock_guard lock(mutex_);
-  for (const SlotPtr& s : slots_) {
-    if (s->name == name && !s->removed.load() && !s->remove_requested.load()) return s;
-  }
-  return nullptr;
-}
-
-std::vector<SlotPtr> SchedulerImpl::ordered_slots() const {
-  std::lock_guard lock(mutex_);
-  std::vector<SlotPtr> out;
-  for (const SlotPtr& s : slots_) {
-    if (!s->removed.load() && !s->remove_requested.load()) out.push_back(s);
-  }
-  return out;
-}
-
-SchedulerStatus SchedulerImpl::status() const noexcept {
-  if (in_loop_.load()) return SchedulerStatus::Running;
-  std::lock_guard lock(mutex_);
-  return finished_ ? SchedulerStatus::Stopped : SchedulerStatus::Idle;
-}
-
-std::string SchedulerImpl::stop_reason() const {
-  if (!stop_reason_set_.load(std::memory_order_acquire)) return {};
-  return stop_reason_;
-}
-
-NodeInfo SchedulerImpl::info(const NodeSlot& slot) const {
-  std::lock_guard lock(mutex_);
-  NodeInfo info;
-  info.name = slot.name;
-  info.order = slot.config.order;
-  info.execution_class = slot.execution_class;
-  info.state = slot.state.load();
-  info.health = slot.health.load();
-  info.rate = slot.config.rate;
-  if (const auto b = slot.budget_ns.load(); b > 0) info.budget = std::chrono::nanoseconds(b);
-  if (const auto d = slot.deadline_ns.load(); d > 0) info.deadline = std::chrono::nanoseconds(d);
-  if (slot.watchdog_ns > 0) info.watchdog = std::chrono::nanoseconds(slot.watchdog_ns);
-  info.on_miss = slot.config.on_miss;
-  info.failure_policy = slot.config.failure_policy.kind();
-  info.critical = slot.critical;
-  info.on_topic = slot.config.on_topic;
-  info.last_error = slot.last_error;
-  info.publishers = slot.publishers;
-  info.subscribers = slot.subscribers;
-  return info;
-}
-
-NodeMetrics SchedulerImpl::metrics(const NodeSlot& slot) const {
-  using std::chrono::nanoseconds;
-  NodeMetrics m;
-  m.name = slot.name;
-  m.order = slot.config.order;
-  m.total_ticks = slot.total_ticks.load(std::memory_order_relaxed);
-  m.failed_ticks = slot.failed_ticks.load(std::memory_order_relaxed);
-  m.successful_ticks = m.total_ticks - std::min(m.total_ticks, m.failed_ticks);
-  m.skipped_ticks = slot.skipped_ticks.load(std::memory_order_relaxed);
-  const auto sum = slot.sum_tick_ns.load(std::memory_order_relaxed);
-  m.avg_tick_duration =
-      nanoseconds(m.total_ticks > 0 ? sum / static_cast<std::int64_t>(m.total_ticks) : 0);
-  m.max_tick_duration = nanoseconds(slot.max_tick_ns.load(std::memory_order_relaxed));
-  m.min_tick_duration = nanoseconds(slot.min_tick_ns.load(std::memory_order_relaxed));
-  m.last_tick_duration = nanoseconds(slot.last_tick_ns.load(std::memory_order_relaxed));
-  m.budget_overruns = slot.budget_overruns.load(std::memory_order_relaxed);
-  m.deadline_misses = slot.deadline_misses.load(std::memory_order_relaxed);
-  m.watchdog_expirations = slot.watchdog_expirations.load(std::memory_order_relaxed);
-  m.errors_count = slot.errors.load(std::memory_order_relaxed);
-  m.warnings_count = slot.warnings.load(std::memory_order_relaxed);
-  m.restarts = slot.restarts.load(std::memory_order_relaxed);
-  const auto since = slot.running_since_ns.load(std::memory_order_relaxed);
-  if (since > 0) {
-    const auto stopped = slot.stopped_at_ns.load(std::memory_order_relaxed);
-    m.uptime = nanoseconds((stopped > 0 ? stopped : monotonic_ns()) - since);
-    if (m.uptime.count() > 0) {
-      m.achieved_rate_hz =
-          static_cast<double>(m.total_ticks) * 1e9 / static_cast<double>(m.uptime.count());
-    }
-  }
-  return m;
-}
-
-SafetyStats SchedulerImpl::safety_stats() const {
-  SafetyStats stats;
-  stats.budget_overruns = total_overruns_.load();
-  stats.deadline_misses = total_misses_.load();
-  stats.watchdog_expirations = total_watchdog_.load();
-  for (const SlotPtr& s : ordered_slots())
-    stats.health_states.emplace_back(s->name, s->health.load());
-  return stats;
-}
-
-std::vector<std::string> SchedulerImpl::degradations() const {
-  std::lock_guard lock(mutex_);
-  return degradations_;
-}
-
-void SchedulerImpl::log(const char* level, const char* format, ...) const noexcept {
-  char message[512];
-  va_list args;
-  va_start(args, format);
-  std::vsnprintf(message, sizeof(message), format, args);
-  va_end(args);
-  std::fprintf(stderr, "[horus:%s] %s: %s\n", config_.name().c_str(), level, message);
-}
-
-void SchedulerImpl::record(BlackboxEventKind kind, const NodeSlot& slot, std::int64_t value,
-                           std::string_view detail) noexcept {
-  if (blackbox_) {
-    blackbox_->record(kind, slot.name, slot.total_ticks.load(std::memory_order_relaxed), value,
-                      detail);
-  }
-}
-
-void SchedulerImpl::record_scheduler(BlackboxEventKind kind, std::string_view detail) noexcept {
-  if (blackbox_) blackbox_->record(kind, config_.name(), cycle_.load(), 0, detail);
-}
-
-std::string SchedulerImpl::timing_report() const {
-  std::ostringstream out;
-  char line[256];
-  std::snprintf(line, sizeof(line), "%-16s %-10s %9s %9s %10s %10s %8s %8s %6s  %-9s %s\n", "node",
-                "class", "target Hz", "actual Hz", "avg tick", "max tick", "overrun", "missed",
-                "errors", "health", "state");
-  out << line;
-  for (const auto& s : ordered_slots()) {
-    const NodeInfo node = info(*s);
-    const NodeMetrics m = metrics(*s);
-    char target[16] = "-";
-    if (node.execution_class != ExecutionClass::Event) {
-      const double hz = node.rate ? node.rate->hz() : config_.tick_rate().hz();
-      std::snprintf(target, sizeof(target), "%.1f", hz);
-    }
-    std::snprintf(
-        line, sizeof(line), "%-16s %-10s %9s %9.1f %8.1fus %8.1fus %8llu %8llu %6llu  %-9s %s\n",
-        node.name.c_str(), std::string(to_string(node.execution_class)).c_str(), target,
-        m.achieved_rate_hz, static_cast<double>(m.avg_tick_duration.count()) / 1e3,
-        static_cast<double>(m.max_tick_duration.count()) / 1e3,
-        static_cast<unsigned long long>(m.budget_overruns),
-        static_cast<unsigned long long>(m.deadline_misses),
-        static_cast<unsigned long long>(m.errors_count),
-        std::string(to_string(node.health)).c_str(), std::string(to_string(node.state)).c_str());
-    out << line;
-  }
-  return out.str();
-}
-
-}  // namespace detail
-
-// ---- public wrappers -------------------------------------------------------------------------
-
-std::string_view to_string(ExecutionClass c) noexcept {
-  switch (c) {
-    case ExecutionClass::BestEffort:
-      return "BestEffort";
-    case ExecutionClass::Rt:
-      return "Rt";
-    case ExecutionClass::Compute:
-      return "Compute";
-    case ExecutionClass::Event:
-      return "Event";
-    case ExecutionClass::AsyncIo:
-      return "AsyncIo";
-  }
-  return "?";
-}
-
-std::string_view to_string(SchedulerStatus s) noexcept {
-  switch (s) {
-    case SchedulerStatus::Idle:
-      return "idle";
-    case SchedulerStatus::Running:
-      return "running";
-    case SchedulerStatus::Stopped:
-      return "stopped";
-  }
-  return "?";
-}
-
-Scheduler& NodeBuilder::build() {
-  scheduler_->impl_->build(config_);
-  return *scheduler_;
-}
-
-Scheduler::Scheduler(SchedulerConfig config)
-    : impl_(std::make_shared<detail::SchedulerImpl>(std::move(config))) {}
-
-Scheduler::~Scheduler() { impl_->finish(); }
-
-NodeBuilder Scheduler::add(std::shared_ptr<Node> node) {
-  return NodeBuilder(*this, impl_->add(std::move(node)));
-}
-
-void Scheduler::add_critical_node(std::string_view name, std::chrono::nanoseconds timeout) {
-  impl_->add_critical_node(name, timeout);
-}
-
-int Scheduler::run() { return impl_->run(std::nullopt); }
-int Scheduler::run_for(std::chrono::nanoseconds duration) { return impl_->run(duration.count()); }
-void Scheduler::tick_once() { impl_->tick_once(nullptr); }
-void Scheduler::tick_once(const std::vector<std::string>& names) { impl_->tick_once(&names); }
-void Scheduler::tick_for(std::chrono::nanoseconds duration, const std::vector<std::string>& names) {
-  impl_->tick_for(duration.count(), names.empty() ? nullptr : &names);
-}
-void Scheduler::stop() noexcept { impl_->request_stop("stop() called", false); }
-
-bool Scheduler::set_node_rate(std::string_view name, Rate rate) {
-  return impl_->set_node_rate(name, rate);
-}
-bool Scheduler::set_tick_budget(std::string_view name, std::chrono::nanoseconds budget) {
-  return impl_->set_tick_budget(name, budget);
-}
-bool Scheduler::remove_node(std::string_view name) { return impl_->remove_node(name); }
-
-SchedulerStatus Scheduler::status() const noexcept { return impl_->status(); }
-bool Scheduler::is_running() const noexcept { return impl_->in_loop(); }
-std::uint64_t Scheduler::current_tick() const noexcept { return impl_->current_tick(); }
-const std::string& Scheduler::name() const noexcept { return impl_->config().name(); }
-const SchedulerConfig& Scheduler::config() const noexcept { return impl_->config(); }
-std::string Scheduler::stop_reason() const { return impl_->stop_reason(); }
-
-std::size_t Scheduler::node_count() const { return impl_->ordered_slots().size(); }
-
-std::vector<std::string> Scheduler::node_names() const {
-  std::vector<std::string> names;
-  for (const auto& s : impl_->ordered_slots()) names.push_back(s->name);
-  return names;
-}
-
-bool Scheduler::has_node(std::string_view name) const { return impl_->find(name) != nullptr; }
-
-std::optional<NodeInfo> Scheduler::node_info(std::string_view name) const {
-  const auto slot = impl_->find(name);
-  if (!slot) return std::nullopt;
-  return impl_->info(*slot);
-}
-
-std::vector<NodeInfo> Scheduler::nodes() const {
-  std::vector<NodeInfo> out;
-  for (const auto& s : impl_->ordered_slots()) out.push_back(impl_->info(*s));
-  return out;
-}
-
-std::optional<NodeMetrics> Scheduler::node_metrics(std::string_view name) const {
-  const auto slot = impl_->find(name);
-  if (!slot) return std::nullopt;
-  return impl_->metrics(*slot);
-}
-
-SafetyStats Scheduler::safety_stats() const { return impl_->safety_stats(); }
-
-std::string Scheduler::timing_report() const { return impl_->timing_report(); }
-
-bool Scheduler::has_full_rt() const {
-  return impl_->config().rt() && impl_->degradations().empty();
-}
-std::vector<std::string> Scheduler::degradations() const { return impl_->degradations(); }
-RtCapabilities Scheduler::capabilities() const { return impl_->capabilities(); }
-const Blackbox* Scheduler::blackbox() const noexcept { return impl_->blackbox(); }
-
-void Scheduler::dump_blackbox(const std::filesystem::path& path) const {
-  const Blackbox* box = impl_->blackbox();
-  if (box == nullptr) {
-    throw Error("horus::Scheduler '" + name() + "': dump_blackbox needs blackbox_mb > 0");
-  }
-  box->write_to(path);
-}
-
-}  // namespace horus
+}  // namespace horus::detail

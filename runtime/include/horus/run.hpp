@@ -1,0 +1,46 @@
+// horus::run: the one-liner for programs that create every node upfront (seed 001's horus.run).
+//
+//   return horus::run({horus::RunNode(lidar).order(10).rate(40_hz),
+//                      horus::RunNode(motor).order(20).rate(1000_hz).budget(300_us),
+//                      logger},  // default settings
+//                     horus::SchedulerConfig{}.rt(true).watchdog(500_ms));
+//
+// Use a Scheduler instead for runtime changes (adding or removing nodes, rates), tick_once() in
+// tests, or to inspect metrics after the run.
+#pragma once
+
+#include <chrono>
+#include <concepts>
+#include <memory>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include "horus/node.hpp"
+#include "horus/scheduler.hpp"
+
+namespace horus {
+
+/// A node and its settings, chained as on Scheduler::add() (a bare node gets the defaults).
+class RunNode : public NodeSettings<RunNode> {
+ public:
+  template <std::derived_from<Node> N>
+  RunNode(std::shared_ptr<N> node)  // NOLINT(google-explicit-constructor): run({a, b})
+      : node_(std::move(node)) {}
+  const std::shared_ptr<Node>& node() const noexcept { return node_; }
+  const NodeConfig& config() const noexcept { return config_; }
+
+ private:
+  friend class NodeSettings<RunNode>;
+  NodeConfig& node_config() { return config_; }
+  std::shared_ptr<Node> node_;
+  NodeConfig config_;
+};
+
+/// Builds a Scheduler from `config`, adds and builds every node in the given order, then runs
+/// until stop (Ctrl+C, SIGTERM, a node's request_stop(), a fatal failure) or for `duration`.
+/// Returns what Scheduler::run() returns; throws horus::Error for an invalid node or setting.
+int run(std::vector<RunNode> nodes, SchedulerConfig config = {},
+        std::optional<std::chrono::nanoseconds> duration = std::nullopt);
+
+}  // namespace horus

@@ -1,0 +1,99 @@
+// The entry points of a run (run, run_for, tick_once, tick_for) and stop requests.
+#include <cstdio>
+
+#include "horus/error.hpp"
+#include "logger.hpp"
+#include "signals.hpp"
+#include "scheduler_impl.hpp"
+
+namespace horus::detail {
+
+// Marks the scheduler busy for the duration of a run/tick call; a second concurrent call is a
+// usage error.
+class SchedulerImpl::Activity {
+ public:
+  Activity(SchedulerImpl& s, bool loop) : s_(s), loop_(loop) {
+    bool expected = false;
+    if (!s.active_.compare_exchange_strong(expected, true)) {
+      throw Error("horus::Scheduler '" + s.config_.name() +
+                  "': already running (run/tick_once/tick_for called concurrently or from a tick)");
+    }
+    if (s.finished_) {
+      s.active_.store(false);
+      throw Error("horus::Scheduler '" + s.config_.name() +
+                  "': its nodes have already been shut down; build a new scheduler");
+    }
+    if (loop_) s.in_loop_.store(true, std::memory_order_release);
+  }
+  ~Activity() {
+    if (loop_) s_.in_loop_.store(false, std::memory_order_release);
+    s_.active_.store(false);
+  }
+  Activity(const Activity&) = delete;
+  Activity& operator=(const Activity&) = delete;
+
+ private:
+  SchedulerImpl& s_;
+  bool loop_;
+};
+
+void SchedulerImpl::tick_once(const std::vector<std::string>* names) {
+  Activity activity(*this, false);
+  prepare();
+  if (stop_requested_.load()) return;
+  pass_once(names);
+  purge_removed();
+}
+
+void SchedulerImpl::tick_for(std::int64_t duration_ns, const std::vector<std::string>* names) {
+  if (duration_ns < 0) throw Error("tick_for: duration must not be negative");
+  Activity activity(*this, true);
+  prepare();
+  real_loop(duration_ns, names);
+  purge_removed();
+}
+
+int SchedulerImpl::run(std::optional<std::int64_t> duration_ns) {
+  if (duration_ns && *duration_ns < 0) throw Error("run_for: duration must not be negative");
+  {
+    Activity activity(*this, true);
+    prepare();
+    real_loop(duration_ns, nullptr);
+    purge_removed();
+    check_signal();
+    shutdown_all();
+    {
+      std::lock_guard lock(mutex_);
+      finished_ = true;
+    }
+    record_scheduler(BlackboxEventKind::SchedulerStop, stop_reason());
+  }
+  if (failed_.load() && blackbox_) {
+    try {
+      blackbox_->write_to(blackbox_path_);
+      log(LogLevel::Error, "blackbox written to %s", blackbox_path_.c_str());
+    } catch (const Error& e) {
+      log(LogLevel::Error, "%s", e.what());
+    }
+  }
+  log::flush();  // the run's lines precede whatever the caller prints next
+  if (config_.verbose()) std::fprintf(stderr, "%s", timing_report().c_str());
+  return failed_.load() ? 1 : 0;
+}
+
+void SchedulerImpl::request_stop(std::string_view reason, bool failure) noexcept {
+  if (failure) failed_.store(true);
+  bool expected = false;
+  if (stop_requested_.compare_exchange_strong(expected, true)) {
+    std::snprintf(stop_reason_, sizeof(stop_reason_), "%.*s", static_cast<int>(reason.size()),
+                  reason.data());
+    stop_reason_set_.store(true, std::memory_order_release);
+    record_scheduler(BlackboxEventKind::StopRequested, reason);
+    if (failure || config_.verbose()) {
+      log(failure ? LogLevel::Error : LogLevel::Info, "stopping: %s", stop_reason_);
+    }
+  }
+  wake(wake_word_);
+}
+
+}  // namespace horus::detail
