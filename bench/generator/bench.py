@@ -308,7 +308,7 @@ def bench_python_import(work, reps, env):
 def report_cold(cold, py):
     lines = []
     add = lines.append
-    add("## Cold build of the package's generated C++ (issue: <= 0.5x Cap'n Proto)")
+    add("## Cold build of the package's generated C++ (goal: <= 0.5x Cap'n Proto)")
     add("")
     (hs, hh), (cs, ch) = cold["counts"]["horus"], cold["counts"]["capnp"]
     add(f"Generate into an empty folder; compile every generated source one at a time "
