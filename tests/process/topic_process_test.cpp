@@ -925,6 +925,89 @@ TEST(TopicProcess, ASecondPublisherWithoutMembarrierSendsOnceTheHolderDied) {
   EXPECT_EQ(sub.try_recv()->seq, 99U);
 }
 
+/// The typed segment of a Sample topic, mapped a second time to play a writer the test invents.
+horus::detail::ShmSegment sample_segment(const std::string& topic) {
+  return horus::detail::ShmSegment::open_topic(
+      topic,
+      horus::detail::TypeDescriptor{
+          horus::TypeInfo<Sample>::name, horus::TypeInfo<Sample>::fingerprint,
+          horus::TypeInfo<Sample>::schema, true, sizeof(Sample), alignof(Sample)},
+      horus::detail::SegmentOptions{8, 0, 0600, {}});
+}
+
+// Lease words name their holder by pid alone. A holder that died and whose pid the kernel gave to
+// an unrelated process looks alive: the next publisher then shares the ring instead of taking
+// the lease. That costs the fast path, never a message.
+TEST(TopicProcess, ALeaseWhosePidWasReusedCostsTheFastPathNotAMessage) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> sub("reused", {.capacity = 8});
+  Child unrelated("sleep_in_recv", {"elsewhere"});
+  {
+    const horus::detail::ShmSegment segment = sample_segment("reused");
+    segment.ring().control->publisher_lease.store(static_cast<std::uint64_t>(unrelated.pid())
+                                                  << 32);
+  }
+  horus::Topic<Sample> pub("reused");
+  for (std::uint64_t seq = 0; seq < 20; ++seq) {
+    ASSERT_TRUE(pub.send(sealed<Sample>(seq))) << seq;
+    const std::optional<Sample> got = sub.try_recv();
+    ASSERT_TRUE(got.has_value()) << seq;
+    EXPECT_EQ(got->seq, seq);
+    EXPECT_TRUE(valid(*got));
+  }
+  EXPECT_EQ(pub.stats().send_failures, 0U);
+  EXPECT_EQ(sub.lost(), 0U);
+}
+
+// Slot claims name their writer by pid alone too. A writer that died mid-message and whose pid was
+// reused keeps its slot for as long as the unrelated process lives: the next lap's send there is
+// refused (counted) and a reader skips the ticket after its stall limit (counted in lost()); the
+// slot is taken back once that process is gone. Never a torn message.
+TEST(TopicProcess, ASlotClaimWhosePidWasReusedCostsASendPerLapNotATornMessage) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> sub("reused", {.capacity = 8});
+  horus::Topic<Sample> first("reused");
+  horus::Topic<Sample> second("reused");
+  ASSERT_TRUE(first.send(sealed<Sample>(0)));
+  ASSERT_TRUE(second.send(sealed<Sample>(1)));  // shares the ring
+  EXPECT_EQ(sub.try_recv()->seq, 0U);
+  EXPECT_EQ(sub.try_recv()->seq, 1U);
+  Child unrelated("sleep_in_recv", {"elsewhere"});
+  const horus::detail::ShmSegment segment = sample_segment("reused");
+  const horus::detail::RingView& ring = segment.ring();
+  // The dead writer took ticket 2, claimed its slot and died mid-copy; its pid is reused.
+  const std::uint64_t ticket = 2;
+  ring.control->write_index.fetch_add(1);
+  ring.slot_claim(ticket).owner.store(static_cast<std::uint32_t>(unrelated.pid()));
+  ring.slot_claim(ticket).claim.store(2 * ticket + 1);
+  ring.slot(ticket).seq.store(2 * ticket + 1);
+
+  for (std::uint64_t seq = 3; seq < 10; ++seq) {
+    ASSERT_TRUE(second.send(sealed<Sample>(seq))) << seq;
+  }
+  EXPECT_FALSE(second.send(sealed<Sample>(10))) << "wrote over the slot of a live-looking writer";
+  EXPECT_EQ(second.stats().send_failures, 1U);
+  for (std::uint64_t seq = 3; seq < 10; ++seq) {
+    const std::optional<Sample> got = sub.recv(kDeadline);
+    ASSERT_TRUE(got.has_value()) << seq;
+    EXPECT_EQ(got->seq, seq);
+    EXPECT_TRUE(valid(*got));
+  }
+  EXPECT_EQ(sub.lost(), 1U) << "the stalled ticket";
+
+  unrelated.kill();
+  // Ticket 18 lands in the slot again, a lap after the refused ticket 10.
+  for (std::uint64_t seq = 11; seq < 19; ++seq) {
+    EXPECT_TRUE(second.send(sealed<Sample>(seq))) << "the slot stayed held by a dead pid";
+  }
+  for (std::uint64_t seq = 11; seq < 19; ++seq) {
+    const std::optional<Sample> got = sub.recv(kDeadline);
+    ASSERT_TRUE(got.has_value()) << seq;
+    EXPECT_EQ(got->seq, seq);
+  }
+  EXPECT_EQ(sub.lost(), 2U) << "the stalled ticket and the refused one";
+}
+
 TEST(TopicProcess, GenericMessagesCrossProcesses) {
   PrivateNamespace ns;
   horus::Topic<horus::msg::GenericMessage> data("custom_data");
