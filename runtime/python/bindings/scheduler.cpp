@@ -319,7 +319,7 @@ void bind_scheduler(py::module_& m) {
   });
   m.def("tick", [] {
     const ClockSnapshot& clock = thread_clock();
-    return clock.in_callback ? horus::tick() : clock.tick;
+    return clock.in_callback ? horus::tick_index() : clock.tick;
   });
   m.def("budget_remaining", [] {
     const auto remaining = horus::budget_remaining();
