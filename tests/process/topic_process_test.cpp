@@ -2,9 +2,14 @@
 // subscribers (see topic_test_support.hpp). Every wait is bounded, so a failure never hangs.
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <linux/audit.h>
+#include <linux/filter.h>
+#include <linux/seccomp.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/syscall.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -363,6 +368,40 @@ int role_sleep_in_recv(const std::vector<std::string>& args) {
   return data.recv(kDeadline).has_value() ? 39 : 40;
 }
 
+/// Makes membarrier(2) fail with EPERM in this process, as a sandbox or an old kernel would.
+bool forbid_membarrier() {
+  sock_filter filter[] = {
+      BPF_STMT(BPF_LD | BPF_W | BPF_ABS, offsetof(seccomp_data, arch)),
+      BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, AUDIT_ARCH_X86_64, 1, 0),
+      BPF_STMT(BPF_RET | BPF_K, SECCOMP_RET_ALLOW),
+      BPF_STMT(BPF_LD | BPF_W | BPF_ABS, offsetof(seccomp_data, nr)),
+      BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, SYS_membarrier, 0, 1),
+      BPF_STMT(BPF_RET | BPF_K, SECCOMP_RET_ERRNO | EPERM),
+      BPF_STMT(BPF_RET | BPF_K, SECCOMP_RET_ALLOW),
+  };
+  sock_fprog program{static_cast<unsigned short>(std::size(filter)), filter};
+  return ::prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) == 0 &&
+         ::prctl(PR_SET_SECCOMP, SECCOMP_MODE_FILTER, &program) == 0 &&
+         ::syscall(SYS_membarrier, 0, 0, 0) != 0;
+}
+
+/// send_without_membarrier <topic>: with membarrier forbidden, sends one Sample (seq 99) as a
+/// second publisher, retrying for 20 s; 0 once a send got through after at least one refusal.
+int role_send_without_membarrier(const std::vector<std::string>& args) {
+  if (!forbid_membarrier()) {
+    return 41;
+  }
+  horus::Topic<Sample> data(args.at(0));
+  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  while (!data.send(sealed<Sample>(99))) {
+    if (past(deadline)) {
+      return 42;
+    }
+    std::this_thread::sleep_for(1ms);
+  }
+  return data.stats().send_failures > 0 ? 0 : 43;
+}
+
 /// try_send <topic>: one send; exits 0 if it was refused as not the publisher, 36 otherwise.
 int role_try_send(const std::vector<std::string>& args) {
   horus::Topic<Sample> data(args.at(0));
@@ -385,6 +424,7 @@ const bool kRolesRegistered = [] {
   roles["no_room"] = role_no_room;
   roles["send_after"] = role_send_after;
   roles["try_send"] = role_try_send;
+  roles["send_without_membarrier"] = role_send_without_membarrier;
   roles["send_and_hold"] = role_send_and_hold;
   roles["sleep_in_recv"] = role_sleep_in_recv;
   return true;
@@ -836,6 +876,136 @@ TEST(TopicProcess, SerializedMessagesCrossProcessesAndOversizedOnesAreCounted) {
   EXPECT_FALSE(data.try_recv().has_value());
   EXPECT_EQ(data.stats().invalid, 0u);
   EXPECT_EQ(data.lost(), 0u);
+}
+
+/// Waits until a second publisher has marked the topic's lease shared.
+bool lease_marked_shared(const std::string& topic) {
+  const horus::detail::ShmSegment control = control_page(topic);
+  const auto deadline = std::chrono::steady_clock::now() + kDeadline;
+  while ((control.control().ring.publisher_lease.load() & horus::detail::kLeaseShared) == 0) {
+    if (past(deadline)) {
+      return false;
+    }
+    std::this_thread::sleep_for(1ms);
+  }
+  return true;
+}
+
+// A second publisher whose membarrier fails cannot order itself against a live lease holder:
+// its sends fail, counted, until the holder hands over. Destroying the holder's handle hands
+// over too, so the second publisher is not stuck behind an idle holder's open-then-closed handle.
+TEST(TopicProcess, ASecondPublisherWithoutMembarrierSendsOnceTheHolderLetsGo) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> sub("fenceless");
+  std::optional<horus::Topic<Sample>> holder(std::in_place, "fenceless");
+  ASSERT_TRUE(holder->send(sealed<Sample>(1)));
+  Child second("send_without_membarrier", {"fenceless"});
+  ASSERT_TRUE(lease_marked_shared("fenceless"));
+  holder.reset();
+  ASSERT_EQ(second.wait(), 0) << "the second publisher stayed stuck after the holder let go";
+  EXPECT_EQ(sub.try_recv()->seq, 1U);
+  const std::optional<Sample> handed_over = sub.try_recv();
+  ASSERT_TRUE(handed_over.has_value());
+  EXPECT_EQ(handed_over->seq, 99U);
+  EXPECT_TRUE(valid(*handed_over));
+}
+
+// A holder killed while the second publisher waits needs no barrier: it claims nothing more.
+TEST(TopicProcess, ASecondPublisherWithoutMembarrierSendsOnceTheHolderDied) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> sub("fenceless");
+  Child holder("send_and_hold", {"fenceless", "1"});
+  horus::Topic<Sample> held("fenceless.held");
+  ASSERT_TRUE(held.recv(kDeadline).has_value()) << "the holder never sent";
+  Child second("send_without_membarrier", {"fenceless"});
+  ASSERT_TRUE(lease_marked_shared("fenceless"));
+  holder.kill();
+  ASSERT_EQ(second.wait(), 0) << "the second publisher stayed stuck behind a dead holder";
+  EXPECT_EQ(sub.try_recv()->seq, 0U);
+  EXPECT_EQ(sub.try_recv()->seq, 99U);
+}
+
+/// The typed segment of a Sample topic, mapped a second time to play a writer the test invents.
+horus::detail::ShmSegment sample_segment(const std::string& topic) {
+  return horus::detail::ShmSegment::open_topic(
+      topic,
+      horus::detail::TypeDescriptor{
+          horus::TypeInfo<Sample>::name, horus::TypeInfo<Sample>::fingerprint,
+          horus::TypeInfo<Sample>::schema, true, sizeof(Sample), alignof(Sample)},
+      horus::detail::SegmentOptions{8, 0, 0600, {}});
+}
+
+// Lease words name their holder by pid alone. A holder that died and whose pid the kernel gave to
+// an unrelated process looks alive: the next publisher then shares the ring instead of taking
+// the lease. That costs the fast path, never a message.
+TEST(TopicProcess, ALeaseWhosePidWasReusedCostsTheFastPathNotAMessage) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> sub("reused", {.capacity = 8});
+  Child unrelated("sleep_in_recv", {"elsewhere"});
+  {
+    const horus::detail::ShmSegment segment = sample_segment("reused");
+    segment.ring().control->publisher_lease.store(static_cast<std::uint64_t>(unrelated.pid())
+                                                  << 32);
+  }
+  horus::Topic<Sample> pub("reused");
+  for (std::uint64_t seq = 0; seq < 20; ++seq) {
+    ASSERT_TRUE(pub.send(sealed<Sample>(seq))) << seq;
+    const std::optional<Sample> got = sub.try_recv();
+    ASSERT_TRUE(got.has_value()) << seq;
+    EXPECT_EQ(got->seq, seq);
+    EXPECT_TRUE(valid(*got));
+  }
+  EXPECT_EQ(pub.stats().send_failures, 0U);
+  EXPECT_EQ(sub.lost(), 0U);
+}
+
+// Slot claims name their writer by pid alone too. A writer that died mid-message and whose pid was
+// reused keeps its slot for as long as the unrelated process lives: the next lap's send there is
+// refused (counted) and a reader skips the ticket after its stall limit (counted in lost()); the
+// slot is taken back once that process is gone. Never a torn message.
+TEST(TopicProcess, ASlotClaimWhosePidWasReusedCostsASendPerLapNotATornMessage) {
+  PrivateNamespace ns;
+  horus::Topic<Sample> sub("reused", {.capacity = 8});
+  horus::Topic<Sample> first("reused");
+  horus::Topic<Sample> second("reused");
+  ASSERT_TRUE(first.send(sealed<Sample>(0)));
+  ASSERT_TRUE(second.send(sealed<Sample>(1)));  // shares the ring
+  EXPECT_EQ(sub.try_recv()->seq, 0U);
+  EXPECT_EQ(sub.try_recv()->seq, 1U);
+  Child unrelated("sleep_in_recv", {"elsewhere"});
+  const horus::detail::ShmSegment segment = sample_segment("reused");
+  const horus::detail::RingView& ring = segment.ring();
+  // The dead writer took ticket 2, claimed its slot and died mid-copy; its pid is reused.
+  const std::uint64_t ticket = 2;
+  ring.control->write_index.fetch_add(1);
+  ring.slot_claim(ticket).owner.store(static_cast<std::uint32_t>(unrelated.pid()));
+  ring.slot_claim(ticket).claim.store(2 * ticket + 1);
+  ring.slot(ticket).seq.store(2 * ticket + 1);
+
+  for (std::uint64_t seq = 3; seq < 10; ++seq) {
+    ASSERT_TRUE(second.send(sealed<Sample>(seq))) << seq;
+  }
+  EXPECT_FALSE(second.send(sealed<Sample>(10))) << "wrote over the slot of a live-looking writer";
+  EXPECT_EQ(second.stats().send_failures, 1U);
+  for (std::uint64_t seq = 3; seq < 10; ++seq) {
+    const std::optional<Sample> got = sub.recv(kDeadline);
+    ASSERT_TRUE(got.has_value()) << seq;
+    EXPECT_EQ(got->seq, seq);
+    EXPECT_TRUE(valid(*got));
+  }
+  EXPECT_EQ(sub.lost(), 1U) << "the stalled ticket";
+
+  unrelated.kill();
+  // Ticket 18 lands in the slot again, a lap after the refused ticket 10.
+  for (std::uint64_t seq = 11; seq < 19; ++seq) {
+    EXPECT_TRUE(second.send(sealed<Sample>(seq))) << "the slot stayed held by a dead pid";
+  }
+  for (std::uint64_t seq = 11; seq < 19; ++seq) {
+    const std::optional<Sample> got = sub.recv(kDeadline);
+    ASSERT_TRUE(got.has_value()) << seq;
+    EXPECT_EQ(got->seq, seq);
+  }
+  EXPECT_EQ(sub.lost(), 2U) << "the stalled ticket and the refused one";
 }
 
 TEST(TopicProcess, GenericMessagesCrossProcesses) {

@@ -69,8 +69,10 @@ bool ring_share(RingView& ring) noexcept {
     }
     // Past the barrier, every claim the holder made without seeing kLeaseShared has its
     // announcement visible here; every later one sees kLeaseShared. A holder that does not rely
-    // on membarrier orders the two itself.
-    if ((lease & kLeaseFenceFree) != 0 && !global_barrier()) {
+    // on membarrier orders the two itself, and one that has exited claims nothing more (its
+    // stores were made visible when its threads exited), so neither needs the barrier.
+    if ((lease & kLeaseFenceFree) != 0 && !global_barrier() &&
+        identity_alive(static_cast<std::uint32_t>(lease >> 32))) {
       return false;
     }
     base = settle_shared_base(control, control.lease_announce.load(std::memory_order_seq_cst));
@@ -136,7 +138,12 @@ void PublisherLease::release() noexcept {
     return;
   }
   std::uint64_t expected = token_;
-  control_->publisher_lease.compare_exchange_strong(expected, 0, std::memory_order_acq_rel);
+  if (!control_->publisher_lease.compare_exchange_strong(expected, 0, std::memory_order_acq_rel) &&
+      expected == (token_ | kLeaseShared)) {
+    // A second publisher shares the ring and may be waiting for the first ticket write_index
+    // numbers (its barrier failed): this holder writes nothing more, so it is the next one.
+    static_cast<void>(settle_shared_base(*control_, next_ticket_));
+  }
   control_ = nullptr;
 }
 

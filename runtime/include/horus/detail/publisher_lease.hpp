@@ -71,8 +71,10 @@ class PublisherLease {
 /// handle holds the lease (the first time only; later calls just learn the base). Marks the
 /// lease word kLeaseShared, waits out the holder's announcement with a barrier on the holder's
 /// CPU (membarrier, when the holder relies on it), and proposes the holder's announced ticket
-/// as the first that write_index numbers. False when that barrier failed: the holder, seeing the
-/// mark, then shares the ring at its next send, and until it does this handle cannot send.
+/// as the first that write_index numbers. False when that barrier failed while the holder runs:
+/// the holder, seeing the mark, then shares the ring at its next send or when its handle is
+/// destroyed, and until then this handle's sends fail (counted in send_failures). A holder that
+/// has exited needs no barrier.
 bool ring_share(RingView& ring) noexcept;
 
 }  // namespace horus::detail
