@@ -128,3 +128,40 @@ TEST_F(SchedulerEvent, RunningEventNodeWakesOncePerMessageWithoutPolling) {
   EXPECT_EQ(handler->ticks.load(), 3);
   EXPECT_EQ(sched.node_info("estop")->execution_class, horus::ExecutionClass::Event);
 }
+
+namespace {
+
+class EStopSender : public horus::Node {
+ public:
+  EStopSender() : topic_("emergency.stop") {}
+  std::string_view name() const override { return "sender"; }
+  void tick() override {
+    for (int i = 0; i < 3; ++i) topic_.send(sched_test_msgs::EStop{++seq_, {}});
+  }
+
+ private:
+  horus::Topic<sched_test_msgs::EStop> topic_;
+  std::uint64_t seq_ = 0;
+};
+
+}  // namespace
+
+TEST_F(SchedulerEvent, MetricsCountTheMessagesANodesTopicsSendAndReceiveInItsCallbacks) {
+  horus::Scheduler sched;
+  sched.add(std::make_unique<EStopSender>()).order(0).build();
+  sched.add(std::make_unique<EStopHandler>()).order(1).build();
+  horus::Topic<sched_test_msgs::EStop> outsider("emergency.stop");
+  sched.tick_once();
+  outsider.send(sched_test_msgs::EStop{100, {}});  // outside any callback: nobody's count
+  sched.tick_once();
+  const auto sender = sched.node_metrics("sender");
+  const auto handler = sched.node_metrics("estop");
+  ASSERT_TRUE(sender && handler);
+  EXPECT_EQ(sender->messages_sent, 6U);
+  EXPECT_EQ(sender->messages_received, 0U);
+  EXPECT_EQ(handler->messages_received, 7U);
+  EXPECT_EQ(handler->messages_sent, 0U);
+  while (outsider.try_recv()) {
+  }
+  EXPECT_EQ(sched.node_metrics("estop")->messages_received, 7U);
+}

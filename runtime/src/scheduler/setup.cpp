@@ -280,6 +280,7 @@ void SchedulerImpl::prepare() {
     s->context.rng = &s->rng;
     s->context.start_ns = start_mono_ns_;
     s->context.node_name = s->name;
+    s->context.messages = &s->messages;
     s->next_release_ns = sim_now_ns_;
   }
   for (const SlotPtr& s : fresh) {
