@@ -64,7 +64,8 @@ class SchedulerConfig {
     tick_rate_ = r;
     return *this;
   }
-  /// Ask for SCHED_FIFO on Rt threads and mlockall; what cannot be had is listed in degradations().
+  /// Ask for SCHED_FIFO on Rt threads, mlockall, and the kernel's isolated CPUs (isolcpus) for Rt
+  /// threads not pinned by core()/cores(); what cannot be had is listed in degradations().
   SchedulerConfig& rt(bool on) {
     rt_ = on;
     return *this;
@@ -292,6 +293,7 @@ struct RtCapabilities {
   bool rt_scheduling = false;   // SCHED_FIFO could be set
   bool memory_locking = false;  // mlockall succeeded
   bool cpu_isolation = false;   // the kernel has isolated CPUs (isolcpus)
+  std::vector<int> isolated_cpus;  // where Rt threads go unless pinned by core()/cores()
 };
 
 class Scheduler {

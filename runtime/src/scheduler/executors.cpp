@@ -315,6 +315,9 @@ void SchedulerImpl::apply_thread_settings(const Executor& ex) noexcept {
     } else if (!config_.cores().empty()) {
       for (const int c : config_.cores()) CPU_SET(static_cast<unsigned>(c), &cpus);
       pin = true;
+    } else if (ex.realtime && config_.rt() && !capabilities_.isolated_cpus.empty()) {
+      for (const int c : capabilities_.isolated_cpus) CPU_SET(static_cast<unsigned>(c), &cpus);
+      pin = true;
     }
     if (pin) {
       if (const int rc = pthread_setaffinity_np(pthread_self(), sizeof(cpus), &cpus); rc != 0) {

@@ -33,6 +33,9 @@ struct Executor {
 
 enum class Phase : std::uint8_t { Init, Tick, Shutdown };
 
+/// The CPUs of a kernel CPU list ("2-3,5"); empty for an empty or malformed one.
+std::vector<int> parse_cpu_list(std::string_view text);
+
 /// what() of the exception, or "unknown exception".
 std::string exception_text(std::exception_ptr error);
 

@@ -1,8 +1,10 @@
 // Scheduler set-up: configuration checks, RT probing, registering, validating and deriving
 // nodes, lazy initialisation, and changes to nodes at runtime.
+#include <sched.h>
 #include <sys/mman.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cerrno>
 #include <cstdio>
 #include <fstream>
@@ -41,6 +43,29 @@ std::uint64_t fnv1a(std::string_view text) {
 }
 
 }  // namespace
+
+std::vector<int> parse_cpu_list(std::string_view text) {
+  std::vector<int> cpus;
+  while (!text.empty()) {
+    const std::size_t comma = text.find(',');
+    const std::string_view item = text.substr(0, comma);
+    text = comma == std::string_view::npos ? std::string_view{} : text.substr(comma + 1);
+    int first = 0;
+    int last = 0;
+    const char* end = item.data() + item.size();
+    auto [after_first, error] = std::from_chars(item.data(), end, first);
+    if (error != std::errc{}) return {};  // not a list the kernel writes: trust none of it
+    if (after_first != end) {
+      if (*after_first != '-') return {};
+      auto [after_last, error_last] = std::from_chars(after_first + 1, end, last);
+      if (error_last != std::errc{} || after_last != end || last < first) return {};
+    } else {
+      last = first;
+    }
+    for (int cpu = first; cpu <= last && cpu < CPU_SETSIZE; ++cpu) cpus.push_back(cpu);
+  }
+  return cpus;
+}
 
 SchedulerImpl::SchedulerImpl(SchedulerConfig config)
     : config_(std::move(config)), tick_period_ns_(0), log_source_("@" + config_.name()) {
@@ -98,7 +123,8 @@ void SchedulerImpl::probe_rt() {
   std::ifstream isolated("/sys/devices/system/cpu/isolated");
   std::string line;
   std::getline(isolated, line);
-  capabilities_.cpu_isolation = !line.empty();
+  capabilities_.isolated_cpus = parse_cpu_list(line);
+  capabilities_.cpu_isolation = !capabilities_.isolated_cpus.empty();
   if (!capabilities_.cpu_isolation) {
     add_degradation("no isolated CPUs (isolcpus) - RT threads share cores with other work");
   }
