@@ -272,6 +272,7 @@ int main(int argc, char** argv) {
                              .rt(true)
                              .watchdog(500_ms)
                              .blackbox_mb(1)
+                             .keep_topics(true)  // `horus topic` may still read them afterwards
                              .max_deadline_misses(1000)};
   sched.add(std::make_unique<Safety>()).order(0).rate(1000_hz).build();
   sched.add(std::make_unique<Lidar>(world)).order(10).rate(40_hz).build();

@@ -165,3 +165,54 @@ TEST_F(SchedulerEvent, MetricsCountTheMessagesANodesTopicsSendAndReceiveInItsCal
   }
   EXPECT_EQ(sched.node_metrics("estop")->messages_received, 7U);
 }
+
+namespace {
+
+bool topic_listed(const std::string& namespace_name, const std::string& topic) {
+  for (const auto& info : horus::list_topics(namespace_name)) {
+    if (info.name == topic) return true;
+  }
+  return false;
+}
+
+class TelemetrySender : public horus::Node {
+ public:
+  explicit TelemetrySender(std::string topic) : topic_(topic) {}
+  std::string_view name() const override { return "telemetry"; }
+  void tick() override { topic_.send(sched_test_msgs::EStop{1, {}}); }
+
+ private:
+  horus::Topic<sched_test_msgs::EStop> topic_;
+};
+
+}  // namespace
+
+TEST_F(SchedulerEvent, DestroyingTheSchedulerRemovesTopicsThisProcessCreatedThatNobodyUses) {
+  {
+    horus::Scheduler sched;
+    sched.add(std::make_unique<TelemetrySender>("only.mine")).build();
+    sched.tick_once();
+    EXPECT_TRUE(topic_listed(namespace_, "only.mine"));
+  }
+  EXPECT_FALSE(topic_listed(namespace_, "only.mine"));
+}
+
+TEST_F(SchedulerEvent, TopicsStillOpenOrKeptSurviveTheScheduler) {
+  horus::Topic<sched_test_msgs::EStop> still_open("shared.topic");
+  {
+    horus::Scheduler sched;
+    sched.add(std::make_unique<TelemetrySender>("shared.topic")).build();
+    sched.tick_once();
+  }
+  EXPECT_TRUE(topic_listed(namespace_, "shared.topic"));
+  EXPECT_EQ(still_open.try_recv()->seq, 1U);
+
+  {
+    horus::Scheduler sched{horus::SchedulerConfig{}.keep_topics(true)};
+    sched.add(std::make_unique<TelemetrySender>("for.late.joiners")).build();
+    sched.tick_once();
+  }
+  EXPECT_TRUE(topic_listed(namespace_, "for.late.joiners"));
+  horus::Topic<sched_test_msgs::EStop> late("for.late.joiners");
+  EXPECT_EQ(late.read_latest()->seq, 1U);
+}

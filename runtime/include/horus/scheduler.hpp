@@ -125,6 +125,13 @@ class SchedulerConfig {
     shutdown_timeout_ = t;
     return *this;
   }
+  /// Keep the topics this process created in shared memory when the scheduler is destroyed, for
+  /// late joiners. Default off: once its nodes are gone, the scheduler removes every topic
+  /// segment this process created that no live process has open any more (seed 001, shutdown).
+  SchedulerConfig& keep_topics(bool on) {
+    keep_topics_ = on;
+    return *this;
+  }
   /// Whether run()/run_for()/tick_for() turn SIGINT and SIGTERM into a clean stop (default on).
   SchedulerConfig& handle_signals(bool on) {
     handle_signals_ = on;
@@ -144,6 +151,7 @@ class SchedulerConfig {
   bool verbose() const { return verbose_; }
   std::size_t compute_threads() const { return compute_threads_; }
   std::chrono::nanoseconds shutdown_timeout() const { return shutdown_timeout_; }
+  bool keep_topics() const { return keep_topics_; }
   bool handle_signals() const { return handle_signals_; }
 
  private:
@@ -160,6 +168,7 @@ class SchedulerConfig {
   bool verbose_ = false;
   std::size_t compute_threads_ = 0;
   std::chrono::nanoseconds shutdown_timeout_ = std::chrono::seconds(3);
+  bool keep_topics_ = false;
   bool handle_signals_ = true;
 };
 

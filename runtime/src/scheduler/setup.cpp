@@ -10,6 +10,7 @@
 #include <fstream>
 #include <thread>
 
+#include "horus/detail/created_segments.hpp"
 #include "horus/detail/errno_text.hpp"
 #include "horus/error.hpp"
 #include "logger.hpp"
@@ -100,6 +101,15 @@ SchedulerImpl::SchedulerImpl(SchedulerConfig config)
 
 SchedulerImpl::~SchedulerImpl() {
   if (locked_memory_) munlockall();
+  if (config_.keep_topics()) return;
+  // The nodes go first: their topics close, so a segment only they used has no live user left.
+  loop_slots_.clear();
+  slots_.clear();
+  try {
+    remove_created_segments_nobody_uses();
+  } catch (const std::exception& e) {
+    log(LogLevel::Warn, "could not remove this process's unused topics: %s", e.what());
+  }
 }
 
 void SchedulerImpl::probe_rt() {

@@ -13,6 +13,7 @@
 #include <cerrno>
 #include <cstring>
 
+#include "horus/detail/created_segments.hpp"
 #include "horus/detail/shm_segment.hpp"
 #include "horus/error.hpp"
 
@@ -140,7 +141,11 @@ void inspect(const std::string& path, TopicInfo& info) {
   ::munmap(base, size);
 }
 
-bool abandoned(const std::string& path) {
+}  // namespace
+
+namespace detail {
+
+bool remove_if_abandoned(const std::string& path) {
   const LockedFile file(path, O_RDONLY, LOCK_EX);
   struct stat status {};
   if (file.fd() < 0 || ::fstat(file.fd(), &status) != 0 || !S_ISREG(status.st_mode) ||
@@ -158,7 +163,7 @@ bool abandoned(const std::string& path) {
   return !in_use && ::unlink(path.c_str()) == 0;
 }
 
-}  // namespace
+}  // namespace detail
 
 std::string current_namespace() { return detail::current_namespace(); }
 
@@ -178,7 +183,7 @@ std::size_t clean_namespace(std::string_view namespace_name) {
   const std::string directory = detail::namespace_directory(namespace_name);
   std::size_t removed = 0;
   for (const std::string& name : segment_names(directory)) {
-    removed += abandoned(directory + "/" + name) ? 1 : 0;
+    removed += detail::remove_if_abandoned(directory + "/" + name) ? 1 : 0;
   }
   ::rmdir(directory.c_str());
   return removed;
