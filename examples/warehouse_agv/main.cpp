@@ -174,8 +174,8 @@ class Motor : public horus::Node {
     world_.robot_speed = drive.left_velocity;
     world_.robot_x = world_.robot_x.load() + drive.left_velocity * 1e-3;
     if (++count_ % 500 == 1) {
-      say("wheels " + std::to_string(drive.left_velocity).substr(0, 4) + " m/s at x=" +
-                       metres(world_.robot_x.load()) + (drive.enable ? "" : " (disabled)"));
+      say("wheels " + std::to_string(drive.left_velocity).substr(0, 4) +
+          " m/s at x=" + metres(world_.robot_x.load()) + (drive.enable ? "" : " (disabled)"));
     }
   }
   void enter_safe_state() override {
@@ -186,7 +186,7 @@ class Motor : public horus::Node {
   void shutdown() override {
     wheels_.send(msg::DifferentialDriveCommand{});
     say("shutdown: wheels disabled (" + std::to_string(safe_entries_) +
-                     " deadline misses answered by stopping)");
+        " deadline misses answered by stopping)");
   }
 
  private:

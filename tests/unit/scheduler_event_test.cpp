@@ -133,7 +133,7 @@ namespace {
 
 class EStopSender : public horus::Node {
  public:
-  EStopSender() : topic_("emergency.stop") {}
+  explicit EStopSender(const std::string& topic = "emergency.stop") : topic_(topic) {}
   std::string_view name() const override { return "sender"; }
   void tick() override {
     for (int i = 0; i < 3; ++i) topic_.send(sched_test_msgs::EStop{++seq_, {}});
@@ -175,22 +175,12 @@ bool topic_listed(const std::string& namespace_name, const std::string& topic) {
   return false;
 }
 
-class TelemetrySender : public horus::Node {
- public:
-  explicit TelemetrySender(std::string topic) : topic_(topic) {}
-  std::string_view name() const override { return "telemetry"; }
-  void tick() override { topic_.send(sched_test_msgs::EStop{1, {}}); }
-
- private:
-  horus::Topic<sched_test_msgs::EStop> topic_;
-};
-
 }  // namespace
 
 TEST_F(SchedulerEvent, DestroyingTheSchedulerRemovesTopicsThisProcessCreatedThatNobodyUses) {
   {
     horus::Scheduler sched;
-    sched.add(std::make_unique<TelemetrySender>("only.mine")).build();
+    sched.add(std::make_unique<EStopSender>("only.mine")).build();
     sched.tick_once();
     EXPECT_TRUE(topic_listed(namespace_, "only.mine"));
   }
@@ -201,7 +191,7 @@ TEST_F(SchedulerEvent, TopicsStillOpenOrKeptSurviveTheScheduler) {
   horus::Topic<sched_test_msgs::EStop> still_open("shared.topic");
   {
     horus::Scheduler sched;
-    sched.add(std::make_unique<TelemetrySender>("shared.topic")).build();
+    sched.add(std::make_unique<EStopSender>("shared.topic")).build();
     sched.tick_once();
   }
   EXPECT_TRUE(topic_listed(namespace_, "shared.topic"));
@@ -209,10 +199,10 @@ TEST_F(SchedulerEvent, TopicsStillOpenOrKeptSurviveTheScheduler) {
 
   {
     horus::Scheduler sched{horus::SchedulerConfig{}.keep_topics(true)};
-    sched.add(std::make_unique<TelemetrySender>("for.late.joiners")).build();
+    sched.add(std::make_unique<EStopSender>("for.late.joiners")).build();
     sched.tick_once();
   }
   EXPECT_TRUE(topic_listed(namespace_, "for.late.joiners"));
   horus::Topic<sched_test_msgs::EStop> late("for.late.joiners");
-  EXPECT_EQ(late.read_latest()->seq, 1U);
+  EXPECT_EQ(late.read_latest()->seq, 3U);
 }

@@ -101,8 +101,8 @@ Stats stats() noexcept;
 }  // namespace log
 }  // namespace horus
 
-#define HORUS_LOG_AT(level, fn, ...)                        \
-  do {                                                      \
+#define HORUS_LOG_AT(level, fn, ...)                                 \
+  do {                                                               \
     if (::horus::log::enabled(level)) ::horus::log::fn(__VA_ARGS__); \
   } while (0)
 #define HORUS_LOG_DEBUG(...) HORUS_LOG_AT(::horus::LogLevel::Debug, debug, __VA_ARGS__)

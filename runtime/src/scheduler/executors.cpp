@@ -119,8 +119,8 @@ void SchedulerImpl::release_if_due(NodeSlot& slot, std::int64_t& mono) noexcept 
   if (slot.next_release_ns > sched_now(mono)) return;
   const std::int64_t release = slot.next_release_ns;
   service(slot, release, mono);
-  slot.next_release_ns = next_on_grid(
-      release, slot.period_ns.load(std::memory_order_relaxed), sched_now(mono));
+  slot.next_release_ns =
+      next_on_grid(release, slot.period_ns.load(std::memory_order_relaxed), sched_now(mono));
 }
 
 void SchedulerImpl::pass_once(const std::vector<std::string>* names) {
@@ -274,6 +274,7 @@ void SchedulerImpl::start_threads(const LoopPlan& plan, std::int64_t end, Thread
     if (!plan.watched.empty()) {
       threads.spawn([this, watched = plan.watched, end] { run_watchdog(watched, end); });
     }
+    if (telemetry_) threads.spawn([this, end] { run_telemetry(end); });
   } catch (...) {
     threads.unblock_signals();
     request_stop("could not start the scheduler's threads", true);

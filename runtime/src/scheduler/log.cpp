@@ -114,8 +114,8 @@ class Logger {
         shared_ready_.store(true, std::memory_order_release);
       } catch (const std::exception& e) {
         char note[512];
-        const int n = std::snprintf(note, sizeof(note),
-                                    "[horus] logging to stderr only: %s\n", e.what());
+        const int n =
+            std::snprintf(note, sizeof(note), "[horus] logging to stderr only: %s\n", e.what());
         write_all(note, static_cast<std::size_t>(std::clamp(n, 0, 511)));
       }
     }
@@ -281,12 +281,12 @@ LogLevel level() noexcept { return detail::logger().level().load(std::memory_ord
 
 bool enabled(LogLevel level) noexcept { return level >= log::level(); }
 
-#define HORUS_DEFINE_LOG_FUNCTION(function, level_value)                         \
-  void function(const char* format, ...) noexcept {                              \
-    va_list args;                                                                \
-    va_start(args, format);                                                      \
-    detail::vlog_as(level_value, detail::current_source(), format, args);        \
-    va_end(args);                                                                \
+#define HORUS_DEFINE_LOG_FUNCTION(function, level_value)                  \
+  void function(const char* format, ...) noexcept {                       \
+    va_list args;                                                         \
+    va_start(args, format);                                               \
+    detail::vlog_as(level_value, detail::current_source(), format, args); \
+    va_end(args);                                                         \
   }
 HORUS_DEFINE_LOG_FUNCTION(debug, LogLevel::Debug)
 HORUS_DEFINE_LOG_FUNCTION(info, LogLevel::Info)

@@ -170,12 +170,13 @@ std::size_t format_log_entry(const LogEntry& entry, char* out, std::size_t size)
       to_string(static_cast<LogLevel>(std::min<std::uint8_t>(entry.level, 3)));
   const std::string_view source = entry.source_size > 0 ? entry.source_text() : "-";
   const int n = std::snprintf(
-      out, size, "%04d-%02u-%02uT%02d:%02d:%02d.%03dZ %.*s %.*s: %.*s", static_cast<int>(date.year()),
-      static_cast<unsigned>(date.month()), static_cast<unsigned>(date.day()),
-      static_cast<int>(time.hours().count()), static_cast<int>(time.minutes().count()),
-      static_cast<int>(time.seconds().count()), static_cast<int>(time.subseconds().count()),
-      static_cast<int>(level.size()), level.data(), static_cast<int>(source.size()), source.data(),
-      static_cast<int>(entry.message().size()), entry.message().data());
+      out, size, "%04d-%02u-%02uT%02d:%02d:%02d.%03dZ %.*s %.*s: %.*s",
+      static_cast<int>(date.year()), static_cast<unsigned>(date.month()),
+      static_cast<unsigned>(date.day()), static_cast<int>(time.hours().count()),
+      static_cast<int>(time.minutes().count()), static_cast<int>(time.seconds().count()),
+      static_cast<int>(time.subseconds().count()), static_cast<int>(level.size()), level.data(),
+      static_cast<int>(source.size()), source.data(), static_cast<int>(entry.message().size()),
+      entry.message().data());
   if (n < 0) return 0;
   return std::min(static_cast<std::size_t>(n), size - 1);
 }

@@ -3,8 +3,8 @@
 
 #include "horus/error.hpp"
 #include "logger.hpp"
-#include "signals.hpp"
 #include "scheduler_impl.hpp"
+#include "signals.hpp"
 
 namespace horus::detail {
 
@@ -67,6 +67,7 @@ int SchedulerImpl::run(std::optional<std::int64_t> duration_ns) {
       finished_ = true;
     }
     record_scheduler(BlackboxEventKind::SchedulerStop, stop_reason());
+    export_telemetry();  // the final figures, also for runs shorter than one interval
   }
   if (failed_.load() && blackbox_) {
     try {

@@ -4,8 +4,8 @@
 #include <sys/mman.h>
 
 #include <algorithm>
-#include <charconv>
 #include <cerrno>
+#include <charconv>
 #include <cstdio>
 #include <fstream>
 #include <thread>
@@ -15,6 +15,7 @@
 #include "horus/error.hpp"
 #include "logger.hpp"
 #include "scheduler_impl.hpp"
+#include "telemetry.hpp"
 #include "topic_order.hpp"
 
 namespace horus::detail {
@@ -95,6 +96,12 @@ SchedulerImpl::SchedulerImpl(SchedulerConfig config)
     blackbox_path_ = config_.blackbox_path().empty()
                          ? std::filesystem::path(config_.name() + ".blackbox")
                          : config_.blackbox_path();
+  }
+  if (!config_.telemetry().empty()) {
+    if (config_.telemetry_interval().count() <= 0) {
+      throw Error(where + "telemetry_interval must be positive");
+    }
+    telemetry_ = std::make_unique<TelemetrySink>(config_.telemetry());
   }
   if (config_.rt()) probe_rt();
 }
@@ -224,7 +231,9 @@ void SchedulerImpl::derive(NodeSlot& slot) const {
   const bool timed = slot.execution_class == ExecutionClass::Rt;
   slot.budget_auto = !c.budget && timed;
   slot.deadline_auto = !c.deadline && timed;
-  const std::int64_t budget = c.budget ? c.budget->count() : timed ? automatic_budget_ns(period) : 0;
+  const std::int64_t budget = c.budget ? c.budget->count()
+                              : timed  ? automatic_budget_ns(period)
+                                       : 0;
   const std::int64_t deadline = c.deadline ? c.deadline->count()
                                 : timed    ? automatic_deadline_ns(period, budget)
                                            : 0;
@@ -341,8 +350,7 @@ void SchedulerImpl::refresh_loop_slots() {
     topic_cycle_reported_ = true;
     std::string names;
     for (const std::string& n : cycle_breaks) names += (names.empty() ? "'" : ", '") + n + "'";
-    log(LogLevel::Warn, "topic cycle: %s run before their publishers (by order())",
-        names.c_str());
+    log(LogLevel::Warn, "topic cycle: %s run before their publishers (by order())", names.c_str());
   }
 }
 

@@ -37,7 +37,7 @@ struct TickContext {
   std::int64_t budget_ns = 0;  // 0: no budget
   std::uint64_t tick_index = 0;
   Rng* rng = nullptr;
-  std::string_view node_name;  // what log lines from this node's callbacks carry
+  std::string_view node_name;         // what log lines from this node's callbacks carry
   MessageCounts* messages = nullptr;  // what its topics count into
 };
 
