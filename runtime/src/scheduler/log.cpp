@@ -11,6 +11,7 @@
 #include <ctime>
 #include <memory>
 #include <mutex>
+#include <new>
 #include <thread>
 
 #include "horus/detail/ring.hpp"
@@ -197,7 +198,10 @@ class Logger {
 };
 
 Logger& logger() noexcept {
-  static Logger* const instance = new Logger();
+  // Built in static storage and never destroyed. Its construction allocates the ring once; out
+  // of memory there, a process cannot log at all and terminates.
+  alignas(Logger) static std::byte storage[sizeof(Logger)];
+  static Logger* const instance = ::new (storage) Logger();
   return *instance;
 }
 
