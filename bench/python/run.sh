@@ -1,4 +1,8 @@
 #!/bin/sh
-# Python mirror benchmarks (see RESULTS.md): codec speed against lcm-gen's Python, import time.
+# Python benchmarks (see RESULTS.md): the mirror types' codec speed against lcm-gen's Python and
+# import time (bench_mirror.py); the runtime's topic latency and per-tick overhead (runtime.sh).
 set -eu
-exec /usr/bin/python3 "$(dirname "$0")/bench_mirror.py" "$@"
+here=$(dirname "$0")
+/usr/bin/python3 "$here/bench_mirror.py" "$@"
+echo
+"$here/runtime.sh" "$@"

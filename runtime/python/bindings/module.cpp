@@ -1,8 +1,17 @@
 // horus._core: the C++ runtime as seen from the `horus` Python package.
 #include "bindings.hpp"
+#include "horus/error.hpp"
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "The C++ core of the horus Python package (use `import horus`).";
+  static pybind11::exception<horus::Error> error(m, "HorusError", PyExc_RuntimeError);
+  pybind11::register_exception_translator([](std::exception_ptr thrown) {
+    try {
+      if (thrown) std::rethrow_exception(thrown);
+    } catch (const horus::Error& e) {
+      error(e.what());
+    }
+  });
   horus::python::bind_scheduler(m);
   horus::python::bind_topics(m);
   horus::python::bind_services(m);

@@ -1,7 +1,144 @@
+// horus._core.Topic: an ErasedTopic for the `horus.Topic` class, which turns bytes into messages.
+#include <pybind11/stl.h>
+
+#include <chrono>
+#include <memory>
+
 #include "bindings.hpp"
+#include "erased_topic.hpp"
+#include "horus/error.hpp"
+#include "horus/topic_registry.hpp"
+
+namespace py = pybind11;
 
 namespace horus::python {
 
-void bind_topics(pybind11::module_& /*m*/) {}
+namespace {
+
+std::span<const std::byte> bytes_of(const py::buffer_info& info) {
+  return {static_cast<const std::byte*>(info.ptr),
+          static_cast<std::size_t>(info.size * info.itemsize)};
+}
+
+py::object received_bytes(ErasedTopic& topic, std::ptrdiff_t size) {
+  if (size < 0) {
+    return py::none();
+  }
+  const auto bytes = topic.received(static_cast<std::size_t>(size));
+  return py::bytes(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+}
+
+py::object received_view(ErasedTopic& topic, std::ptrdiff_t size) {
+  if (size < 0) {
+    return py::none();
+  }
+  const auto bytes = topic.received(static_cast<std::size_t>(size));
+  return py::memoryview::from_memory(static_cast<void*>(bytes.data()),
+                                     static_cast<py::ssize_t>(bytes.size()), false);
+}
+
+}  // namespace
+
+void bind_topics(py::module_& m) {
+  py::class_<ErasedTopic>(m, "Topic",
+                          "A type-erased topic handle: bytes in, bytes (or a view) out.")
+      .def(py::init([](std::string name, std::string type_name, std::uint64_t fingerprint,
+                       std::string schema, bool is_pod, std::size_t size, std::size_t alignment,
+                       std::size_t capacity, std::size_t max_message_size,
+                       bool single_publisher) {
+             TopicOptions options;
+             options.capacity = capacity;
+             options.max_message_size = max_message_size;
+             options.single_publisher = single_publisher;
+             return std::make_unique<ErasedTopic>(
+                 std::move(name),
+                 ErasedType{std::move(type_name), fingerprint, std::move(schema), is_pod, size,
+                            alignment},
+                 options);
+           }),
+           py::arg("name"), py::arg("type_name"), py::arg("fingerprint"), py::arg("schema"),
+           py::arg("is_pod"), py::arg("size"), py::arg("alignment"), py::arg("capacity"),
+           py::arg("max_message_size"), py::arg("single_publisher"))
+      .def_property_readonly("name", &ErasedTopic::name)
+      .def(
+          "send",
+          [](ErasedTopic& topic, const py::buffer& data) {
+            const py::buffer_info info = data.request();
+            return topic.send(bytes_of(info));
+          },
+          py::arg("data"))
+      .def(
+          "try_recv",
+          [](ErasedTopic& topic, bool view) {
+            const std::ptrdiff_t size = topic.try_recv();
+            return view ? received_view(topic, size) : received_bytes(topic, size);
+          },
+          py::arg("view") = false)
+      .def(
+          "recv",
+          [](ErasedTopic& topic, double timeout_s, bool view) {
+            std::ptrdiff_t size = 0;
+            {
+              py::gil_scoped_release released;
+              size = topic.recv(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                  std::chrono::duration<double>(timeout_s)));
+            }
+            return view ? received_view(topic, size) : received_bytes(topic, size);
+          },
+          py::arg("timeout"), py::arg("view") = false)
+      .def("read_latest",
+           [](ErasedTopic& topic) { return received_bytes(topic, topic.read_latest()); })
+      .def("has_msg", &ErasedTopic::has_msg)
+      .def("loan",
+           [](ErasedTopic& topic) {
+             if (!topic.type().is_pod) {
+               throw Error("topic '" + topic.name() + "' carries " + topic.type().name +
+                           ", a serialized type: only POD messages can be written in place");
+             }
+             std::byte* payload = topic.loan();
+             return py::memoryview::from_memory(static_cast<void*>(payload),
+                                                static_cast<py::ssize_t>(topic.type().size),
+                                                false);
+           })
+      .def("publish", &ErasedTopic::publish)
+      .def("release_loan", &ErasedTopic::release_loan)
+      .def_property_readonly("loaned", &ErasedTopic::loaned)
+      .def("lost", [](const ErasedTopic& topic) { return topic.stats().lost; })
+      .def("stats",
+           [](const ErasedTopic& topic) {
+             const TopicStats stats = topic.stats();
+             py::dict out;
+             out["lost"] = stats.lost;
+             out["send_failures"] = stats.send_failures;
+             out["oversized"] = stats.oversized;
+             out["not_the_publisher"] = stats.not_the_publisher;
+             out["invalid"] = stats.invalid;
+             return out;
+           })
+      .def_property_readonly("capacity", &ErasedTopic::capacity)
+      .def_property_readonly("payload_capacity", &ErasedTopic::payload_capacity);
+
+  m.def(
+      "list_topics",
+      [](const std::string& namespace_name) {
+        py::list out;
+        for (const TopicInfo& info : list_topics(namespace_name)) {
+          py::dict topic;
+          topic["name"] = info.name;
+          topic["type_name"] = info.type_name;
+          topic["fingerprint"] = info.fingerprint;
+          topic["is_pod"] = info.is_pod;
+          topic["publishers"] = info.publishers;
+          topic["subscribers"] = info.subscribers;
+          topic["message_count"] = info.message_count;
+          topic["error"] = info.error;
+          out.append(topic);
+        }
+        return out;
+      },
+      py::arg("namespace_name") = "",
+      "The topics of a namespace (empty: HORUS_NAMESPACE), with their users.");
+  m.def("current_namespace", [] { return current_namespace(); });
+}
 
 }  // namespace horus::python

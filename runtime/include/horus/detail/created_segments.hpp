@@ -4,15 +4,20 @@
 
 #include <cstddef>
 #include <string>
+#include <string_view>
+
+#include "horus/detail/shm_segment.hpp"
 
 namespace horus::detail {
 
-/// Records that this process created (or re-created) the segment at `path`. Slow path only.
-void remember_created_segment(const std::string& path);
+/// Records that this process created (or re-created) segment `name` of a namespace (empty: the
+/// current one), for segments of `mode`. Slow path only.
+void remember_created_segment(std::string_view namespace_name, const std::string& name,
+                              unsigned mode);
 
-/// Removes the segment at `path` when no live process has it open (a flock keeps openers out
-/// meanwhile); whether it was removed.
-bool remove_if_abandoned(const std::string& path);
+/// Removes segment `name` of `folder` when no live process has it open (a flock keeps openers
+/// out meanwhile); whether it was removed.
+bool remove_if_abandoned(const NamespaceFolder& folder, const std::string& name);
 
 /// Removes every segment this process created that no live process uses any more, and forgets
 /// those that are gone; returns how many it removed. Segments still in use stay remembered, for

@@ -1,0 +1,169 @@
+#include "py_node.hpp"
+
+#include <cstdio>
+#include <stdexcept>
+#include <utility>
+
+#include "horus/clock.hpp"
+
+namespace py = pybind11;
+
+namespace horus::python {
+
+namespace {
+
+double seconds(std::chrono::nanoseconds ns) { return static_cast<double>(ns.count()) * 1e-9; }
+
+/// Marks this thread as inside a Python callback and, on the way out, keeps the clock it saw.
+class CallbackScope {
+ public:
+  CallbackScope() : clock_(thread_clock()), outer_(clock_.in_callback) {
+    clock_.in_callback = true;
+  }
+  ~CallbackScope() {
+    clock_.now_s = seconds(horus::now());
+    clock_.dt_s = seconds(horus::dt());
+    clock_.elapsed_s = seconds(horus::elapsed());
+    clock_.tick = horus::tick_index();
+    clock_.valid = true;
+    clock_.in_callback = outer_;
+  }
+  CallbackScope(const CallbackScope&) = delete;
+  CallbackScope& operator=(const CallbackScope&) = delete;
+
+ private:
+  ClockSnapshot& clock_;
+  bool outer_;
+};
+
+/// Takes the GIL for one callback. A scheduler thread that Python does not know gets a Python
+/// thread state once, kept until the thread ends: making and destroying one per callback (what a
+/// PyGILState_Ensure/Release pair does there) costs microseconds. A thread Python started (the
+/// one that called run() or tick_once()) uses its own state, which Python owns.
+class CallbackGil {
+ public:
+  CallbackGil() {
+    if (PyGILState_Check() != 0) {
+      return;  // this thread holds it already
+    }
+    if (PyThreadState* state = PyGILState_GetThisThreadState()) {
+      PyEval_RestoreThread(state);
+    } else {
+      keeper_of_this_thread().adopt();
+    }
+    taken_ = true;
+  }
+  ~CallbackGil() {
+    if (taken_) {
+      PyEval_SaveThread();
+    }
+  }
+  CallbackGil(const CallbackGil&) = delete;
+  CallbackGil& operator=(const CallbackGil&) = delete;
+
+ private:
+  /// The thread state made for this (non-Python) thread, released when the thread ends.
+  struct Keeper {
+    PyThreadState* state = nullptr;
+    PyGILState_STATE gil_state{};
+    Keeper() = default;
+    Keeper(const Keeper&) = delete;
+    Keeper& operator=(const Keeper&) = delete;
+    /// Makes the state and takes the GIL with it.
+    void adopt() {
+      gil_state = PyGILState_Ensure();
+      state = PyThreadState_Get();
+    }
+    ~Keeper() {
+      if (state != nullptr && Py_IsInitialized() != 0) {
+        PyEval_RestoreThread(state);
+        PyGILState_Release(gil_state);
+      }
+    }
+  };
+  static Keeper& keeper_of_this_thread() {
+    thread_local Keeper keeper;
+    return keeper;
+  }
+  bool taken_ = false;
+};
+
+std::string python_traceback(py::error_already_set& error) {
+  try {
+    py::object format = py::module_::import("traceback").attr("format_exception");
+    py::list lines = format(error.type(), error.value(), error.trace());
+    std::string text;
+    for (const auto& line : lines) {
+      text += line.cast<std::string>();
+    }
+    while (!text.empty() && text.back() == '\n') {
+      text.pop_back();
+    }
+    return text;
+  } catch (const py::error_already_set&) {
+    return error.what();
+  }
+}
+
+}  // namespace
+
+ClockSnapshot& thread_clock() noexcept {
+  thread_local ClockSnapshot clock;
+  return clock;
+}
+
+PyNode::PyNode(std::string name, py::tuple callbacks, std::vector<TopicMetadata> publishers,
+               std::vector<TopicMetadata> subscribers)
+    : name_(std::move(name)),
+      publishers_(std::move(publishers)),
+      subscribers_(std::move(subscribers)) {
+  if (callbacks.size() != 5) {
+    throw std::invalid_argument("PyNode needs (init, tick, shutdown, enter_safe_state, "
+                                "is_safe_state)");
+  }
+  init_ = callbacks[0];
+  tick_ = callbacks[1];
+  shutdown_ = callbacks[2];
+  enter_safe_state_ = callbacks[3];
+  is_safe_state_ = callbacks[4];
+}
+
+PyNode::~PyNode() {
+  // The scheduler may drop its last reference on one of its threads.
+  py::gil_scoped_acquire gil;
+  init_ = py::object();
+  tick_ = py::object();
+  shutdown_ = py::object();
+  enter_safe_state_ = py::object();
+  is_safe_state_ = py::object();
+}
+
+void PyNode::call(const py::object& callback) const {
+  if (callback.is_none()) {
+    return;
+  }
+  CallbackScope scope;
+  CallbackGil gil;
+  try {
+    callback();
+  } catch (py::error_already_set& error) {
+    throw std::runtime_error(python_traceback(error));
+  }
+}
+
+bool PyNode::is_safe_state() const {
+  CallbackGil gil;
+  if (is_safe_state_.is_none()) {
+    return true;
+  }
+  try {
+    return is_safe_state_().cast<bool>();
+  } catch (py::error_already_set& error) {
+    // The scheduler asks this outside any failure policy: an error keeps the node isolated.
+    std::fprintf(stderr, "[horus] node '%s': is_safe_state() raised:\n%s\n", name_.c_str(),
+                 python_traceback(error).c_str());
+    return false;
+  }
+}
+
+}  // namespace horus::python

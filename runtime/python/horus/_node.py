@@ -1,0 +1,215 @@
+"""horus.Node: seed 001's node, configured by keyword arguments (or subclassed, seed 000's shape)."""
+from __future__ import annotations
+
+import asyncio
+import functools
+import inspect
+import sys
+import weakref
+
+from . import _core
+from ._topic import Topic
+
+_MISS_POLICIES = ("warn", "skip", "safe_mode", "stop")
+_FAILURE_POLICIES = ("fatal", "restart", "skip", "ignore")
+
+
+def _topic_map(topics, what: str) -> dict:
+    """`subs` / `pubs` as {name: type}: a list of names means dict messages."""
+    if topics is None:
+        return {}
+    if isinstance(topics, str):
+        raise TypeError(f"{what} takes a list of topic names or a mapping name -> type, "
+                        f"not the string {topics!r}")
+    if isinstance(topics, dict):
+        return dict(topics)
+    return {name: dict for name in topics}
+
+
+def _seconds(value, what: str):
+    if value is None:
+        return None
+    value = float(value)
+    if not value >= 0.0 or value == float("inf"):
+        raise ValueError(f"{what} must be a finite number of seconds >= 0, got {value!r}")
+    return value
+
+
+class Node:
+    """A unit of work the scheduler runs: `init` once, `tick` at its rate, `shutdown` once.
+
+    Callbacks take the node (`def tick(node): ...`); a subclass may instead override `init`,
+    `tick` and `shutdown` as methods. Budgets, deadlines and watchdogs are seconds (`300 * us`).
+    """
+
+    def __init__(self, name: str | None = None, tick=None, init=None, shutdown=None,
+                 rate: float | None = None, order: int = 100, budget: float | None = None,
+                 deadline: float | None = None, on_miss: str | None = None,
+                 failure_policy: str | None = None, compute: bool = False, on: str | None = None,
+                 priority: int | None = None, core: int | None = None,
+                 watchdog: float | None = None, subs=None, pubs=None) -> None:
+        self.name = name if name is not None else type(self).__name__
+        if not isinstance(self.name, str) or not self.name:
+            raise ValueError(f"a node name must be a non-empty string, got {self.name!r}")
+        for label, fn in (("tick", tick), ("init", init), ("shutdown", shutdown)):
+            if fn is not None and not callable(fn):
+                raise TypeError(f"node '{self.name}': {label} must be callable, got {fn!r}")
+        if on_miss is not None and on_miss not in _MISS_POLICIES:
+            raise ValueError(f"node '{self.name}': on_miss must be one of {_MISS_POLICIES}, "
+                             f"got {on_miss!r}")
+        if failure_policy is not None and failure_policy not in _FAILURE_POLICIES:
+            raise ValueError(f"node '{self.name}': failure_policy must be one of "
+                             f"{_FAILURE_POLICIES}, got {failure_policy!r}")
+        if rate is not None and not float(rate) > 0.0:
+            raise ValueError(f"node '{self.name}': rate must be > 0 Hz, got {rate!r}")
+        self._tick_fn = tick
+        self._init_fn = init
+        self._shutdown_fn = shutdown
+        self.rate = None if rate is None else float(rate)
+        self.order = int(order)
+        self.budget = _seconds(budget, f"node '{self.name}': budget")
+        self.deadline = _seconds(deadline, f"node '{self.name}': deadline")
+        self.watchdog = _seconds(watchdog, f"node '{self.name}': watchdog")
+        self.on_miss = on_miss
+        self.failure_policy = failure_policy
+        self.compute = bool(compute)
+        self.on = on
+        self.priority = priority
+        self.core = core
+        self.subs = _topic_map(subs, "subs")
+        self.pubs = _topic_map(pubs, "pubs")
+        if on is not None and on not in self.subs:
+            self.subs[on] = dict
+        self.is_async = inspect.iscoroutinefunction(self._tick_callable())
+        self._topics: dict[str, Topic] = {}
+        self._loop = None
+        self._scheduler = None
+
+    # -- what the scheduler calls --------------------------------------------------------------
+
+    def _tick_callable(self):
+        if type(self).tick is not Node.tick:
+            return self.tick
+        return self._tick_fn
+
+    def _core_node(self) -> _core.PyNode:
+        """The C++ node the scheduler runs; its callbacks are bound once, here."""
+        tick = self._tick_callable()
+        if tick is None:
+            raise ValueError(f"node '{self.name}' has no tick: pass tick= or override tick()")
+        if self.is_async:
+            tick = self._tick_async
+        elif type(self).tick is Node.tick:
+            tick = _bind(self._tick_fn, self)
+        init = self.init if type(self).init is not Node.init else _bind(self._init_fn, self)
+        shutdown = self._shutdown
+        safe = getattr(self, "enter_safe_state", None)
+        is_safe = getattr(self, "is_safe_state", None)
+        return _core.PyNode(self.name, (_with_topics(self, init), tick, shutdown, safe, is_safe),
+                            [(t, _type_name(c)) for t, c in self.pubs.items()],
+                            [(t, _type_name(c)) for t, c in self.subs.items()])
+
+    def _tick_async(self) -> None:
+        if self._loop is None:
+            self._loop = asyncio.new_event_loop()
+        overridden = type(self).tick is not Node.tick
+        coro = self.tick() if overridden else self._tick_fn(self)
+        self._loop.run_until_complete(coro)
+
+    def _shutdown(self) -> None:
+        try:
+            if type(self).shutdown is not Node.shutdown:
+                self.shutdown()
+            elif self._shutdown_fn is not None:
+                self._shutdown_fn(self)
+        finally:
+            if self._loop is not None:
+                self._loop.close()
+                self._loop = None
+
+    # -- overridable callbacks (subclass style) ------------------------------------------------
+
+    def init(self) -> None:
+        """Called once when the scheduler starts (lazily, in order)."""
+
+    def tick(self) -> None:
+        """Called at the node's rate."""
+
+    def shutdown(self) -> None:
+        """Called once at stop, in reverse order of the nodes."""
+
+    # -- topics ---------------------------------------------------------------------------------
+
+    def _topic(self, name: str) -> Topic:
+        topic = self._topics.get(name)
+        if topic is None:
+            msg_type = self.subs.get(name, self.pubs.get(name, dict))
+            topic = self._topics[name] = Topic(msg_type, name)
+        return topic
+
+    def open_topics(self) -> None:
+        """Opens every declared topic now (the scheduler does it before init())."""
+        for name in {**self.subs, **self.pubs}:
+            self._topic(name)
+
+    def send(self, topic: str, msg) -> bool:
+        """Publishes `msg` on `topic` (a generated message, or a plain value on a dict topic)."""
+        return self._topic(topic).send(msg)
+
+    def recv(self, topic: str):
+        """The next message on `topic`, or None."""
+        return self._topic(topic).try_recv()
+
+    def has_msg(self, topic: str) -> bool:
+        return self._topic(topic).has_msg()
+
+    def request_stop(self) -> None:
+        """Asks the scheduler running this node to stop (as Ctrl+C would)."""
+        scheduler = self._scheduler() if self._scheduler is not None else None
+        if scheduler is not None:
+            scheduler.stop()
+
+    # -- logging (only inside init / tick / shutdown; dropped elsewhere, as the seed says) ------
+
+    def _log(self, level: str, message: str) -> None:
+        if _core.in_callback():
+            print(f"[horus] {level} [{self.name}] {message}", file=sys.stderr, flush=True)
+
+    def log_info(self, message: str) -> None:
+        self._log("INFO", message)
+
+    def log_warning(self, message: str) -> None:
+        self._log("WARN", message)
+
+    def log_error(self, message: str) -> None:
+        self._log("ERROR", message)
+
+    def log_debug(self, message: str) -> None:
+        self._log("DEBUG", message)
+
+    def _attach(self, scheduler) -> None:
+        if self._scheduler is not None and self._scheduler() not in (None, scheduler):
+            raise ValueError(f"node '{self.name}' is already added to another scheduler")
+        self._scheduler = weakref.ref(scheduler)
+
+    def __repr__(self) -> str:
+        return f"horus.Node(name={self.name!r}, rate={self.rate}, order={self.order})"
+
+
+def _bind(fn, node):
+    # partial, not a lambda: no extra Python frame on every tick
+    return None if fn is None else functools.partial(fn, node)
+
+
+def _with_topics(node: Node, init):
+    def start() -> None:
+        node.open_topics()
+        if init is not None:
+            init()
+    return start
+
+
+def _type_name(cls) -> str:
+    if cls is dict:
+        return "horus.msg.GenericMessage"
+    return cls.__horus__.name

@@ -1,0 +1,206 @@
+"""horus.Scheduler and horus.run: seed 001's scheduler over the C++ one."""
+from __future__ import annotations
+
+from . import _core
+from ._node import Node
+
+_RECORDING = ("session recording is not implemented yet (the recording issue); "
+              "use blackbox_mb for a flight recorder")
+
+
+class Scheduler:
+    """Runs nodes in order at their rates; a context manager that stops on exit.
+
+    Every keyword of seed 001; `seed` sets the deterministic random sequence.
+    """
+
+    def __init__(self, tick_rate: float = 1000.0, rt: bool = False, deterministic: bool = False,
+                 blackbox_mb: int = 0, watchdog_ms: float = 0, recording: bool = False,
+                 name: str | None = None, cores: list[int] | None = None,
+                 max_deadline_misses: int | None = None, verbose: bool = False,
+                 telemetry: str | None = None, seed: int | None = None) -> None:
+        if recording:
+            raise NotImplementedError(_RECORDING)
+        if telemetry is not None:
+            raise NotImplementedError("telemetry export is not implemented")
+        if not float(tick_rate) > 0.0:
+            raise ValueError(f"tick_rate must be > 0 Hz, got {tick_rate!r}")
+        if watchdog_ms is None or not float(watchdog_ms) >= 0.0:
+            raise ValueError(f"watchdog_ms must be >= 0, got {watchdog_ms!r}")
+        self._tick_rate = float(tick_rate)
+        self._core = _core.Scheduler(
+            tick_rate=float(tick_rate), rt=bool(rt), deterministic=bool(deterministic),
+            watchdog_ms=float(watchdog_ms), blackbox_mb=int(blackbox_mb), name=name,
+            cores=list(cores or []), max_deadline_misses=max_deadline_misses,
+            verbose=bool(verbose), seed=seed)
+        self._nodes: dict[str, object] = {}
+
+    # -- building ---------------------------------------------------------------------------
+
+    def add(self, node, **settings) -> "Scheduler":
+        """Adds a horus.Node (configured by its own keywords) or a C++ node from an extension
+        (configured by `settings`: the Node keywords order, rate, budget, ...). Returns self."""
+        if isinstance(node, Node):
+            if settings:
+                raise TypeError(f"node '{node.name}' carries its own settings; "
+                                f"add() takes none, got {sorted(settings)}")
+            node._attach(self)
+            core_node = node._core_node()
+            settings = dict(order=node.order, rate=node.rate, budget=node.budget,
+                            deadline=node.deadline, on_miss=node.on_miss,
+                            failure_policy=node.failure_policy, compute=node.compute,
+                            on=node.on, async_io=node.is_async, priority=node.priority,
+                            core=node.core, watchdog=node.watchdog)
+        elif isinstance(node, _core.Node):
+            core_node = node
+            settings = _cpp_settings(node.name, settings)
+        else:
+            raise TypeError(f"add() takes a horus.Node or a C++ node, got {type(node).__name__}")
+        self._core.add(core_node, **settings)
+        self._nodes[core_node.name] = node
+        return self
+
+    def add_critical_node(self, name: str, timeout_ms: float) -> "Scheduler":
+        """Marks `name` safety-critical with its own watchdog timeout."""
+        self._core.add_critical_node(name, float(timeout_ms) * 1e-3)
+        return self
+
+    # -- running ----------------------------------------------------------------------------
+
+    def run(self, duration: float | None = None) -> int:
+        """Runs until stop(), Ctrl+C, SIGTERM, a node's request_stop() or `duration` seconds;
+        shuts the nodes down in reverse order. 0, or 1 when a failure stopped it."""
+        if duration is None:
+            return self._core.run()
+        return self._core.run_for(float(duration))
+
+    def tick_once(self, names: list[str] | None = None) -> None:
+        """One cycle on this thread (only the named nodes, when given)."""
+        self._core.tick_once(None if names is None else list(names))
+
+    def tick_for(self, seconds: float, names: list[str] | None = None) -> None:
+        """Runs the loop for `seconds` (only the named nodes, when given) without shutting down."""
+        self._core.tick_for(float(seconds), list(names or []))
+
+    def stop(self) -> None:
+        self._core.stop()
+
+    def __enter__(self) -> "Scheduler":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+
+    # -- runtime changes --------------------------------------------------------------------
+
+    def set_node_rate(self, name: str, rate: float) -> bool:
+        return self._core.set_node_rate(name, float(rate))
+
+    def set_tick_budget(self, name: str, budget: float) -> bool:
+        """`budget` in seconds."""
+        return self._core.set_tick_budget(name, float(budget))
+
+    def remove_node(self, name: str) -> bool:
+        removed = self._core.remove_node(name)
+        self._nodes.pop(name, None)
+        return removed
+
+    # -- introspection ----------------------------------------------------------------------
+
+    def status(self) -> str:
+        """"idle", "running" or "stopped"."""
+        return self._core.status()
+
+    def current_tick(self) -> int:
+        return self._core.current_tick()
+
+    def is_running(self) -> bool:
+        return self._core.is_running()
+
+    def scheduler_name(self) -> str:
+        return self._core.name()
+
+    def get_node_count(self) -> int:
+        return self._core.node_count()
+
+    def get_node_names(self) -> list[str]:
+        return self._core.node_names()
+
+    def has_node(self, name: str) -> bool:
+        return self._core.has_node(name)
+
+    def get_node_info(self, name: str) -> int | None:
+        """The node's execution order, or None for an unknown node."""
+        info = self._core.node_info(name)
+        return None if info is None else info["order"]
+
+    def get_all_nodes(self) -> list[dict]:
+        """Every node's name, order, state, execution class, rate, budget, ... as dicts."""
+        return self._core.nodes()
+
+    def get_node_stats(self, name: str) -> dict | None:
+        """The node's tick counts, durations (seconds), misses and restarts."""
+        return self._core.node_metrics(name)
+
+    def safety_stats(self) -> dict:
+        return self._core.safety_stats()
+
+    def timing_report(self) -> str:
+        return self._core.timing_report()
+
+    def stop_reason(self) -> str:
+        return self._core.stop_reason()
+
+    def has_full_rt(self) -> bool:
+        return self._core.has_full_rt()
+
+    def degradations(self) -> list[str]:
+        return self._core.degradations()
+
+    def capabilities(self) -> dict:
+        return self._core.capabilities()
+
+    def dump_blackbox(self, path: str) -> None:
+        self._core.dump_blackbox(str(path))
+
+    # -- recording (not implemented yet: never silently ignored) ----------------------------
+
+    def is_recording(self) -> bool:
+        raise NotImplementedError(_RECORDING)
+
+    def stop_recording(self) -> list[str]:
+        raise NotImplementedError(_RECORDING)
+
+    def list_recordings(self) -> list[str]:
+        raise NotImplementedError(_RECORDING)
+
+    def delete_recording(self, session: str) -> None:
+        raise NotImplementedError(_RECORDING)
+
+
+_CPP_DEFAULTS = dict(order=100, rate=None, budget=None, deadline=None, on_miss=None,
+                     failure_policy=None, compute=False, on=None, async_io=False, priority=None,
+                     core=None, watchdog=None)
+
+
+def _cpp_settings(name: str, settings: dict) -> dict:
+    unknown = set(settings) - set(_CPP_DEFAULTS)
+    if unknown:
+        raise TypeError(f"node '{name}': unknown settings {sorted(unknown)}")
+    return {**_CPP_DEFAULTS, **settings}
+
+
+def run(*nodes, duration: float | None = None, tick_rate: float = 1000.0, rt: bool = False,
+        deterministic: bool = False, blackbox_mb: int = 0, watchdog_ms: float = 0,
+        recording: bool = False, name: str | None = None, cores: list[int] | None = None,
+        max_deadline_misses: int | None = None, verbose: bool = False,
+        telemetry: str | None = None) -> int:
+    """Builds a Scheduler with these keywords, adds `nodes` and runs it (forever, or for
+    `duration` seconds) until Ctrl+C, SIGTERM or a stop."""
+    sched = Scheduler(tick_rate=tick_rate, rt=rt, deterministic=deterministic,
+                      blackbox_mb=blackbox_mb, watchdog_ms=watchdog_ms, recording=recording,
+                      name=name, cores=cores, max_deadline_misses=max_deadline_misses,
+                      verbose=verbose, telemetry=telemetry)
+    for node in nodes:
+        sched.add(node)
+    return sched.run(duration)

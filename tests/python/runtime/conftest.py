@@ -1,0 +1,41 @@
+"""Fixtures of the Python runtime suite (module `runtime.conftest`: no clash with ../conftest.py)."""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import uuid
+from pathlib import Path
+
+import pytest
+
+PEER = os.environ.get("HORUS_PY_PEER", "")
+SOURCE = Path(os.environ.get("HORUS_SOURCE_DIR", Path(__file__).resolve().parents[3]))
+
+
+@pytest.fixture(autouse=True)
+def namespace(monkeypatch):
+    """Each test in its own topic namespace, removed afterwards (children inherit it)."""
+    name = f"pyrt_{uuid.uuid4().hex[:12]}"
+    monkeypatch.setenv("HORUS_NAMESPACE", name)
+    yield name
+    root = Path(os.environ.get("HORUS_SHM_DIR", "/dev/shm/horus"))
+    shutil.rmtree(root / name, ignore_errors=True)
+
+
+@pytest.fixture
+def peer():
+    """Runs the C++ peer program (tests/python/runtime/peer.cpp) built beside this suite."""
+    assert PEER, "HORUS_PY_PEER names the C++ peer; run this suite through ctest (pytest_runtime)"
+
+    def start(*args: str) -> subprocess.Popen:
+        return subprocess.Popen([PEER, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                text=True)
+    return start
+
+
+def python_child(code: str) -> subprocess.Popen:
+    """A Python process running `code` with this process's environment (PYTHONPATH, namespace)."""
+    return subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)

@@ -1,0 +1,103 @@
+// The C++ side of the Python runtime's cross-process tests: publishes or subscribes to a CmdVel
+// (POD), a CompressedImage (serialized) or a GenericMessage holding {"linear": x} (a Python dict).
+//
+//   horus_py_peer pub  cmdvel|image|dict TOPIC COUNT   sends COUNT messages, value i = 1..COUNT
+//   horus_py_peer sub  cmdvel|image|dict TOPIC COUNT   prints "ready", then one value per message
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <string>
+#include <string_view>
+#include <thread>
+
+#include <horus/msg.hpp>
+#include <horus/topic.hpp>
+
+namespace {
+
+using namespace std::chrono_literals;
+using horus::msg::CmdVel;
+using horus::msg::CompressedImage;
+using horus::msg::GenericMessage;
+
+double value_of(const CmdVel& msg) { return msg.linear; }
+double value_of(const CompressedImage& msg) { return msg.width; }
+double value_of(const GenericMessage& msg) {
+  return msg.to_value<std::map<std::string, double>>().at("linear");
+}
+
+CmdVel make(CmdVel*, int i) {
+  CmdVel msg{};
+  msg.linear = static_cast<float>(i);
+  msg.angular = -static_cast<float>(i);
+  return msg;
+}
+CompressedImage make(CompressedImage*, int i) {
+  CompressedImage msg{};
+  msg.format = "png";
+  msg.width = static_cast<std::uint32_t>(i);
+  msg.height = 2;
+  msg.data = std::vector<std::uint8_t>(static_cast<std::size_t>(i), 0xab);
+  return msg;
+}
+GenericMessage make(GenericMessage*, int i) {
+  return GenericMessage::from_value(std::map<std::string, double>{{"linear", double(i)}});
+}
+
+template <class T>
+int publish(const std::string& topic_name, int count) {
+  horus::Topic<T> topic(topic_name);
+  for (int i = 1; i <= count; ++i) {
+    if (!topic.send(make(static_cast<T*>(nullptr), i))) {
+      std::fprintf(stderr, "send %d failed\n", i);
+      return 1;
+    }
+    std::this_thread::sleep_for(2ms);
+  }
+  return 0;
+}
+
+template <class T>
+int subscribe(const std::string& topic_name, int count) {
+  horus::Topic<T> topic(topic_name);
+  std::printf("ready\n");
+  std::fflush(stdout);
+  for (int i = 0; i < count; ++i) {
+    auto msg = topic.recv(10s);
+    if (!msg) {
+      std::fprintf(stderr, "timed out after %d messages\n", i);
+      return 1;
+    }
+    std::printf("%g\n", value_of(*msg));
+    std::fflush(stdout);
+  }
+  return 0;
+}
+
+template <class T>
+int run(std::string_view role, const std::string& topic, int count) {
+  return role == "pub" ? publish<T>(topic, count) : subscribe<T>(topic, count);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 5) {
+    std::fprintf(stderr, "usage: %s pub|sub cmdvel|image|dict TOPIC COUNT\n", argv[0]);
+    return 2;
+  }
+  const std::string_view role = argv[1];
+  const std::string_view kind = argv[2];
+  const std::string topic = argv[3];
+  const int count = std::atoi(argv[4]);
+  if ((role != "pub" && role != "sub") || count <= 0) {
+    std::fprintf(stderr, "bad role or count\n");
+    return 2;
+  }
+  if (kind == "cmdvel") return run<CmdVel>(role, topic, count);
+  if (kind == "image") return run<CompressedImage>(role, topic, count);
+  if (kind == "dict") return run<GenericMessage>(role, topic, count);
+  std::fprintf(stderr, "unknown kind %.*s\n", static_cast<int>(kind.size()), kind.data());
+  return 2;
+}
