@@ -42,10 +42,9 @@ struct World {
 
 std::uint64_t stamp() { return static_cast<std::uint64_t>(horus::now().count()); }
 
-void say(const char* who, const std::string& line) {
-  std::printf("  %-8s %s\n", who, line.c_str());
-  std::fflush(stdout);
-}
+// Each node narrates through horus's logger: the node's name is attached automatically, the
+// lines go to stderr and to the namespace's log ring (read_log(), `horus log`).
+void say(const std::string& line) { HORUS_LOG_INFO("%s", line.c_str()); }
 
 // Order 10, 40 Hz: a 360-beam scan of the corridor (walls 1 m to each side, the nearest obstacle
 // ahead).
@@ -65,7 +64,7 @@ class Lidar : public horus::Node {
     }
     scan.timestamp_ns = stamp();
     scan_.send(scan);
-    if (++count_ % 40 == 1) say("lidar", scan.log_summary().substr(0, 96) + "...");
+    if (++count_ % 40 == 1) say(scan.log_summary().substr(0, 96) + "...");
   }
 
  private:
@@ -92,7 +91,7 @@ class Safety : public horus::Node {
       stop.timestamp_ns = stamp();
       estop_.send(stop);
       engaged_ = true;
-      say("safety", "EMERGENCY STOP " + stop.log_summary());
+      say("EMERGENCY STOP " + stop.log_summary());
     }
   }
 
@@ -121,7 +120,7 @@ class Planner : public horus::Node {
     plan.timestamp_ns = stamp();
     path_.send(plan);
     if (++count_ % 10 == 1)
-      say("planner", "path to x=" + std::to_string(goal).substr(0, 4) + " m, 20 waypoints");
+      say("path to x=" + std::to_string(goal).substr(0, 4) + " m, 20 waypoints");
   }
 
  private:
@@ -142,7 +141,7 @@ class Tracker : public horus::Node {
     const auto cmd = msg::CmdVel::with_timestamp(
         static_cast<float>(std::clamp(0.8 * remaining, 0.0, 0.8)), 0.0f, stamp());
     cmd_.send(cmd);
-    if (++count_ % 50 == 1) say("tracker", cmd.log_summary());
+    if (++count_ % 50 == 1) say(cmd.log_summary());
   }
 
  private:
@@ -163,7 +162,7 @@ class Motor : public horus::Node {
   void tick() override {
     if (auto stop = estop_.try_recv(); stop && stop->engaged && !estopped_) {
       estopped_ = true;
-      say("motor", "emergency stop: wheels halted at x=" + metres(world_.robot_x.load()));
+      say("emergency stop: wheels halted at x=" + metres(world_.robot_x.load()));
     }
     if (auto cmd = cmd_.try_recv()) target_ = cmd->linear;
     msg::DifferentialDriveCommand drive{};
@@ -175,8 +174,8 @@ class Motor : public horus::Node {
     world_.robot_speed = drive.left_velocity;
     world_.robot_x = world_.robot_x.load() + drive.left_velocity * 1e-3;
     if (++count_ % 500 == 1) {
-      say("motor", "wheels " + std::to_string(drive.left_velocity).substr(0, 4) + " m/s at x=" +
-                       metres(world_.robot_x.load()) + (drive.enable ? "" : " (disabled)"));
+      say("wheels " + std::to_string(drive.left_velocity).substr(0, 4) +
+          " m/s at x=" + metres(world_.robot_x.load()) + (drive.enable ? "" : " (disabled)"));
     }
   }
   void enter_safe_state() override {
@@ -186,8 +185,8 @@ class Motor : public horus::Node {
   bool is_safe_state() const override { return target_ == 0.0f || estopped_; }
   void shutdown() override {
     wheels_.send(msg::DifferentialDriveCommand{});
-    say("motor", "shutdown: wheels disabled (" + std::to_string(safe_entries_) +
-                     " deadline misses answered by stopping)");
+    say("shutdown: wheels disabled (" + std::to_string(safe_entries_) +
+        " deadline misses answered by stopping)");
   }
 
  private:
@@ -219,7 +218,7 @@ class Battery : public horus::Node {
     state.power_supply_status = msg::BatteryState::STATUS_DISCHARGING;
     state.timestamp_ns = stamp();
     battery_.send(state);
-    if (state.is_low(20.0f)) say("battery", "low battery");
+    if (state.is_low(20.0f)) say("low battery");
   }
 
  private:
@@ -248,7 +247,7 @@ class Fleet : public horus::Node {
                   battery ? battery->percentage : 0.0f, battery ? battery->voltage : 0.0f,
                   wheels ? wheels->left_velocity : 0.0f,
                   wheels && !wheels->enable ? " (disabled)" : "");
-    say("fleet", line);
+    say(line);
   }
 
  private:
@@ -273,6 +272,7 @@ int main(int argc, char** argv) {
                              .rt(true)
                              .watchdog(500_ms)
                              .blackbox_mb(1)
+                             .keep_topics(true)  // `horus topic` may still read them afterwards
                              .max_deadline_misses(1000)};
   sched.add(std::make_unique<Safety>()).order(0).rate(1000_hz).build();
   sched.add(std::make_unique<Lidar>(world)).order(10).rate(40_hz).build();
@@ -297,9 +297,9 @@ int main(int argc, char** argv) {
   std::printf(
       "warehouse_agv: 7 nodes for %.1f s (a person steps in front of the robot at %.1f s)\n",
       seconds, world.person_at_s);
-  for (const std::string& degradation : sched.degradations())
-    std::printf("  rt: %s\n", degradation.c_str());
   std::fflush(stdout);
+  for (const std::string& degradation : sched.degradations())
+    HORUS_LOG_WARN("rt degraded: %s", degradation.c_str());
   const int status = sched.run_for(
       std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::duration<double>(seconds)));
   std::printf("\nrobot stopped at x=%.2f m (pallet at %.1f m)\n\n%s", world.robot_x.load(),

@@ -80,9 +80,9 @@ void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 TEST(Log, LinesFromATickCarryTheNodeNameInTheStableFormat) {
   horus::Scheduler sched;
-  sched.add(std::make_shared<Lambda>("lidar", [] {
-         HORUS_LOG_INFO("connected on %s at %d baud", "/dev/ttyUSB0", 115200);
-       }))
+  sched
+      .add(std::make_shared<Lambda>(
+          "lidar", [] { HORUS_LOG_INFO("connected on %s at %d baud", "/dev/ttyUSB0", 115200); }))
       .build();
   testing::internal::CaptureStderr();
   sched.tick_once();
@@ -210,11 +210,14 @@ TEST(Log, EveryLineReachesStderrOrIsCountedAsDroppedAndTheRingKeepsTheNewest) {
 TEST(Log, LoggingFromATickDoesNotAllocate) {
   horus::Scheduler sched;  // opens the ring and starts the writer
   long during = -1;
-  sched.add(std::make_shared<Lambda>("rt", [&] {
-         const long start = allocations.load();
-         for (int i = 0; i < 100; ++i) HORUS_LOG_INFO("tick %d value %.3f", i, 0.5 * i);
-         during = allocations.load() - start;
-       }))
+  sched
+      .add(std::make_shared<Lambda>("rt",
+                                    [&] {
+                                      const long start = allocations.load();
+                                      for (int i = 0; i < 100; ++i)
+                                        HORUS_LOG_INFO("tick %d value %.3f", i, 0.5 * i);
+                                      during = allocations.load() - start;
+                                    }))
       .build();
   sched.tick_once();
   EXPECT_EQ(during, 0);

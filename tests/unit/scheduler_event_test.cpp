@@ -128,3 +128,81 @@ TEST_F(SchedulerEvent, RunningEventNodeWakesOncePerMessageWithoutPolling) {
   EXPECT_EQ(handler->ticks.load(), 3);
   EXPECT_EQ(sched.node_info("estop")->execution_class, horus::ExecutionClass::Event);
 }
+
+namespace {
+
+class EStopSender : public horus::Node {
+ public:
+  explicit EStopSender(const std::string& topic = "emergency.stop") : topic_(topic) {}
+  std::string_view name() const override { return "sender"; }
+  void tick() override {
+    for (int i = 0; i < 3; ++i) topic_.send(sched_test_msgs::EStop{++seq_, {}});
+  }
+
+ private:
+  horus::Topic<sched_test_msgs::EStop> topic_;
+  std::uint64_t seq_ = 0;
+};
+
+}  // namespace
+
+TEST_F(SchedulerEvent, MetricsCountTheMessagesANodesTopicsSendAndReceiveInItsCallbacks) {
+  horus::Scheduler sched;
+  sched.add(std::make_unique<EStopSender>()).order(0).build();
+  sched.add(std::make_unique<EStopHandler>()).order(1).build();
+  horus::Topic<sched_test_msgs::EStop> outsider("emergency.stop");
+  sched.tick_once();
+  outsider.send(sched_test_msgs::EStop{100, {}});  // outside any callback: nobody's count
+  sched.tick_once();
+  const auto sender = sched.node_metrics("sender");
+  const auto handler = sched.node_metrics("estop");
+  ASSERT_TRUE(sender && handler);
+  EXPECT_EQ(sender->messages_sent, 6U);
+  EXPECT_EQ(sender->messages_received, 0U);
+  EXPECT_EQ(handler->messages_received, 7U);
+  EXPECT_EQ(handler->messages_sent, 0U);
+  while (outsider.try_recv()) {
+  }
+  EXPECT_EQ(sched.node_metrics("estop")->messages_received, 7U);
+}
+
+namespace {
+
+bool topic_listed(const std::string& namespace_name, const std::string& topic) {
+  for (const auto& info : horus::list_topics(namespace_name)) {
+    if (info.name == topic) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+TEST_F(SchedulerEvent, DestroyingTheSchedulerRemovesTopicsThisProcessCreatedThatNobodyUses) {
+  {
+    horus::Scheduler sched;
+    sched.add(std::make_unique<EStopSender>("only.mine")).build();
+    sched.tick_once();
+    EXPECT_TRUE(topic_listed(namespace_, "only.mine"));
+  }
+  EXPECT_FALSE(topic_listed(namespace_, "only.mine"));
+}
+
+TEST_F(SchedulerEvent, TopicsStillOpenOrKeptSurviveTheScheduler) {
+  horus::Topic<sched_test_msgs::EStop> still_open("shared.topic");
+  {
+    horus::Scheduler sched;
+    sched.add(std::make_unique<EStopSender>("shared.topic")).build();
+    sched.tick_once();
+  }
+  EXPECT_TRUE(topic_listed(namespace_, "shared.topic"));
+  EXPECT_EQ(still_open.try_recv()->seq, 1U);
+
+  {
+    horus::Scheduler sched{horus::SchedulerConfig{}.keep_topics(true)};
+    sched.add(std::make_unique<EStopSender>("for.late.joiners")).build();
+    sched.tick_once();
+  }
+  EXPECT_TRUE(topic_listed(namespace_, "for.late.joiners"));
+  horus::Topic<sched_test_msgs::EStop> late("for.late.joiners");
+  EXPECT_EQ(late.read_latest()->seq, 3U);
+}

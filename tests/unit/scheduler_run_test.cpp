@@ -75,7 +75,10 @@ TEST(RequestStop, ANodeNoSchedulerHoldsIgnoresIt) {
   Counter loose("loose");
   loose.request_stop();  // nothing to stop, and no crash
   auto gone = std::make_shared<Counter>("gone");
-  { horus::Scheduler sched; sched.add(gone).build(); }
+  {
+    horus::Scheduler sched;
+    sched.add(gone).build();
+  }
   gone->request_stop();
   SUCCEED();
 }
@@ -114,7 +117,8 @@ TEST(Run, RejectsAnInvalidNodeSetting) {
 }
 
 TEST(Run, ReturnsOneWhenAFailureStopsIt) {
-  auto broken = std::make_shared<Counter>("broken", [](Counter&) { throw std::runtime_error("x"); });
+  auto broken =
+      std::make_shared<Counter>("broken", [](Counter&) { throw std::runtime_error("x"); });
   EXPECT_EQ(horus::run({broken}, simulated(), 1_s), 1);
   EXPECT_EQ(broken->ticks, 1);
 }

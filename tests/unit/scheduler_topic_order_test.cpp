@@ -59,10 +59,10 @@ TEST(TopicOrder, ASubscriberTicksAfterItsPublisherDespiteALowerOrder) {
 }
 
 TEST(TopicOrder, AChainRunsFromSourceToSink) {
-  EXPECT_EQ(one_pass({{"sink", 100, {}, {"b"}},
-                      {"middle", 100, {"b"}, {"a"}},
-                      {"source", 100, {"a"}, {}}}),
-            "source middle sink ");
+  EXPECT_EQ(
+      one_pass(
+          {{"sink", 100, {}, {"b"}}, {"middle", 100, {"b"}, {"a"}}, {"source", 100, {"a"}, {}}}),
+      "source middle sink ");
 }
 
 TEST(TopicOrder, OrderBreaksTiesBetweenIndependentNodes) {
@@ -83,15 +83,18 @@ TEST(TopicOrder, ACycleIsReportedOnce) {
   testing::internal::CaptureStderr();
   {
     horus::Scheduler sched{horus::SchedulerConfig{}.deterministic(true).name("graph")};
-    sched.add(std::make_shared<Wired>("a", std::vector<std::string>{"x"},
-                                      std::vector<std::string>{"y"}, trace))
+    sched
+        .add(std::make_shared<Wired>("a", std::vector<std::string>{"x"},
+                                     std::vector<std::string>{"y"}, trace))
         .build();
-    sched.add(std::make_shared<Wired>("b", std::vector<std::string>{"y"},
-                                      std::vector<std::string>{"x"}, trace))
+    sched
+        .add(std::make_shared<Wired>("b", std::vector<std::string>{"y"},
+                                     std::vector<std::string>{"x"}, trace))
         .build();
     for (int i = 0; i < 3; ++i) sched.tick_once();
-    sched.add(std::make_shared<Wired>("c", std::vector<std::string>{}, std::vector<std::string>{},
-                                      trace))
+    sched
+        .add(std::make_shared<Wired>("c", std::vector<std::string>{}, std::vector<std::string>{},
+                                     trace))
         .build();  // the order is computed again; the cycle is not reported again
     sched.tick_once();
   }

@@ -15,10 +15,10 @@
 //   - stderr, one line each, in the stable format of format_log_line():
 //       2026-11-25T06:22:04.123Z WARN motor: obstacle at 0.28 m
 //     A background thread writes them, so a node never waits for the terminal: call flush()
-//     before reading stderr yourself.
-//   - the namespace's log ring in shared memory ($HORUS_SHM_DIR/@logs/<namespace>, default
-//     /dev/shm/horus/@logs/default), which read_log() and the `horus log` command read, from any
-//     process, while the programs run and after they end.
+//     before reading stderr yourself (run() and tick_once() do before they return).
+//   - the namespace's log ring in shared memory (<root>/@logs/<namespace>, the root being
+//     $HORUS_SHM_DIR or /dev/shm/horus-<uid>), which read_log() and the `horus log` command read,
+//     from any process of the user, while the programs run and after they end.
 // Both are bounded lock-free rings: a call never blocks, takes a lock, allocates or makes a system
 // call in the common case (the first call of a process opens the ring; a Scheduler opens it at
 // construction), so an Rt tick may log. A line that cannot be placed without waiting is dropped
@@ -101,8 +101,8 @@ Stats stats() noexcept;
 }  // namespace log
 }  // namespace horus
 
-#define HORUS_LOG_AT(level, fn, ...)                        \
-  do {                                                      \
+#define HORUS_LOG_AT(level, fn, ...)                                 \
+  do {                                                               \
     if (::horus::log::enabled(level)) ::horus::log::fn(__VA_ARGS__); \
   } while (0)
 #define HORUS_LOG_DEBUG(...) HORUS_LOG_AT(::horus::LogLevel::Debug, debug, __VA_ARGS__)

@@ -26,6 +26,8 @@ struct NodeMetrics {
   std::uint64_t errors_count = 0;          // exceptions from init/tick/shutdown
   std::uint64_t warnings_count = 0;        // Miss::Warn misses and watchdog warnings
   std::uint64_t restarts = 0;              // re-inits under FailurePolicy::Restart
+  std::uint64_t messages_sent = 0;         // by its topics inside its callbacks
+  std::uint64_t messages_received = 0;     // ... messages its topics returned there
   double achieved_rate_hz = 0.0;           // ticks per second of uptime
   std::chrono::nanoseconds uptime{0};      // since init() succeeded
 };

@@ -64,7 +64,8 @@ class SchedulerConfig {
     tick_rate_ = r;
     return *this;
   }
-  /// Ask for SCHED_FIFO on Rt threads and mlockall; what cannot be had is listed in degradations().
+  /// Ask for SCHED_FIFO on Rt threads, mlockall, and the kernel's isolated CPUs (isolcpus) for Rt
+  /// threads not pinned by core()/cores(); what cannot be had is listed in degradations().
   SchedulerConfig& rt(bool on) {
     rt_ = on;
     return *this;
@@ -124,6 +125,24 @@ class SchedulerConfig {
     shutdown_timeout_ = t;
     return *this;
   }
+  /// Export every node's metrics and health as JSON every telemetry_interval (default 1 s) while
+  /// a loop runs, and once when run() ends: "udp://HOST:PORT" sends one datagram per snapshot,
+  /// "file:///PATH" replaces the file each time. Empty (the default): off.
+  SchedulerConfig& telemetry(std::string endpoint) {
+    telemetry_ = std::move(endpoint);
+    return *this;
+  }
+  SchedulerConfig& telemetry_interval(std::chrono::nanoseconds interval) {
+    telemetry_interval_ = interval;
+    return *this;
+  }
+  /// Keep the topics this process created in shared memory when the scheduler is destroyed, for
+  /// late joiners. Default off: once its nodes are gone, the scheduler removes every topic
+  /// segment this process created that no live process has open any more (seed 001, shutdown).
+  SchedulerConfig& keep_topics(bool on) {
+    keep_topics_ = on;
+    return *this;
+  }
   /// Whether run()/run_for()/tick_for() turn SIGINT and SIGTERM into a clean stop (default on).
   SchedulerConfig& handle_signals(bool on) {
     handle_signals_ = on;
@@ -143,6 +162,9 @@ class SchedulerConfig {
   bool verbose() const { return verbose_; }
   std::size_t compute_threads() const { return compute_threads_; }
   std::chrono::nanoseconds shutdown_timeout() const { return shutdown_timeout_; }
+  const std::string& telemetry() const { return telemetry_; }
+  std::chrono::nanoseconds telemetry_interval() const { return telemetry_interval_; }
+  bool keep_topics() const { return keep_topics_; }
   bool handle_signals() const { return handle_signals_; }
 
  private:
@@ -159,6 +181,9 @@ class SchedulerConfig {
   bool verbose_ = false;
   std::size_t compute_threads_ = 0;
   std::chrono::nanoseconds shutdown_timeout_ = std::chrono::seconds(3);
+  std::string telemetry_;
+  std::chrono::nanoseconds telemetry_interval_ = std::chrono::seconds(1);
+  bool keep_topics_ = false;
   bool handle_signals_ = true;
 };
 
@@ -289,9 +314,10 @@ struct SafetyStats {
 
 /// What rt() actually obtained.
 struct RtCapabilities {
-  bool rt_scheduling = false;   // SCHED_FIFO could be set
-  bool memory_locking = false;  // mlockall succeeded
-  bool cpu_isolation = false;   // the kernel has isolated CPUs (isolcpus)
+  bool rt_scheduling = false;      // SCHED_FIFO could be set
+  bool memory_locking = false;     // mlockall succeeded
+  bool cpu_isolation = false;      // the kernel has isolated CPUs (isolcpus)
+  std::vector<int> isolated_cpus;  // where Rt threads go unless pinned by core()/cores()
 };
 
 class Scheduler {

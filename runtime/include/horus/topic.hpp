@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "horus/codec.hpp"
+#include "horus/detail/message_count.hpp"
 #include "horus/detail/process.hpp"
 #include "horus/detail/publisher_lease.hpp"
 #include "horus/detail/ring.hpp"
@@ -178,6 +179,7 @@ class Topic {
     if constexpr (PodTopicValue<T>) {
       detail::copy_to_slot<sizeof(T)>(payload, &msg);
       detail::ring_commit(ring_, claim, sizeof(T), sent);
+      detail::count_sent();
       return true;
     } else {
       detail::FixedBufferStream stream(payload, ring_.payload_capacity);
@@ -190,6 +192,7 @@ class Topic {
         return false;
       }
       detail::ring_commit(ring_, claim, static_cast<std::uint32_t>(stream.size()), sent);
+      detail::count_sent();
       return true;
     }
   }
@@ -206,6 +209,7 @@ class Topic {
   /// Makes a loaned message visible. False (and a counter) when the loan had no slot.
   bool publish(Loan<T>&& loan) noexcept requires PodTopicValue<T> {
     if (loan.finish(sizeof(T))) {
+      detail::count_sent();
       return true;
     }
     ++stats_.send_failures;
@@ -359,6 +363,7 @@ class Topic {
           msg = try_decode<T>(std::span<const std::uint8_t>(buffer_.data(), length));
         }
         if (msg) {
+          detail::count_received();
           return;
         }
       }

@@ -119,8 +119,8 @@ void SchedulerImpl::release_if_due(NodeSlot& slot, std::int64_t& mono) noexcept 
   if (slot.next_release_ns > sched_now(mono)) return;
   const std::int64_t release = slot.next_release_ns;
   service(slot, release, mono);
-  slot.next_release_ns = next_on_grid(
-      release, slot.period_ns.load(std::memory_order_relaxed), sched_now(mono));
+  slot.next_release_ns =
+      next_on_grid(release, slot.period_ns.load(std::memory_order_relaxed), sched_now(mono));
 }
 
 void SchedulerImpl::pass_once(const std::vector<std::string>* names) {
@@ -274,6 +274,7 @@ void SchedulerImpl::start_threads(const LoopPlan& plan, std::int64_t end, Thread
     if (!plan.watched.empty()) {
       threads.spawn([this, watched = plan.watched, end] { run_watchdog(watched, end); });
     }
+    if (telemetry_) threads.spawn([this, end] { run_telemetry(end); });
   } catch (...) {
     threads.unblock_signals();
     request_stop("could not start the scheduler's threads", true);
@@ -314,6 +315,9 @@ void SchedulerImpl::apply_thread_settings(const Executor& ex) noexcept {
       pin = true;
     } else if (!config_.cores().empty()) {
       for (const int c : config_.cores()) CPU_SET(static_cast<unsigned>(c), &cpus);
+      pin = true;
+    } else if (ex.realtime && config_.rt() && !capabilities_.isolated_cpus.empty()) {
+      for (const int c : capabilities_.isolated_cpus) CPU_SET(static_cast<unsigned>(c), &cpus);
       pin = true;
     }
     if (pin) {

@@ -81,6 +81,8 @@ NodeMetrics SchedulerImpl::metrics(const NodeSlot& slot) const {
   m.errors_count = slot.errors.load(std::memory_order_relaxed);
   m.warnings_count = slot.warnings.load(std::memory_order_relaxed);
   m.restarts = slot.restarts.load(std::memory_order_relaxed);
+  m.messages_sent = slot.messages.sent.load(std::memory_order_relaxed);
+  m.messages_received = slot.messages.received.load(std::memory_order_relaxed);
   const auto since = slot.running_since_ns.load(std::memory_order_relaxed);
   if (since > 0) {
     const auto stopped = slot.stopped_at_ns.load(std::memory_order_relaxed);

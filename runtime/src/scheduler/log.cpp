@@ -11,6 +11,7 @@
 #include <ctime>
 #include <memory>
 #include <mutex>
+#include <new>
 #include <thread>
 
 #include "horus/detail/ring.hpp"
@@ -114,8 +115,8 @@ class Logger {
         shared_ready_.store(true, std::memory_order_release);
       } catch (const std::exception& e) {
         char note[512];
-        const int n = std::snprintf(note, sizeof(note),
-                                    "[horus] logging to stderr only: %s\n", e.what());
+        const int n =
+            std::snprintf(note, sizeof(note), "[horus] logging to stderr only: %s\n", e.what());
         write_all(note, static_cast<std::size_t>(std::clamp(n, 0, 511)));
       }
     }
@@ -197,7 +198,10 @@ class Logger {
 };
 
 Logger& logger() noexcept {
-  static Logger* const instance = new Logger();
+  // Built in static storage and never destroyed. Its construction allocates the ring once; out
+  // of memory there, a process cannot log at all and terminates.
+  alignas(Logger) static std::byte storage[sizeof(Logger)];
+  static Logger* const instance = ::new (storage) Logger();
   return *instance;
 }
 
@@ -281,12 +285,12 @@ LogLevel level() noexcept { return detail::logger().level().load(std::memory_ord
 
 bool enabled(LogLevel level) noexcept { return level >= log::level(); }
 
-#define HORUS_DEFINE_LOG_FUNCTION(function, level_value)                         \
-  void function(const char* format, ...) noexcept {                              \
-    va_list args;                                                                \
-    va_start(args, format);                                                      \
-    detail::vlog_as(level_value, detail::current_source(), format, args);        \
-    va_end(args);                                                                \
+#define HORUS_DEFINE_LOG_FUNCTION(function, level_value)                  \
+  void function(const char* format, ...) noexcept {                       \
+    va_list args;                                                         \
+    va_start(args, format);                                               \
+    detail::vlog_as(level_value, detail::current_source(), format, args); \
+    va_end(args);                                                         \
   }
 HORUS_DEFINE_LOG_FUNCTION(debug, LogLevel::Debug)
 HORUS_DEFINE_LOG_FUNCTION(info, LogLevel::Info)

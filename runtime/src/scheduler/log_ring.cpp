@@ -14,6 +14,7 @@
 #include <cstring>
 
 #include "horus/detail/errno_text.hpp"
+#include "horus/detail/shm_access.hpp"
 #include "horus/detail/shm_segment.hpp"
 #include "horus/error.hpp"
 
@@ -22,35 +23,39 @@ namespace {
 
 constexpr std::size_t kSharedCapacity = 4096;  // 2 MiB per namespace
 
-class Descriptor {
+/// Drops a flock on scope exit: the mapping keeps the open file description, and so the lock,
+/// alive past close.
+class FlockRelease {
  public:
-  explicit Descriptor(int fd) noexcept : fd_(fd) {}
-  Descriptor(const Descriptor&) = delete;
-  Descriptor& operator=(const Descriptor&) = delete;
-  ~Descriptor() {
-    if (fd_ >= 0) {
-      // Explicitly: a mapping keeps the open file description, and so a flock, alive past close.
-      ::flock(fd_, LOCK_UN);
-      ::close(fd_);
-    }
-  }
-  int get() const noexcept { return fd_; }
+  explicit FlockRelease(int fd) noexcept : fd_(fd) {}
+  FlockRelease(const FlockRelease&) = delete;
+  FlockRelease& operator=(const FlockRelease&) = delete;
+  ~FlockRelease() { ::flock(fd_, LOCK_UN); }
 
  private:
   int fd_;
 };
 
-void make_shared_directory(const std::string& path) {
-  if (::mkdir(path.c_str(), 01777) == 0) {
-    ::chmod(path.c_str(), 01777);  // shared by every user like /tmp; mkdir applied the umask
-    return;
-  }
-  if (errno != EEXIST) {
-    throw Error("cannot create the log directory " + path + ": " + errno_text(errno));
-  }
+constexpr const char* kLogsFolder = "@logs";
+
+std::string logs_directory() { return shm_root() + "/" + kLogsFolder; }
+
+/// The checked folder of the log rings (this user's, never writable by others), or a descriptor
+/// of -1 when it is missing and not `create`d.
+FileDescriptor open_logs_folder(bool create) {
+  const std::string root = shm_root();
+  const FileDescriptor root_folder =
+      open_trusted_directory(AT_FDCWD, root, root, 0600, true, false, create);
+  if (root_folder.get() < 0) return FileDescriptor();
+  return open_trusted_directory(root_folder.get(), kLogsFolder, logs_directory(), 0600, false,
+                                false, create);
 }
 
-std::string logs_directory() { return shm_root() + "/@logs"; }
+std::string ring_name(std::string_view namespace_name) {
+  std::string name = namespace_name.empty() ? current_namespace() : std::string(namespace_name);
+  validate_segment_name("namespace", name);
+  return name;
+}
 
 }  // namespace
 
@@ -122,22 +127,19 @@ LogRing::Read LogRing::read(std::uint64_t ticket, LogEntry& out) const noexcept 
 }
 
 std::string shared_log_ring_path(std::string_view namespace_name) {
-  const std::string name =
-      namespace_name.empty() ? current_namespace() : std::string(namespace_name);
-  validate_segment_name("namespace", name);
-  return logs_directory() + "/" + name;
+  return logs_directory() + "/" + ring_name(namespace_name);
 }
 
 LogRing open_shared_log_ring(std::string_view namespace_name) {
   const std::string path = shared_log_ring_path(namespace_name);
-  make_shared_directory(shm_root());
-  make_shared_directory(logs_directory());
-  const Descriptor fd(::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0600));
-  if (fd.get() < 0) throw Error("cannot open the log ring " + path + ": " + errno_text(errno));
+  const FileDescriptor folder = open_logs_folder(true);
+  const FileDescriptor fd = open_trusted_file(folder.get(), ring_name(namespace_name), path,
+                                              O_RDWR | O_CREAT, 0600, false);
   // Whoever finds the file empty formats it; the lock keeps the others from reading it half done.
   if (::flock(fd.get(), LOCK_EX) != 0) {
     throw Error("cannot lock the log ring " + path + ": " + errno_text(errno));
   }
+  const FlockRelease unlock(fd.get());
   struct stat info {};
   if (::fstat(fd.get(), &info) != 0) {
     throw Error("cannot stat the log ring " + path + ": " + errno_text(errno));
@@ -170,12 +172,13 @@ std::size_t format_log_entry(const LogEntry& entry, char* out, std::size_t size)
       to_string(static_cast<LogLevel>(std::min<std::uint8_t>(entry.level, 3)));
   const std::string_view source = entry.source_size > 0 ? entry.source_text() : "-";
   const int n = std::snprintf(
-      out, size, "%04d-%02u-%02uT%02d:%02d:%02d.%03dZ %.*s %.*s: %.*s", static_cast<int>(date.year()),
-      static_cast<unsigned>(date.month()), static_cast<unsigned>(date.day()),
-      static_cast<int>(time.hours().count()), static_cast<int>(time.minutes().count()),
-      static_cast<int>(time.seconds().count()), static_cast<int>(time.subseconds().count()),
-      static_cast<int>(level.size()), level.data(), static_cast<int>(source.size()), source.data(),
-      static_cast<int>(entry.message().size()), entry.message().data());
+      out, size, "%04d-%02u-%02uT%02d:%02d:%02d.%03dZ %.*s %.*s: %.*s",
+      static_cast<int>(date.year()), static_cast<unsigned>(date.month()),
+      static_cast<unsigned>(date.day()), static_cast<int>(time.hours().count()),
+      static_cast<int>(time.minutes().count()), static_cast<int>(time.seconds().count()),
+      static_cast<int>(time.subseconds().count()), static_cast<int>(level.size()), level.data(),
+      static_cast<int>(source.size()), source.data(), static_cast<int>(entry.message().size()),
+      entry.message().data());
   if (n < 0) return 0;
   return std::min(static_cast<std::size_t>(n), size - 1);
 }
@@ -199,13 +202,19 @@ std::string format_log_line(const LogRecord& record) {
 
 LogSnapshot read_log(std::string_view namespace_name) {
   const std::string path = detail::shared_log_ring_path(namespace_name);
-  const detail::Descriptor fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW));
+  const std::string name = detail::ring_name(namespace_name);
   LogSnapshot snapshot;
-  if (fd.get() < 0) {
-    if (errno == ENOENT) return snapshot;
-    throw Error("cannot open the log ring " + path + ": " + detail::errno_text(errno));
+  const detail::FileDescriptor folder = detail::open_logs_folder(false);
+  struct stat present {};
+  if (folder.get() < 0 ||
+      (::fstatat(folder.get(), name.c_str(), &present, AT_SYMLINK_NOFOLLOW) != 0 &&
+       errno == ENOENT)) {
+    return snapshot;
   }
+  const detail::FileDescriptor fd =
+      detail::open_trusted_file(folder.get(), name, path, O_RDONLY, 0600, false);
   ::flock(fd.get(), LOCK_SH);  // a ring still being formatted is not read half done
+  const detail::FlockRelease unlock(fd.get());
   struct stat info {};
   if (::fstat(fd.get(), &info) != 0) {
     throw Error("cannot stat the log ring " + path + ": " + detail::errno_text(errno));

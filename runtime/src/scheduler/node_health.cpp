@@ -32,7 +32,8 @@ void SchedulerImpl::escalate(NodeSlot& slot, std::uint8_t level) noexcept {
   if (target == NodeHealthState::Isolated) {
     // A frozen critical node puts the whole system in its safe state. Each node enters it on its
     // own thread at its next release, never concurrently with its own tick().
-    log(LogLevel::Error, "critical node '%s' frozen (3x watchdog): isolating it, all nodes to safe state",
+    log(LogLevel::Error,
+        "critical node '%s' frozen (3x watchdog): isolating it, all nodes to safe state",
         slot.name.c_str());
     slot.pending_safe_state.store(true, std::memory_order_release);
     for (const SlotPtr& other : loop_slots_) {

@@ -217,7 +217,8 @@ void SchedulerImpl::handle_failure(NodeSlot& slot, Phase phase, const std::strin
     TickContextScope scope(&slot.context);
     slot.node->on_error(what);
   } catch (...) {
-    log(LogLevel::Error, "node '%s': on_error() threw while handling: %s", slot.name.c_str(), what.c_str());
+    log(LogLevel::Error, "node '%s': on_error() threw while handling: %s", slot.name.c_str(),
+        what.c_str());
   }
   if (phase == Phase::Shutdown) return;
 

@@ -19,7 +19,8 @@ void SchedulerImpl::shutdown_node(const SlotPtr& slot, bool removing) noexcept {
       // Its thread is still inside tick() (detached at teardown): calling shutdown() now would
       // run two methods of one node at once.
       record(BlackboxEventKind::NodeShutdownFailed, s, 0, "still inside tick(); skipped");
-      log(LogLevel::Error, "node '%s' never returned from tick(); shutdown() skipped", s.name.c_str());
+      log(LogLevel::Error, "node '%s' never returned from tick(); shutdown() skipped",
+          s.name.c_str());
       s.state.store(NodeState::Error);
       s.shut_down = true;
     } else {

@@ -83,6 +83,7 @@ struct NodeSlot : std::enable_shared_from_this<NodeSlot> {
   std::atomic<std::uint64_t> errors{0};
   std::atomic<std::uint64_t> warnings{0};
   std::atomic<std::uint64_t> restarts{0};
+  MessageCounts messages;                         // by the node's topics, inside its callbacks
   std::atomic<std::int64_t> running_since_ns{0};  // monotonic; 0 before init
   std::atomic<std::int64_t> stopped_at_ns{0};     // monotonic; 0 until shut down
 

@@ -3,8 +3,8 @@
 
 #include "horus/error.hpp"
 #include "logger.hpp"
-#include "signals.hpp"
 #include "scheduler_impl.hpp"
+#include "signals.hpp"
 
 namespace horus::detail {
 
@@ -40,9 +40,12 @@ class SchedulerImpl::Activity {
 void SchedulerImpl::tick_once(const std::vector<std::string>* names) {
   Activity activity(*this, false);
   prepare();
-  if (stop_requested_.load()) return;
-  pass_once(names);
-  purge_removed();
+  if (!stop_requested_.load()) {
+    pass_once(names);
+    purge_removed();
+  }
+  // tick_once() is the testing entry point: what the pass logged is on stderr when it returns.
+  log::flush();
 }
 
 void SchedulerImpl::tick_for(std::int64_t duration_ns, const std::vector<std::string>* names) {
@@ -67,6 +70,7 @@ int SchedulerImpl::run(std::optional<std::int64_t> duration_ns) {
       finished_ = true;
     }
     record_scheduler(BlackboxEventKind::SchedulerStop, stop_reason());
+    export_telemetry();  // the final figures, also for runs shorter than one interval
   }
   if (failed_.load() && blackbox_) {
     try {

@@ -33,6 +33,9 @@ struct Executor {
 
 enum class Phase : std::uint8_t { Init, Tick, Shutdown };
 
+/// The CPUs of a kernel CPU list ("2-3,5"); empty for an empty or malformed one.
+std::vector<int> parse_cpu_list(std::string_view text);
+
 /// what() of the exception, or "unknown exception".
 std::string exception_text(std::exception_ptr error);
 
@@ -53,6 +56,7 @@ struct LoopPlan {
 };
 
 class ThreadGroup;
+class TelemetrySink;
 
 class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
  public:
@@ -130,6 +134,9 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   void run_executor(Executor& ex, std::int64_t end_ns) noexcept;
   void run_event(NodeSlot& slot, std::int64_t end_ns) noexcept;
   void run_watchdog(const std::vector<SlotPtr>& watched, std::int64_t end_ns) noexcept;
+  void run_telemetry(std::int64_t end_ns) noexcept;
+  void export_telemetry() noexcept;
+  std::string telemetry_snapshot() const;
   void apply_thread_settings(const Executor& ex) noexcept;
   bool sleep_until(std::int64_t mono_ns) noexcept;
   bool loop_ending() const noexcept { return wake_word_.load(std::memory_order_acquire) != 0; }
@@ -150,6 +157,8 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   std::string log_source_;
   std::filesystem::path blackbox_path_;
   std::unique_ptr<Blackbox> blackbox_;
+  std::unique_ptr<TelemetrySink> telemetry_;
+  std::atomic<bool> telemetry_failure_logged_{false};
   RtCapabilities capabilities_;
   bool locked_memory_ = false;
 

@@ -1,17 +1,21 @@
 // Scheduler set-up: configuration checks, RT probing, registering, validating and deriving
 // nodes, lazy initialisation, and changes to nodes at runtime.
+#include <sched.h>
 #include <sys/mman.h>
 
 #include <algorithm>
 #include <cerrno>
+#include <charconv>
 #include <cstdio>
 #include <fstream>
 #include <thread>
 
+#include "horus/detail/created_segments.hpp"
 #include "horus/detail/errno_text.hpp"
 #include "horus/error.hpp"
 #include "logger.hpp"
 #include "scheduler_impl.hpp"
+#include "telemetry.hpp"
 #include "topic_order.hpp"
 
 namespace horus::detail {
@@ -42,6 +46,29 @@ std::uint64_t fnv1a(std::string_view text) {
 
 }  // namespace
 
+std::vector<int> parse_cpu_list(std::string_view text) {
+  std::vector<int> cpus;
+  while (!text.empty()) {
+    const std::size_t comma = text.find(',');
+    const std::string_view item = text.substr(0, comma);
+    text = comma == std::string_view::npos ? std::string_view{} : text.substr(comma + 1);
+    int first = 0;
+    int last = 0;
+    const char* end = item.data() + item.size();
+    auto [after_first, error] = std::from_chars(item.data(), end, first);
+    if (error != std::errc{}) return {};  // not a list the kernel writes: trust none of it
+    if (after_first != end) {
+      if (*after_first != '-') return {};
+      auto [after_last, error_last] = std::from_chars(after_first + 1, end, last);
+      if (error_last != std::errc{} || after_last != end || last < first) return {};
+    } else {
+      last = first;
+    }
+    for (int cpu = first; cpu <= last && cpu < CPU_SETSIZE; ++cpu) cpus.push_back(cpu);
+  }
+  return cpus;
+}
+
 SchedulerImpl::SchedulerImpl(SchedulerConfig config)
     : config_(std::move(config)), tick_period_ns_(0), log_source_("@" + config_.name()) {
   prepare_logging();
@@ -70,11 +97,26 @@ SchedulerImpl::SchedulerImpl(SchedulerConfig config)
                          ? std::filesystem::path(config_.name() + ".blackbox")
                          : config_.blackbox_path();
   }
+  if (!config_.telemetry().empty()) {
+    if (config_.telemetry_interval().count() <= 0) {
+      throw Error(where + "telemetry_interval must be positive");
+    }
+    telemetry_ = std::make_unique<TelemetrySink>(config_.telemetry());
+  }
   if (config_.rt()) probe_rt();
 }
 
 SchedulerImpl::~SchedulerImpl() {
   if (locked_memory_) munlockall();
+  if (config_.keep_topics()) return;
+  // The nodes go first: their topics close, so a segment only they used has no live user left.
+  loop_slots_.clear();
+  slots_.clear();
+  try {
+    remove_created_segments_nobody_uses();
+  } catch (const std::exception& e) {
+    log(LogLevel::Warn, "could not remove this process's unused topics: %s", e.what());
+  }
 }
 
 void SchedulerImpl::probe_rt() {
@@ -98,7 +140,8 @@ void SchedulerImpl::probe_rt() {
   std::ifstream isolated("/sys/devices/system/cpu/isolated");
   std::string line;
   std::getline(isolated, line);
-  capabilities_.cpu_isolation = !line.empty();
+  capabilities_.isolated_cpus = parse_cpu_list(line);
+  capabilities_.cpu_isolation = !capabilities_.isolated_cpus.empty();
   if (!capabilities_.cpu_isolation) {
     add_degradation("no isolated CPUs (isolcpus) - RT threads share cores with other work");
   }
@@ -188,7 +231,9 @@ void SchedulerImpl::derive(NodeSlot& slot) const {
   const bool timed = slot.execution_class == ExecutionClass::Rt;
   slot.budget_auto = !c.budget && timed;
   slot.deadline_auto = !c.deadline && timed;
-  const std::int64_t budget = c.budget ? c.budget->count() : timed ? automatic_budget_ns(period) : 0;
+  const std::int64_t budget = c.budget ? c.budget->count()
+                              : timed  ? automatic_budget_ns(period)
+                                       : 0;
   const std::int64_t deadline = c.deadline ? c.deadline->count()
                                 : timed    ? automatic_deadline_ns(period, budget)
                                            : 0;
@@ -280,6 +325,7 @@ void SchedulerImpl::prepare() {
     s->context.rng = &s->rng;
     s->context.start_ns = start_mono_ns_;
     s->context.node_name = s->name;
+    s->context.messages = &s->messages;
     s->next_release_ns = sim_now_ns_;
   }
   for (const SlotPtr& s : fresh) {
@@ -304,8 +350,7 @@ void SchedulerImpl::refresh_loop_slots() {
     topic_cycle_reported_ = true;
     std::string names;
     for (const std::string& n : cycle_breaks) names += (names.empty() ? "'" : ", '") + n + "'";
-    log(LogLevel::Warn, "topic cycle: %s run before their publishers (by order())",
-        names.c_str());
+    log(LogLevel::Warn, "topic cycle: %s run before their publishers (by order())", names.c_str());
   }
 }
 

@@ -55,7 +55,7 @@ void wake(std::atomic<std::uint32_t>& word) noexcept {
 int take_stop_signal() noexcept { return g_signal.exchange(0); }
 
 SignalScope::SignalScope(bool stop_signals, std::atomic<std::uint32_t>& word, const Blackbox* box,
-            const std::filesystem::path& box_path)
+                         const std::filesystem::path& box_path)
     : stop_signals_(stop_signals), crash_(box != nullptr) {
   if (stop_signals_) {
     g_signal.store(0);

@@ -6,6 +6,8 @@
 #include <ctime>
 #include <string_view>
 
+#include "horus/detail/message_count.hpp"
+
 namespace horus::detail {
 
 /// splitmix64: tiny, fast and good enough for simulation noise; fully determined by its state.
@@ -35,7 +37,8 @@ struct TickContext {
   std::int64_t budget_ns = 0;  // 0: no budget
   std::uint64_t tick_index = 0;
   Rng* rng = nullptr;
-  std::string_view node_name;  // what log lines from this node's callbacks carry
+  std::string_view node_name;         // what log lines from this node's callbacks carry
+  MessageCounts* messages = nullptr;  // what its topics count into
 };
 
 /// The calling thread's context while inside a node callback, else nullptr.
@@ -44,15 +47,21 @@ TickContext*& current_tick_context() noexcept;
 /// Sets the thread's context for the lifetime of the guard (callbacks may nest through tick_once).
 class TickContextScope {
  public:
-  explicit TickContextScope(TickContext* ctx) noexcept : previous_(current_tick_context()) {
+  explicit TickContextScope(TickContext* ctx) noexcept
+      : previous_(current_tick_context()), previous_messages_(current_message_counts) {
     current_tick_context() = ctx;
+    current_message_counts = ctx != nullptr ? ctx->messages : nullptr;
   }
-  ~TickContextScope() { current_tick_context() = previous_; }
+  ~TickContextScope() {
+    current_tick_context() = previous_;
+    current_message_counts = previous_messages_;
+  }
   TickContextScope(const TickContextScope&) = delete;
   TickContextScope& operator=(const TickContextScope&) = delete;
 
  private:
   TickContext* previous_;
+  MessageCounts* previous_messages_;
 };
 
 inline std::int64_t monotonic_ns() noexcept {

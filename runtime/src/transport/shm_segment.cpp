@@ -20,6 +20,7 @@
 #include <cstring>
 #include <utility>
 
+#include "horus/detail/created_segments.hpp"
 #include "horus/error.hpp"
 
 namespace horus::detail {
@@ -463,6 +464,7 @@ ShmSegment ShmSegment::open_topic(std::string_view topic, const TypeDescriptor& 
     write_all(fd.get(), type.schema.data(), type.schema.size(), header.schema_offset, path);
     start_publishers_afresh(control.ring, options.single_publisher);
     control.layout_ready.store(1, std::memory_order_release);
+    remember_created_segment(options.namespace_name, name, options.mode);
   }
 
   if (!has_live_users(control, true)) {

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <optional>
 
+#include "horus/detail/created_segments.hpp"
 #include "horus/detail/shm_segment.hpp"
 #include "horus/error.hpp"
 
@@ -149,7 +150,10 @@ void inspect(const detail::NamespaceFolder& folder, TopicInfo& info) {
   ::munmap(base, size);
 }
 
-/// Removes the segment `name` if no live process uses it.
+}  // namespace
+
+namespace detail {
+
 bool remove_if_abandoned(const detail::NamespaceFolder& folder, const std::string& name) {
   std::optional<LockedFile> file;
   try {
@@ -172,6 +176,10 @@ bool remove_if_abandoned(const detail::NamespaceFolder& folder, const std::strin
   // an opener that opened the path before re-checks the inode after locking (open_locked).
   return !in_use && ::unlinkat(folder.descriptor.get(), name.c_str(), 0) == 0;
 }
+
+}  // namespace detail
+
+namespace {
 
 /// Removes the namespace folder once it is empty (a folder still in use stays).
 void remove_folder_if_empty(const detail::NamespaceFolder& folder) {
@@ -206,7 +214,7 @@ std::size_t clean_namespace(std::string_view namespace_name) {
       detail::open_namespace_folder(namespace_name, kToolAccess, false);
   std::size_t removed = 0;
   for (const std::string& name : segment_names(folder)) {
-    removed += remove_if_abandoned(folder, name) ? 1 : 0;
+    removed += detail::remove_if_abandoned(folder, name) ? 1 : 0;
   }
   remove_folder_if_empty(folder);
   return removed;
