@@ -24,7 +24,7 @@ class CallbackScope {
     clock_.now_s = seconds(horus::now());
     clock_.dt_s = seconds(horus::dt());
     clock_.elapsed_s = seconds(horus::elapsed());
-    clock_.tick = horus::tick();
+    clock_.tick = horus::tick_index();
     clock_.valid = true;
     clock_.in_callback = outer_;
   }

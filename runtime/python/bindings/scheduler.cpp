@@ -13,6 +13,7 @@
 
 #include "bindings.hpp"
 #include "horus/clock.hpp"
+#include "horus/log.hpp"
 #include "horus/scheduler.hpp"
 #include "py_node.hpp"
 
@@ -134,7 +135,8 @@ using Release = py::call_guard<py::gil_scoped_release>;
 void bind_scheduler(py::module_& m) {
   py::class_<Node, std::shared_ptr<Node>>(
       m, "Node", "A C++ horus::Node; extensions expose their C++ nodes as subclasses of it.")
-      .def_property_readonly("name", [](const Node& node) { return std::string(node.name()); });
+      .def_property_readonly("name", [](const Node& node) { return std::string(node.name()); })
+      .def("request_stop", &Node::request_stop);
 
   py::class_<PyNode, Node, std::shared_ptr<PyNode>>(m, "PyNode")
       .def(py::init([](std::string name, py::tuple callbacks,
@@ -319,7 +321,7 @@ void bind_scheduler(py::module_& m) {
   });
   m.def("tick", [] {
     const ClockSnapshot& clock = thread_clock();
-    return clock.in_callback ? horus::tick() : clock.tick;
+    return clock.in_callback ? horus::tick_index() : clock.tick;
   });
   m.def("budget_remaining", [] {
     const auto remaining = horus::budget_remaining();
@@ -328,6 +330,23 @@ void bind_scheduler(py::module_& m) {
   });
   m.def("rng_float", [] { return horus::rng_float(); });
   m.def("in_callback", [] { return thread_clock().in_callback; });
+  m.def(
+      "log",
+      [](const std::string& level, std::string_view source, std::string_view message) {
+        static const std::pair<const char*, LogLevel> levels[] = {
+            {"debug", LogLevel::Debug}, {"info", LogLevel::Info}, {"warn", LogLevel::Warn},
+            {"error", LogLevel::Error}};
+        for (const auto& [name, value] : levels) {
+          if (level == name) {
+            log::emit(value, source, message);
+            return;
+          }
+        }
+        throw Error("log level must be debug, info, warn or error, got '" + level + "'");
+      },
+      py::arg("level"), py::arg("source"), py::arg("message"));
+  m.def("flush_log", &log::flush, py::call_guard<py::gil_scoped_release>(),
+        "Returns once every line logged so far is on stderr.");
 }
 
 }  // namespace horus::python
