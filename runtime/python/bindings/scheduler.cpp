@@ -85,9 +85,11 @@ py::dict info_dict(const NodeInfo& info) {
   out["on"] = info.on_topic ? py::object(py::str(*info.on_topic)) : py::object(py::none());
   out["last_error"] = info.last_error;
   py::list pubs;
-  for (const auto& topic : info.publishers) pubs.append(py::make_tuple(topic.topic_name, topic.type_name));
+  for (const auto& topic : info.publishers)
+    pubs.append(py::make_tuple(topic.topic_name, topic.type_name));
   py::list subs;
-  for (const auto& topic : info.subscribers) subs.append(py::make_tuple(topic.topic_name, topic.type_name));
+  for (const auto& topic : info.subscribers)
+    subs.append(py::make_tuple(topic.topic_name, topic.type_name));
   out["publishers"] = pubs;
   out["subscribers"] = subs;
   return out;
@@ -258,9 +260,8 @@ void bind_scheduler(py::module_& m) {
       .def("stop_reason", &Scheduler::stop_reason)
       .def("node_count", &Scheduler::node_count)
       .def("node_names", &Scheduler::node_names)
-      .def("has_node", [](const Scheduler& sched, const std::string& name) {
-        return sched.has_node(name);
-      })
+      .def("has_node",
+           [](const Scheduler& sched, const std::string& name) { return sched.has_node(name); })
       .def("node_info",
            [](const Scheduler& sched, const std::string& name) -> py::object {
              auto info = sched.node_info(name);
@@ -303,9 +304,8 @@ void bind_scheduler(py::module_& m) {
              out["cpu_isolation"] = caps.cpu_isolation;
              return out;
            })
-      .def("dump_blackbox", [](const Scheduler& sched, const std::string& path) {
-        sched.dump_blackbox(path);
-      });
+      .def("dump_blackbox",
+           [](const Scheduler& sched, const std::string& path) { sched.dump_blackbox(path); });
 
   m.def("now", [] {
     const ClockSnapshot& clock = thread_clock();
@@ -333,9 +333,10 @@ void bind_scheduler(py::module_& m) {
   m.def(
       "log",
       [](const std::string& level, std::string_view source, std::string_view message) {
-        static const std::pair<const char*, LogLevel> levels[] = {
-            {"debug", LogLevel::Debug}, {"info", LogLevel::Info}, {"warn", LogLevel::Warn},
-            {"error", LogLevel::Error}};
+        static const std::pair<const char*, LogLevel> levels[] = {{"debug", LogLevel::Debug},
+                                                                  {"info", LogLevel::Info},
+                                                                  {"warn", LogLevel::Warn},
+                                                                  {"error", LogLevel::Error}};
         for (const auto& [name, value] : levels) {
           if (level == name) {
             log::emit(value, source, message);
