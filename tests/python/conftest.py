@@ -19,6 +19,10 @@ sys.path.insert(0, str(ROOT / "generator"))
 # The cross-language suite needs the C++ tools that ctest builds and names in these variables
 # (test `python_crosslang`); a plain `pytest tests/python` does not collect it rather than skip it.
 collect_ignore = [] if os.environ.get("HORUS_CROSSLANG_TOOL") else ["test_python_crosslang.py"]
+# Likewise the Python runtime's suite needs the build's horus package and C++ peers (test
+# `pytest_runtime`, which names them in HORUS_PY_PEER).
+if not os.environ.get("HORUS_PY_PEER"):
+    collect_ignore.append("runtime")
 
 
 def run_horus_gen(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
