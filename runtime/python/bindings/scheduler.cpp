@@ -132,13 +132,29 @@ struct ReleasingDeleter {
 
 using Release = py::call_guard<py::gil_scoped_release>;
 
+/// A weak reference to a node, for its request_stop().
+struct StopHandle {
+  std::weak_ptr<Node> node;
+  void request_stop() const noexcept {
+    if (const auto held = node.lock()) {
+      held->request_stop();
+    }
+  }
+};
+
 }  // namespace
 
 void bind_scheduler(py::module_& m) {
   py::class_<Node, std::shared_ptr<Node>>(
       m, "Node", "A C++ horus::Node; extensions expose their C++ nodes as subclasses of it.")
       .def_property_readonly("name", [](const Node& node) { return std::string(node.name()); })
-      .def("request_stop", &Node::request_stop);
+      .def("request_stop", &Node::request_stop)
+      .def("stop_handle", [](const std::shared_ptr<Node>& node) { return StopHandle{node}; });
+
+  py::class_<StopHandle>(m, "StopHandle",
+                         "Node.request_stop() without owning the node (a Python node keeps one: "
+                         "owning its C++ node would make a cycle the garbage collector cannot see)")
+      .def("request_stop", &StopHandle::request_stop);
 
   py::class_<PyNode, Node, std::shared_ptr<PyNode>>(m, "PyNode")
       .def(py::init([](std::string name, py::tuple callbacks,

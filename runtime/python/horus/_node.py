@@ -83,7 +83,7 @@ class Node:
         self._topics: dict[str, Topic] = {}
         self._loop = None
         self._scheduler = None
-        self._core = None  # the C++ node, once added to a scheduler
+        self._stop = None  # request_stop() of the C++ node, once added to a scheduler
 
     # -- what the scheduler calls --------------------------------------------------------------
 
@@ -105,10 +105,13 @@ class Node:
         shutdown = self._shutdown
         safe = getattr(self, "enter_safe_state", None)
         is_safe = getattr(self, "is_safe_state", None)
-        self._core = _core.PyNode(self.name, (_with_topics(self, init), tick, shutdown, safe, is_safe),
-                                  [(t, _type_name(c)) for t, c in self.pubs.items()],
-                                  [(t, _type_name(c)) for t, c in self.subs.items()])
-        return self._core
+        node = _core.PyNode(self.name, (_with_topics(self, init), tick, shutdown, safe, is_safe),
+                            [(t, _type_name(c)) for t, c in self.pubs.items()],
+                            [(t, _type_name(c)) for t, c in self.subs.items()])
+        # Weak: the C++ node's callbacks hold this node, so holding it back would be a cycle
+        # through C++ that the garbage collector cannot see.
+        self._stop = node.stop_handle()
+        return node
 
     def _tick_async(self) -> None:
         if self._loop is None:
@@ -167,8 +170,8 @@ class Node:
     def request_stop(self) -> None:
         """Asks the scheduler running this node to stop (as Ctrl+C would); safe from any thread.
         A node no scheduler holds ignores it."""
-        if self._core is not None:
-            self._core.request_stop()
+        if self._stop is not None:
+            self._stop.request_stop()
 
     # -- logging (only inside init / tick / shutdown; dropped elsewhere, as the seed says) ------
 

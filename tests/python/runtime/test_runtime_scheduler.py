@@ -160,3 +160,16 @@ def test_run_from_a_python_thread_that_then_ends():
     out, err = child.communicate(timeout=60)
     assert child.returncode == 0, err
     assert out.split() == ["True", "True"]
+
+
+def test_a_dropped_scheduler_releases_its_python_nodes():
+    import gc
+    import weakref
+
+    node = Node(name="n", tick=lambda n: None, shutdown=lambda n: None)
+    sched = Scheduler(tick_rate=100, deterministic=True).add(node)
+    sched.tick_once()
+    alive = weakref.ref(node)
+    del node, sched
+    gc.collect()
+    assert alive() is None
