@@ -17,9 +17,10 @@
 # too big to be inline: declare them in the #[cpp_mixin] fragment and add the .cpp that defines
 # them with target_sources(my_msgs PRIVATE ...). Python only: an INTERFACE library.
 # With `python` in LANGUAGES the Python package folder (put it on sys.path) is the target property
-# HORUS_PYTHON_DIR and the variable <TARGET>_PYTHON_DIR. HORUS_SCHEMA_DIRS holds the folders that
-# horus-gen searches for imports and qualified names (-I), here and in every target that DEPENDS
-# on this one: the folders of FILES, the root above them when they sit in their package's folder
+# HORUS_PYTHON_DIR and the variable <TARGET>_PYTHON_DIR; with `cpp`, the generated C++ folder is
+# the target property HORUS_CPP_DIR. HORUS_SCHEMA_DIRS holds the folders that horus-gen searches
+# for imports and qualified names (-I), here and in every target that DEPENDS on this one: the
+# folders of FILES, the root above them when they sit in their package's folder
 # (schemas/ for schemas/my_robot/msg/motor.hmsg in my_robot.msg), INCLUDE_DIRS, and the folders
 # of the DEPENDS targets.
 #
@@ -227,7 +228,7 @@ function(horus_generate)
   # needs the files.
   add_custom_target(${ARG_TARGET}_generate ALL DEPENDS "${stamp}")
 
-  # C++: a static library of the generated sources (one per schema file: log_summary() and the
+  # C++: a static library of the generated source (one per package: log_summary() and the
   # layout checks, compiled once here instead of in every file that includes the headers),
   # position-independent so that it can go into shared libraries and Python extensions too.
   # Python only: an INTERFACE target that carries the properties below.
@@ -244,6 +245,7 @@ function(horus_generate)
     target_include_directories(${ARG_TARGET} PUBLIC
       "$<BUILD_INTERFACE:${out}/cpp>"
       "$<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>")
+    set_target_properties(${ARG_TARGET} PROPERTIES HORUS_CPP_DIR "${out}/cpp")
   else()
     add_library(${ARG_TARGET} INTERFACE)
     target_link_libraries(${ARG_TARGET} INTERFACE horus::headers ${ARG_DEPENDS})

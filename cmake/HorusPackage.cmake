@@ -4,17 +4,20 @@
 #   P/lib/cmake/horus/                  horusConfig.cmake, targets, HorusGenerate.cmake
 #   P/include/horus/msg/..., P/lib/libhorus_msgs.a, P/lib/python3.X/dist-packages/horus/msg
 #                                       the standard messages (horus::msgs)
-#   P/share/horus/{generator,templates,schemas}   the generator, its templates, the schemas
-#   P/bin/horus-gen                     the generator's command
+#   P/share/horus/{generator,templates,schemas}   the generator package, its templates, the schemas
+#   P/share/horus/python/_horus_gen_support_v1.py the support module copied into Python outputs
+#   P/bin/horus-gen                     the generator's command (configured from cmake/horus-gen.in
+#                                       with where the three above are, relative to it)
 # so that user projects do find_package(horus CONFIG) and call horus_generate().
-# The generator finds its templates as ../templates of its own folder, in the source tree and
-# under share/horus alike.
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
 set(HORUS_INSTALL_CMAKEDIR "${CMAKE_INSTALL_LIBDIR}/cmake/horus")
 set(HORUS_INSTALL_GENERATORDIR "${CMAKE_INSTALL_DATADIR}/horus/generator")
 set(HORUS_INSTALL_SCHEMADIR "${CMAKE_INSTALL_DATADIR}/horus/schemas")
+set(HORUS_INSTALL_TEMPLATEDIR "${CMAKE_INSTALL_DATADIR}/horus/templates")
+set(HORUS_INSTALL_SUPPORTDIR "${CMAKE_INSTALL_DATADIR}/horus/python")
+set(HORUS_INSTALL_GEN "${CMAKE_INSTALL_BINDIR}/horus-gen")
 
 set_target_properties(horus_headers PROPERTIES EXPORT_NAME headers)
 set_target_properties(horus_runtime PROPERTIES EXPORT_NAME runtime)
@@ -34,21 +37,24 @@ install(TARGETS ${horus_exported} EXPORT horusTargets ARCHIVE DESTINATION "${CMA
 install(DIRECTORY runtime/include/horus DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}")
 install(EXPORT horusTargets NAMESPACE horus:: DESTINATION "${HORUS_INSTALL_CMAKEDIR}")
 
-install(PROGRAMS generator/horus-gen DESTINATION "${HORUS_INSTALL_GENERATORDIR}")
 install(DIRECTORY generator/horus_gen DESTINATION "${HORUS_INSTALL_GENERATORDIR}"
         PATTERN __pycache__ EXCLUDE)
-install(DIRECTORY templates/ DESTINATION "${CMAKE_INSTALL_DATADIR}/horus/templates"
+install(FILES runtime/python/_horus_gen_support_v1.py DESTINATION "${HORUS_INSTALL_SUPPORTDIR}")
+install(DIRECTORY templates/ DESTINATION "${HORUS_INSTALL_TEMPLATEDIR}"
         PATTERN README.md EXCLUDE)
 install(DIRECTORY schemas/ DESTINATION "${HORUS_INSTALL_SCHEMADIR}" PATTERN README.md EXCLUDE)
 
-file(RELATIVE_PATH HORUS_GEN_FROM_BIN "/${CMAKE_INSTALL_BINDIR}" "/${HORUS_INSTALL_GENERATORDIR}")
+file(RELATIVE_PATH HORUS_GEN_PACKAGE_FROM_BIN "/${CMAKE_INSTALL_BINDIR}" "/${HORUS_INSTALL_GENERATORDIR}")
+file(RELATIVE_PATH HORUS_TEMPLATES_FROM_BIN "/${CMAKE_INSTALL_BINDIR}" "/${HORUS_INSTALL_TEMPLATEDIR}")
+file(RELATIVE_PATH HORUS_SUPPORT_FROM_BIN "/${CMAKE_INSTALL_BINDIR}"
+     "/${HORUS_INSTALL_SUPPORTDIR}/_horus_gen_support_v1.py")
 configure_file(cmake/horus-gen.in "${PROJECT_BINARY_DIR}/package/horus-gen" @ONLY)
 install(PROGRAMS "${PROJECT_BINARY_DIR}/package/horus-gen" DESTINATION "${CMAKE_INSTALL_BINDIR}")
 
 configure_package_config_file(cmake/horusConfig.cmake.in
   "${PROJECT_BINARY_DIR}/package/horusConfig.cmake"
   INSTALL_DESTINATION "${HORUS_INSTALL_CMAKEDIR}"
-  PATH_VARS HORUS_INSTALL_GENERATORDIR HORUS_INSTALL_SCHEMADIR HORUS_PYTHON_INSTALL_DIR)
+  PATH_VARS HORUS_INSTALL_GEN HORUS_INSTALL_SCHEMADIR HORUS_PYTHON_INSTALL_DIR)
 # 0.x: a new minor version may break users, so only the same minor version is compatible.
 write_basic_package_version_file("${PROJECT_BINARY_DIR}/package/horusConfigVersion.cmake"
   COMPATIBILITY SameMinorVersion)

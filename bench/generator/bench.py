@@ -27,6 +27,8 @@ CAPNP = HERE / "capnp" / "bench_msgs.capnp"
 LCM = sorted((HERE / "lcm").glob("*.lcm"))
 HORUS_GEN = [sys.executable, str(ROOT / "generator" / "horus-gen")]
 CXX = ["g++", "-std=c++20", "-fsyntax-only"]
+# A library's sources compile as CMake's default build type here (RelWithDebInfo) compiles them.
+CXX_OBJECT = ["g++", "-std=c++20", "-O2", "-g", "-c"]
 
 # The "typical POD message" rows: one flat message without strings, and one that nests a
 # Header (which holds a string<32>, an LCM `string`): LCM's header for the latter pulls in <string>.
@@ -47,10 +49,12 @@ def run(cmd, env=None):
 
 
 class Case:
-    """One timed command; `before()` runs untimed before each run."""
+    """One timed command, or several run one after another (`cmds`); `before()` runs untimed
+    before each run."""
 
-    def __init__(self, cmd, before=None, env=None):
-        self.cmd, self.before, self.env = cmd, before, env
+    def __init__(self, cmd=None, before=None, env=None, cmds=None):
+        self.cmds = cmds if cmds is not None else [cmd]
+        self.before, self.env = before, env
         self.samples = []
 
 
@@ -65,7 +69,8 @@ def timed(cases, reps):
             if case.before:
                 case.before()
             start = time.perf_counter()
-            run(case.cmd, env=case.env)
+            for cmd in case.cmds:
+                run(cmd, env=case.env)
             elapsed = time.perf_counter() - start
             if round_ > 0:
                 case.samples.append(elapsed)
@@ -240,6 +245,104 @@ def bench_headers(work, reps, horus_out, capnp_out, lcm_out):
     return {key: (label,) + times[key] for key, label, _, _ in cases}
 
 
+def bench_cold_build(work, reps, env):
+    """The cold build of the package's generated C++, each step as a build runs it: generate into
+    an empty folder, compile every generated source one at a time, and one translation unit that
+    includes every generated header (-fsyntax-only); horus-gen and capnp side by side."""
+    horus_out, capnp_out = work / "cold-horus", work / "cold-capnp"
+    capnp_cmd = ["capnp", "compile", f"-oc++:{capnp_out}", f"--src-prefix={CAPNP.parent}", str(CAPNP)]
+    run(horus_gen_cmd(horus_out, "cpp"), env=env)
+    fresh(capnp_out)()
+    run(capnp_cmd)
+    horus_sources = sorted((horus_out / "cpp").rglob("*.cpp"))
+    capnp_sources = sorted(capnp_out.rglob("*.c++"))
+    horus_flags = ["-I", str(ROOT / "runtime" / "include"), "-I", str(horus_out / "cpp"), "-DMSGPACK_NO_BOOST"]
+    capnp_flags = ["-I", str(capnp_out)]
+    tu = work / "cold-tu"
+    tu.mkdir()
+    horus_all = tu / "horus_every_header.cpp"
+    horus_all.write_text("".join(f'#include "{h.relative_to(horus_out / "cpp")}"\n'
+                                 for h in sorted((horus_out / "cpp").rglob("*.hpp"))))
+    capnp_all = tu / "capnp_every_header.cpp"
+    capnp_all.write_text("".join(f'#include "{h.relative_to(capnp_out)}"\n' for h in sorted(capnp_out.rglob("*.h"))))
+    objects = work / "cold-objects"
+    objects.mkdir()
+
+    def compile_each(sources, flags):
+        return [CXX_OBJECT + flags + [str(src), "-o", str(objects / (src.name + ".o"))] for src in sources]
+
+    cases = {
+        "horus_generate": Case(horus_gen_cmd(horus_out, "cpp"), before=fresh(horus_out), env=env),
+        "capnp_generate": Case(capnp_cmd, before=fresh(capnp_out)),
+    }
+    times = timed(cases, reps)
+    # Sources and headers are compiled from a generated copy that stays in place.
+    run(horus_gen_cmd(horus_out, "cpp"), env=env)
+    run(capnp_cmd)
+    times.update(timed({
+        "horus_sources": Case(cmds=compile_each(horus_sources, horus_flags)),
+        "capnp_sources": Case(cmds=compile_each(capnp_sources, capnp_flags)),
+        "horus_headers": Case(CXX + horus_flags + [str(horus_all)]),
+        "capnp_headers": Case(CXX + capnp_flags + [str(capnp_all)]),
+    }, reps))
+    times["counts"] = {"horus": (len(horus_sources), len(list((horus_out / "cpp").rglob("*.hpp")))),
+                       "capnp": (len(capnp_sources), len(list(capnp_out.rglob("*.h"))))}
+    return times
+
+
+def bench_python_import(work, reps, env):
+    """`import horus.msg` (the standard library generated for Python) against `import numpy`, each
+    in a fresh interpreter, with the interpreter's start-up as the floor."""
+    out = work / "py-std"
+    std = ROOT / "schemas"
+    run(HORUS_GEN + ["generate", "--lang", "python", "--out", str(out), "-I", str(std)] +
+        [str(p) for p in sorted((std / "horus" / "msg").glob("*.hmsg"))], env=env)
+    py_env = dict(env, PYTHONPATH=str(out / "python"))
+    return timed({
+        "floor": Case([sys.executable, "-c", "pass"], env=py_env),
+        "horus_msg": Case([sys.executable, "-c", "import horus.msg"], env=py_env),
+        "numpy": Case([sys.executable, "-c", "import numpy"], env=py_env),
+    }, reps)
+
+
+def report_cold(cold, py):
+    lines = []
+    add = lines.append
+    add("## Cold build of the package's generated C++ (issue: <= 0.5x Cap'n Proto)")
+    add("")
+    (hs, hh), (cs, ch) = cold["counts"]["horus"], cold["counts"]["capnp"]
+    add(f"Generate into an empty folder; compile every generated source one at a time "
+        f"(`{' '.join(CXX_OBJECT)}`: horus {hs} `.cpp`, capnp {cs} `.c++`); one translation unit "
+        f"including every generated header (`{' '.join(CXX)}`: horus {hh}, capnp {ch}).")
+    add("")
+    add("| step | horus-gen (median) | Cap'n Proto (median) | horus / capnp |")
+    add("|---|---:|---:|---:|")
+    total_h = total_c = 0.0
+    for key, label in [("generate", "generate (C++)"), ("sources", "compile every generated source"),
+                       ("headers", "one TU including every header, -fsyntax-only")]:
+        h, c = cold[f"horus_{key}"][0], cold[f"capnp_{key}"][0]
+        total_h, total_c = total_h + h, total_c + c
+        add(f"| {label} | {fmt(h)} | {fmt(c)} | {ratio(h, c)} |")
+    verdict = "met" if total_h <= 0.5 * total_c else "NOT met"
+    add(f"| **cold build** | **{fmt(total_h)}** | **{fmt(total_c)}** | **{ratio(total_h, total_c)}** "
+        f"(goal <= 0.50x: {verdict}) |")
+    add("")
+    add("## Python: importing the generated standard library")
+    add("")
+    add("| fresh interpreter running | median | min | above `pass` |")
+    add("|---|---:|---:|---:|")
+    floor = py["floor"][0]
+    for key, label in [("floor", "`pass`"), ("horus_msg", "`import horus.msg`"), ("numpy", "`import numpy`")]:
+        med, lo = py[key]
+        add(f"| {label} | {fmt(med)} | {fmt(lo)} | {fmt(max(med - floor, 0.0))} |")
+    add("")
+    verdict = "met" if py["horus_msg"][0] <= py["numpy"][0] else "NOT met"
+    add(f"`import horus.msg` / `import numpy`: {ratio(py['horus_msg'][0], py['numpy'][0])} "
+        f"(goal <= 1.00x: {verdict}).")
+    add("")
+    return "\n".join(lines)
+
+
 def report(args, gen, hdr, info):
     base = hdr["empty"][1]
     above = {k: max(v[1] - base, 0.0) for k, v in hdr.items()}
@@ -353,8 +456,12 @@ def main():
         gen, horus_out, capnp_out, lcm_out = bench_generation(work, args.gen_reps)
         print(f"headers: {args.cxx_reps} compiles each ...", flush=True)
         hdr = bench_headers(work, args.cxx_reps, horus_out, capnp_out, lcm_out)
+        print(f"cold build: {args.cxx_reps} runs of each step ...", flush=True)
+        cold = bench_cold_build(work, args.cxx_reps, python_env(work, bytecode=True))
+        print(f"python import: {args.gen_reps} runs each ...", flush=True)
+        py = bench_python_import(work, args.gen_reps, python_env(work, bytecode=True))
 
-    text = report(args, gen, hdr, info)
+    text = report(args, gen, hdr, info) + "\n" + report_cold(cold, py)
     print()
     print(text)
     Path(args.results).write_text(text)

@@ -10,12 +10,15 @@ import json
 import os
 import sys
 
-from . import emit
+from .data import DataPaths
 from .diagnostics import Reporter
+from .lang import LANGUAGES, emitter
+from .lang.common import template_files
+from .loader import Options
 from .model import Enum, Message, Model, Service
 from .output import write_depfile, write_outputs, touch
 from .parser import FILE_KINDS
-from .resolve import Options, Resolver
+from .resolve import Resolver
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -29,7 +32,7 @@ def build_parser() -> argparse.ArgumentParser:
         sub.add_argument("--package", help="package of files that declare none (default: their folder's name)")
 
     def outputs(sub: argparse.ArgumentParser) -> None:
-        sub.add_argument("--lang", default="cpp", help="comma-separated languages: " + ",".join(emit.LANGUAGES))
+        sub.add_argument("--lang", default="cpp", help="comma-separated languages: " + ",".join(LANGUAGES))
         sub.add_argument("--out", required=True, metavar="OUT", help="output folder (OUT/cpp, OUT/python)")
 
     generate = commands.add_parser("generate", help="write C++ headers and Python modules")
@@ -47,14 +50,15 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(data: DataPaths, argv: list[str] | None = None) -> int:
+    """Runs one command; `data` is where the launcher keeps the templates and the support module."""
     args = build_parser().parse_args(argv)
     usage = check_usage(args)
     if usage:
         print(f"horus-gen: error: {usage}", file=sys.stderr)
         return 2
     try:
-        return run(args)
+        return run(args, data)
     except KeyboardInterrupt:
         return 130
     except Exception as error:  # a bug in horus-gen, not in the schema: say so without a traceback
@@ -75,15 +79,15 @@ def check_usage(args: argparse.Namespace) -> str | None:
         if not os.path.isdir(folder):
             return f"-I {folder}: no such folder"
     if hasattr(args, "lang"):
-        unknown = [lang for lang in args.lang.split(",") if lang not in emit.LANGUAGES]
+        unknown = [lang for lang in args.lang.split(",") if lang not in LANGUAGES]
         if unknown:
-            return f"unknown language '{unknown[0]}' (known: {', '.join(emit.LANGUAGES)})"
+            return f"unknown language '{unknown[0]}' (known: {', '.join(LANGUAGES)})"
     if getattr(args, "depfile", None) and not getattr(args, "stamp", None):
         return "--depfile needs --stamp (the file the dependencies belong to)"
     return None
 
 
-def run(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace, data: DataPaths) -> int:
     reporter = Reporter()
     model = Resolver(reporter, Options(args.include_dirs, args.package)).run(args.files)
     if reporter.has_errors:
@@ -97,23 +101,29 @@ def run(args: argparse.Namespace) -> int:
     languages = args.lang.split(",")
     files: dict[str, str] = {}
     for language in languages:
-        files.update(emit.emitter(language)(model))
+        files.update(emitter(language)(model, data))
     if args.command == "list-outputs":
         for relative in sorted(files):
             print(os.path.abspath(os.path.join(args.out, relative)))
         return 0
-    write_outputs(args.out, files)
+    try:
+        write_outputs(args.out, files)
+    except OSError as error:
+        print(f"horus-gen: error: cannot write the output to '{args.out}': {error}", file=sys.stderr)
+        return 1
     if args.depfile:
-        write_depfile(args.depfile, args.stamp, model.inputs + emit.template_files(languages) + generator_sources())
+        write_depfile(args.depfile, args.stamp, model.inputs + template_files(data, languages) + generator_sources(data)
+                      + ([data.python_support] if "python" in languages else []))
     if args.stamp:
         touch(args.stamp)
     return 0
 
 
-def generator_sources() -> list[str]:
+def generator_sources(data: DataPaths) -> list[str]:
+    """The generator's own files: a change to any of them may change every output."""
     package = os.path.dirname(os.path.abspath(__file__))
     return sorted(glob.glob(os.path.join(package, "**", "*.py"), recursive=True)) + \
-        [os.path.join(os.path.dirname(package), "horus-gen")]
+        [data.launcher]
 
 
 def describe_text(model: Model) -> str:

@@ -7,6 +7,11 @@ from __future__ import annotations
 
 import difflib
 from dataclasses import dataclass, field
+from functools import cached_property
+
+# More errors than this in one run are counted, not shown: past it they are noise, and rendering
+# each costs a look-up in its file.
+MAX_SHOWN_ERRORS = 100
 
 
 @dataclass(frozen=True)
@@ -15,8 +20,13 @@ class Source:
     text: str
 
     def line_text(self, line: int) -> str:
-        lines = self.text.splitlines()
-        return lines[line - 1] if 0 < line <= len(lines) else ""
+        """Line `line` as the lexer counts lines (at '\n' only), kept once per file."""
+        lines = self.lines
+        return lines[line - 1].removesuffix("\r") if 0 < line <= len(lines) else ""
+
+    @cached_property
+    def lines(self) -> list[str]:
+        return self.text.split("\n")
 
 
 @dataclass(frozen=True)
@@ -64,12 +74,14 @@ class Reporter:
     """Collects every error of a run; nothing is printed until the run is over."""
 
     diagnostics: list[Diagnostic] = field(default_factory=list)
+    seen: set[tuple] = field(default_factory=set)  # the same error reached twice is reported once
 
     def error(self, span: Span, message: str, hint: str | None = None,
               notes: tuple[Note, ...] = ()) -> None:
-        diagnostic = Diagnostic(span, message, hint, notes)
-        if diagnostic not in self.diagnostics:
-            self.diagnostics.append(diagnostic)
+        key = (str(span), span.length, message, hint, tuple((str(n.span), n.message) for n in notes))
+        if key not in self.seen:
+            self.seen.add(key)
+            self.diagnostics.append(Diagnostic(span, message, hint, notes))
 
     @property
     def has_errors(self) -> bool:
@@ -77,8 +89,11 @@ class Reporter:
 
     def render(self) -> str:
         ordered = sorted(self.diagnostics, key=lambda d: (d.span.source.path, d.span.line, d.span.col))
-        body = "\n".join(d.render() for d in ordered)
         count = len(self.diagnostics)
+        shown = ordered[:MAX_SHOWN_ERRORS]
+        body = "\n".join(d.render() for d in shown)
+        if count > len(shown):
+            body += f"\n({count - len(shown)} more errors not shown)"
         return f"{body}\n{count} error{'s' if count != 1 else ''} generated.\n"
 
 

@@ -10,6 +10,16 @@ from typing import Callable
 
 from .model import EnumRef, FixedArray, FixedString, MessageRef, Padding, Primitive, Type
 
+# Limits (docs/schema-language.md, "Limits"): a POD message is one shared-memory slot, and its
+# padding is listed range by range in the generated code of both languages.
+MAX_POD_SIZE = 1 << 30
+MAX_PADDING_RANGES = 1 << 16
+
+
+class LayoutTooLarge(ValueError):
+    """A POD layout past MAX_POD_SIZE or MAX_PADDING_RANGES; the message says which."""
+
+
 # (size, alignment, padding ranges inside the value) of a nested POD message, by qualified name.
 NestedLayout = Callable[[str], tuple[int, int, tuple[Padding, ...]]]
 
@@ -28,7 +38,13 @@ def type_layout(t: Type, nested: NestedLayout, enum_underlying: Callable[[str], 
         return nested(t.qualified)
     if isinstance(t, FixedArray):
         size, align, holes = type_layout(t.element, nested, enum_underlying)
-        repeated = tuple(Padding(i * size + h.offset, h.size) for i in range(t.length) for h in holes)
+        if size * t.length > MAX_POD_SIZE:
+            raise LayoutTooLarge(f"[{t.length} elements of {size} bytes] is more than the {MAX_POD_SIZE} bytes "
+                                 "a POD message may hold")
+        if len(holes) * t.length > MAX_PADDING_RANGES:
+            raise LayoutTooLarge(f"{t.length} elements with {len(holes)} padding range(s) each make more than "
+                                 f"{MAX_PADDING_RANGES} padding ranges")
+        repeated = tuple(Padding(i * size + h.offset, h.size) for i in range(t.length) for h in holes) if holes else ()
         return size * t.length, align, repeated
     raise ValueError(f"{t!r} has no POD layout")
 
@@ -48,6 +64,8 @@ def struct_layout(members: list[tuple[int, int, tuple[Padding, ...]]]
         offset = aligned + size
         alignment = max(alignment, align)
     size = max(1, (offset + alignment - 1) // alignment * alignment)
+    if size > MAX_POD_SIZE:
+        raise LayoutTooLarge(f"its {size} bytes are more than the {MAX_POD_SIZE} bytes a POD message may hold")
     if size > offset:  # an empty struct's one byte too: no field writes it
         holes.append(Padding(offset, size - offset))
     return offsets, size, alignment, _merge(holes)

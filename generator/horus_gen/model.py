@@ -135,7 +135,7 @@ class Padding:
 @dataclass(frozen=True)
 class Mixin:
     source_path: str  # absolute path of the hand-written file
-    output_path: str  # path relative to the language's output root
+    relative: str  # its path relative to the schema's folder (each language names the copy)
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,11 @@ from .syntax import (Attribute, ConstDecl, EnumDecl, EnumVariant, FieldDecl, Fil
 FILE_KINDS = {".hmsg": "message", ".hsrv": "service"}
 
 
+# How deep types (arrays, Vec, Option) and list values may nest (docs/schema-language.md, "Limits"):
+# numpy arrays have at most 32 dimensions, and every stage of horus-gen walks types recursively.
+MAX_NESTING = 16
+
+
 class _Recover(Exception):
     """Raised after an error has been reported, to resynchronise at the enclosing block."""
 
@@ -24,6 +29,7 @@ class Parser:
         self.file_kind = file_kind
         self.tokens = tokenize(source, reporter)
         self.pos = 0
+        self.nesting = 0
 
     # -- token helpers -------------------------------------------------------------------------
     def peek(self, ahead: int = 0) -> Token:
@@ -263,7 +269,21 @@ class Parser:
         return FieldDecl(name.text, name.span, type_expr, default, attributes, docs)
 
     # -- types and literals --------------------------------------------------------------------
+    def nested(self, token: Token, what: str) -> None:
+        """Enters one level of a nested type or list; past MAX_NESTING, reports it and gives up."""
+        if self.nesting >= MAX_NESTING:
+            raise self.fail(token.span, f"{what} nest more than {MAX_NESTING} deep",
+                            "flatten it, or name the inner part as a message of its own")
+
     def parse_type(self) -> TypeExpr:
+        self.nested(self.peek(), "types")
+        self.nesting += 1
+        try:
+            return self.parse_type_inside()
+        finally:
+            self.nesting -= 1
+
+    def parse_type_inside(self) -> TypeExpr:
         token = self.peek()
         if token.is_punct("["):
             self.advance()
@@ -294,6 +314,14 @@ class Parser:
         return TypeExpr(tuple(path), Span(token.span.source, token.span.line, token.span.col, length), tuple(args))
 
     def parse_literal(self) -> Literal:
+        self.nested(self.peek(), "values")
+        self.nesting += 1
+        try:
+            return self.parse_literal_inside()
+        finally:
+            self.nesting -= 1
+
+    def parse_literal_inside(self) -> Literal:
         token = self.peek()
         if token.is_punct("-"):
             self.advance()

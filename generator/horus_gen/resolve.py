@@ -1,4 +1,6 @@
 """Resolver: syntax trees -> the resolved model (names bound, checks done, layout and identity).
+Files are found and parsed by loader.py, literals converted by values.py, summaries parsed by
+summary.py; the names of output files are the emitters' (lang/<lang>.py).
 
 Every check reports through the Reporter and carries on, so a run lists all of its errors. A
 type whose definition is broken is left out of the model quietly (its error was reported), so
@@ -6,20 +8,21 @@ one mistake does not cascade into errors about every type that uses it.
 """
 from __future__ import annotations
 
-import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from . import identity
 from .diagnostics import Note, Reporter, Source, Span, did_you_mean
-from .layout import struct_layout, type_layout
-from .model import (PRIMITIVES, Bytes, Constant, DynString, Enum, EnumRef, EnumValue, Field,
-                    FixedArray, FixedString, Message, MessageRef, Mixin, Model, Optional, Padding,
-                    Primitive, Service, SummaryPart, Type, Value, Variant, Vec)
-from .names import RESERVED_MEMBERS, keyword_clash, snake_case
-from .parser import FILE_KINDS, parse
-from .syntax import (Attribute, EnumDecl, FieldDecl, FileSyntax, Literal, MessageDecl,
-                     ServiceDecl, TypeExpr)
+from .lang import cpp, keyword_clash, python
+from .layout import MAX_POD_SIZE, LayoutTooLarge, struct_layout, type_layout
+from .loader import Loader, Options, Unit
+from .model import (PRIMITIVES, Bytes, Constant, DynString, Enum, EnumRef, Field, FixedArray,
+                    FixedString, Message, MessageRef, Mixin, Model, Optional, Padding, Primitive,
+                    Service, Type, Variant, Vec)
+from .names import RESERVED_MEMBERS
+from .summary import summary_parts
+from .syntax import EnumDecl, FieldDecl, Literal, MessageDecl, ServiceDecl, TypeExpr
+from .values import INTEGER_RANGES, check_attributes, convert_value, is_constant_type
 
 BUILTIN_NAMES = sorted(list(PRIMITIVES) + ["String", "bytes", "string", "Vec", "Option"])
 
@@ -28,26 +31,8 @@ MESSAGE_ATTRIBUTES = {"topic": "string", "fixed": "flag", "summary": "string",
                       "cpp_mixin": "string", "cpp_include": "strings", "py_mixin": "string"}
 FIELD_ATTRIBUTES = {"unit": "string"}
 NO_ATTRIBUTES: dict[str, str] = {}
-
-INTEGER_RANGES = {p.name: ((-(1 << (p.size * 8 - 1)), (1 << (p.size * 8 - 1)) - 1) if p.is_signed
-                           else (0, (1 << (p.size * 8)) - 1))
-                  for p in PRIMITIVES.values() if p.is_integer}
-F32_MAX = 3.4028234663852886e38
-
-
-@dataclass
-class Options:
-    include_dirs: list[str] = field(default_factory=list)
-    package: str | None = None
-
-
-@dataclass
-class Unit:
-    """One schema file: its syntax and the package its items live in."""
-    path: str
-    syntax: FileSyntax
-    package: str
-
+# The language whose emitter names the copy of each kind of mixin file.
+MIXIN_LANGUAGES = {"cpp_mixin": cpp, "py_mixin": python}
 
 @dataclass
 class Decl:
@@ -60,19 +45,17 @@ class Decl:
 class Resolver:
     def __init__(self, reporter: Reporter, options: Options):
         self.reporter = reporter
-        self.options = options
-        self.units: dict[str, Unit] = {}
+        self.model = Model()
+        self.loader = Loader(reporter, options, self.model.inputs)
         self.decls: dict[str, Decl] = {}
         self.service_decls: dict[str, tuple[ServiceDecl, Unit]] = {}
-        self.scanned_folders: set[str] = set()
         self.mixin_outputs: dict[str, Mixin] = {}  # output path -> the helper file copied there
-        self.model = Model()
         self.broken: set[str] = set()
         self.types: dict[str, dict[str, Type]] = {}  # message -> field name -> resolved type
 
-    # -- loading ---------------------------------------------------------------------------------
     def run(self, paths: list[str]) -> Model:
-        roots = [u for u in (self.load(p, root=True) for p in paths) if u is not None]
+        roots = [u for u in (self.loader.load(p, root=True) for p in paths) if u is not None]
+        self.declare_loaded()
         generated: list[str] = []
         for unit in roots:
             for item in unit.syntax.items:
@@ -84,86 +67,14 @@ class Resolver:
         self.resolve_all()
         self.model.generated = [q for q in dict.fromkeys(generated)
                                 if q in self.model.types or q in self.model.services]
-        self.check_file_names(roots)
+        self.check_file_names()
         return self.model
 
-    def load(self, path: str, import_span: Span | None = None, root: bool = False) -> Unit | None:
-        real = os.path.realpath(path)
-        if real in self.units:
-            return self.units[real]
-        kind = FILE_KINDS.get(os.path.splitext(path)[1])
-        if kind is None:
-            if import_span:
-                self.reporter.error(import_span, f"cannot import '{path}': not a .hmsg or .hsrv file")
-            return None
-        try:
-            with open(path, encoding="utf-8") as handle:
-                text = handle.read()
-        except (OSError, UnicodeDecodeError) as error:
-            if import_span:
-                self.reporter.error(import_span, f"cannot read '{path}': {error}")
-            else:
-                self.reporter.error(Span(Source(path, ""), 1, 1), f"cannot read file: {error}")
-            return None
-        source = Source(path, text)
-        self.model.inputs.append(path)
-        syntax = parse(source, self.reporter, kind)
-        package = self.package_of(syntax, path, root)
-        unit = Unit(path, syntax, package)
-        self.units[real] = unit
-        for target, span in syntax.imports:
-            found = self.find_import(target, os.path.dirname(path))
-            if found is None:
-                searched = [os.path.dirname(path) or "."] + self.options.include_dirs
-                self.reporter.error(span, f"cannot find imported file '{target}'",
-                                    "searched " + ", ".join(f"'{d}'" for d in searched)
-                                    + "; add the folder that holds it with -I (INCLUDE_DIRS in CMake)")
-            else:
-                self.load(found, span)
-        self.declare(unit)
-        return unit
-
-    def package_of(self, syntax: FileSyntax, path: str, root: bool) -> str:
-        """The file's own `package`, else --package for the files being compiled, else the
-        name of the file's folder (so a library reached through -I keeps its own package)."""
-        if syntax.package is not None:
-            name, span = syntax.package
-        else:
-            given = self.options.package if root else None
-            name = given or os.path.basename(os.path.dirname(os.path.abspath(path)))
-            span = Span(syntax.source, 1, 1)
-        for part in name.split("."):
-            clash = keyword_clash(part)
-            if not part.isidentifier() or clash:
-                self.reporter.error(span, f"package name '{name}' cannot be a C++ namespace and a Python package"
-                                    + (f": '{part}' is {clash}" if clash else ""),
-                                    "use lowercase identifiers separated by '.', such as 'my_robot.msg'")
-                break
-        return name
-
-    def find_import(self, target: str, base: str) -> str | None:
-        for folder in [base] + self.options.include_dirs:
-            candidate = os.path.join(folder, target)
-            if os.path.isfile(candidate):
-                return candidate
-        return None
-
-    def scan_package_folders(self, package: str, near: str | None) -> None:
-        """Loads the schema files of `package`'s folder in every include dir, so that a qualified
-        name resolves without an explicit import. Their errors are reported like any other: a
-        package the schema uses is part of what it compiles against."""
-        relative = package.replace(".", os.sep)
-        folders = [os.path.join(d, relative) for d in self.options.include_dirs] + ([near] if near else [])
-        for folder in folders:
-            real = os.path.realpath(folder)
-            if real in self.scanned_folders or not os.path.isdir(folder):
-                continue
-            self.scanned_folders.add(real)
-            for name in sorted(os.listdir(folder)):
-                if os.path.splitext(name)[1] in FILE_KINDS:
-                    self.load(os.path.join(folder, name))
-
     # -- declarations ----------------------------------------------------------------------------
+    def declare_loaded(self) -> None:
+        for unit in self.loader.take_loaded():
+            self.declare(unit)
+
     def declare(self, unit: Unit) -> None:
         for item in unit.syntax.items:
             if isinstance(item, ServiceDecl):
@@ -195,25 +106,17 @@ class Resolver:
                             (Note(previous_span, "first declared here"),))
         return False
 
-    def check_file_names(self, roots: list[Unit]) -> None:
-        sources: dict[tuple[str, str], Unit] = {}
-        for unit in (u for u in roots if u.syntax.items):
-            key = (unit.package, os.path.basename(unit.path))
-            first = sources.setdefault(key, unit)
-            if first is not unit:
-                self.reporter.error(Span(unit.syntax.source, 1, 1),
-                                    f"schema files '{first.path}' and '{unit.path}' of package '{unit.package}' "
-                                    f"would both be compiled into '{key[1]}.cpp'", "rename one of them")
-        seen: dict[tuple[str, str], str] = {}
+    def check_file_names(self) -> None:
+        seen: dict[str, str] = {}
         for qualified in self.model.generated:
-            package, name = qualified.rsplit(".", 1)
-            key = (package, snake_case(name))
-            if key in seen:
+            name = qualified.rsplit(".", 1)[1]
+            header = cpp.header_path(qualified)
+            if header in seen:
                 decl = self.decls.get(qualified)
                 span = decl.item.span if decl else self.service_decls[qualified][0].span
-                self.reporter.error(span, f"types '{seen[key]}' and '{name}' would both be written to "
-                                    f"'{key[1]}.hpp'", "rename one of them")
-            seen[key] = name
+                self.reporter.error(span, f"types '{seen[header]}' and '{name}' would both be written to "
+                                    f"'{os.path.basename(header)}'", "rename one of them")
+            seen[header] = name
 
     # -- resolution ------------------------------------------------------------------------------
     def preload_referenced_packages(self) -> None:
@@ -237,7 +140,8 @@ class Resolver:
                             continue
                         package = decl.unit.package if len(path) == 1 else ".".join(path[:-1])
                         own_folder = os.path.dirname(decl.unit.path) if package == decl.unit.package else None
-                        self.scan_package_folders(package, own_folder)
+                        self.loader.scan_package_folders(package, own_folder)
+                        self.declare_loaded()
 
     def resolve_all(self) -> None:
         self.preload_referenced_packages()
@@ -258,8 +162,9 @@ class Resolver:
             if isinstance(request, Message) and isinstance(response, Message):
                 text = identity.service_text(qualified, (request.qualified, request.fingerprint),
                                              (response.qualified, response.fingerprint))
-                self.model.services[qualified] = Service(unit.package, item.name, request, response, item.docs,
-                                                         unit.path, identity.fingerprint(text))
+                self.model.services[qualified] = Service(
+                    package=unit.package, name=item.name, request=request, response=response, docs=item.docs,
+                    source=unit.path, fingerprint=identity.fingerprint(text))
 
     def resolve_fields(self, decl: Decl) -> dict[str, Type]:
         item = decl.item
@@ -345,6 +250,10 @@ class Resolver:
                                     "use string<32> for inline text of up to 32 bytes, or String for any length")
                 return None
             capacity = expr.args[0]
+            if capacity.kind == "int" and capacity.value > MAX_POD_SIZE:
+                self.reporter.error(capacity.span, f"string capacity {capacity.value} is more than {MAX_POD_SIZE}",
+                                    "use String for long text")
+                return None
             if capacity.kind != "int" or capacity.value < 1:
                 self.reporter.error(capacity.span, f"string capacity must be a positive integer, found {capacity.value}",
                                     "string<0> holds nothing; use string<N> with N >= 1")
@@ -366,6 +275,10 @@ class Resolver:
         if literal.value < 1:
             self.reporter.error(literal.span, f"array length must be at least 1, found {literal.value}",
                                 "a zero-length array holds nothing; remove the field or use Vec<T>")
+            return None
+        if literal.value > MAX_POD_SIZE:
+            self.reporter.error(literal.span, f"array length {literal.value} is more than {MAX_POD_SIZE}",
+                                "use Vec<T> or bytes for bulk data")
             return None
         return literal.value
 
@@ -431,7 +344,7 @@ class Resolver:
     def build_enum(self, decl: Decl) -> None:
         item = decl.item
         assert isinstance(item, EnumDecl)
-        self.check_attributes(item.attributes, NO_ATTRIBUTES, f"enum '{item.name}'")
+        check_attributes(self.reporter, item.attributes, NO_ATTRIBUTES, f"enum '{item.name}'")
         underlying = PRIMITIVES["i32"]
         if item.underlying is not None:
             candidate = PRIMITIVES.get(item.underlying.name)
@@ -478,39 +391,40 @@ class Resolver:
         if not item.variants:
             self.reporter.error(item.span, f"enum '{item.name}' has no enumerators")
         text = identity.enum_text(decl.qualified, underlying.name, [(v.name, v.value) for v in variants])
-        self.model.types[decl.qualified] = Enum(decl.unit.package, item.name, underlying, tuple(variants),
-                                                item.docs, decl.unit.path, text, text, text,
-                                                identity.fingerprint(text))
+        self.model.types[decl.qualified] = Enum(
+            package=decl.unit.package, name=item.name, underlying=underlying, variants=tuple(variants),
+            docs=item.docs, source=decl.unit.path, canonical=text, definition=text, schema=text,
+            fingerprint=identity.fingerprint(text))
 
     # -- messages --------------------------------------------------------------------------------
     def build_message(self, decl: Decl) -> None:
         item = decl.item
         assert isinstance(item, MessageDecl)
         if decl.service is None:
-            attributes = self.check_attributes(item.attributes, MESSAGE_ATTRIBUTES, f"message '{item.name}'")
+            attributes = check_attributes(self.reporter, item.attributes, MESSAGE_ATTRIBUTES, f"message '{item.name}'")
         else:
-            attributes = self.check_attributes(item.attributes, NO_ATTRIBUTES, f"'{item.name}'")
+            attributes = check_attributes(self.reporter, item.attributes, NO_ATTRIBUTES, f"'{item.name}'")
         types = self.types[decl.qualified]
         fields: list[Field] = []
         for f in item.fields:
-            field_attributes = self.check_attributes(f.attributes, FIELD_ATTRIBUTES, f"field '{f.name}'")
+            field_attributes = check_attributes(self.reporter, f.attributes, FIELD_ATTRIBUTES, f"field '{f.name}'")
             t = types.get(f.name)
             if t is None or self.is_missing(t):
                 continue
-            default = self.convert_value(f.default, t, f"field '{f.name}'") if f.default is not None else None
+            default = convert_value(self.reporter, self.model.types, f.default, t, f"field '{f.name}'") if f.default is not None else None
             fields.append(Field(f.name, t, identity.spelling(t), default, field_attributes.get("unit", ""),
                                 f.docs, f.span))
         constants: list[Constant] = []
         for c in item.constants:
-            self.check_attributes(c.attributes, NO_ATTRIBUTES, f"constant '{c.name}'")
+            check_attributes(self.reporter, c.attributes, NO_ATTRIBUTES, f"constant '{c.name}'")
             t = self.resolve_type(c.type, decl.unit)
             if t is None:
                 continue
-            if not _is_constant_type(t):
+            if not is_constant_type(t):
                 self.reporter.error(c.type.span, f"constant '{c.name}' has type '{identity.spelling(t)}'",
                                     "constants are numbers, bool, enums or strings")
                 continue
-            value = self.convert_value(c.value, t, f"constant '{c.name}'")
+            value = convert_value(self.reporter, self.model.types, c.value, t, f"constant '{c.name}'")
             if value is not None:
                 constants.append(Constant(c.name, t, identity.spelling(t), value, c.docs))
         if len(fields) < len(item.fields):
@@ -528,22 +442,30 @@ class Resolver:
         size = alignment = None
         padding: tuple[Padding, ...] = ()
         if is_pod:
-            layouts = [type_layout(f.type, self.nested_layout, self.enum_underlying) for f in fields]
-            offsets, size, alignment, padding = struct_layout(layouts)
+            try:
+                layouts = [type_layout(f.type, self.nested_layout, self.enum_underlying) for f in fields]
+                offsets, size, alignment, padding = struct_layout(layouts)
+            except LayoutTooLarge as error:
+                self.reporter.error(item.span, f"message '{item.name}' is too large: {error}",
+                                    "use Vec<T> or bytes for bulk data, which are serialized instead")
+                return
             fields = [_with_offset(f, o, lay[0]) for f, o, lay in zip(fields, offsets, layouts)]
 
         fingerprints = {q: t.fingerprint for q, t in self.model.types.items()}
         canonical, readable = identity.message_texts(decl.qualified, [(f.name, f.type) for f in fields], fingerprints)
         uses = list(dict.fromkeys(q for f in fields for q in _named_types(f.type)))
         schema = readable + "".join(self.model.types[q].definition for q in self.schema_dependencies(uses))
-        summary = self.summary(item, fields, attributes.get("summary"))
+        summary = summary_parts(self.reporter, item, fields, attributes.get("summary"))
         directory = os.path.dirname(decl.unit.path)
         self.model.types[decl.qualified] = Message(
-            decl.unit.package, item.name, tuple(fields), tuple(constants), item.docs, decl.unit.path, is_pod,
-            size, alignment, padding, canonical, readable, schema, identity.fingerprint(canonical), summary,
-            attributes.get("topic"), self.mixin(attributes, "cpp_mixin", directory, decl.unit.package, item),
-            tuple(attributes.get("cpp_include", ())),
-            self.mixin(attributes, "py_mixin", directory, decl.unit.package, item), tuple(uses), decl.service)
+            package=decl.unit.package, name=item.name, fields=tuple(fields), constants=tuple(constants),
+            docs=item.docs, source=decl.unit.path, is_pod=is_pod, size=size, alignment=alignment,
+            padding=padding, canonical=canonical, definition=readable, schema=schema,
+            fingerprint=identity.fingerprint(canonical), summary=summary, topic=attributes.get("topic"),
+            cpp_mixin=self.mixin(attributes, "cpp_mixin", directory, decl.unit.package, item),
+            cpp_includes=tuple(attributes.get("cpp_include", ())),
+            py_mixin=self.mixin(attributes, "py_mixin", directory, decl.unit.package, item),
+            uses=tuple(uses), service=decl.service)
 
     def is_missing(self, t: Type) -> bool:
         return any(q not in self.model.types for q in _named_types(t))
@@ -585,48 +507,6 @@ class Resolver:
         assert isinstance(found, Enum)
         return found.underlying
 
-    def summary(self, item: MessageDecl, fields: list[Field], template: str | None) -> tuple[SummaryPart, ...]:
-        by_name = {f.name: f for f in fields}
-
-        def part(f: Field) -> SummaryPart:
-            return SummaryPart(field=f.name, label=_element_label(f.type), unit=f.unit)
-
-        if template is None:
-            parts = [SummaryPart(text=f"{item.name}{{")]
-            for i, f in enumerate(fields):
-                parts.append(SummaryPart(text=(", " if i else "") + f"{f.name}: "))
-                parts.append(part(f))
-            parts.append(SummaryPart(text="}"))
-            return _join_text(parts)
-        parts = []
-        i, text = 0, ""
-        span = next(a.span for a in item.attributes if a.name == "summary")
-        while i < len(template):
-            c = template[i]
-            if template.startswith("{{", i) or template.startswith("}}", i):
-                text += c
-                i += 2
-                continue
-            if c == "{":
-                end = template.find("}", i)
-                if end < 0:
-                    self.reporter.error(span, "unclosed '{' in #[summary]", "write '{{' for a literal brace")
-                    break
-                name = template[i + 1:end]
-                if name not in by_name:
-                    self.reporter.error(span, f"#[summary] names '{name}', which is not a field of '{item.name}'",
-                                        did_you_mean(name, list(by_name)))
-                else:
-                    parts.append(SummaryPart(text=text))
-                    parts.append(part(by_name[name]))
-                    text = ""
-                i = end + 1
-                continue
-            text += c
-            i += 1
-        parts.append(SummaryPart(text=text))
-        return _join_text(parts)
-
     def mixin(self, attributes: dict, key: str, directory: str, package: str, item: MessageDecl) -> Mixin | None:
         relative = attributes.get(key)
         if relative is None:
@@ -635,19 +515,15 @@ class Resolver:
         normalized = os.path.normpath(relative)
         if os.path.isabs(relative) or normalized.startswith(".."):
             self.reporter.error(span, f"#[{key}] path '{relative}' must stay inside the schema's folder",
-                                "keep helper files in a folder beside the schema, e.g. 'mixins/name.hpp'")
+                                "keep helper files in a folder beside the schema, e.g. 'mixins/name.inc'")
             return None
         source = os.path.join(directory, normalized)
         if not os.path.isfile(source):
             self.reporter.error(span, f"#[{key}] file '{relative}' not found (looked for '{source}')")
             return None
         self.model.inputs.append(source)
-        if key == "py_mixin":
-            stem = os.path.splitext(os.path.basename(normalized))[0]
-            output = os.path.join(*package.split("."), f"_mixin_{stem}.py")
-        else:
-            output = os.path.join(*package.split("."), normalized)
-        mixin = Mixin(os.path.abspath(source), output)
+        output = MIXIN_LANGUAGES[key].mixin_path(package, normalized)
+        mixin = Mixin(os.path.abspath(source), normalized)
         previous = self.mixin_outputs.setdefault(output, mixin)
         if previous.source_path != mixin.source_path:
             self.reporter.error(span, f"#[{key}] file '{relative}' would be written to '{output}', "
@@ -655,124 +531,12 @@ class Resolver:
             return None
         return mixin
 
-    # -- attributes and values --------------------------------------------------------------------
-    def check_attributes(self, attributes: tuple[Attribute, ...], allowed: dict[str, str], owner: str) -> dict:
-        found: dict[str, object] = {}
-        for attribute in attributes:
-            kind = allowed.get(attribute.name)
-            if kind is None:
-                if allowed:
-                    hint = did_you_mean(attribute.name, list(allowed)) or \
-                        "known here: " + ", ".join(f"#[{a}]" for a in sorted(allowed))
-                else:
-                    hint = f"{owner} takes no attributes"
-                self.reporter.error(attribute.span, f"unknown attribute '{attribute.name}' on {owner}", hint)
-                continue
-            if kind == "flag":
-                if attribute.value is not None:
-                    self.reporter.error(attribute.span, f"attribute '{attribute.name}' takes no value",
-                                        f"write #[{attribute.name}]")
-                found[attribute.name] = True
-                continue
-            if attribute.value is None or attribute.value.kind != "string":
-                self.reporter.error(attribute.span, f"attribute '{attribute.name}' needs a string value",
-                                    f'write #[{attribute.name} = "..."]')
-                continue
-            if kind == "strings":
-                found.setdefault(attribute.name, []).append(attribute.value.value)
-            elif attribute.name in found:
-                self.reporter.error(attribute.span, f"attribute '{attribute.name}' is given twice on {owner}")
-            else:
-                found[attribute.name] = attribute.value.value
-        return found
-
-    def convert_value(self, literal: Literal, t: Type, owner: str) -> Value | None:
-        spelled = identity.spelling(t)
-        wrong = f"{owner} has type '{spelled}', but its value is "
-
-        def error(message: str, hint: str | None = None) -> None:
-            self.reporter.error(literal.span, message, hint)
-
-        if isinstance(t, Primitive):
-            if t.is_bool:
-                if literal.kind == "bool":
-                    return literal.value
-                error(wrong + _describe(literal), "write true or false")
-                return None
-            if literal.kind not in ("int", "float"):
-                error(wrong + _describe(literal))
-                return None
-            if t.is_integer:
-                if literal.kind == "float":
-                    error(wrong + f"the non-integer {literal.value}", "write a whole number, or make it f32/f64")
-                    return None
-                low, high = INTEGER_RANGES[t.name]
-                if not low <= literal.value <= high:
-                    error(f"value {literal.value} of {owner} is out of range for {t.name} ({low}..{high})")
-                    return None
-                return literal.value
-            value = float(literal.value)
-            if not math.isfinite(value):
-                error(f"value {literal.value} of {owner} is out of range for {t.name}")
-                return None
-            if t.name == "f32" and abs(value) > F32_MAX:
-                error(f"value {literal.value} of {owner} is out of range for f32 (about ±3.4e38)",
-                      "use f64 for larger values")
-                return None
-            return value
-        if isinstance(t, (FixedString, DynString)):
-            if literal.kind != "string":
-                error(wrong + _describe(literal), 'write a quoted string: "text"')
-                return None
-            if isinstance(t, FixedString) and len(literal.value.encode("utf-8")) > t.capacity:
-                error(f"value of {owner} is {len(literal.value.encode('utf-8'))} bytes, more than "
-                      f"string<{t.capacity}> holds")
-                return None
-            return literal.value
-        if isinstance(t, EnumRef):
-            enum = self.model.types.get(t.qualified)
-            if not isinstance(enum, Enum):
-                return None
-            if literal.kind != "path" or (len(literal.value) > 1 and literal.value[-2] != enum.name):
-                error(wrong + _describe(literal), f"write {enum.name}::{enum.variants[0].name}" if enum.variants else None)
-                return None
-            variant = next((v for v in enum.variants if v.name == literal.value[-1]), None)
-            if variant is None:
-                error(f"'{literal.value[-1]}' is not an enumerator of '{enum.name}'",
-                      did_you_mean(literal.value[-1], [v.name for v in enum.variants]))
-                return None
-            return EnumValue(enum.qualified, variant.name, variant.value)
-        if isinstance(t, FixedArray) and _is_constant_type(t.element):
-            if literal.kind != "list":
-                error(wrong + _describe(literal), f"write a list of {t.length} values: [a, b, ...]")
-                return None
-            if len(literal.value) != t.length:
-                error(f"{owner} has {t.length} elements, but its value lists {len(literal.value)}")
-                return None
-            items = [self.convert_value(v, t.element, owner) for v in literal.value]
-            return None if any(v is None for v in items) else tuple(items)
-        error(f"{owner} of type '{spelled}' cannot have a default value",
-              "defaults are for numbers, bool, enums, strings and fixed arrays of those")
-        return None
-
 
 def _type_paths(expr: TypeExpr) -> list[tuple[str, ...]]:
     if expr.element is not None:
         return _type_paths(expr.element)
     nested = [p for arg in expr.args if isinstance(arg, TypeExpr) for p in _type_paths(arg)]
     return [expr.path] + nested
-
-
-def _describe(literal: Literal) -> str:
-    if literal.kind == "path":
-        return f"the name '{'::'.join(literal.value)}'"
-    if literal.kind == "list":
-        return "a list"
-    return f"the {literal.kind} {literal.value!r}"
-
-
-def _is_constant_type(t: Type) -> bool:
-    return isinstance(t, (Primitive, FixedString, DynString, EnumRef))
 
 
 def _with_offset(f: Field, offset: int, size: int) -> Field:
@@ -793,22 +557,3 @@ def _refs(t: Type) -> list[MessageRef | EnumRef]:
     if isinstance(t, (FixedArray, Vec, Optional)):
         return _refs(t.element)
     return []
-
-
-def _element_label(t: Type) -> str:
-    inner = t.element if isinstance(t, Optional) else t
-    if isinstance(inner, (FixedArray, Vec)):
-        return identity.spelling(inner.element, short=True)
-    return ""
-
-
-def _join_text(parts: list[SummaryPart]) -> tuple[SummaryPart, ...]:
-    joined: list[SummaryPart] = []
-    for p in parts:
-        if p.field is None and not p.text:
-            continue
-        if p.field is None and joined and joined[-1].field is None:
-            joined[-1] = SummaryPart(text=joined[-1].text + p.text)
-        else:
-            joined.append(p)
-    return tuple(joined)

@@ -79,7 +79,8 @@ def installed(args: argparse.Namespace) -> None:
     for path in ["lib/cmake/horus/horusConfig.cmake", "lib/cmake/horus/HorusGenerate.cmake",
                  "include/horus/message.hpp", "include/horus/msg.hpp", "lib/libhorus_msgs.a",
                  "bin/horus-gen",
-                 "share/horus/generator/horus-gen", "share/horus/templates/cpp"]:
+                 "share/horus/generator/horus_gen/cli.py", "share/horus/templates/cpp",
+                 "share/horus/python/_horus_gen_support_v1.py"]:
         expect((prefix / path).exists(), f"the installation to hold {path}")
 
     schemas = sorted((args.source / "msg").glob("*.hmsg"))
@@ -171,6 +172,15 @@ class Project:
         expect(bool(touched) == rewritten, f"generated files {'to be' if rewritten else 'not to be'}"
                f" rewritten (rewritten: {touched})", out)
 
+    def expect_no_work(self, generator: str) -> None:
+        """Ninja's own verdict on an unchanged tree: nothing to run, and nothing it would explain
+        as dirty (a depfile entry that never exists, an output older than its inputs)."""
+        if generator != "Ninja":
+            return
+        dry = run(["ninja", "-C", self.build_dir, "-n", "-d", "explain"], check=False)
+        expect(dry.returncode == 0 and "ninja: no work to do." in dry.stdout and "ninja explain" not in dry.stdout,
+               "a second build with nothing changed to do no work", dry.stdout)
+
     def edit(self, relative: str, old: str, new: str) -> None:
         path = self.source / relative
         text = path.read_text()
@@ -197,6 +207,7 @@ def rebuild(args: argparse.Namespace) -> None:
     run_example(p.build_dir, "demo_robot.msg.Pose2D")
 
     p.rebuild("nothing changed", generated=set(), recompiled=set(), rewritten=False)
+    p.expect_no_work(args.generator)
 
     (p.source / "notes.txt").write_text("a file no target uses\n")
     p.touch(p.source / "CMakeLists.txt")
@@ -221,10 +232,10 @@ def rebuild(args: argparse.Namespace) -> None:
                   recompiled=set(), rewritten=False)
 
     p.edit("msg/geometry.hmsg", "    theta: f64,\n", "    theta: f64,\n    stamp_ns: u64,\n")
-    # The library's sources are the schema files' (geometry.hmsg.cpp, motor.hmsg.cpp): motor's
-    # types hold a Pose2D, so both are recompiled with the program.
+    # The library's one source is the package's (demo_robot/msg.cpp): it and the program that
+    # includes the changed header recompile.
     p.rebuild("field added to the imported schema", generated=everything,
-              recompiled={"main.cpp", "geometry.hmsg.cpp", "motor.hmsg.cpp"}, rewritten=True)
+              recompiled={"main.cpp", "msg.cpp"}, rewritten=True)
     run_example(p.build_dir, "stamp_ns")
 
     print("--- schema error")
@@ -241,7 +252,7 @@ def rebuild(args: argparse.Namespace) -> None:
 
     p.edit("msg/motor.hmsg", "/// A motor's health",
            "MotorLimits {\n    max_current: f32,\n}\n\n/// A motor's health")
-    p.rebuild("message added", generated=everything, recompiled={"main.cpp", "motor.hmsg.cpp"},
+    p.rebuild("message added", generated=everything, recompiled={"main.cpp", "msg.cpp"},
               rewritten=True)
     expect((p.generated / TARGET / "cpp/demo_robot/msg/motor_limits.hpp").is_file(),
            "a header for the added message")
@@ -258,6 +269,7 @@ def depends(args: argparse.Namespace) -> None:
     expect("start_pose: Pose2D{" in out, "route_main to print the standard library's Pose2D", out)
 
     p.rebuild("nothing changed", generated=set(), recompiled=set(), rewritten=False)
+    p.expect_no_work(args.generator)
 
     p.edit("schemas/robot_base/point.hmsg", "// A point", "// A 2-D point")
     p.rebuild("comment edited in the depended-on schema", generated={"base_msgs", "app_msgs"},
@@ -265,11 +277,11 @@ def depends(args: argparse.Namespace) -> None:
 
     p.edit("schemas/robot_app/route.hmsg", "    speed: f32,\n", "    speed: f32,\n    lane: u8,\n")
     p.rebuild("field added to the depending schema", generated={"app_msgs"},
-              recompiled={"route_main.cpp", "route.hmsg.cpp"}, rewritten=True)
+              recompiled={"route_main.cpp", "robot_app.cpp"}, rewritten=True)
 
     p.edit("schemas/robot_base/point.hmsg", "    y: f64,\n", "    y: f64,\n    z: f64,\n")
     p.rebuild("field added to the depended-on schema", generated={"base_msgs", "app_msgs"},
-              recompiled={"base_main.cpp", "route_main.cpp", "point.hmsg.cpp", "route.hmsg.cpp"},
+              recompiled={"base_main.cpp", "route_main.cpp", "robot_base.cpp", "robot_app.cpp"},
               rewritten=True)
     out = run([p.build_dir / "route_main"]).stdout
     expect("z: 0" in out, "route_main to print the new field of robot_base::Point", out)

@@ -8,11 +8,13 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <ctime>
+#include <map>
 #include <optional>
 #include <string>
 #include <thread>
@@ -21,6 +23,7 @@
 #include <horus/detail/shm_segment.hpp>
 #include <horus/detail/topic_notifier.hpp>
 #include <horus/detail/topic_wait_set.hpp>
+#include <horus/msg/generic_message.hpp>
 #include <horus/topic.hpp>
 #include <horus/topic_registry.hpp>
 #include <topic_test/big.hpp>
@@ -278,6 +281,43 @@ int role_send_blobs(const std::vector<std::string>& args) {
   return 0;
 }
 
+/// A reading as a prototype would send it in a GenericMessage: a map of names to numbers.
+using Reading = std::map<std::string, double>;
+
+Reading reading(std::uint64_t i) {
+  return {{"seq", static_cast<double>(i)}, {"volts", 11.5 + static_cast<double>(i) / 8}};
+}
+
+/// send_generic <topic> <count>: GenericMessages packed from a map, every other one with metadata.
+int role_send_generic(const std::vector<std::string>& args) {
+  horus::Topic<horus::msg::GenericMessage> data(args.at(0));
+  const std::uint64_t count = std::stoull(args.at(1));
+  for (std::uint64_t i = 0; i < count; ++i) {
+    horus::msg::GenericMessage msg = horus::msg::GenericMessage::from_value(reading(i));
+    if (i % 2 == 1) {
+      msg.metadata = "battery " + std::to_string(i);
+    }
+    if (!data.send(msg)) {
+      return 62;
+    }
+  }
+  return 0;
+}
+
+/// send_values <topic> <count>: u64 counters, and their triples as [f32; 3] on <topic>.xyz.
+int role_send_values(const std::vector<std::string>& args) {
+  horus::Topic<std::uint64_t> counters(args.at(0));
+  horus::Topic<std::array<float, 3>> triples(args.at(0) + ".xyz");
+  const std::uint64_t count = std::stoull(args.at(1));
+  for (std::uint64_t i = 0; i < count; ++i) {
+    const auto x = static_cast<float>(i);
+    if (!counters.send(i * 0x0101010101010101ULL) || !triples.send({x, x / 2, -x})) {
+      return 63;
+    }
+  }
+  return 0;
+}
+
 /// no_room <topic>: with a 1 MiB file size limit, creating a 16 MiB topic must be a clear error.
 int role_no_room(const std::vector<std::string>& args) {
   ::signal(SIGXFSZ, SIG_IGN);
@@ -340,6 +380,8 @@ const bool kRolesRegistered = [] {
   roles["echo"] = role_echo;
   roles["open_and_exit"] = role_open_and_exit;
   roles["send_blobs"] = role_send_blobs;
+  roles["send_generic"] = role_send_generic;
+  roles["send_values"] = role_send_values;
   roles["no_room"] = role_no_room;
   roles["send_after"] = role_send_after;
   roles["try_send"] = role_try_send;
@@ -794,6 +836,43 @@ TEST(TopicProcess, SerializedMessagesCrossProcessesAndOversizedOnesAreCounted) {
   EXPECT_FALSE(data.try_recv().has_value());
   EXPECT_EQ(data.stats().invalid, 0u);
   EXPECT_EQ(data.lost(), 0u);
+}
+
+TEST(TopicProcess, GenericMessagesCrossProcesses) {
+  PrivateNamespace ns;
+  horus::Topic<horus::msg::GenericMessage> data("custom_data");
+  constexpr std::uint64_t kCount = 30;
+  Child publisher("send_generic", {"custom_data", std::to_string(kCount)});
+  ASSERT_EQ(publisher.wait(), 0);
+  for (std::uint64_t i = 0; i < kCount; ++i) {
+    const std::optional<horus::msg::GenericMessage> msg = data.try_recv();
+    ASSERT_TRUE(msg.has_value()) << "message " << i;
+    EXPECT_EQ(msg->to_value<Reading>(), reading(i));
+    EXPECT_EQ(msg->metadata, i % 2 == 1 ? std::optional<std::string>("battery " + std::to_string(i))
+                                        : std::nullopt);
+  }
+  EXPECT_FALSE(data.try_recv().has_value());
+  EXPECT_EQ(data.stats().invalid, 0u);
+  const std::vector<horus::TopicInfo> topics = horus::list_topics();
+  ASSERT_EQ(topics.size(), 1u);
+  EXPECT_EQ(topics[0].type_name, "horus.msg.GenericMessage");
+  EXPECT_EQ(topics[0].message_count, kCount);
+}
+
+TEST(TopicProcess, PlainValuesCrossProcesses) {
+  PrivateNamespace ns;
+  horus::Topic<std::uint64_t> counters("odometer");
+  horus::Topic<std::array<float, 3>> triples("odometer.xyz");
+  constexpr std::uint64_t kCount = 50;
+  Child publisher("send_values", {"odometer", std::to_string(kCount)});
+  ASSERT_EQ(publisher.wait(), 0);
+  for (std::uint64_t i = 0; i < kCount; ++i) {
+    EXPECT_EQ(counters.try_recv(), i * 0x0101010101010101ULL) << i;
+    const auto x = static_cast<float>(i);
+    EXPECT_EQ(triples.try_recv(), (std::array<float, 3>{x, x / 2, -x})) << i;
+  }
+  EXPECT_FALSE(counters.try_recv().has_value());
+  EXPECT_FALSE(triples.try_recv().has_value());
 }
 
 void blocking_recv_wakes(Sender who) {

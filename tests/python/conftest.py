@@ -1,39 +1,38 @@
-"""Shared fixtures: the repository's folders and a way to run horus-gen as a user would."""
+"""Shared fixtures of the generator's suites (their helpers are in generator_testing.py)."""
 from __future__ import annotations
 
 import importlib
 import os
-import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
-HORUS_GEN = ROOT / "generator" / "horus-gen"
-SCHEMAS = ROOT / "tests" / "schemas"
-GOLDEN = ROOT / "tests" / "golden"
+from generator_testing import ROOT, SCHEMAS, TEST_SCHEMAS, generate_python, import_from, run_horus_gen
 
-sys.path.insert(0, str(ROOT / "generator"))
-
-# The cross-language suite needs the C++ tools that ctest builds and names in these variables
-# (test `python_crosslang`); a plain `pytest tests/python` does not collect it rather than skip it.
-collect_ignore = [] if os.environ.get("HORUS_CROSSLANG_TOOL") else ["test_python_crosslang.py"]
-# Likewise the Python runtime's suite needs the build's horus package and C++ peers (test
-# `pytest_runtime`, which names them in HORUS_PY_PEER).
-if not os.environ.get("HORUS_PY_PEER"):
-    collect_ignore.append("runtime")
-
-
-def run_horus_gen(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
-    """Runs the generator in its own process with Debian's interpreter, as CMake does."""
-    return subprocess.run(["/usr/bin/python3", str(HORUS_GEN), *args], cwd=cwd, capture_output=True, text=True,
-                          env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+# The Python runtime's suite needs the build's horus package and C++ peers, which its ctest entry
+# (pytest_runtime) names: a plain `pytest tests/python` leaves it out.
+collect_ignore = [] if os.environ.get("HORUS_PY_PEER") else ["runtime"]
 
 
 @pytest.fixture
 def horus_gen():
     return run_horus_gen
+
+
+@pytest.fixture(scope="session")
+def test_schemas_root(tmp_path_factory):
+    """The test schemas generated once per session, importable as test_msgs, other_pkg, crosslang_msgs."""
+    return generate_python(tmp_path_factory.mktemp("mirror"), *TEST_SCHEMAS, extra=("-I", str(SCHEMAS)))
+
+
+@pytest.fixture(scope="session")
+def msgs(test_schemas_root):
+    return import_from(test_schemas_root, "test_msgs")[0]
+
+
+@pytest.fixture(scope="session")
+def other(test_schemas_root):
+    return import_from(test_schemas_root, "other_pkg")[0]
 
 
 @pytest.fixture(scope="module")

@@ -2,7 +2,7 @@
 `horus-gen check` with exactly the text in its `.stderr` file, and exit status 1.
 
 Refresh after an intended change, then read the diff:
-    HORUS_REFRESH_GOLDEN=1 /usr/bin/python3 -m pytest tests/python/test_diagnostics_golden.py
+    HORUS_UPDATE_GOLDEN=1 /usr/bin/python3 -m pytest tests/python/test_diagnostics_golden.py
 """
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import os
 
 import pytest
 
-from conftest import GOLDEN, run_horus_gen
+from generator_testing import GOLDEN, run_horus_gen
 
 CASES = sorted(p for p in (GOLDEN / "diagnostics").iterdir() if p.suffix in (".hmsg", ".hsrv"))
 
@@ -19,7 +19,7 @@ CASES = sorted(p for p in (GOLDEN / "diagnostics").iterdir() if p.suffix in (".h
 def test_diagnostics_match_golden(case):
     result = run_horus_gen("check", case.name, cwd=case.parent)
     expected_path = case.with_suffix(case.suffix + ".stderr")
-    if os.environ.get("HORUS_REFRESH_GOLDEN"):
+    if os.environ.get("HORUS_UPDATE_GOLDEN"):
         expected_path.write_text(result.stderr)
     assert result.returncode == 1, f"{case.name}: expected exit 1 (schema errors), got {result.returncode}"
     assert "Traceback" not in result.stderr

@@ -5,7 +5,7 @@ import json
 import os
 import time
 
-from conftest import ROOT, SCHEMAS, run_horus_gen
+from generator_testing import ROOT, SCHEMAS, run_horus_gen
 
 TEST_MSGS = sorted(str(p) for p in (SCHEMAS / "test_msgs").iterdir() if p.suffix in (".hmsg", ".hsrv"))
 

@@ -5,10 +5,11 @@ from pathlib import Path
 
 import pytest
 
-from conftest import SCHEMAS
+from generator_testing import SCHEMAS
 from horus_gen.diagnostics import Reporter
 from horus_gen.model import EnumValue, FixedArray, FixedString, Message, MessageRef, Padding
-from horus_gen.resolve import Options, Resolver
+from horus_gen.loader import Options
+from horus_gen.resolve import Resolver
 
 
 def resolve(tmp_path: Path, text: str, name: str = "schema.hmsg", package: str | None = None, includes=()):

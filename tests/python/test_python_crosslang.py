@@ -1,7 +1,8 @@
 """Cross-language tests, both directions, for every type of tests/schemas.
 
 The C++ tools in tests/generated/crosslang are built by CMake against the generated headers; ctest
-passes their paths in HORUS_CROSSLANG_TOOL and HORUS_CROSSLANG_ECHO.
+passes their paths in HORUS_CROSSLANG_TOOL and HORUS_CROSSLANG_ECHO, a plain `pytest` finds them
+in the build tree (generator_testing.crosslang_tools: missing tools fail the suite, never skip it).
 
 - horus_crosslang writes one fixed value of every test-schema type; Python reads those bytes, compares
   them with the same values built here, and must write the very same bytes, log summary and
@@ -13,18 +14,15 @@ passes their paths in HORUS_CROSSLANG_TOOL and HORUS_CROSSLANG_ECHO.
 from __future__ import annotations
 
 import math
-import os
 import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from conftest import ROOT
-from test_python_mirror import generate_python, generated_root, import_from
+from generator_testing import ROOT, crosslang_tools, generate_python, import_from
 
-TOOL = os.environ["HORUS_CROSSLANG_TOOL"]
-ECHO = os.environ["HORUS_CROSSLANG_ECHO"]
+TOOL, ECHO = crosslang_tools()
 
 NAN, INF = float("nan"), float("inf")
 
@@ -92,13 +90,13 @@ def same(a, b) -> bool:
 
 
 @pytest.fixture(scope="module")
-def packages(tmp_path_factory):
-    return import_from(generated_root(tmp_path_factory), "test_msgs", "other_pkg")
+def packages(test_schemas_root):
+    return import_from(test_schemas_root, "test_msgs", "other_pkg")
 
 
 @pytest.fixture(scope="module")
-def shapes(tmp_path_factory):
-    return import_from(generated_root(tmp_path_factory), "crosslang_msgs")[0]
+def shapes(test_schemas_root):
+    return import_from(test_schemas_root, "crosslang_msgs")[0]
 
 
 @pytest.fixture(scope="module")

@@ -2,52 +2,14 @@
 MessagePack, views, bad input. The cross-language half is test_python_crosslang.py."""
 from __future__ import annotations
 
-import importlib
 import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from conftest import ROOT, SCHEMAS, run_horus_gen
+from generator_testing import ROOT, SCHEMAS, TEST_SCHEMAS, generate_python, import_from
 
-TEST_SCHEMAS = sorted(str(p) for p in (SCHEMAS / "test_msgs").iterdir() if p.suffix in (".hmsg", ".hsrv")) + \
-    [str(SCHEMAS / "other_pkg" / "stamp.hmsg"), str(SCHEMAS / "crosslang" / "shapes.hmsg")]
 SUPPORT = "_horus_gen_support_v1"
-_GENERATED: dict[str, Path] = {}
-
-
-def generate_python(out: Path, *files: str, extra: tuple[str, ...] = ()) -> Path:
-    """Runs horus-gen --lang python into `out`; returns OUT/python."""
-    result = run_horus_gen("generate", "--lang", "python", "--out", str(out), *extra, *files)
-    assert result.returncode == 0, result.stderr
-    return out / "python"
-
-
-def import_from(root: Path, *packages: str):
-    """Imports generated packages from `root`; each test package name is unique to its test."""
-    if str(root) not in sys.path:
-        sys.path.insert(0, str(root))
-    return [importlib.import_module(p) for p in packages]
-
-
-def generated_root(tmp_path_factory) -> Path:
-    """The test schemas generated once per session, importable as test_msgs and other_pkg."""
-    if "root" not in _GENERATED:
-        out = tmp_path_factory.mktemp("mirror")
-        _GENERATED["root"] = generate_python(out, *TEST_SCHEMAS, extra=("-I", str(SCHEMAS)))
-    return _GENERATED["root"]
-
-
-@pytest.fixture(scope="session")
-def msgs(tmp_path_factory):
-    return import_from(generated_root(tmp_path_factory), "test_msgs")[0]
-
-
-@pytest.fixture(scope="session")
-def other(tmp_path_factory):
-    return import_from(generated_root(tmp_path_factory), "other_pkg")[0]
 
 
 # -- output layout --------------------------------------------------------------------------------

@@ -1,4 +1,4 @@
-// The helper methods of the standard messages (schemas/horus/msg/mixins/*.hpp), checked against
+// The helper methods of the standard messages (schemas/horus/msg/mixins/*.inc), checked against
 // tests/golden/msg_helpers_cases.json: the same table tests/python/test_msg_helpers.py checks the
 // Python mixins against, so both languages are held to the same values.
 #include <horus/msg.hpp>

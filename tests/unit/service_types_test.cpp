@@ -7,6 +7,7 @@
 
 #include <horus/detail/service_frame.hpp>
 #include <horus/service_error.hpp>
+#include <horus/service_message.hpp>
 #include <horus/service_result.hpp>
 #include <horus/service_retry.hpp>
 #include <service_test/compute.hpp>
@@ -19,6 +20,8 @@ using namespace std::chrono_literals;
 using horus::RetryConfig;
 using horus::ServiceError;
 using horus::ServiceErrorKind;
+using horus::ServiceRequest;
+using horus::ServiceResponse;
 using horus::ServiceResult;
 using horus::detail::ServiceRequestFrame;
 using horus::detail::ServiceResponseFrame;
@@ -125,6 +128,60 @@ TEST(ServiceFrames, PodErrorTextIsCutAtACharacterBoundary) {
   ServiceResponseFrame<EchoResponse> serialized;
   horus::detail::set_error(serialized, text);
   EXPECT_EQ(serialized.error, text);
+}
+
+TEST(ServiceResponse, SuccessCarriesThePayloadAndFailureTheError) {
+  const auto done = ServiceResponse<ComputeResponse>::success(4, ComputeResponse{5, 77});
+  EXPECT_EQ(done.request_id, 4U);
+  EXPECT_TRUE(done.ok);
+  ASSERT_TRUE(done.payload.has_value());
+  EXPECT_EQ(done.payload->sum, 5);
+  EXPECT_FALSE(done.error.has_value());
+
+  const auto failed = ServiceResponse<ComputeResponse>::failure(6, "unknown robot");
+  EXPECT_EQ(failed.request_id, 6U);
+  EXPECT_FALSE(failed.ok);
+  EXPECT_FALSE(failed.payload.has_value());
+  EXPECT_EQ(failed.error, "unknown robot");
+}
+
+TEST(ServiceResponse, BecomesTheCallersResult) {
+  ServiceResult<ComputeResponse> value =
+      ServiceResponse<ComputeResponse>::success(1, ComputeResponse{9, 1}).into_result();
+  ASSERT_TRUE(value);
+  EXPECT_EQ(value->sum, 9);
+
+  ServiceResult<ComputeResponse> failed =
+      ServiceResponse<ComputeResponse>::failure(1, "no such key").into_result();
+  ASSERT_FALSE(failed);
+  EXPECT_EQ(failed.error().kind(), ServiceErrorKind::ServiceFailed);
+  EXPECT_EQ(failed.error().message(), "no such key");
+
+  ServiceResponse<ComputeResponse> malformed;
+  malformed.ok = true;
+  ServiceResult<ComputeResponse> empty = std::move(malformed).into_result();
+  ASSERT_FALSE(empty) << "a success without a payload is not a value";
+  EXPECT_EQ(empty.error().kind(), ServiceErrorKind::ServiceFailed);
+}
+
+TEST(ServiceFrames, CarryTheRequestAndResponseShapesBothWays) {
+  const ServiceRequestFrame<GetRobotPoseRequest> request = horus::detail::request_frame(
+      11, 2, ServiceRequest<GetRobotPoseRequest>{8, GetRobotPoseRequest{"arm_1"}});
+  EXPECT_EQ(request, (ServiceRequestFrame<GetRobotPoseRequest>{11, 8, 2, {"arm_1"}}));
+
+  ServiceResponseFrame<EchoResponse> answer = horus::detail::response_frame(
+      11, ServiceResponse<EchoResponse>::success(8, EchoResponse{"hello"}));
+  EXPECT_EQ(answer.client_id, 11U);
+  EXPECT_EQ(answer.status, horus::detail::kStatusOk);
+  EXPECT_EQ(horus::detail::response_of(std::move(answer)),
+            ServiceResponse<EchoResponse>::success(8, EchoResponse{"hello"}));
+
+  ServiceResponseFrame<ComputeResponse> refusal = horus::detail::response_frame(
+      11, ServiceResponse<ComputeResponse>::failure(9, std::string(300, 'e')));
+  EXPECT_EQ(refusal.status, horus::detail::kStatusFailed);
+  EXPECT_EQ(horus::detail::response_of(std::move(refusal)),
+            ServiceResponse<ComputeResponse>::failure(9, std::string(236, 'e')))
+      << "a POD frame cuts the text to its capacity";
 }
 
 }  // namespace

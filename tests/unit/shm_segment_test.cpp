@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <string>
 
+#include <horus/detail/process.hpp>
 #include <horus/detail/shm_segment.hpp>
 #include <horus/topic.hpp>
 #include <horus/topic_registry.hpp>
@@ -73,61 +74,18 @@ TEST(ShmSegment, CorruptControlMagicIsAnError) {
   EXPECT_NE(open_error("magic").find("control magic"), std::string::npos);
 }
 
-TEST(ShmSegment, OlderFormatIsStartedAfreshOnlyOnceNobodyUsesIt) {
+TEST(ShmSegment, AnotherFormatVersionIsRefusedAndLeftAlone) {
   PrivateNamespace ns;
-  const std::uint64_t version_2 = std::uint64_t{kControlSize} << 32 | 2;
-  const std::size_t version_offset = offsetof(horus::detail::ControlBlock, version);
-  {
-    horus::Topic<Sample> user("upgrade");
-    overwrite(segment_path(ns, "upgrade"), version_offset, version_2);
-    EXPECT_NE(open_error("upgrade").find("unsupported version 2"), std::string::npos)
-        << "a live user of the old format keeps it";
-  }
-  horus::Topic<Sample> data("upgrade");
-  ASSERT_TRUE(data.send(topic_test::sealed<Sample>(1)));
-  EXPECT_EQ(data.try_recv()->seq, 1u);
-}
-
-/// Opens a segment left at an older `version` whose users table holds, 8 bytes in, this live
-/// process as a subscriber: the second entry of versions 1 to 4 (8-byte entries {pid, roles}),
-/// but only the sleeper count of the first entry of versions 5 and 6 (16-byte entries).
-std::string open_older_with_word_at_users_plus_8(const PrivateNamespace& ns,
-                                                 const std::string& topic, std::uint32_t version) {
-  create(topic);
-  const std::string path = segment_path(ns, topic);
+  create("other_version");
+  const std::string path = segment_path(ns, "other_version");
   overwrite(path, offsetof(horus::detail::ControlBlock, version),
-            std::uint64_t{kControlSize} << 32 | version);
-  overwrite(
-      path, offsetof(horus::detail::ControlBlock, users) + 8,
-      std::uint64_t{horus::detail::kRoleSubscriber} << 32 | static_cast<std::uint32_t>(::getpid()));
-  return open_error(topic);
-}
-
-TEST(ShmSegment, AnOlderFormatsUsersAreReadInThatFormatsLayout) {
-  PrivateNamespace ns;
-  EXPECT_NE(open_older_with_word_at_users_plus_8(ns, "v4_users", 4).find("unsupported version 4"),
+            std::uint64_t{kControlSize} << 32 | (horus::detail::kSegmentVersion - 1));
+  const std::string error = open_error("other_version");
+  EXPECT_NE(error.find("unsupported version " + std::to_string(horus::detail::kSegmentVersion - 1)),
             std::string::npos)
-      << "a segment an older build still uses was started afresh under it";
-  EXPECT_EQ(open_older_with_word_at_users_plus_8(ns, "v5_users", 5), "")
-      << "an abandoned version-5 segment was not started afresh";
-  EXPECT_EQ(open_older_with_word_at_users_plus_8(ns, "v6_users", 6), "")
-      << "an abandoned version-6 segment was not started afresh";
-}
-
-TEST(ShmSegment, AVersion6UserIsKnownByItsPidAlone) {
-  PrivateNamespace ns;
-  create("v6_user");
-  const std::string path = segment_path(ns, "v6_user");
-  overwrite(path, offsetof(horus::detail::ControlBlock, version),
-            std::uint64_t{kControlSize} << 32 | 6);
-  // {pid, roles} at the start of a version-6 entry: read as this version's identity, the roles
-  // would be a start time this process never had.
-  overwrite(
-      path, offsetof(horus::detail::ControlBlock, users),
-      std::uint64_t{horus::detail::kRoleSubscriber} << 32 | static_cast<std::uint32_t>(::getpid()));
-  EXPECT_NE(open_error("v6_user").find("unsupported version 6"), std::string::npos)
-      << "a segment an older build still uses was started afresh under it";
-  EXPECT_EQ(horus::clean_namespace(ns.name()), 0u) << "a segment in use was removed";
+      << error;
+  EXPECT_NE(error.find("remove the file"), std::string::npos) << error;
+  EXPECT_EQ(::access(path.c_str(), F_OK), 0) << "a segment of another format was removed";
 }
 
 TEST(ShmSegment, AProcessIsItsPidAndWhenItStarted) {

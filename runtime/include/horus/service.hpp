@@ -10,6 +10,7 @@
 #include "horus/service_async.hpp"
 #include "horus/service_client.hpp"
 #include "horus/service_error.hpp"
+#include "horus/service_message.hpp"
 #include "horus/service_registry.hpp"
 #include "horus/service_result.hpp"
 #include "horus/service_retry.hpp"

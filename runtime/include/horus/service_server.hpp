@@ -23,6 +23,7 @@
 #include "horus/detail/service_channel.hpp"
 #include "horus/detail/service_frame.hpp"
 #include "horus/error.hpp"
+#include "horus/service_message.hpp"
 #include "horus/service_type.hpp"
 #include "horus/topic.hpp"
 #include "horus/topic_registry.hpp"
@@ -138,21 +139,9 @@ class ServiceServer {
     }
 
     void answer(RequestFrame&& request) noexcept {
-      ResponseFrame reply{};
-      reply.client_id = request.client_id;
-      reply.request_id = request.request_id;
-      try {
-        HandlerResult<Response> result = handler(std::move(request.payload));
-        if (Response* response = std::get_if<0>(&result)) {
-          reply.payload = std::move(*response);
-        } else {
-          fail(reply, std::get<1>(result));
-        }
-      } catch (const std::exception& e) {
-        fail(reply, std::string("the handler threw: ") + e.what());
-      } catch (...) {
-        fail(reply, "the handler threw an exception that is not a std::exception");
-      }
+      ResponseFrame reply = frame_of(request, [&] {
+        return respond(ServiceRequest<Request>{request.request_id, std::move(request.payload)});
+      });
       requests.fetch_add(1, std::memory_order_relaxed);
       if (reply.status != detail::kStatusOk) {
         failures.fetch_add(1, std::memory_order_relaxed);
@@ -165,9 +154,11 @@ class ServiceServer {
       if (!outgoing->send(reply)) {
         send_failures.fetch_add(1, std::memory_order_relaxed);
         // Tell the client why instead of leaving it to time out: a failure always fits.
-        reply.payload = Response{};
-        fail(reply, "the response does not fit in a slot of " + outgoing->name() +
-                        " (TopicOptions::max_message_size of its creator)");
+        reply = frame_of(request, [&] {
+          return ServiceResponse<Response>::failure(
+              request.request_id, "the response does not fit in a slot of " + outgoing->name() +
+                                      " (TopicOptions::max_message_size of its creator)");
+        });
         static_cast<void>(outgoing->send(reply));
       }
     }
@@ -190,12 +181,37 @@ class ServiceServer {
       }
     }
 
-    static void fail(ResponseFrame& reply, std::string_view text) noexcept {
-      reply.status = detail::kStatusFailed;
+    /// The handler's answer: its response, or a failure with its error or what it threw.
+    ServiceResponse<Response> respond(ServiceRequest<Request>&& request) {
       try {
-        detail::set_error(reply, text);
+        HandlerResult<Response> result = handler(std::move(request.payload));
+        if (Response* response = std::get_if<0>(&result)) {
+          return ServiceResponse<Response>::success(request.request_id, std::move(*response));
+        }
+        return ServiceResponse<Response>::failure(request.request_id,
+                                                  std::move(std::get<1>(result)));
+      } catch (const std::exception& e) {
+        return ServiceResponse<Response>::failure(request.request_id,
+                                                  std::string("the handler threw: ") + e.what());
       } catch (...) {
-        // Out of memory for the text: the client still learns that the request failed.
+        return ServiceResponse<Response>::failure(
+            request.request_id, "the handler threw an exception that is not a std::exception");
+      }
+    }
+
+    /// The frame answering `request` with what `make_response` returns.
+    template <class MakeResponse>
+    static ResponseFrame frame_of(const RequestFrame& request,
+                                  MakeResponse&& make_response) noexcept {
+      try {
+        return detail::response_frame(request.client_id, make_response());
+      } catch (...) {
+        // Out of memory for the error text: the client still learns that the request failed.
+        ResponseFrame reply{};
+        reply.client_id = request.client_id;
+        reply.request_id = request.request_id;
+        reply.status = detail::kStatusFailed;
+        return reply;
       }
     }
 
@@ -258,7 +274,7 @@ class ServiceServerBuilder {
     using State = typename ServiceServer<S>::State;
     auto state = std::make_unique<State>(handler_, options_);
     const std::optional<detail::ServiceRegistration> current = state->registration.read_latest();
-    if (current && current->server_pid != 0 && !detail::service_process_gone(current->server_pid)) {
+    if (current && current->server_pid != 0 && !detail::server_process_gone(current->server_pid)) {
       throw Error("service " + std::string(S::name()) + " in namespace " + namespace_name() +
                   " already has a server (pid " + std::to_string(current->server_pid) + ")");
     }

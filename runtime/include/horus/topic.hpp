@@ -17,11 +17,15 @@
 #include <vector>
 
 #include "horus/codec.hpp"
+#include "horus/detail/process.hpp"
 #include "horus/detail/publisher_lease.hpp"
 #include "horus/detail/ring.hpp"
+#include "horus/detail/send_clock.hpp"
 #include "horus/detail/shm_segment.hpp"
+#include "horus/detail/slot_copy.hpp"
 #include "horus/detail/topic_stream.hpp"
 #include "horus/msgpack.hpp"
+#include "horus/plain_value.hpp"
 #include "horus/type_info.hpp"
 
 namespace horus {
@@ -34,7 +38,9 @@ struct TopicOptions {
   /// Serialized types only: the largest encoded message a slot holds; send() of a larger one
   /// returns false and counts it in TopicStats::oversized.
   std::size_t max_message_size = std::size_t{16} * 1024;
-  /// Permissions of the segment (and of the namespace folder, when this creates it).
+  /// Permissions of the segment (and of the namespace folder, when this creates it). Group bits
+  /// (e.g. 0660) share the topic with a group: then segments and folders other members created
+  /// are accepted too (runtime/src/transport/README.md). Write access for every user is refused.
   unsigned mode = 0600;
   /// Empty: HORUS_NAMESPACE, or "default".
   std::string namespace_name{};
@@ -65,7 +71,7 @@ struct TopicStats {
   std::uint64_t invalid = 0;
 };
 
-template <Message T>
+template <TopicValue T>
 class Topic;
 
 /// A slot of a POD topic lent for writing in place (zero copy); give it back with
@@ -73,9 +79,9 @@ class Topic;
 /// Dropping it unpublished releases the slot without sending anything. It must not outlive
 /// its Topic nor be held while its Topic is moved, and while it is held the ring cannot reuse
 /// its slot.
-template <Message T>
+template <TopicValue T>
 class Loan {
-  static_assert(PodMessage<T>, "only POD messages can be written in place");
+  static_assert(PodTopicValue<T>, "only POD messages can be written in place");
 
  public:
   Loan(Loan&& other) noexcept : claim_(other.claim_), ring_(other.ring_), data_(other.data_) {
@@ -122,11 +128,12 @@ class Loan {
 
 /// One handle on a topic: it can send and receive. Every handle sees every message sent after
 /// it opened, in order. A handle is used by one thread at a time; open one per thread.
-template <Message T>
+template <TopicValue T>
 class Topic {
  public:
   /// Opens (or creates) the topic `name` in the namespace. Throws horus::Error when the topic
-  /// carries another type, its segment is corrupt, or /dev/shm has no room.
+  /// carries another type, its segment is corrupt, /dev/shm has no room, or its folder or
+  /// segment belongs to another user (outside a shared group) or is writable by every user.
   explicit Topic(std::string_view name, const TopicOptions& options = {})
       : name_(name),
         segment_(detail::ShmSegment::open_topic(
@@ -138,7 +145,7 @@ class Topic {
                                    options.namespace_name, options.single_publisher})),
         ring_(segment_.ring()) {
     cursor_.next = detail::ring_written(ring_);
-    if constexpr (PodMessage<T>) {
+    if constexpr (PodTopicValue<T>) {
       spare_ = std::make_unique<T>();
     } else {
       buffer_.resize(ring_.payload_capacity);
@@ -168,7 +175,7 @@ class Topic {
       return false;
     }
     std::byte* payload = ring_.payload(*claim.slot);
-    if constexpr (PodMessage<T>) {
+    if constexpr (PodTopicValue<T>) {
       detail::copy_to_slot<sizeof(T)>(payload, &msg);
       detail::ring_commit(ring_, claim, sizeof(T), sent);
       return true;
@@ -190,14 +197,14 @@ class Topic {
   /// Lends the next slot for writing the message in place. Publish it with publish().
   /// When the ring refuses the slot, the caller writes into a private spare and publish()
   /// reports it.
-  Loan<T> loan() noexcept requires PodMessage<T> {
+  Loan<T> loan() noexcept requires PodTopicValue<T> {
     mark(detail::kRolePublisher);
     return Loan<T>(
         ring_, [this] { return claim_slot(); }, spare_.get());
   }
 
   /// Makes a loaned message visible. False (and a counter) when the loan had no slot.
-  bool publish(Loan<T>&& loan) noexcept requires PodMessage<T> {
+  bool publish(Loan<T>&& loan) noexcept requires PodTopicValue<T> {
     if (loan.finish(sizeof(T))) {
       return true;
     }
@@ -206,14 +213,14 @@ class Topic {
   }
 
   /// The next message for this handle, if one is there. Never blocks.
-  std::optional<T> try_recv() noexcept(PodMessage<T>) {
+  std::optional<T> try_recv() noexcept(PodTopicValue<T>) {
     std::optional<T> msg;
     receive(msg, false);
     return msg;
   }
 
   /// The next message, waiting up to `timeout` for one (asleep on a futex, no polling).
-  std::optional<T> recv(std::chrono::nanoseconds timeout) noexcept(PodMessage<T>) {
+  std::optional<T> recv(std::chrono::nanoseconds timeout) noexcept(PodTopicValue<T>) {
     // One result object on every path: returning two different ones would copy a large message.
     std::optional<T> msg;
     receive(msg, false);
@@ -251,8 +258,8 @@ class Topic {
 
   /// The newest message ever sent on the topic (not only since this handle opened); does not
   /// move this handle's position.
-  std::optional<T> read_latest() const noexcept(PodMessage<T>) {
-    if constexpr (PodMessage<T>) {
+  std::optional<T> read_latest() const noexcept(PodTopicValue<T>) {
+    if constexpr (PodTopicValue<T>) {
       std::optional<T> msg;
       if (detail::ring_read_latest(ring_, [&](const std::byte* payload, std::uint32_t size) {
             if (size != sizeof(T)) {
@@ -322,13 +329,13 @@ class Topic {
 
   /// Fills `msg` with the next message, or empties it. The caller owns the result object, so
   /// a (possibly large) message is copied once, from the slot straight into what it returns.
-  void receive(std::optional<T>& msg, bool check_stall) noexcept(PodMessage<T>) {
+  void receive(std::optional<T>& msg, bool check_stall) noexcept(PodTopicValue<T>) {
     mark(detail::kRoleSubscriber);
     for (;;) {
       std::size_t length = 0;
       const int got = detail::ring_read(
           ring_, cursor_, check_stall, [&](const std::byte* payload, std::uint32_t size) {
-            if constexpr (PodMessage<T>) {
+            if constexpr (PodTopicValue<T>) {
               if (size != sizeof(T)) {
                 return false;
               }
@@ -348,7 +355,7 @@ class Topic {
         return;
       }
       if (got > 0) {
-        if constexpr (!PodMessage<T>) {
+        if constexpr (!PodTopicValue<T>) {
           msg = try_decode<T>(std::span<const std::uint8_t>(buffer_.data(), length));
         }
         if (msg) {

@@ -162,6 +162,7 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   std::atomic<std::uint64_t> structure_version_{1};  // bumped when nodes are built or removed
   std::atomic<bool> removals_pending_{false};
 
+  bool topic_cycle_reported_ = false;
   bool prepared_ = false;
   bool finished_ = false;
   std::atomic<bool> active_{false};   // run/tick_once/tick_for in progress

@@ -12,6 +12,7 @@
 #include "horus/error.hpp"
 #include "logger.hpp"
 #include "scheduler_impl.hpp"
+#include "topic_order.hpp"
 
 namespace horus::detail {
 namespace {
@@ -293,6 +294,19 @@ void SchedulerImpl::refresh_loop_slots() {
   if (version == loop_slots_version_) return;
   loop_slots_ = ordered_slots();
   loop_slots_version_ = version;
+  if (!config_.deterministic()) return;
+  std::vector<std::string> cycle_breaks;
+  {
+    std::lock_guard lock(mutex_);  // publishers/subscribers are written under it
+    loop_slots_ = order_by_topics(loop_slots_, cycle_breaks);
+  }
+  if (!cycle_breaks.empty() && !topic_cycle_reported_) {
+    topic_cycle_reported_ = true;
+    std::string names;
+    for (const std::string& n : cycle_breaks) names += (names.empty() ? "'" : ", '") + n + "'";
+    log(LogLevel::Warn, "topic cycle: %s run before their publishers (by order())",
+        names.c_str());
+  }
 }
 
 bool SchedulerImpl::set_node_rate(std::string_view name, Rate rate) {

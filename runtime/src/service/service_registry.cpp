@@ -32,7 +32,7 @@ std::vector<ServiceInfo> list_services(std::string_view namespace_name) {
       info.request_type = current->request_type.str();
       info.response_type = current->response_type.str();
       info.fingerprint = current->fingerprint;
-      if (current->server_pid != 0 && !detail::service_process_gone(current->server_pid)) {
+      if (current->server_pid != 0 && !detail::server_process_gone(current->server_pid)) {
         info.servers = 1;
         info.server_pid = static_cast<std::uint32_t>(current->server_pid);
       }

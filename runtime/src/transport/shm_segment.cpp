@@ -4,9 +4,9 @@
 // and the kernel drops the lock of a process killed mid-set-up, so nobody waits on a dead one.
 #include "horus/detail/shm_segment.hpp"
 #include "horus/detail/errno_text.hpp"
+#include "horus/detail/shm_access.hpp"
 
 #include <fcntl.h>
-#include <signal.h>
 #include <sys/file.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
@@ -18,7 +18,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <span>
 #include <utility>
 
 #include "horus/error.hpp"
@@ -37,52 +36,21 @@ std::uint64_t round_up(std::uint64_t value, std::uint64_t multiple) {
   return (value + multiple - 1) / multiple * multiple;
 }
 
-/// Directory mode for a file mode: the classes that may read files may also list and enter.
-mode_t directory_mode(unsigned file_mode) {
-  return static_cast<mode_t>(0700 | (file_mode & 0066) | ((file_mode & 0044) >> 2));
-}
-
-void make_directory(const std::string& path, mode_t mode) {
-  if (::mkdir(path.c_str(), mode) == 0) {
-    // mkdir applies the umask; the requested mode is the contract.
-    ::chmod(path.c_str(), mode);
-    return;
-  }
-  if (errno != EEXIST) {
-    throw Error("cannot create the topic directory " + path + ": " + errno_text(errno));
-  }
-  struct stat info {};
-  if (::lstat(path.c_str(), &info) != 0 || !S_ISDIR(info.st_mode)) {
-    throw Error("topic directory " + path + " exists but is not a directory");
-  }
-}
-
-std::string ensure_namespace_directory(const std::string& namespace_name, unsigned mode) {
-  const std::string root = shm_root();
-  // Shared by every user of the machine, like /tmp; each namespace folder is private.
-  make_directory(root, 01777);
-  const std::string directory = namespace_directory(namespace_name);
-  make_directory(directory, directory_mode(mode));
-  return directory;
-}
-
-class FileDescriptor {
+/// The set-up lock on a segment, held from open_locked until destruction.
+class SetupLock {
  public:
-  explicit FileDescriptor(int fd) : fd_(fd) {}
-  FileDescriptor(const FileDescriptor&) = delete;
-  FileDescriptor& operator=(const FileDescriptor&) = delete;
-  ~FileDescriptor() {
-    if (fd_ >= 0) {
-      // Explicitly: the mapping keeps the open file description (and so a flock) alive after
-      // close, which would leave the set-up lock held for as long as the handle lives.
-      ::flock(fd_, LOCK_UN);
-      ::close(fd_);
-    }
+  explicit SetupLock(FileDescriptor file) : file_(std::move(file)) {}
+  SetupLock(const SetupLock&) = delete;
+  SetupLock& operator=(const SetupLock&) = delete;
+  ~SetupLock() {
+    // Explicitly: the mapping keeps the open file description (and so a flock) alive after
+    // close, which would leave the set-up lock held for as long as the handle lives.
+    ::flock(file_.get(), LOCK_UN);
   }
-  int get() const { return fd_; }
+  int get() const { return file_.get(); }
 
  private:
-  int fd_;
+  FileDescriptor file_;
 };
 
 struct Mapping {
@@ -98,29 +66,27 @@ Mapping map_file(int fd, std::size_t size, int protection, const std::string& pa
   return {base, size};
 }
 
-/// Opens `path` (creating it empty with `mode`) and holds the set-up lock on it. Retries when
-/// the file was unlinked between open and lock, so the lock always guards the live file.
-int open_locked(const std::string& path, unsigned mode, int lock) {
+/// Opens the segment `name` in `folder` (creating it empty with `mode`), checks who owns it, and
+/// holds the set-up lock on it. Retries when the file was unlinked between open and lock, so the
+/// lock always guards the live file.
+SetupLock open_locked(const FileDescriptor& folder, const std::string& name,
+                      const std::string& path, unsigned mode) {
   for (int attempt = 0; attempt < 16; ++attempt) {
-    const int fd =
-        ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, static_cast<mode_t>(mode));
-    if (fd < 0) {
-      throw Error("cannot open topic segment " + path + ": " + errno_text(errno));
-    }
-    while (::flock(fd, lock) != 0) {
+    FileDescriptor file =
+        open_trusted_file(folder.get(), name, path, O_RDWR | O_CREAT, mode, group_sharing(mode));
+    while (::flock(file.get(), LOCK_EX) != 0) {
       if (errno != EINTR) {
-        const int error = errno;
-        ::close(fd);
-        throw Error("cannot lock topic segment " + path + ": " + errno_text(error));
+        throw Error("cannot lock topic segment " + path + ": " + errno_text(errno));
       }
     }
     struct stat opened {};
     struct stat current {};
-    if (::fstat(fd, &opened) == 0 && ::stat(path.c_str(), &current) == 0 &&
+    if (::fstat(file.get(), &opened) == 0 &&
+        ::fstatat(folder.get(), name.c_str(), &current, AT_SYMLINK_NOFOLLOW) == 0 &&
         opened.st_dev == current.st_dev && opened.st_ino == current.st_ino) {
-      return fd;
+      return SetupLock(std::move(file));
     }
-    ::close(fd);
+    ::flock(file.get(), LOCK_UN);
   }
   throw Error("topic segment " + path + " keeps being removed while opening it");
 }
@@ -176,83 +142,22 @@ void read_all(int fd, void* data, std::size_t size, std::uint64_t offset, const 
   }
 }
 
-/// Whether an entry's process runs: by its identity in this version's table, by its pid alone
-/// in an older one's.
-bool entry_alive(const UserEntry& user) {
-  return identity_alive(user.process.load(std::memory_order_acquire));
-}
-template <class OlderEntry>
-bool entry_alive(const OlderEntry& user) {
-  return process_alive(user.pid.load(std::memory_order_acquire));
-}
-
 /// Whether a live process has the segment open (counting notifiers only if asked: they map the
 /// control page alone, so they do not stand in the way of re-typing).
-template <class Entry>
-bool has_live_users(std::span<const Entry> users, bool count_notifiers) {
-  for (const Entry& user : users) {
+bool has_live_users(const ControlBlock& control, bool count_notifiers) {
+  for (const UserEntry& user : control.users) {
     const bool notifier = (user.roles.load(std::memory_order_relaxed) & kRoleNotifier) != 0;
-    if ((count_notifiers || !notifier) && entry_alive(user)) {
+    if ((count_notifiers || !notifier) &&
+        identity_alive(user.process.load(std::memory_order_acquire))) {
       return true;
     }
   }
   return false;
 }
 
-bool has_live_users(const ControlBlock& control, bool count_notifiers) {
-  return has_live_users(std::span<const UserEntry>(control.users), count_notifiers);
-}
-
-/// A users table entry of versions 1 to 4, before entries counted their sleepers.
-struct UserEntryV4 {
-  std::atomic<std::uint32_t> pid;
-  std::atomic<std::uint32_t> roles;
-};
-static_assert(sizeof(UserEntryV4) * kMaxUsers <= sizeof(ControlBlock::users));
-/// A users table entry of versions 5 and 6, which named the process by its pid alone.
-struct UserEntryV6 {
-  std::atomic<std::uint32_t> pid;
-  std::atomic<std::uint32_t> roles;
-  std::atomic<std::uint32_t> sleepers;
-  std::uint32_t reserved;
-};
-static_assert(sizeof(UserEntryV6) * kMaxUsers <= sizeof(ControlBlock::users));
-
-template <class Entry>
-bool has_live_users_in_older_table(const ControlBlock& control) {
-  return has_live_users(
-      std::span<const Entry>(reinterpret_cast<const Entry*>(&control.users[0]), kMaxUsers), true);
-}
-
-bool older_version(const ControlBlock& control) {
-  return control.magic == kControlMagic && control.version >= 1 &&
-         control.version < kSegmentVersion;
-}
-
-/// A segment left by an older horus build that nobody uses any more is started afresh, so an
-/// upgrade does not strand its topics; one still in use stays an error (validate_control).
-/// Versions 1 to 6 put their users table where this one is: 1 to 4 with 8-byte entries, 5 and
-/// 6 with 16-byte ones that named the process by its pid alone.
-bool abandoned_older_version(int fd, std::uint64_t size) {
-  if (size < kControlSize) {
-    return false;
-  }
-  alignas(ControlBlock) std::byte page[sizeof(ControlBlock)];
-  if (::pread(fd, page, sizeof page, 0) != static_cast<ssize_t>(sizeof page)) {
-    return false;
-  }
-  const auto& control = *reinterpret_cast<const ControlBlock*>(page);
-  return older_version(control) && !segment_in_use(control);
-}
-
-/// Gives a new (empty) file its control page, starting afresh one an older build abandoned;
-/// refuses a file too short to hold one.
+/// Gives a new (empty) file its control page; refuses a file too short to hold one.
 void prepare_control(int fd, const std::string& path, unsigned mode) {
-  std::uint64_t size = file_size(fd, path);
-  if (abandoned_older_version(fd, size)) {
-    ::ftruncate(fd, 0);
-    size = 0;
-  }
+  const std::uint64_t size = file_size(fd, path);
   if (size == 0) {
     ::fchmod(fd, static_cast<mode_t>(mode));
     allocate(fd, kControlSize, path);
@@ -365,6 +270,13 @@ void start_publishers_afresh(RingControl& ring, bool single) {
   ring.single_publisher.store(single ? 1 : 0, std::memory_order_release);
 }
 
+/// The topic's name, checked, once the options are known to be safe to create it with.
+std::string checked_topic_name(std::string_view topic, const SegmentOptions& options) {
+  validate_segment_name("topic name", topic);
+  check_creation_mode(options.mode, "topic '" + std::string(topic) + "':");
+  return std::string(topic);
+}
+
 bool same_type(const LayoutHeader& header, const TypeDescriptor& type) {
   return std::string_view(header.type_name, header.type_name_size) == type.name &&
          header.fingerprint == type.fingerprint && (header.is_pod != 0) == type.is_pod &&
@@ -387,13 +299,32 @@ std::string current_namespace() {
 
 std::string shm_root() {
   const char* value = std::getenv("HORUS_SHM_DIR");  // NOLINT(concurrency-mt-unsafe)
-  return value != nullptr && *value != '\0' ? value : "/dev/shm/horus";
+  if (value != nullptr && *value != '\0') {
+    return value;
+  }
+  // Per user: a root shared by every user could be created first by any of them.
+  return "/dev/shm/horus-" + std::to_string(::geteuid());
 }
 
 std::string namespace_directory(std::string_view namespace_name) {
   std::string name = namespace_name.empty() ? current_namespace() : std::string(namespace_name);
   validate_segment_name("namespace", name);
   return shm_root() + "/" + name;
+}
+
+NamespaceFolder open_namespace_folder(std::string_view namespace_name, unsigned mode, bool create) {
+  std::string name = namespace_name.empty() ? current_namespace() : std::string(namespace_name);
+  validate_segment_name("namespace", name);
+  const std::string root = shm_root();
+  const bool sharing = group_sharing(mode);
+  NamespaceFolder folder{FileDescriptor(), root + "/" + name};
+  const FileDescriptor root_folder =
+      open_trusted_directory(AT_FDCWD, root, root, mode, true, sharing, create);
+  if (root_folder.get() >= 0) {
+    folder.descriptor =
+        open_trusted_directory(root_folder.get(), name, folder.path, mode, false, sharing, create);
+  }
+  return folder;
 }
 
 void validate_segment_name(std::string_view what, std::string_view name) {
@@ -409,20 +340,7 @@ void validate_segment_name(std::string_view what, std::string_view name) {
   }
 }
 
-bool segment_in_use(const ControlBlock& control) {
-  if (older_version(control)) {
-    return control.version >= 5 ? has_live_users_in_older_table<UserEntryV6>(control)
-                                : has_live_users_in_older_table<UserEntryV4>(control);
-  }
-  return has_live_users(control, true);
-}
-
-bool process_alive(std::uint32_t pid) noexcept {
-  if (pid == 0) {
-    return false;
-  }
-  return ::kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM;
-}
+bool segment_in_use(const ControlBlock& control) { return has_live_users(control, true); }
 
 std::string validate_control(const ControlBlock& control) {
   if (control.magic != kControlMagic) {
@@ -496,13 +414,12 @@ std::string validate_layout(const LayoutHeader& h, std::uint64_t file_size) {
 
 ShmSegment ShmSegment::open_topic(std::string_view topic, const TypeDescriptor& type,
                                   const SegmentOptions& options) {
-  validate_segment_name("topic name", topic);
-  const std::string directory = ensure_namespace_directory(
-      options.namespace_name.empty() ? current_namespace() : options.namespace_name, options.mode);
+  const std::string name = checked_topic_name(topic, options);
+  const NamespaceFolder folder = open_namespace_folder(options.namespace_name, options.mode, true);
   ShmSegment segment;
-  segment.path_ = directory + "/" + std::string(topic);
+  segment.path_ = folder.path + "/" + name;
   const std::string& path = segment.path_;
-  const FileDescriptor fd(open_locked(path, options.mode, LOCK_EX));
+  const SetupLock fd = open_locked(folder.descriptor, name, path, options.mode);
   prepare_control(fd.get(), path, options.mode);
 
   const Mapping control_page = map_file(fd.get(), kControlSize, PROT_READ | PROT_WRITE, path);
@@ -581,12 +498,11 @@ ShmSegment ShmSegment::open_topic(std::string_view topic, const TypeDescriptor& 
 }
 
 ShmSegment ShmSegment::open_control(std::string_view topic, const SegmentOptions& options) {
-  validate_segment_name("topic name", topic);
-  const std::string directory = ensure_namespace_directory(
-      options.namespace_name.empty() ? current_namespace() : options.namespace_name, options.mode);
+  const std::string name = checked_topic_name(topic, options);
+  const NamespaceFolder folder = open_namespace_folder(options.namespace_name, options.mode, true);
   ShmSegment segment;
-  segment.path_ = directory + "/" + std::string(topic);
-  const FileDescriptor fd(open_locked(segment.path_, options.mode, LOCK_EX));
+  segment.path_ = folder.path + "/" + name;
+  const SetupLock fd = open_locked(folder.descriptor, name, segment.path_, options.mode);
   prepare_control(fd.get(), segment.path_, options.mode);
   const Mapping page = map_file(fd.get(), kControlSize, PROT_READ | PROT_WRITE, segment.path_);
   segment.base_ = page.base;

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <optional>
 
 #include "horus/detail/shm_segment.hpp"
 #include "horus/error.hpp"
@@ -24,14 +25,25 @@ using detail::ControlBlock;
 using detail::kControlSize;
 using detail::LayoutHeader;
 
-std::vector<std::string> segment_names(const std::string& directory) {
+/// Tools read the segments of their own user and of the groups they are in (read-only), so a
+/// namespace shared through a group lists whole.
+constexpr unsigned kToolAccess = 0660;
+
+/// The names in a checked namespace folder (none when it does not exist).
+std::vector<std::string> segment_names(const detail::NamespaceFolder& folder) {
   std::vector<std::string> names;
-  DIR* dir = ::opendir(directory.c_str());
+  if (folder.descriptor.get() < 0) {
+    return names;
+  }
+  // fdopendir takes over the descriptor it is given: a duplicate, so the folder stays open.
+  const int duplicate = ::fcntl(folder.descriptor.get(), F_DUPFD_CLOEXEC, 0);
+  DIR* dir = duplicate >= 0 ? ::fdopendir(duplicate) : nullptr;
   if (dir == nullptr) {
-    if (errno == ENOENT) {
-      return names;
+    const int error = errno;
+    if (duplicate >= 0) {
+      ::close(duplicate);
     }
-    throw Error("cannot list topic directory " + directory + ": " + detail::errno_text(errno));
+    throw Error("cannot list topic directory " + folder.path + ": " + detail::errno_text(error));
   }
   // This DIR stream is local to the call, which is all readdir needs to be safe.
   while (const dirent* entry = ::readdir(dir)) {  // NOLINT(concurrency-mt-unsafe)
@@ -45,38 +57,35 @@ std::vector<std::string> segment_names(const std::string& directory) {
   return names;
 }
 
+/// A segment opened read-only and checked like any opener would, under `lock`.
 class LockedFile {
  public:
-  LockedFile(const std::string& path, int flags, int lock)
-      : fd_(::open(path.c_str(), flags | O_CLOEXEC | O_NOFOLLOW)) {
-    if (fd_ >= 0) {
-      while (::flock(fd_, lock) != 0 && errno == EINTR) {
-      }
+  LockedFile(const detail::NamespaceFolder& folder, const std::string& name, int lock)
+      : file_(detail::open_trusted_file(folder.descriptor.get(), name, folder.path + "/" + name,
+                                        O_RDONLY, 0, detail::group_sharing(kToolAccess))) {
+    while (::flock(file_.get(), lock) != 0 && errno == EINTR) {
     }
   }
   LockedFile(const LockedFile&) = delete;
   LockedFile& operator=(const LockedFile&) = delete;
-  ~LockedFile() {
-    if (fd_ >= 0) {
-      ::flock(fd_, LOCK_UN);
-      ::close(fd_);
-    }
-  }
-  int fd() const { return fd_; }
+  ~LockedFile() { ::flock(file_.get(), LOCK_UN); }
+  int fd() const { return file_.get(); }
 
  private:
-  int fd_;
+  detail::FileDescriptor file_;
 };
 
-void inspect(const std::string& path, TopicInfo& info) {
-  const LockedFile file(path, O_RDONLY, LOCK_SH);
-  struct stat status {};
-  if (file.fd() < 0 || ::fstat(file.fd(), &status) != 0) {
-    info.error = std::string("cannot open: ") + detail::errno_text(errno);
+void inspect(const detail::NamespaceFolder& folder, TopicInfo& info) {
+  std::optional<LockedFile> file;
+  try {
+    file.emplace(folder, info.name, LOCK_SH);
+  } catch (const Error& e) {
+    info.error = e.what();
     return;
   }
-  if (!S_ISREG(status.st_mode)) {
-    info.error = "not a regular file";
+  struct stat status {};
+  if (::fstat(file->fd(), &status) != 0) {
+    info.error = std::string("cannot stat: ") + detail::errno_text(errno);
     return;
   }
   const auto size = static_cast<std::uint64_t>(status.st_size);
@@ -84,7 +93,7 @@ void inspect(const std::string& path, TopicInfo& info) {
     info.error = "truncated: " + std::to_string(size) + " bytes";
     return;
   }
-  void* base = ::mmap(nullptr, size, PROT_READ, MAP_SHARED, file.fd(), 0);
+  void* base = ::mmap(nullptr, size, PROT_READ, MAP_SHARED, file->fd(), 0);
   if (base == MAP_FAILED) {
     info.error = std::string("cannot map: ") + detail::errno_text(errno);
     return;
@@ -140,14 +149,20 @@ void inspect(const std::string& path, TopicInfo& info) {
   ::munmap(base, size);
 }
 
-bool abandoned(const std::string& path) {
-  const LockedFile file(path, O_RDONLY, LOCK_EX);
+/// Removes the segment `name` if no live process uses it.
+bool remove_if_abandoned(const detail::NamespaceFolder& folder, const std::string& name) {
+  std::optional<LockedFile> file;
+  try {
+    file.emplace(folder, name, LOCK_EX);
+  } catch (const Error&) {
+    return false;  // not this user's to judge (or gone meanwhile)
+  }
   struct stat status {};
-  if (file.fd() < 0 || ::fstat(file.fd(), &status) != 0 || !S_ISREG(status.st_mode) ||
+  if (::fstat(file->fd(), &status) != 0 ||
       static_cast<std::uint64_t>(status.st_size) < kControlSize) {
     return false;
   }
-  void* base = ::mmap(nullptr, kControlSize, PROT_READ, MAP_SHARED, file.fd(), 0);
+  void* base = ::mmap(nullptr, kControlSize, PROT_READ, MAP_SHARED, file->fd(), 0);
   if (base == MAP_FAILED) {
     return false;
   }
@@ -155,7 +170,18 @@ bool abandoned(const std::string& path) {
   ::munmap(base, kControlSize);
   // Unlinked while the exclusive lock is held, so no opener can be setting it up meanwhile;
   // an opener that opened the path before re-checks the inode after locking (open_locked).
-  return !in_use && ::unlink(path.c_str()) == 0;
+  return !in_use && ::unlinkat(folder.descriptor.get(), name.c_str(), 0) == 0;
+}
+
+/// Removes the namespace folder once it is empty (a folder still in use stays).
+void remove_folder_if_empty(const detail::NamespaceFolder& folder) {
+  const std::string root = detail::shm_root();
+  const detail::FileDescriptor root_folder(
+      ::open(root.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC));
+  const std::string name = folder.path.substr(root.size() + 1);
+  if (root_folder.get() >= 0) {
+    ::unlinkat(root_folder.get(), name.c_str(), AT_REMOVEDIR);
+  }
 }
 
 }  // namespace
@@ -163,33 +189,36 @@ bool abandoned(const std::string& path) {
 std::string current_namespace() { return detail::current_namespace(); }
 
 std::vector<TopicInfo> list_topics(std::string_view namespace_name) {
-  const std::string directory = detail::namespace_directory(namespace_name);
+  const detail::NamespaceFolder folder =
+      detail::open_namespace_folder(namespace_name, kToolAccess, false);
   std::vector<TopicInfo> topics;
-  for (const std::string& name : segment_names(directory)) {
+  for (const std::string& name : segment_names(folder)) {
     TopicInfo info;
     info.name = name;
-    inspect(directory + "/" + name, info);
+    inspect(folder, info);
     topics.push_back(std::move(info));
   }
   return topics;
 }
 
 std::size_t clean_namespace(std::string_view namespace_name) {
-  const std::string directory = detail::namespace_directory(namespace_name);
+  const detail::NamespaceFolder folder =
+      detail::open_namespace_folder(namespace_name, kToolAccess, false);
   std::size_t removed = 0;
-  for (const std::string& name : segment_names(directory)) {
-    removed += abandoned(directory + "/" + name) ? 1 : 0;
+  for (const std::string& name : segment_names(folder)) {
+    removed += remove_if_abandoned(folder, name) ? 1 : 0;
   }
-  ::rmdir(directory.c_str());
+  remove_folder_if_empty(folder);
   return removed;
 }
 
 void remove_namespace(std::string_view namespace_name) {
-  const std::string directory = detail::namespace_directory(namespace_name);
-  for (const std::string& name : segment_names(directory)) {
-    ::unlink((directory + "/" + name).c_str());
+  const detail::NamespaceFolder folder =
+      detail::open_namespace_folder(namespace_name, kToolAccess, false);
+  for (const std::string& name : segment_names(folder)) {
+    ::unlinkat(folder.descriptor.get(), name.c_str(), 0);
   }
-  ::rmdir(directory.c_str());
+  remove_folder_if_empty(folder);
 }
 
 }  // namespace horus

@@ -12,10 +12,10 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
-#include <cstring>
-#include <ctime>
 
 #include "horus/detail/futex.hpp"
+#include "horus/detail/process.hpp"
+#include "horus/detail/send_clock.hpp"
 
 namespace horus::detail {
 
@@ -105,20 +105,6 @@ inline constexpr std::int64_t kDeadCheckNs = 1'000'000;
 /// Empty polls between the checks for a dead writer.
 inline constexpr std::uint32_t kStallCheckInterval = 1024;
 
-/// Whether a process exists (only on slow paths: it is a syscall). Pid 0 is nobody.
-bool process_alive(std::uint32_t pid) noexcept;
-
-/// This process's pid as of the last fork: 0 until first asked, and again in a forked child.
-inline std::atomic<std::uint32_t> cached_pid{0};
-/// Asks the kernel, caches the answer, and (once) has every forked child forget it.
-std::uint32_t refresh_pid() noexcept;
-/// This process's pid without a syscall. A forked child gets its own, so a handle it inherited
-/// neither claims slots nor holds a publisher lease in its parent's name.
-inline std::uint32_t this_pid() noexcept {
-  const std::uint32_t pid = cached_pid.load(std::memory_order_relaxed);
-  return pid != 0 ? pid : refresh_pid();
-}
-
 /// Pointers and geometry of a mapped ring, copied out of the validated header.
 struct RingView {
   RingControl* control = nullptr;
@@ -165,36 +151,6 @@ inline void seqlock_fence(std::memory_order order) noexcept {
 #else
   std::atomic_thread_fence(order);
 #endif
-}
-
-inline std::int64_t clock_ns(clockid_t clock) noexcept {
-  timespec now{};
-  clock_gettime(clock, &now);
-  return static_cast<std::int64_t>(now.tv_sec) * 1'000'000'000 + now.tv_nsec;
-}
-
-/// Copies a POD message of N bytes into a slot. Small fixed-size copies compile to a few vector
-/// moves, but GCC expands fixed sizes from a few hundred bytes up to 8 KB as an inline
-/// `rep movsq`, which made a 1.5 KB one-way message about 0.1x of the floor slower than glibc's
-/// memcpy does when the slot's lines sit in a subscriber's cache (bench/topic/RESULTS.md).
-/// Past kInlineCopyLimit the size is hidden from the compiler, so the library copy runs.
-inline constexpr std::size_t kInlineCopyLimit = 256;
-template <std::size_t N>
-inline void copy_to_slot(std::byte* payload, const void* msg) noexcept {
-  std::size_t size = N;
-  if constexpr (N > kInlineCopyLimit) {
-    asm("" : "+r"(size));
-  }
-  std::memcpy(payload, msg, size);
-}
-
-/// The last-send stamp: CLOCK_REALTIME in whole seconds (unsigned 32 bits last until 2106).
-/// Tools want "when did this topic last see traffic" (message timing belongs in the messages'
-/// own timestamps), and time() is one load of a word the kernel keeps in the vDSO, nearly free.
-/// A finer clock is not: clock_gettime(CLOCK_REALTIME_COARSE) on every send cut a raw ring's
-/// throughput to about 0.6x on the benchmark machine (bench/topic/RESULTS.md).
-inline std::uint32_t send_stamp_s() noexcept {
-  return static_cast<std::uint32_t>(std::time(nullptr));
 }
 
 /// A claimed slot: where to write, under which lease, and whether a sleeper must be woken after

@@ -2,12 +2,10 @@
 // request, routing answers to the calls that wait for them, and watching the server's liveness.
 #pragma once
 
-#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
-#include <cerrno>
 #include <charconv>
 #include <chrono>
 #include <cstdint>
@@ -19,8 +17,8 @@
 #include <utility>
 #include <vector>
 
+#include "horus/detail/process.hpp"
 #include "horus/detail/service_frame.hpp"
-#include "horus/detail/shm_segment.hpp"
 #include "horus/service_error.hpp"
 #include "horus/service_result.hpp"
 #include "horus/service_type.hpp"
@@ -39,14 +37,10 @@ inline constexpr int kMaxReplyCollisions = 8;
 /// Slots of a registration topic: only the latest registration matters.
 inline constexpr std::size_t kRegistrationCapacity = 4;
 
-/// Whether a process exists (a syscall: only at call start and every kServerCheckInterval).
-inline bool service_process_alive(std::uint64_t pid) noexcept {
-  return pid != 0 && (::kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM);
-}
-
-/// Whether a process has exited, counting one that its parent has not reaped yet (a zombie still
-/// answers kill(pid, 0)). Reads /proc: only while waiting, every kServerCheckInterval.
-inline bool service_process_gone(std::uint64_t pid) noexcept {
+/// Whether a server's process has exited, counting one that its parent has not reaped yet (a
+/// zombie still answers kill(pid, 0)). Reads /proc: only while waiting, every
+/// kServerCheckInterval, and for introspection.
+inline bool server_process_gone(std::uint64_t pid) noexcept {
   return !identity_alive(static_cast<std::uint32_t>(pid));
 }
 
@@ -126,7 +120,9 @@ class ServiceChannel {
       return ServiceError::no_server("no server for " + std::string(S::name()) + " in namespace " +
                                      namespace_);
     }
-    if (!service_process_alive(current->server_pid)) {
+    // A syscall on every call, not the /proc read of server_process_gone: a zombie server is
+    // found out by the first check while waiting.
+    if (!process_alive(static_cast<std::uint32_t>(current->server_pid))) {
       return ServiceError::transport("the server of " + std::string(S::name()) + " (pid " +
                                      std::to_string(current->server_pid) + ") died");
     }
@@ -161,7 +157,8 @@ class ServiceChannel {
       pending_.emplace(request_id, std::nullopt);
     }
     const std::uint64_t oversized_before = requests_.stats().oversized;
-    if (!requests_.send(RequestFrame{client_id_, request_id, reply_index_, request})) {
+    if (!requests_.send(request_frame(client_id_, reply_index_,
+                                      ServiceRequest<Request>{request_id, request}))) {
       forget(request_id);
       return ServiceError::transport(
           requests_.stats().oversized != oversized_before
@@ -236,7 +233,7 @@ class ServiceChannel {
       return ServiceError::transport("the server of " + service +
                                      " was restarted; the request was lost");
     }
-    if (service_process_gone(current->server_pid)) {
+    if (server_process_gone(current->server_pid)) {
       return ServiceError::transport("the server of " + service + " (pid " +
                                      std::to_string(current->server_pid) +
                                      ") died before answering");
@@ -249,10 +246,7 @@ class ServiceChannel {
   }
 
   static ServiceResult<Response> to_result(ResponseFrame&& frame) {
-    if (frame.status == kStatusOk) {
-      return std::move(frame.payload);
-    }
-    return ServiceError::service_failed(std::string(std::string_view(frame.error)));
+    return response_of(std::move(frame)).into_result();
   }
 
  private:

@@ -25,35 +25,15 @@
 #include <string>
 #include <string_view>
 #include <type_traits>
+#include <utility>
 
+#include "horus/detail/static_text.hpp"
 #include "horus/fixed_string.hpp"
 #include "horus/message.hpp"
 #include "horus/msgpack.hpp"
+#include "horus/service_message.hpp"
 
 namespace horus::detail {
-
-/// The concatenation of static strings as one static string_view (for TypeInfo names and schemas).
-template <const std::string_view&... Parts>
-struct JoinedText {
-  static constexpr std::size_t size = (Parts.size() + ... + 0);
-  static constexpr std::array<char, size + 1> storage = [] {
-    std::array<char, size + 1> out{};
-    std::size_t at = 0;
-    ((std::copy(Parts.begin(), Parts.end(), out.begin() + static_cast<std::ptrdiff_t>(at)),
-      at += Parts.size()),
-     ...);
-    return out;
-  }();
-  static constexpr std::string_view value{storage.data(), size};
-};
-
-constexpr std::uint64_t fnv1a(std::string_view text) noexcept {
-  std::uint64_t hash = 0xcbf29ce484222325ULL;
-  for (const char c : text) {
-    hash = (hash ^ static_cast<std::uint8_t>(c)) * 0x100000001b3ULL;
-  }
-  return hash;
-}
 
 inline constexpr std::string_view kRequestFrameName = "horus.ServiceRequest<";
 inline constexpr std::string_view kResponseFrameName = "horus.ServiceResponse<";
@@ -137,6 +117,41 @@ void set_error(ServiceResponseFrame<Res>& frame, std::string_view text) {
   } else {
     frame.error.assign(text);
   }
+}
+
+/// The frame that carries `request` from client `client_id`, to be answered on reply topic
+/// `reply_to`.
+template <Message Req>
+ServiceRequestFrame<Req> request_frame(std::uint64_t client_id, std::uint64_t reply_to,
+                                       ServiceRequest<Req> request) {
+  return {client_id, request.request_id, reply_to, std::move(request.payload)};
+}
+
+/// The frame that carries `response` to client `client_id`. A POD frame holds a failure's text
+/// cut to kPodErrorCapacity bytes.
+template <Message Res>
+ServiceResponseFrame<Res> response_frame(std::uint64_t client_id, ServiceResponse<Res> response) {
+  ServiceResponseFrame<Res> frame{};
+  frame.client_id = client_id;
+  frame.request_id = response.request_id;
+  if (response.ok && response.payload) {
+    frame.status = kStatusOk;
+    frame.payload = std::move(*response.payload);
+  } else {
+    frame.status = kStatusFailed;
+    set_error(frame, response.error.value_or(std::string()));
+  }
+  return frame;
+}
+
+/// The response a frame carries.
+template <Message Res>
+ServiceResponse<Res> response_of(ServiceResponseFrame<Res>&& frame) {
+  if (frame.status == kStatusOk) {
+    return ServiceResponse<Res>::success(frame.request_id, std::move(frame.payload));
+  }
+  return ServiceResponse<Res>::failure(frame.request_id,
+                                       std::string(std::string_view(frame.error)));
 }
 
 /// The server of a service, as it announces itself on `<Service>.service` (the latest message

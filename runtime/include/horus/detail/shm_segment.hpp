@@ -1,6 +1,7 @@
 // The shared-memory segment behind one topic: its layout, its validation and its set-up.
 //
-// A segment is one file under the namespace folder (by default /dev/shm/horus/<namespace>/<topic>):
+// A segment is one file under the namespace folder (by default
+// /dev/shm/horus-<uid>/<namespace>/<topic>):
 //
 //   [0, 4096)            ControlBlock: type-independent (write index, futex word, users table).
 //                        Exists alone while only TopicNotifiers know the topic.
@@ -21,6 +22,7 @@
 #include <string_view>
 
 #include "horus/detail/ring.hpp"
+#include "horus/detail/shm_access.hpp"
 
 namespace horus::detail {
 
@@ -41,24 +43,11 @@ inline constexpr std::uint32_t kRoleSubscriber = 2;
 /// A TopicNotifier: maps only the control page, so it never prevents re-typing a dead topic.
 inline constexpr std::uint32_t kRoleNotifier = 4;
 
-/// A process as the users table records it: the pid in the low half and, in the high half, when
-/// it started (clock ticks since boot, the low 32 bits; 0 when unknown). With the start time, a
-/// dead process whose pid the kernel gave to another is still seen dead; both halves are one
-/// word, so whoever takes an entry over replaces them together.
-inline std::uint32_t identity_pid(std::uint64_t identity) noexcept {
-  return static_cast<std::uint32_t>(identity);
-}
-/// This process's identity: read once, and again in a forked child.
-std::uint64_t this_process_identity() noexcept;
-/// Whether the process with this identity runs: its pid exists, it has not exited (a zombie
-/// has), and (when known) it started when the identity says. A syscall and a read of /proc:
-/// slow paths only.
-bool identity_alive(std::uint64_t identity) noexcept;
-
 /// One open Topic handle: its process and whether it has sent or received.
 struct UserEntry {
-  /// The identity of the process that opened the handle; 0 when the entry is free. A forked
-  /// child using a handle it inherited is not recorded: the entry stays its parent's.
+  /// The identity (detail/process.hpp) of the process that opened the handle; 0 when the entry
+  /// is free. A forked child using a handle it inherited is not recorded: the entry stays its
+  /// parent's.
   std::atomic<std::uint64_t> process;
   std::atomic<std::uint32_t> roles;
   /// Sleeper announcements this handle holds in RingControl::write_index: counted after they
@@ -122,17 +111,27 @@ struct SegmentOptions {
 
 /// HORUS_NAMESPACE, or "default".
 std::string current_namespace();
-/// HORUS_SHM_DIR, or /dev/shm/horus.
+/// HORUS_SHM_DIR, or /dev/shm/horus-<effective uid>.
 std::string shm_root();
 /// Folder holding the segments of a namespace (empty: the current one).
 std::string namespace_directory(std::string_view namespace_name);
+
+/// A namespace folder opened and checked (detail/shm_access.hpp).
+struct NamespaceFolder {
+  /// -1 when the folder does not exist and was not to be created.
+  FileDescriptor descriptor;
+  std::string path;
+};
+/// Opens the folder of a namespace (empty: the current one) and the root above it, creating
+/// them (for segments of `mode`) when missing and `create`. Throws horus::Error naming the
+/// folder and its owner when another user could have planted or could write it.
+NamespaceFolder open_namespace_folder(std::string_view namespace_name, unsigned mode, bool create);
 /// Throws horus::Error unless `name` is usable as one path component ([A-Za-z0-9_.-], not . or ..).
 void validate_segment_name(std::string_view what, std::string_view name);
 /// Why a segment's headers cannot be trusted with `file_size` bytes, or empty when they can.
 std::string validate_layout(const LayoutHeader& header, std::uint64_t file_size);
 std::string validate_control(const ControlBlock& control);
-/// Whether a live process has the segment open, reading the users table in the layout of the
-/// segment's version (older versions named processes by their pid alone).
+/// Whether a live process has the segment open (a notifier counts).
 bool segment_in_use(const ControlBlock& control);
 
 /// An open, validated, mapped segment. Move-only; unmaps and leaves the users table on destruction.

@@ -1,12 +1,14 @@
-// Who this process is (its pid for the hot path, its identity for the users table), cached and
-// forgotten in every forked child; and whether the process a users table entry names still runs.
+// Who this process is (its pid for the hot path, its identity for shared tables), cached and
+// forgotten in every forked child; and whether the process an entry names still runs.
+#include "horus/detail/process.hpp"
+
 #include <pthread.h>
+#include <signal.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
-
-#include "horus/detail/shm_segment.hpp"
 
 namespace horus::detail {
 
@@ -49,6 +51,13 @@ bool read_process_stat(std::uint32_t pid, ProcessStat& stat) noexcept {
 }
 
 }  // namespace
+
+bool process_alive(std::uint32_t pid) noexcept {
+  if (pid == 0) {
+    return false;
+  }
+  return ::kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM;
+}
 
 std::uint32_t refresh_pid() noexcept {
   [[maybe_unused]] static const int forgotten_on_fork = ::pthread_atfork(nullptr, nullptr, [] {

@@ -1,0 +1,107 @@
+// Plain values on topics, as seed 002 uses them (`Topic<f32>`, `Topic<u64>`): bool, the
+// fixed-width integers, float and double, and std::array of those (nested too), carried byte for
+// byte like a POD message, with no schema file of their own.
+//
+// Their identity is spelled the way the schema language spells the type: the name is `f32`,
+// `u64`, `[f32; 3]`, `[[u8; 4]; 2]`; the schema text is `value <name>\n`; the fingerprint is the
+// FNV-1a hash of that text, as for the other identities the runtime spells itself (service
+// frames). Python computes the same three from the same rule.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <string_view>
+#include <type_traits>
+
+#include "horus/detail/static_text.hpp"
+#include "horus/type_info.hpp"
+
+namespace horus {
+
+/// True for the plain values a topic carries (see above). A plain value is not a Message: it has
+/// no fields, and MessagePack packs it as itself.
+template <class T>
+concept PlainValue = requires {
+  requires TypeInfo<T>::is_plain_value;
+};
+
+/// What a Topic carries: a generated message or a plain value.
+template <class T>
+concept TopicValue = Message<T> || PlainValue<T>;
+
+/// What a Topic copies byte for byte into shared memory (zero copy, loans).
+template <class T>
+concept PodTopicValue = PodMessage<T> || PlainValue<T>;
+
+namespace detail {
+
+inline constexpr std::string_view kPlainValueSchemaOpen = "value ";
+inline constexpr std::string_view kPlainValueSchemaClose = "\n";
+
+template <class T, const std::string_view& Name>
+struct PlainValueTypeInfo {
+  static_assert(std::is_trivially_copyable_v<T> && std::is_standard_layout_v<T>);
+  using type = T;
+  static constexpr std::string_view name = Name;
+  static constexpr std::string_view package = "";
+  static constexpr std::string_view schema =
+      JoinedText<kPlainValueSchemaOpen, Name, kPlainValueSchemaClose>::value;
+  static constexpr std::uint64_t fingerprint = fnv1a(schema);
+  static constexpr bool is_pod = true;
+  static constexpr bool is_plain_value = true;
+  static constexpr std::size_t size = sizeof(T);
+  static constexpr std::size_t alignment = alignof(T);
+};
+
+inline constexpr std::string_view kBoolName = "bool";
+inline constexpr std::string_view kI8Name = "i8";
+inline constexpr std::string_view kI16Name = "i16";
+inline constexpr std::string_view kI32Name = "i32";
+inline constexpr std::string_view kI64Name = "i64";
+inline constexpr std::string_view kU8Name = "u8";
+inline constexpr std::string_view kU16Name = "u16";
+inline constexpr std::string_view kU32Name = "u32";
+inline constexpr std::string_view kU64Name = "u64";
+inline constexpr std::string_view kF32Name = "f32";
+inline constexpr std::string_view kF64Name = "f64";
+
+inline constexpr std::string_view kArrayOpen = "[";
+inline constexpr std::string_view kArrayLength = "; ";
+inline constexpr std::string_view kArrayClose = "]";
+
+}  // namespace detail
+
+template <>
+struct TypeInfo<bool> : detail::PlainValueTypeInfo<bool, detail::kBoolName> {};
+template <>
+struct TypeInfo<std::int8_t> : detail::PlainValueTypeInfo<std::int8_t, detail::kI8Name> {};
+template <>
+struct TypeInfo<std::int16_t> : detail::PlainValueTypeInfo<std::int16_t, detail::kI16Name> {};
+template <>
+struct TypeInfo<std::int32_t> : detail::PlainValueTypeInfo<std::int32_t, detail::kI32Name> {};
+template <>
+struct TypeInfo<std::int64_t> : detail::PlainValueTypeInfo<std::int64_t, detail::kI64Name> {};
+template <>
+struct TypeInfo<std::uint8_t> : detail::PlainValueTypeInfo<std::uint8_t, detail::kU8Name> {};
+template <>
+struct TypeInfo<std::uint16_t> : detail::PlainValueTypeInfo<std::uint16_t, detail::kU16Name> {};
+template <>
+struct TypeInfo<std::uint32_t> : detail::PlainValueTypeInfo<std::uint32_t, detail::kU32Name> {};
+template <>
+struct TypeInfo<std::uint64_t> : detail::PlainValueTypeInfo<std::uint64_t, detail::kU64Name> {};
+template <>
+struct TypeInfo<float> : detail::PlainValueTypeInfo<float, detail::kF32Name> {};
+template <>
+struct TypeInfo<double> : detail::PlainValueTypeInfo<double, detail::kF64Name> {};
+
+/// `[<element>; <N>]`, the schema language's spelling of a fixed array.
+template <PlainValue T, std::size_t N>
+requires(N > 0) struct TypeInfo<std::array<T, N>>
+    : detail::PlainValueTypeInfo<
+          std::array<T, N>,
+          detail::JoinedText<detail::kArrayOpen, TypeInfo<T>::name, detail::kArrayLength,
+                             detail::DecimalText<N>::value, detail::kArrayClose>::value> {
+};
+
+}  // namespace horus
