@@ -137,6 +137,10 @@ void bind_topics(py::module_& m) {
       py::arg("namespace_name") = "",
       "The topics of a namespace (empty: HORUS_NAMESPACE), with their users.");
   m.def("current_namespace", [] { return current_namespace(); });
+  m.def(
+      "namespace_directory",
+      [](const std::string& namespace_name) { return detail::namespace_directory(namespace_name); },
+      py::arg("namespace_name") = "", "The folder holding a namespace's topic segments.");
 }
 
 }  // namespace horus::python

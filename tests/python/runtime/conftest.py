@@ -6,9 +6,10 @@ import shutil
 import subprocess
 import sys
 import uuid
-from pathlib import Path
 
 import pytest
+
+import horus
 
 PEER = os.environ.get("HORUS_PY_PEER", "")
 
@@ -21,8 +22,7 @@ def namespace(monkeypatch, tmp_path):
     monkeypatch.setenv("HORUS_NAMESPACE", name)
     monkeypatch.chdir(tmp_path)
     yield name
-    root = Path(os.environ.get("HORUS_SHM_DIR", "/dev/shm/horus"))
-    shutil.rmtree(root / name, ignore_errors=True)
+    shutil.rmtree(horus._core.namespace_directory(name), ignore_errors=True)
 
 
 @pytest.fixture
