@@ -190,6 +190,10 @@ def run_pair(name: str, kind: str, rounds: int, peer: list[str]) -> dict:
     assert proc.stdout.readline().strip() == "ready", f"{name}: the peer did not start"
     samples = topic_ping(kind, rounds)
     proc.wait(timeout=60)
+    import shutil
+
+    import horus
+    shutil.rmtree(horus._core.namespace_directory(env["HORUS_NAMESPACE"]), ignore_errors=True)
     return summary(samples)
 
 

@@ -118,8 +118,9 @@ PyNode::PyNode(std::string name, py::tuple callbacks, std::vector<TopicMetadata>
       publishers_(std::move(publishers)),
       subscribers_(std::move(subscribers)) {
   if (callbacks.size() != 5) {
-    throw std::invalid_argument("PyNode needs (init, tick, shutdown, enter_safe_state, "
-                                "is_safe_state)");
+    throw std::invalid_argument(
+        "PyNode needs (init, tick, shutdown, enter_safe_state, "
+        "is_safe_state)");
   }
   init_ = callbacks[0];
   tick_ = callbacks[1];

@@ -13,6 +13,7 @@
 
 #include "bindings.hpp"
 #include "horus/clock.hpp"
+#include "horus/log.hpp"
 #include "horus/scheduler.hpp"
 #include "py_node.hpp"
 
@@ -84,9 +85,11 @@ py::dict info_dict(const NodeInfo& info) {
   out["on"] = info.on_topic ? py::object(py::str(*info.on_topic)) : py::object(py::none());
   out["last_error"] = info.last_error;
   py::list pubs;
-  for (const auto& topic : info.publishers) pubs.append(py::make_tuple(topic.topic_name, topic.type_name));
+  for (const auto& topic : info.publishers)
+    pubs.append(py::make_tuple(topic.topic_name, topic.type_name));
   py::list subs;
-  for (const auto& topic : info.subscribers) subs.append(py::make_tuple(topic.topic_name, topic.type_name));
+  for (const auto& topic : info.subscribers)
+    subs.append(py::make_tuple(topic.topic_name, topic.type_name));
   out["publishers"] = pubs;
   out["subscribers"] = subs;
   return out;
@@ -129,12 +132,29 @@ struct ReleasingDeleter {
 
 using Release = py::call_guard<py::gil_scoped_release>;
 
+/// A weak reference to a node, for its request_stop().
+struct StopHandle {
+  std::weak_ptr<Node> node;
+  void request_stop() const noexcept {
+    if (const auto held = node.lock()) {
+      held->request_stop();
+    }
+  }
+};
+
 }  // namespace
 
 void bind_scheduler(py::module_& m) {
   py::class_<Node, std::shared_ptr<Node>>(
       m, "Node", "A C++ horus::Node; extensions expose their C++ nodes as subclasses of it.")
-      .def_property_readonly("name", [](const Node& node) { return std::string(node.name()); });
+      .def_property_readonly("name", [](const Node& node) { return std::string(node.name()); })
+      .def("request_stop", &Node::request_stop)
+      .def("stop_handle", [](const std::shared_ptr<Node>& node) { return StopHandle{node}; });
+
+  py::class_<StopHandle>(m, "StopHandle",
+                         "Node.request_stop() without owning the node (a Python node keeps one: "
+                         "owning its C++ node would make a cycle the garbage collector cannot see)")
+      .def("request_stop", &StopHandle::request_stop);
 
   py::class_<PyNode, Node, std::shared_ptr<PyNode>>(m, "PyNode")
       .def(py::init([](std::string name, py::tuple callbacks,
@@ -256,9 +276,8 @@ void bind_scheduler(py::module_& m) {
       .def("stop_reason", &Scheduler::stop_reason)
       .def("node_count", &Scheduler::node_count)
       .def("node_names", &Scheduler::node_names)
-      .def("has_node", [](const Scheduler& sched, const std::string& name) {
-        return sched.has_node(name);
-      })
+      .def("has_node",
+           [](const Scheduler& sched, const std::string& name) { return sched.has_node(name); })
       .def("node_info",
            [](const Scheduler& sched, const std::string& name) -> py::object {
              auto info = sched.node_info(name);
@@ -301,9 +320,8 @@ void bind_scheduler(py::module_& m) {
              out["cpu_isolation"] = caps.cpu_isolation;
              return out;
            })
-      .def("dump_blackbox", [](const Scheduler& sched, const std::string& path) {
-        sched.dump_blackbox(path);
-      });
+      .def("dump_blackbox",
+           [](const Scheduler& sched, const std::string& path) { sched.dump_blackbox(path); });
 
   m.def("now", [] {
     const ClockSnapshot& clock = thread_clock();
@@ -328,6 +346,24 @@ void bind_scheduler(py::module_& m) {
   });
   m.def("rng_float", [] { return horus::rng_float(); });
   m.def("in_callback", [] { return thread_clock().in_callback; });
+  m.def(
+      "log",
+      [](const std::string& level, std::string_view source, std::string_view message) {
+        static const std::pair<const char*, LogLevel> levels[] = {{"debug", LogLevel::Debug},
+                                                                  {"info", LogLevel::Info},
+                                                                  {"warn", LogLevel::Warn},
+                                                                  {"error", LogLevel::Error}};
+        for (const auto& [name, value] : levels) {
+          if (level == name) {
+            log::emit(value, source, message);
+            return;
+          }
+        }
+        throw Error("log level must be debug, info, warn or error, got '" + level + "'");
+      },
+      py::arg("level"), py::arg("source"), py::arg("message"));
+  m.def("flush_log", &log::flush, py::call_guard<py::gil_scoped_release>(),
+        "Returns once every line logged so far is on stderr.");
 }
 
 }  // namespace horus::python

@@ -44,8 +44,7 @@ void bind_topics(py::module_& m) {
                           "A type-erased topic handle: bytes in, bytes (or a view) out.")
       .def(py::init([](std::string name, std::string type_name, std::uint64_t fingerprint,
                        std::string schema, bool is_pod, std::size_t size, std::size_t alignment,
-                       std::size_t capacity, std::size_t max_message_size,
-                       bool single_publisher) {
+                       std::size_t capacity, std::size_t max_message_size, bool single_publisher) {
              TopicOptions options;
              options.capacity = capacity;
              options.max_message_size = max_message_size;
@@ -97,8 +96,7 @@ void bind_topics(py::module_& m) {
              }
              std::byte* payload = topic.loan();
              return py::memoryview::from_memory(static_cast<void*>(payload),
-                                                static_cast<py::ssize_t>(topic.type().size),
-                                                false);
+                                                static_cast<py::ssize_t>(topic.type().size), false);
            })
       .def("publish", &ErasedTopic::publish)
       .def("release_loan", &ErasedTopic::release_loan)
@@ -139,6 +137,10 @@ void bind_topics(py::module_& m) {
       py::arg("namespace_name") = "",
       "The topics of a namespace (empty: HORUS_NAMESPACE), with their users.");
   m.def("current_namespace", [] { return current_namespace(); });
+  m.def(
+      "namespace_directory",
+      [](const std::string& namespace_name) { return detail::namespace_directory(namespace_name); },
+      py::arg("namespace_name") = "", "The folder holding a namespace's topic segments.");
 }
 
 }  // namespace horus::python

@@ -4,7 +4,6 @@ from __future__ import annotations
 import asyncio
 import functools
 import inspect
-import sys
 import weakref
 
 from . import _core
@@ -84,6 +83,7 @@ class Node:
         self._topics: dict[str, Topic] = {}
         self._loop = None
         self._scheduler = None
+        self._stop = None  # request_stop() of the C++ node, once added to a scheduler
 
     # -- what the scheduler calls --------------------------------------------------------------
 
@@ -105,9 +105,13 @@ class Node:
         shutdown = self._shutdown
         safe = getattr(self, "enter_safe_state", None)
         is_safe = getattr(self, "is_safe_state", None)
-        return _core.PyNode(self.name, (_with_topics(self, init), tick, shutdown, safe, is_safe),
+        node = _core.PyNode(self.name, (_with_topics(self, init), tick, shutdown, safe, is_safe),
                             [(t, _type_name(c)) for t, c in self.pubs.items()],
                             [(t, _type_name(c)) for t, c in self.subs.items()])
+        # Weak: the C++ node's callbacks hold this node, so holding it back would be a cycle
+        # through C++ that the garbage collector cannot see.
+        self._stop = node.stop_handle()
+        return node
 
     def _tick_async(self) -> None:
         if self._loop is None:
@@ -164,28 +168,29 @@ class Node:
         return self._topic(topic).has_msg()
 
     def request_stop(self) -> None:
-        """Asks the scheduler running this node to stop (as Ctrl+C would)."""
-        scheduler = self._scheduler() if self._scheduler is not None else None
-        if scheduler is not None:
-            scheduler.stop()
+        """Asks the scheduler running this node to stop (as Ctrl+C would); safe from any thread.
+        A node no scheduler holds ignores it."""
+        if self._stop is not None:
+            self._stop.request_stop()
 
     # -- logging (only inside init / tick / shutdown; dropped elsewhere, as the seed says) ------
 
+    # The runtime's log (stderr and the namespace's shared-memory ring), in this node's name.
     def _log(self, level: str, message: str) -> None:
         if _core.in_callback():
-            print(f"[horus] {level} [{self.name}] {message}", file=sys.stderr, flush=True)
+            _core.log(level, self.name, str(message))
 
     def log_info(self, message: str) -> None:
-        self._log("INFO", message)
+        self._log("info", message)
 
     def log_warning(self, message: str) -> None:
-        self._log("WARN", message)
+        self._log("warn", message)
 
     def log_error(self, message: str) -> None:
-        self._log("ERROR", message)
+        self._log("error", message)
 
     def log_debug(self, message: str) -> None:
-        self._log("DEBUG", message)
+        self._log("debug", message)
 
     def _attach(self, scheduler) -> None:
         if self._scheduler is not None and self._scheduler() not in (None, scheduler):

@@ -6,22 +6,23 @@ import shutil
 import subprocess
 import sys
 import uuid
-from pathlib import Path
 
 import pytest
 
+import horus
+
 PEER = os.environ.get("HORUS_PY_PEER", "")
-SOURCE = Path(os.environ.get("HORUS_SOURCE_DIR", Path(__file__).resolve().parents[3]))
 
 
 @pytest.fixture(autouse=True)
-def namespace(monkeypatch):
-    """Each test in its own topic namespace, removed afterwards (children inherit it)."""
+def namespace(monkeypatch, tmp_path):
+    """Each test in its own topic namespace, removed afterwards (children inherit it), and in a
+    folder of its own (a fatal stop writes the scheduler's blackbox into the current folder)."""
     name = f"pyrt_{uuid.uuid4().hex[:12]}"
     monkeypatch.setenv("HORUS_NAMESPACE", name)
+    monkeypatch.chdir(tmp_path)
     yield name
-    root = Path(os.environ.get("HORUS_SHM_DIR", "/dev/shm/horus"))
-    shutil.rmtree(root / name, ignore_errors=True)
+    shutil.rmtree(horus._core.namespace_directory(name), ignore_errors=True)
 
 
 @pytest.fixture

@@ -329,9 +329,10 @@ def test_lifecycle_callbacks_and_logging_only_inside_them(capfd):
                  order=5, budget=300 * us)
     motor.log_info("outside any callback: dropped")
     horus.run(motor, duration=0.05)
+    horus._core.flush_log()
     err = capfd.readouterr().err
-    assert "[motor] Connecting to motor controller..." in err
-    assert "[motor] Stopping motor controller..." in err
+    assert "INFO motor: Connecting to motor controller..." in err
+    assert "INFO motor: Stopping motor controller..." in err
     assert "dropped" not in err
     assert status.try_recv() == {"state": "ready"}
     assert cmd.try_recv() == {"linear": 0.0, "angular": 0.0}

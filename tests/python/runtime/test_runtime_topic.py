@@ -226,3 +226,8 @@ def test_python_publisher_killed_mid_stream_leaves_the_topic_usable(peer):
         assert pub.send(CmdVel(linear=float(i)))
     assert _values(proc, 3) == [101.0, 102.0, 103.0]
     assert [sub.try_recv().linear for _ in range(3)] == [101.0, 102.0, 103.0]
+
+
+def test_a_topic_name_that_is_not_a_path_component_is_refused():
+    with pytest.raises(horus.HorusError, match="bad/name"):
+        horus.Topic(CmdVel, "bad/name")
