@@ -321,4 +321,45 @@ TEST_F(ServiceThreadTest, ClientsOnManyThreadsEachGetTheirOwnAnswers) {
   EXPECT_EQ(server.stats().requests, 800U);
 }
 
+// After kMaxReplyCollisions clashes a client shares its reply topic with another one. Sharing is
+// safe only because each keeps the answers with its own client id: here a second endpoint
+// receives on the first client's reply topic and asks with the same request id, so each answer
+// reaches both and each must take only its own.
+TEST_F(ServiceThreadTest, ClientsSharingAReplyTopicEachTakeOnlyTheirOwnAnswers) {
+  using RequestFrame = horus::detail::ServiceRequestFrame<ComputeRequest>;
+  using ResponseFrame = horus::detail::ServiceResponseFrame<ComputeResponse>;
+  std::atomic<int> calls{0};
+  auto server = compute_server(&calls);
+  horus::ServiceClient<Compute> client;  // the first client of the service: reply topic 0
+  const std::string shared = horus::detail::reply_topic(Compute::response_topic(), 0);
+  horus::Topic<ResponseFrame> other_replies(shared);
+  static_cast<void>(other_replies.try_recv());  // subscribes, as a client does
+  ASSERT_EQ(horus::detail::free_reply_index(Compute::response_topic(), name_), 1U);
+
+  horus::Topic<RequestFrame> requests(std::string(Compute::request_topic()));
+  constexpr std::uint64_t kOtherClient = 0xC0FFEE;
+  ASSERT_TRUE(requests.send(horus::detail::request_frame(
+      kOtherClient, 0, horus::ServiceRequest<ComputeRequest>{1, {100, 100, 0, 0}})));
+  const auto deadline = std::chrono::steady_clock::now() + kLong;
+  while (calls.load() < 1 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(1ms);
+  }
+  ASSERT_EQ(calls.load(), 1);
+
+  // The first client's first request has id 1 too; the other endpoint's answer sits on the topic.
+  const auto sum = client.call({1, 2, 0, 0}, kLong);
+  ASSERT_TRUE(sum.has_value()) << sum.error().to_string();
+  EXPECT_EQ(sum->sum, 3);
+
+  std::optional<ResponseFrame> own;
+  std::optional<ResponseFrame> foreign;
+  while (auto frame = other_replies.try_recv()) {
+    (frame->client_id == kOtherClient ? own : foreign) = *frame;
+  }
+  ASSERT_TRUE(own.has_value());
+  EXPECT_EQ(own->payload.sum, 200);
+  ASSERT_TRUE(foreign.has_value());  // the first client's answer passed by too
+  EXPECT_EQ(foreign->payload.sum, 3);
+}
+
 }  // namespace
