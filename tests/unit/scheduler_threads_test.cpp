@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdlib>
 #include <fstream>
 #include <memory>
 #include <mutex>
@@ -150,6 +151,29 @@ TEST(SchedulerThreads, RtThreadsGoToIsolatedCpusOrTheLackIsReported) {
     EXPECT_EQ(node->cpus, isolated);
   }
   EXPECT_EQ(best_effort->cpus, everything);  // only Rt threads move
+}
+
+// CPUs reserved by a cpuset or a container rather than isolcpus: HORUS_ISOLATED_CPUS names them,
+// and the CPUs this process may not use are left out.
+TEST(SchedulerThreads, RtThreadsGoToTheCpusHorusIsolatedCpusReserves) {
+  const auto everything = affinity_of_this_thread();
+  const int reserved = everything.back();
+  const std::string list = std::to_string(reserved) + "," + std::to_string(CPU_SETSIZE - 1);
+  ::setenv("HORUS_ISOLATED_CPUS", list.c_str(), 1);
+  auto node = std::make_shared<ThreadProbe>("control");
+  auto best_effort = std::make_shared<ThreadProbe>("display");
+  horus::Scheduler sched{real().rt(true)};
+  ::unsetenv("HORUS_ISOLATED_CPUS");
+  sched.add(node).rate(200_hz).build();
+  sched.add(best_effort).build();
+  sched.run_for(200_ms);
+  ASSERT_TRUE(node->seen) << "rt node never ran";
+  ASSERT_TRUE(best_effort->seen) << "best-effort node never ran";
+  EXPECT_EQ(sched.capabilities().isolated_cpus, std::vector<int>{reserved});
+  EXPECT_TRUE(sched.capabilities().cpu_isolation);
+  EXPECT_FALSE(has_degradation(sched, "no isolated CPUs"));
+  EXPECT_EQ(node->cpus, std::vector<int>{reserved});
+  EXPECT_EQ(best_effort->cpus, everything);
 }
 
 TEST(SchedulerThreads, NameIsReportedAndInErrors) {

@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <thread>
 
@@ -137,13 +138,27 @@ void SchedulerImpl::probe_rt() {
   probe.join();
   capabilities_.rt_scheduling = fifo;
   if (!fifo) add_degradation("SCHED_FIFO unavailable (no CAP_SYS_NICE) - using SCHED_OTHER");
-  std::ifstream isolated("/sys/devices/system/cpu/isolated");
+  // HORUS_ISOLATED_CPUS names CPUs set aside by other means than isolcpus (a cpuset, a
+  // container's reserved cores); only those this process may run on count.
   std::string line;
-  std::getline(isolated, line);
-  capabilities_.isolated_cpus = parse_cpu_list(line);
+  const char* reserved = std::getenv("HORUS_ISOLATED_CPUS");  // NOLINT(concurrency-mt-unsafe)
+  if (reserved != nullptr) {
+    line = reserved;
+  } else {
+    std::ifstream isolated("/sys/devices/system/cpu/isolated");
+    std::getline(isolated, line);
+  }
+  cpu_set_t allowed;
+  CPU_ZERO(&allowed);
+  sched_getaffinity(0, sizeof(allowed), &allowed);
+  for (const int cpu : parse_cpu_list(line)) {
+    if (CPU_ISSET(static_cast<unsigned>(cpu), &allowed)) capabilities_.isolated_cpus.push_back(cpu);
+  }
   capabilities_.cpu_isolation = !capabilities_.isolated_cpus.empty();
   if (!capabilities_.cpu_isolation) {
-    add_degradation("no isolated CPUs (isolcpus) - RT threads share cores with other work");
+    add_degradation(
+        "no isolated CPUs (isolcpus, HORUS_ISOLATED_CPUS) - RT threads share cores with other "
+        "work");
   }
 }
 
