@@ -2,7 +2,6 @@
 // How the segment and the slots work: runtime/src/transport/README.md.
 #pragma once
 
-#include <algorithm>
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
@@ -18,15 +17,14 @@
 
 #include "horus/codec.hpp"
 #include "horus/detail/message_count.hpp"
-#include "horus/detail/process.hpp"
-#include "horus/detail/publisher_lease.hpp"
 #include "horus/detail/ring.hpp"
-#include "horus/detail/send_clock.hpp"
 #include "horus/detail/shm_segment.hpp"
 #include "horus/detail/slot_copy.hpp"
+#include "horus/detail/topic_endpoint.hpp"
 #include "horus/detail/topic_stream.hpp"
 #include "horus/msgpack.hpp"
 #include "horus/plain_value.hpp"
+#include "horus/topic_stats.hpp"
 #include "horus/type_info.hpp"
 
 namespace horus {
@@ -53,23 +51,6 @@ struct TopicOptions {
   /// handle sends; from then on every send claims its slot with two. Either way, while one
   /// handle publishes alone, a blocking receiver pays a membarrier(2) each time it goes to sleep.
   bool single_publisher = false;
-};
-
-/// Per-handle counters: nothing fails silently.
-struct TopicStats {
-  /// Messages this handle never received because it fell more than `capacity` behind
-  /// (or their publisher died while writing them).
-  std::uint64_t lost = 0;
-  /// send()/publish() calls that published nothing (oversized, or the slot was held by a
-  /// publisher stalled for a whole lap of the ring).
-  std::uint64_t send_failures = 0;
-  /// The part of send_failures due to messages over max_message_size.
-  std::uint64_t oversized = 0;
-  /// The part of send_failures on a single-publisher topic whose lease another live handle
-  /// holds.
-  std::uint64_t not_the_publisher = 0;
-  /// Received slots whose content did not decode as T (a corrupted segment).
-  std::uint64_t invalid = 0;
 };
 
 template <TopicValue T>
@@ -110,16 +91,9 @@ class Loan {
         data_(claim_.slot != nullptr ? reinterpret_cast<T*>(ring.payload(*claim_.slot)) : spare) {}
 
   /// Commits the slot with `size` bytes (or releases it); whether a message was published.
-  bool finish(std::uint32_t size) noexcept {
-    if (claim_.slot != nullptr) {
-      detail::ring_commit(*ring_, claim_, size, detail::send_stamp_s());
-      claim_.slot = nullptr;
-      claim_.wake = false;
-      return size != detail::kReleasedSlot;
-    }
-    detail::ring_refused(*ring_, claim_);
-    claim_.wake = false;
-    return false;
+  /// Always inlined, as send() is: a call here costs a loan as much as its commit.
+  [[gnu::always_inline]] bool finish(std::uint32_t size) noexcept {
+    return detail::finish_claim(*ring_, claim_, size);
   }
 
   detail::Claim claim_;
@@ -137,19 +111,17 @@ class Topic {
   /// segment belongs to another user (outside a shared group) or is writable by every user.
   explicit Topic(std::string_view name, const TopicOptions& options = {})
       : name_(name),
-        segment_(detail::ShmSegment::open_topic(
+        endpoint_(detail::ShmSegment::open_topic(
             name,
             detail::TypeDescriptor{TypeInfo<T>::name, TypeInfo<T>::fingerprint, TypeInfo<T>::schema,
                                    TypeInfo<T>::is_pod, TypeInfo<T>::is_pod ? sizeof(T) : 0,
                                    alignof(T)},
             detail::SegmentOptions{options.capacity, options.max_message_size, options.mode,
-                                   options.namespace_name, options.single_publisher})),
-        ring_(segment_.ring()) {
-    cursor_.next = detail::ring_written(ring_);
+                                   options.namespace_name, options.single_publisher})) {
     if constexpr (PodTopicValue<T>) {
       spare_ = std::make_unique<T>();
     } else {
-      buffer_.resize(ring_.payload_capacity);
+      buffer_.resize(endpoint_.ring().payload_capacity);
     }
   }
 
@@ -167,43 +139,31 @@ class Topic {
 
   /// Publishes a copy of `msg`. Never blocks; false (and a counter) when nothing was published.
   bool send(const T& msg) noexcept {
-    mark(detail::kRolePublisher);
-    const std::uint32_t sent = detail::send_stamp_s();
-    const detail::Claim claim = claim_slot();
-    if (claim.slot == nullptr) {
-      detail::ring_refused(ring_, claim);
-      ++stats_.send_failures;
-      return false;
-    }
-    std::byte* payload = ring_.payload(*claim.slot);
-    if constexpr (PodTopicValue<T>) {
-      detail::copy_to_slot<sizeof(T)>(payload, &msg);
-      detail::ring_commit(ring_, claim, sizeof(T), sent);
-      detail::count_sent();
-      return true;
-    } else {
-      detail::FixedBufferStream stream(payload, ring_.payload_capacity);
-      msgpack::packer<detail::FixedBufferStream> packer(stream);
-      packer.pack(msg);
-      if (stream.overflowed()) {
-        detail::ring_commit(ring_, claim, detail::kReleasedSlot, sent);
-        ++stats_.send_failures;
-        ++stats_.oversized;
-        return false;
+    const bool sent = endpoint_.send([&](std::byte* payload) noexcept {
+      if constexpr (PodTopicValue<T>) {
+        detail::copy_to_slot<sizeof(T)>(payload, &msg);
+        return static_cast<std::uint32_t>(sizeof(T));
+      } else {
+        detail::FixedBufferStream stream(payload, endpoint_.ring().payload_capacity);
+        msgpack::packer<detail::FixedBufferStream> packer(stream);
+        packer.pack(msg);
+        return stream.overflowed() ? detail::kReleasedSlot
+                                   : static_cast<std::uint32_t>(stream.size());
       }
-      detail::ring_commit(ring_, claim, static_cast<std::uint32_t>(stream.size()), sent);
+    });
+    if (sent) {
       detail::count_sent();
-      return true;
     }
+    return sent;
   }
 
   /// Lends the next slot for writing the message in place. Publish it with publish().
   /// When the ring refuses the slot, the caller writes into a private spare and publish()
   /// reports it.
   Loan<T> loan() noexcept requires PodTopicValue<T> {
-    mark(detail::kRolePublisher);
+    endpoint_.mark(detail::kRolePublisher);
     return Loan<T>(
-        ring_, [this] { return claim_slot(); }, spare_.get());
+        endpoint_.ring(), [this] { return endpoint_.claim_slot(); }, spare_.get());
   }
 
   /// Makes a loaned message visible. False (and a counter) when the loan had no slot.
@@ -212,7 +172,7 @@ class Topic {
       detail::count_sent();
       return true;
     }
-    ++stats_.send_failures;
+    endpoint_.count_send_failure();
     return false;
   }
 
@@ -227,65 +187,44 @@ class Topic {
   std::optional<T> recv(std::chrono::nanoseconds timeout) noexcept(PodTopicValue<T>) {
     // One result object on every path: returning two different ones would copy a large message.
     std::optional<T> msg;
-    receive(msg, false);
-    if (msg) {
-      return msg;
-    }
-    detail::RingControl& control = *ring_.control;
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    for (;;) {
-      const std::uint32_t seen = control.notify.load(std::memory_order_seq_cst);
-      const std::uint64_t claimed_before = segment_.announce_sleeper();
-      const bool announced = detail::ring_sleeper_barrier(control);
-      receive(msg, true);
-      const auto remaining = deadline - std::chrono::steady_clock::now();
-      if (!msg && remaining > std::chrono::nanoseconds::zero()) {
-        // A ticket claimed before this thread announced itself may still be in flight, and its
-        // publisher will not wake us: only then sleep in short slices.
-        const bool unannounced =
-            claimed_before == UINT64_MAX || !announced || cursor_.next < claimed_before;
-        detail::futex_wait(
-            control.notify, seen,
-            unannounced ? std::min<std::chrono::nanoseconds>(remaining, kSlice) : remaining);
-      }
-      if (claimed_before != UINT64_MAX) {
-        segment_.withdraw_sleeper();
-      }
-      if (msg || remaining <= std::chrono::nanoseconds::zero()) {
-        return msg;
-      }
-    }
+    endpoint_.receive_within(timeout, [&](bool check_stall) noexcept(PodTopicValue<T>) {
+      receive(msg, check_stall);
+      return msg.has_value();
+    });
+    return msg;
   }
 
   /// Whether try_recv() would find something (a message, or news that some were lost).
-  bool has_msg() const noexcept { return detail::ring_ready(ring_, cursor_); }
+  bool has_msg() const noexcept { return endpoint_.has_msg(); }
 
   /// The newest message ever sent on the topic (not only since this handle opened); does not
   /// move this handle's position.
   std::optional<T> read_latest() const noexcept(PodTopicValue<T>) {
     if constexpr (PodTopicValue<T>) {
       std::optional<T> msg;
-      if (detail::ring_read_latest(ring_, [&](const std::byte* payload, std::uint32_t size) {
-            if (size != sizeof(T)) {
-              return false;
-            }
-            msg.emplace(*std::launder(reinterpret_cast<const T*>(payload)));
-            return true;
-          })) {
+      if (detail::ring_read_latest(
+              endpoint_.ring(), [&](const std::byte* payload, std::uint32_t size) {
+                if (size != sizeof(T)) {
+                  return false;
+                }
+                msg.emplace(*std::launder(reinterpret_cast<const T*>(payload)));
+                return true;
+              })) {
         return msg;
       }
       return std::nullopt;
     } else {
-      std::vector<std::uint8_t> bytes(ring_.payload_capacity);
+      std::vector<std::uint8_t> bytes(endpoint_.ring().payload_capacity);
       std::size_t length = 0;
-      if (!detail::ring_read_latest(ring_, [&](const std::byte* payload, std::uint32_t size) {
-            if (size > bytes.size()) {
-              return false;
-            }
-            std::memcpy(bytes.data(), payload, size);
-            length = size;
-            return true;
-          })) {
+      if (!detail::ring_read_latest(endpoint_.ring(),
+                                    [&](const std::byte* payload, std::uint32_t size) {
+                                      if (size > bytes.size()) {
+                                        return false;
+                                      }
+                                      std::memcpy(bytes.data(), payload, size);
+                                      length = size;
+                                      return true;
+                                    })) {
         return std::nullopt;
       }
       return try_decode<T>(std::span<const std::uint8_t>(bytes.data(), length));
@@ -293,92 +232,51 @@ class Topic {
   }
 
   /// Messages this handle lost by falling more than the capacity behind.
-  std::uint64_t lost() const noexcept { return cursor_.lost; }
-  TopicStats stats() const noexcept {
-    TopicStats stats = stats_;
-    stats.lost = cursor_.lost;
-    return stats;
-  }
+  std::uint64_t lost() const noexcept { return endpoint_.lost(); }
+  TopicStats stats() const noexcept { return endpoint_.stats(); }
   /// Slots in the ring (a power of two).
-  std::size_t capacity() const noexcept { return static_cast<std::size_t>(ring_.capacity()); }
+  std::size_t capacity() const noexcept {
+    return static_cast<std::size_t>(endpoint_.ring().capacity());
+  }
 
  private:
-  static constexpr std::chrono::nanoseconds kSlice = std::chrono::microseconds(50);
-
-  /// A slot for the next message; no slot when the ring refused one (or, on a single-publisher
-  /// topic, when another handle holds the lease). Every path returns its callee's claim as is,
-  /// so the claim is never copied (see PublisherLease::claim).
-  [[gnu::always_inline]] detail::Claim claim_slot() noexcept {
-    if (ring_.shared_base == detail::kUnshared) {
-      if (lease_.held() || lease_.acquire(ring_)) {
-        return lease_.claim(ring_);
-      }
-      if (ring_.single_publisher) {
-        ++stats_.not_the_publisher;
-        return detail::Claim{nullptr, 0, false, false};
-      }
-      if (!detail::ring_share(ring_)) {
-        return detail::Claim{nullptr, 0, false, false};
-      }
-    }
-    return detail::ring_claim(ring_, detail::this_pid());
-  }
-
-  void mark(std::uint32_t role) noexcept {
-    if ((roles_ & role) == 0) {
-      roles_ |= role;
-      segment_.add_role(role);
-    }
-  }
-
   /// Fills `msg` with the next message, or empties it. The caller owns the result object, so
   /// a (possibly large) message is copied once, from the slot straight into what it returns.
   void receive(std::optional<T>& msg, bool check_stall) noexcept(PodTopicValue<T>) {
-    mark(detail::kRoleSubscriber);
-    for (;;) {
-      std::size_t length = 0;
-      const int got = detail::ring_read(
-          ring_, cursor_, check_stall, [&](const std::byte* payload, std::uint32_t size) {
-            if constexpr (PodTopicValue<T>) {
-              if (size != sizeof(T)) {
-                return false;
-              }
-              // Copy-constructs straight from the slot: no zeroing of a large T first.
-              msg.emplace(*std::launder(reinterpret_cast<const T*>(payload)));
-            } else {
-              if (size > buffer_.size()) {
-                return false;
-              }
-              std::memcpy(buffer_.data(), payload, size);
-              length = size;
+    std::size_t length = 0;
+    const bool got = endpoint_.receive(
+        check_stall,
+        [&](const std::byte* payload, std::uint32_t size) {
+          if constexpr (PodTopicValue<T>) {
+            if (size != sizeof(T)) {
+              return false;
             }
-            return true;
-          });
-      if (got == 0) {
-        msg.reset();
-        return;
-      }
-      if (got > 0) {
-        if constexpr (!PodTopicValue<T>) {
-          msg = try_decode<T>(std::span<const std::uint8_t>(buffer_.data(), length));
-        }
-        if (msg) {
-          detail::count_received();
-          return;
-        }
-      }
-      ++stats_.invalid;
+            // Copy-constructs straight from the slot: no zeroing of a large T first.
+            msg.emplace(*std::launder(reinterpret_cast<const T*>(payload)));
+          } else {
+            if (size > buffer_.size()) {
+              return false;
+            }
+            std::memcpy(buffer_.data(), payload, size);
+            length = size;
+          }
+          return true;
+        },
+        [&]() noexcept(PodTopicValue<T>) {
+          if constexpr (!PodTopicValue<T>) {
+            msg = try_decode<T>(std::span<const std::uint8_t>(buffer_.data(), length));
+          }
+          return msg.has_value();
+        });
+    if (got) {
+      detail::count_received();
+    } else {
+      msg.reset();
     }
   }
 
   std::string name_;
-  detail::ShmSegment segment_;
-  detail::RingView ring_;
-  /// Declared after segment_: released before the segment is unmapped.
-  detail::PublisherLease lease_;
-  detail::ReadCursor cursor_;
-  std::uint32_t roles_ = 0;
-  TopicStats stats_;
+  detail::TopicEndpoint endpoint_;
   std::unique_ptr<T> spare_;
   std::vector<std::uint8_t> buffer_;
 };

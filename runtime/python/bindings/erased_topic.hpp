@@ -1,5 +1,5 @@
 // horus::python::ErasedTopic: horus::Topic<T> with the type known only at run time (a Python
-// message class), moving bytes. The slot protocol is Topic<T>'s, step for step, so a Python
+// message class), moving bytes. Both run their slots through detail::TopicEndpoint, so a Python
 // handle and a C++ Topic<T> handle share one segment as two C++ handles would.
 #pragma once
 
@@ -10,9 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "horus/detail/publisher_lease.hpp"
 #include "horus/detail/ring.hpp"
-#include "horus/detail/shm_segment.hpp"
+#include "horus/detail/topic_endpoint.hpp"
 #include "horus/topic.hpp"
 
 namespace horus::python {
@@ -61,28 +60,21 @@ class ErasedTopic {
   /// What the last successful receive left (valid until the next receive).
   std::span<std::byte> received(std::size_t size) noexcept { return {buffer_.data(), size}; }
 
-  bool has_msg() const noexcept { return detail::ring_ready(ring_, cursor_); }
-  TopicStats stats() const noexcept {
-    TopicStats stats = stats_;
-    stats.lost = cursor_.lost;
-    return stats;
+  bool has_msg() const noexcept { return endpoint_.has_msg(); }
+  TopicStats stats() const noexcept { return endpoint_.stats(); }
+  std::size_t capacity() const noexcept {
+    return static_cast<std::size_t>(endpoint_.ring().capacity());
   }
-  std::size_t capacity() const noexcept { return static_cast<std::size_t>(ring_.capacity()); }
-  std::size_t payload_capacity() const noexcept { return ring_.payload_capacity; }
+  std::size_t payload_capacity() const noexcept { return endpoint_.ring().payload_capacity; }
 
  private:
-  detail::Claim claim_slot() noexcept;
-  void mark(std::uint32_t role) noexcept;
   std::ptrdiff_t receive(bool check_stall) noexcept;
+  /// Copies a message of the right size out of its slot into the receive buffer.
+  bool copy_received(const std::byte* payload, std::uint32_t size) noexcept;
 
   std::string name_;
   ErasedType type_;
-  detail::ShmSegment segment_;
-  detail::RingView ring_;
-  detail::PublisherLease lease_;
-  detail::ReadCursor cursor_;
-  std::uint32_t roles_ = 0;
-  TopicStats stats_;
+  detail::TopicEndpoint endpoint_;
   std::vector<std::byte> buffer_;
   std::vector<std::byte> spare_;
   detail::Claim loan_{nullptr, 0, false, false};
