@@ -1,0 +1,193 @@
+"""The `horus` command against live C++ and Python processes (bin/horus, as a user runs it)."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+
+from conftest import HORUS, run_horus, wait_ready, wait_until
+
+PUBLISH_CMDVEL = """
+import time, horus
+from horus.msg import CmdVel
+topic = horus.Topic(CmdVel, {name!r})
+topic.send(CmdVel(linear=1.0, angular=0.5))
+print("ready", flush=True)
+while True:
+    time.sleep(0.01)
+    topic.send(CmdVel(linear=1.0, angular=0.5))
+"""
+
+SUBSCRIBE_DICT = """
+import time, horus
+topic = horus.Topic(dict, {name!r})
+topic.try_recv()
+print("ready", flush=True)
+while True:
+    time.sleep(0.01)
+    topic.try_recv()
+"""
+
+LOGGING_NODE = """
+import horus
+count = [0]
+def tick(node):
+    count[0] += 1
+    if count[0] % 5 == 1:
+        node.log_info(f"tick number {{count[0]}}")
+    if count[0] == 1:
+        print("ready", flush=True)
+horus.run(horus.Node(name={name!r}, tick=tick, rate=50), tick_rate=50)
+"""
+
+
+def test_help_at_every_level_exits_zero():
+    for args in ([], ["topic"], ["topic", "list"], ["topic", "info"], ["service"],
+                 ["service", "list"], ["service", "info"], ["log"], ["shm"], ["shm", "list"],
+                 ["shm", "clean"], ["completion"]):
+        result = run_horus(*args, "--help")
+        assert result.returncode == 0, (args, result.stderr)
+        assert result.stdout.startswith("usage: horus"), (args, result.stdout)
+
+
+def test_usage_errors_exit_two_with_one_line():
+    for args in (["frobnicate"], ["topic", "info"], ["log", "--level", "loud"],
+                 ["topic", "list", "--window", "soon"]):
+        result = run_horus(*args)
+        assert result.returncode == 2, (args, result)
+        assert len(result.stderr.strip().splitlines()) == 1, (args, result.stderr)
+        assert "Traceback" not in result.stderr
+
+
+def test_no_subcommand_prints_help():
+    result = run_horus()
+    assert result.returncode == 0
+    assert "topic" in result.stdout and "service" in result.stdout
+
+
+def test_topic_list_shows_live_python_and_cpp_publishers(children, namespace):
+    wait_ready(children.python(PUBLISH_CMDVEL.format(name="py_cmd")))
+    wait_ready(children.python(SUBSCRIBE_DICT.format(name="py_dict")))
+    cpp = children.program(os.environ["HORUS_PY_PEER"], "pub", "cmdvel", "cpp_cmd", "1")
+    assert cpp.wait(timeout=30) == 0
+
+    plain = run_horus("topic", "list")
+    assert plain.returncode == 0, plain.stderr
+    assert plain.stdout.split() == ["cpp_cmd", "py_cmd", "py_dict"]
+
+    listing = json.loads(run_horus("topic", "list", "--json").stdout)
+    by_name = {t["name"]: t for t in listing}
+    assert by_name["py_cmd"]["type_name"] == "horus.msg.CmdVel"
+    assert by_name["py_cmd"]["publishers"] == 1
+    assert by_name["py_dict"]["subscribers"] == 1
+    # The C++ publisher exited: its message stays, its handle no longer counts.
+    assert by_name["cpp_cmd"]["message_count"] == 1
+    assert by_name["cpp_cmd"]["publishers"] == 0
+
+    verbose = run_horus("topic", "list", "-v", "--namespace", namespace)
+    lines = verbose.stdout.splitlines()
+    assert lines[0].split() == ["TOPIC", "TYPE", "PUBS", "SUBS", "RATE_HZ", "MESSAGES"]
+    py_row = next(line.split() for line in lines if line.startswith("py_cmd"))
+    assert py_row[1:4] == ["horus.msg.CmdVel", "1", "0"]
+    assert float(py_row[4]) > 0  # it publishes about every 10 ms
+
+
+def test_namespace_option_overrides_the_environment(children, namespace):
+    wait_ready(children.python(PUBLISH_CMDVEL.format(name="here")))
+    assert run_horus("topic", "list", "--namespace", "cli_nobody_uses_this").stdout == ""
+    assert run_horus("--namespace", namespace, "topic", "list").stdout.split() == ["here"]
+
+
+def test_topic_info_shows_type_schema_and_users(children):
+    wait_ready(children.python(PUBLISH_CMDVEL.format(name="cmd_vel")))
+    result = run_horus("topic", "info", "cmd_vel")
+    assert result.returncode == 0, result.stderr
+    assert "type: horus.msg.CmdVel" in result.stdout
+    assert "encoding: POD" in result.stdout
+    assert "publishers: 1" in result.stdout
+    assert "linear" in result.stdout  # the schema text
+    info = json.loads(run_horus("topic", "info", "cmd_vel", "--json").stdout)
+    assert info["is_pod"] and "angular" in info["schema"] and info["message_count"] >= 1
+
+
+def test_unknown_topic_and_service_are_one_line_and_exit_one():
+    for args, name in ((["topic", "info", "nope"], "'nope'"),
+                       (["service", "info", "missing"], "'missing'")):
+        result = run_horus(*args)
+        assert result.returncode == 1, result
+        assert result.stderr.count("\n") == 1 and name in result.stderr
+        assert "Traceback" not in result.stderr
+
+
+def test_service_list_and_info_against_a_live_cpp_server(children):
+    server = children.program(os.environ["HORUS_PY_SERVICE_PEER"], "serve")
+    wait_ready(server, "serving")
+    listing = json.loads(run_horus("service", "list", "--json").stdout)
+    names = [s["name"] for s in listing]
+    assert names, "the server registered nothing"
+    served = next(s for s in listing if s["servers"] == 1)
+    assert served["server_pid"] == server.pid
+    info = run_horus("service", "info", served["name"])
+    assert info.returncode == 0, info.stderr
+    assert f"server: pid {server.pid}" in info.stdout
+    assert f"request: {served['request_type']}" in info.stdout
+    verbose = run_horus("service", "list", "-v")
+    assert verbose.stdout.splitlines()[0].split()[:3] == ["SERVICE", "REQUEST", "RESPONSE"]
+
+
+def test_log_filters_and_follows_a_nodes_log_info(children):
+    node = children.python(LOGGING_NODE.format(name="chatty"))
+    wait_ready(node)
+    wait_until(lambda: "tick number" in run_horus("log", "--node", "chatty").stdout,
+               "chatty's log line")
+    lines = run_horus("log", "--node", "chatty", "--level", "info").stdout.splitlines()
+    assert all(" INFO chatty: tick number " in line for line in lines), lines
+    assert run_horus("log", "--node", "chatty", "--level", "warn").stdout == ""
+    records = json.loads(run_horus("log", "--node", "chatty", "--json").stdout)
+    assert records and all(r["source"] == "chatty" and r["pid"] == node.pid for r in records)
+
+    follow = subprocess.Popen([HORUS, "log", "--follow", "--node", "chatty"],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        newest = max(int(r["message"].split()[-1]) for r in records)
+        # Lines logged after the command started reach it without running it again.
+        for _ in range(200):
+            line = follow.stdout.readline()
+            assert line, follow.stderr.read()
+            if int(line.split()[-1]) > newest:
+                break
+        else:
+            raise AssertionError("--follow never showed a new line")
+    finally:
+        follow.kill()
+        follow.communicate()
+
+
+def test_shm_clean_removes_only_the_dead(children, namespace):
+    wait_ready(children.python(PUBLISH_CMDVEL.format(name="alive")))
+    dead = children.program(os.environ["HORUS_PY_PEER"], "pub", "cmdvel", "dead", "1")
+    assert dead.wait(timeout=30) == 0
+    listing = {s["name"]: s for s in json.loads(run_horus("shm", "list", "--json").stdout)}
+    assert listing["alive"]["live_users"] == 1 and listing["dead"]["live_users"] == 0
+    assert listing["dead"]["size"] > 0
+
+    result = run_horus("shm", "clean")
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "removed 1 segment left by dead processes"
+    assert run_horus("topic", "list").stdout.split() == ["alive"]
+    assert json.loads(run_horus("shm", "clean", "--json").stdout) == {"removed": 0}
+
+
+def test_blackbox_is_folded_in():
+    result = run_horus("blackbox", "no_such_file.blackbox")
+    assert result.returncode != 0
+    assert "no_such_file.blackbox" in result.stderr
+
+
+def test_completion_script_names_the_subcommands():
+    result = run_horus("completion")
+    assert result.returncode == 0
+    assert "complete -F _horus horus" in result.stdout
+    assert 'topic) words="list info"' in result.stdout
+    checked = subprocess.run(["bash", "-n"], input=result.stdout, text=True, capture_output=True)
+    assert checked.returncode == 0, checked.stderr

@@ -1,0 +1,347 @@
+"""The `horus` command: see and clean a running HORUS system from the shell.
+
+Every listing takes --json; exit status is 0 on success, 1 when something asked for is not found
+(or a wait timed out) and 2 on a usage error. Errors are one line on stderr, never a traceback.
+Imports of the runtime happen inside the subcommands, so `--help` and completion stay instant.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+EXIT_OK, EXIT_NOT_FOUND, EXIT_USAGE = 0, 1, 2
+
+# Filled in by the launcher (bin/horus) with the horus-blackbox beside it.
+BLACKBOX_PROGRAM = os.environ.get("HORUS_BLACKBOX_PROGRAM", "horus-blackbox")
+
+LEVELS = ("debug", "info", "warn", "error")
+
+
+class CommandFailed(Exception):
+    """A failure reported as one line on stderr, with its exit status."""
+
+    def __init__(self, message: str, status: int = EXIT_NOT_FOUND) -> None:
+        super().__init__(message)
+        self.status = status
+
+
+def _core():
+    from horus import _core  # deferred: loading the extension is most of the start-up time
+    return _core
+
+
+def _emit(rows, as_json: bool, render) -> None:
+    if as_json:
+        json.dump(rows, sys.stdout, indent=2, sort_keys=True)
+        sys.stdout.write("\n")
+    else:
+        render(rows)
+
+
+def _table(header: list[str], rows: list[list[str]]) -> None:
+    widths = [max(len(str(row[i])) for row in [header, *rows]) for i in range(len(header))]
+    for row in [header, *rows]:
+        print("  ".join(str(cell).ljust(width) for cell, width in zip(row, widths)).rstrip())
+
+
+def _topics(args) -> list[dict]:
+    return _core().list_topics(args.namespace)
+
+
+def _find_topic(args, name: str) -> dict:
+    for topic in _topics(args):
+        if topic["name"] == name:
+            return topic
+    raise CommandFailed(f"no topic '{name}' in namespace '{args.namespace or _core().current_namespace()}'")
+
+
+def _topic_rate(topic: dict, since: dict | None, seconds: float) -> float | None:
+    if since is None or seconds <= 0:
+        return None
+    return (topic["message_count"] - since["message_count"]) / seconds
+
+
+def topic_list(args) -> int:
+    topics = _topics(args)
+    if args.verbose:
+        # The rate needs two looks at the counters; a short gap keeps the command quick.
+        first = {t["name"]: t for t in topics}
+        time.sleep(args.window)
+        topics = _topics(args)
+        for topic in topics:
+            rate = _topic_rate(topic, first.get(topic["name"]), args.window)
+            topic["rate_hz"] = None if rate is None else round(rate, 1)
+
+    def render(rows):
+        if not args.verbose:
+            for row in rows:
+                print(row["name"])
+            return
+        _table(["TOPIC", "TYPE", "PUBS", "SUBS", "RATE_HZ", "MESSAGES"],
+               [[r["name"], r["type_name"] or "-", r["publishers"], r["subscribers"],
+                 "-" if r.get("rate_hz") is None else f"{r['rate_hz']:.1f}", r["message_count"]]
+                for r in rows])
+    _emit(topics, args.json, render)
+    return EXIT_OK
+
+
+def topic_info(args) -> int:
+    topic = _find_topic(args, args.topic)
+
+    def render(t):
+        if t["error"]:
+            print(f"error: {t['error']}")
+        print(f"topic: {t['name']}")
+        print(f"type: {t['type_name'] or '(not chosen yet)'}")
+        print(f"fingerprint: {t['fingerprint']:016x}")
+        print(f"encoding: {'POD' if t['is_pod'] else 'serialized'}")
+        print(f"capacity: {t['capacity']} slots of {t['max_message_size']} bytes")
+        print(f"single publisher: {'yes' if t['single_publisher'] else 'no'}")
+        print(f"publishers: {t['publishers']}")
+        print(f"subscribers: {t['subscribers']}")
+        print(f"messages sent: {t['message_count']}")
+        if t["last_send_s"] is not None:
+            print("last send: " + time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(t["last_send_s"])))
+        if t["schema"]:
+            print("schema:")
+            for line in t["schema"].splitlines():
+                print(f"  {line}")
+    _emit(topic, args.json, render)
+    return EXIT_OK
+
+
+def service_list(args) -> int:
+    services = _core().list_services(args.namespace)
+
+    def render(rows):
+        if not args.verbose:
+            for row in rows:
+                print(row["name"])
+            return
+        _table(["SERVICE", "REQUEST", "RESPONSE", "SERVERS", "SERVER_PID", "CLIENTS"],
+               [[r["name"], r["request_type"], r["response_type"], r["servers"],
+                 r["server_pid"] or "-", r["clients"]] for r in rows])
+    _emit(services, args.json, render)
+    return EXIT_OK
+
+
+def service_info(args) -> int:
+    for service in _core().list_services(args.namespace):
+        if service["name"] == args.service:
+            def render(s):
+                print(f"service: {s['name']}")
+                print(f"request: {s['request_type']}")
+                print(f"response: {s['response_type']}")
+                print(f"fingerprint: {s['fingerprint']:016x}")
+                server = f"pid {s['server_pid']}" if s["servers"] else "none (stopped or died)"
+                print(f"server: {server}")
+                print(f"clients: {s['clients']}")
+            _emit(service, args.json, render)
+            return EXIT_OK
+    raise CommandFailed(f"no service '{args.service}' in namespace "
+                        f"'{args.namespace or _core().current_namespace()}'")
+
+
+def _log_filter(args):
+    minimum = LEVELS.index(args.level) if args.level else 0
+    since_ns = None
+    if args.since is not None:
+        since_ns = int((time.time() - args.since) * 1e9)
+
+    def keep(record: dict) -> bool:
+        return (LEVELS.index(record["level"].lower()) >= minimum
+                and (args.node is None or record["source"] == args.node)
+                and (since_ns is None or record["wall_time_ns"] >= since_ns))
+    return keep
+
+
+def log(args) -> int:
+    core = _core()
+    keep = _log_filter(args)
+    snapshot = core.read_log(args.namespace)
+    records = [r for r in snapshot["records"] if keep(r)]
+    if not args.follow:
+        _emit(records, args.json, lambda rows: [print(r["text"]) for r in rows])
+        return EXIT_OK
+    seen = snapshot["written"]
+
+    def show(rows):
+        for row in rows:
+            print(json.dumps(row, sort_keys=True) if args.json else row["text"], flush=True)
+    show(records)
+    while True:
+        time.sleep(0.1)
+        snapshot = core.read_log(args.namespace)
+        show([r for r in snapshot["records"] if r["sequence"] >= seen and keep(r)])
+        seen = snapshot["written"]
+
+
+def shm_list(args) -> int:
+    core = _core()
+    folder = core.namespace_directory(args.namespace)
+    rows = []
+    for topic in core.list_topics(args.namespace):
+        path = os.path.join(folder, topic["name"])
+        try:
+            size = os.stat(path).st_size
+        except OSError:
+            size = None
+        users = topic["publishers"] + topic["subscribers"]
+        rows.append({"name": topic["name"], "path": path, "size": size,
+                     "live_users": users, "error": topic["error"]})
+
+    def render(items):
+        _table(["SEGMENT", "BYTES", "LIVE_USERS", "PATH"],
+               [[r["name"], "-" if r["size"] is None else r["size"], r["live_users"], r["path"]]
+                for r in items])
+    _emit(rows, args.json, render)
+    return EXIT_OK
+
+
+def shm_clean(args) -> int:
+    removed = _core().clean_namespace(args.namespace)
+    if args.json:
+        print(json.dumps({"removed": removed}))
+    else:
+        print(f"removed {removed} segment{'s' if removed != 1 else ''} left by dead processes")
+    return EXIT_OK
+
+
+def blackbox(args) -> int:
+    try:
+        os.execvp(BLACKBOX_PROGRAM, [BLACKBOX_PROGRAM, *args.blackbox_args])
+    except OSError as error:
+        raise CommandFailed(f"cannot run {BLACKBOX_PROGRAM}: {error.strerror}") from None
+
+
+COMPLETION = """# bash completion for horus: `source <(horus completion)`
+_horus() {
+  local cur=${COMP_WORDS[COMP_CWORD]} prev=${COMP_WORDS[1]} words
+  if [ "$COMP_CWORD" -eq 1 ]; then
+    words="%(commands)s"
+  elif [ "$COMP_CWORD" -eq 2 ]; then
+    case "$prev" in
+%(cases)s
+    esac
+  elif [ "$COMP_CWORD" -eq 3 ] && [ "$prev" = topic ]; then
+    words=$(horus topic list 2>/dev/null)
+  elif [ "$COMP_CWORD" -eq 3 ] && [ "$prev" = service ]; then
+    words=$(horus service list 2>/dev/null)
+  fi
+  COMPREPLY=($(compgen -W "$words" -- "$cur"))
+}
+complete -F _horus horus
+"""
+
+
+def completion(args) -> int:
+    parser = args.root_parser
+    commands = parser._subparsers._group_actions[0].choices  # noqa: SLF001 (argparse has no API)
+    cases = []
+    for name, sub in commands.items():
+        if sub._subparsers is not None:  # noqa: SLF001
+            words = " ".join(sub._subparsers._group_actions[0].choices)  # noqa: SLF001
+            cases.append(f'      {name}) words="{words}" ;;')
+    print(COMPLETION % {"commands": " ".join(commands), "cases": "\n".join(cases)}, end="")
+    return EXIT_OK
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with the usage error on one line and exit status 2."""
+
+    def error(self, message: str):
+        self.exit(EXIT_USAGE, f"{self.prog}: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    common = _Parser(add_help=False)
+    common.add_argument("--namespace", "-n", default=argparse.SUPPRESS,
+                        help="the namespace to look at (default: $HORUS_NAMESPACE, else 'default')")
+    listing = _Parser(add_help=False)
+    listing.add_argument("--json", action="store_true", help="print JSON instead of text")
+
+    parser = _Parser(prog="horus", parents=[common],
+                     description="See, poke and clean a running HORUS system.")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    def group(name: str, help_text: str):
+        sub = commands.add_parser(name, help=help_text, description=help_text, parents=[common])
+        return sub.add_subparsers(dest="action", metavar="ACTION", parser_class=_Parser)
+
+    def action(parent, name: str, help_text: str, handler, json_output: bool = True):
+        sub = parent.add_parser(name, help=help_text, description=help_text,
+                                parents=[common, listing] if json_output else [common])
+        sub.set_defaults(handler=handler)
+        return sub
+
+    topic = group("topic", "topics: list, inspect")
+    sub = action(topic, "list", "the namespace's topics", topic_list)
+    sub.add_argument("-v", "--verbose", action="store_true",
+                     help="with type, publishers, subscribers and rate")
+    sub.add_argument("--window", type=float, default=0.5,
+                     help="seconds over which -v measures rates (default 0.5)")
+    sub = action(topic, "info", "one topic: type, schema, capacity, users, counters", topic_info)
+    sub.add_argument("topic")
+
+    service = group("service", "services: list, inspect")
+    sub = action(service, "list", "the namespace's services", service_list)
+    sub.add_argument("-v", "--verbose", action="store_true", help="with types, server and clients")
+    sub = action(service, "info", "one service: types, server, clients", service_info)
+    sub.add_argument("service")
+
+    sub = commands.add_parser("log", help="the namespace's log ring",
+                              description="Lines nodes logged, oldest first.",
+                              parents=[common, listing])
+    sub.set_defaults(handler=log)
+    sub.add_argument("--node", help="only lines of this node (its name, '-' or '@<scheduler>')")
+    sub.add_argument("--level", choices=LEVELS, help="only lines at this level or above")
+    sub.add_argument("--since", type=float, metavar="SECONDS",
+                     help="only lines of the last SECONDS seconds")
+    sub.add_argument("--follow", "-f", action="store_true",
+                     help="keep printing new lines until Ctrl+C")
+
+    shm = group("shm", "shared-memory segments: list, clean")
+    action(shm, "list", "the namespace's segments and how many live processes use each", shm_list)
+    action(shm, "clean", "remove the segments whose every user died (never a live one)", shm_clean)
+
+    sub = commands.add_parser("blackbox", help="print a scheduler flight-recorder file",
+                              description="Runs horus-blackbox with the given arguments.",
+                              add_help=False)
+    sub.add_argument("blackbox_args", nargs=argparse.REMAINDER)
+    sub.set_defaults(handler=blackbox)
+
+    sub = commands.add_parser("completion", help="print the bash completion script",
+                              description="Print the bash completion script: "
+                                          "source <(horus completion)")
+    sub.set_defaults(handler=completion)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if getattr(args, "handler", None) is None:
+        parser.parse_args([*(argv if argv is not None else sys.argv[1:]), "--help"])
+    args.root_parser = parser
+    args.namespace = getattr(args, "namespace", None) or ""
+    try:
+        return args.handler(args)
+    except CommandFailed as failure:
+        print(f"horus: {failure}", file=sys.stderr)
+        return failure.status
+    except KeyboardInterrupt:
+        return EXIT_OK
+    except BrokenPipeError:
+        return EXIT_OK
+    except Exception as error:  # noqa: BLE001 (a runtime error is one line, never a traceback)
+        if type(error).__name__ != "HorusError":
+            raise
+        print(f"horus: {error}", file=sys.stderr)
+        return EXIT_NOT_FOUND
+
+
+if __name__ == "__main__":
+    sys.exit(main())
