@@ -40,10 +40,27 @@ def tick(node):
 horus.run(horus.Node(name={name!r}, tick=tick, rate=50), tick_rate=50)
 """
 
+SCHEDULER = """
+import horus
+ticks = [0]
+def sense(node):
+    node.send("scan", {{"range": 1.0}})
+    ticks[0] += 1
+    if ticks[0] == 3:
+        print("ready", flush=True)
+def plan(node):
+    if node.has_msg("scan"):
+        node.recv("scan")
+horus.run(horus.Node(name={sensor!r}, tick=sense, rate=100, order=0, pubs=["scan"]),
+          horus.Node(name="planner", tick=plan, rate=20, order=10, subs=["scan"]),
+          tick_rate=100)
+"""
+
 
 def test_help_at_every_level_exits_zero():
     for args in ([], ["topic"], ["topic", "list"], ["topic", "info"], ["service"],
-                 ["service", "list"], ["service", "info"], ["log"], ["shm"], ["shm", "list"],
+                 ["service", "list"], ["service", "info"], ["node"], ["node", "list"],
+                 ["node", "info"], ["log"], ["shm"], ["shm", "list"],
                  ["shm", "clean"], ["completion"]):
         result = run_horus(*args, "--help")
         assert result.returncode == 0, (args, result.stderr)
@@ -173,9 +190,11 @@ def test_shm_clean_removes_only_the_dead(children, namespace):
 
     result = run_horus("shm", "clean")
     assert result.returncode == 0, result.stderr
-    assert result.stdout.strip() == "removed 1 segment left by dead processes"
+    assert result.stdout.strip() == \
+        "removed 1 segment and 0 announcements left by dead processes"
     assert run_horus("topic", "list").stdout.split() == ["alive"]
-    assert json.loads(run_horus("shm", "clean", "--json").stdout) == {"removed": 0}
+    assert json.loads(run_horus("shm", "clean", "--json").stdout) == \
+        {"removed": 0, "announcements": 0}
 
 
 def test_blackbox_is_folded_in():
@@ -189,5 +208,50 @@ def test_completion_script_names_the_subcommands():
     assert result.returncode == 0
     assert "complete -F _horus horus" in result.stdout
     assert 'topic) words="list info"' in result.stdout
+    assert 'node) words="list info"' in result.stdout
     checked = subprocess.run(["bash", "-n"], input=result.stdout, text=True, capture_output=True)
     assert checked.returncode == 0, checked.stderr
+
+
+def test_node_list_shows_a_schedulers_nodes_with_their_topics(children):
+    process = children.python(SCHEDULER.format(sensor="lidar"))
+    wait_ready(process)
+    nodes = wait_until(lambda: json.loads(run_horus("node", "list", "--json").stdout),
+                       "the scheduler's announcement")
+    assert [n["name"] for n in nodes] == ["lidar", "planner"]
+    lidar, planner = nodes
+    assert lidar["pid"] == planner["pid"] == process.pid
+    assert lidar["rate_hz"] == 100.0 and planner["rate_hz"] == 20.0
+    assert lidar["publishers"] == [{"topic": "scan", "type": "horus.msg.GenericMessage"}]
+    assert planner["subscribers"] == [{"topic": "scan", "type": "horus.msg.GenericMessage"}]
+    assert lidar["state"] == "Running" and lidar["health"] == "Healthy"
+
+    assert run_horus("node", "list").stdout.split() == ["lidar", "planner"]
+    verbose = run_horus("node", "list", "-v").stdout.splitlines()
+    assert verbose[0].split()[:4] == ["NODE", "PID", "SCHEDULER", "RATE_HZ"]
+    info = run_horus("node", "info", "planner")
+    assert info.returncode == 0, info.stderr
+    assert f"process: pid {process.pid}" in info.stdout
+    assert "subscribers: scan (horus.msg.GenericMessage)" in info.stdout
+    assert "rate: 20.0 Hz requested" in info.stdout
+
+    missing = run_horus("node", "info", "ghost")
+    assert missing.returncode == 1 and "'ghost'" in missing.stderr
+    assert missing.stderr.count("\n") == 1
+
+
+def test_a_killed_schedulers_nodes_are_never_shown_and_shm_clean_removes_them(children):
+    survivor = children.python(SCHEDULER.format(sensor="survivor"))
+    victim = children.python(SCHEDULER.format(sensor="victim"))
+    wait_ready(survivor)
+    wait_ready(victim)
+    wait_until(lambda: "victim" in run_horus("node", "list").stdout.split(), "the victim's nodes")
+    victim.kill()  # no destructor runs: its announcement stays behind
+    victim.wait()
+
+    names = [n["name"] for n in json.loads(run_horus("node", "list", "--json").stdout)]
+    assert names == ["planner", "survivor"]
+    result = run_horus("shm", "clean", "--json")
+    assert json.loads(result.stdout)["announcements"] == 1
+    assert json.loads(run_horus("shm", "clean", "--json").stdout)["announcements"] == 0
+    assert run_horus("node", "list").stdout.split() == ["planner", "survivor"]

@@ -145,6 +145,68 @@ def service_info(args) -> int:
                         f"'{args.namespace or _core().current_namespace()}'")
 
 
+def _live_nodes(args) -> list[dict]:
+    """Every node of the namespace's live schedulers, with the process that runs it. Dead
+    processes' announcements are never shown: `horus shm clean` removes them."""
+    nodes = []
+    for entry in _core().list_presence(args.namespace):
+        if not entry["alive"] or entry["error"]:
+            continue
+        snapshot = json.loads(entry["snapshot_json"])
+        for node in snapshot["nodes"]:
+            node["pid"] = entry["pid"]
+            node["scheduler"] = snapshot["scheduler"]
+            node["updated_wall_ns"] = entry["updated_wall_ns"]
+            nodes.append(node)
+    nodes.sort(key=lambda n: (n["name"], n["pid"]))
+    return nodes
+
+
+def _rate(value) -> str:
+    return "-" if value is None else f"{value:.1f}"
+
+
+def node_list(args) -> int:
+    nodes = _live_nodes(args)
+
+    def render(rows):
+        if not args.verbose:
+            for row in rows:
+                print(row["name"])
+            return
+        _table(["NODE", "PID", "SCHEDULER", "RATE_HZ", "ACHIEVED_HZ", "TICKS", "AVG_US", "MISSES",
+                "STATE", "HEALTH"],
+               [[n["name"], n["pid"], n["scheduler"], _rate(n["rate_hz"]),
+                 _rate(n["achieved_rate_hz"]), n["total_ticks"], f"{n['avg_tick_ns'] / 1e3:.1f}",
+                 n["deadline_misses"], n["state"], n["health"]] for n in rows])
+    _emit(nodes, args.json, render)
+    return EXIT_OK
+
+
+def node_info(args) -> int:
+    matches = [n for n in _live_nodes(args) if n["name"] == args.node]
+    if not matches:
+        raise CommandFailed(f"no running node '{args.node}' in namespace "
+                            f"'{args.namespace or _core().current_namespace()}'")
+
+    def render(rows):
+        for n in rows:
+            print(f"node: {n['name']}")
+            print(f"process: pid {n['pid']}, scheduler {n['scheduler']}")
+            print(f"state: {n['state']}, health: {n['health']}")
+            print(f"class: {n['class']}, order: {n['order']}")
+            print(f"rate: {_rate(n['rate_hz'])} Hz requested, {_rate(n['achieved_rate_hz'])} Hz achieved")
+            print(f"ticks: {n['total_ticks']} ({n['failed_ticks']} failed)")
+            print(f"tick time: avg {n['avg_tick_ns'] / 1e3:.1f} us, max {n['max_tick_ns'] / 1e3:.1f} us, "
+                  f"last {n['last_tick_ns'] / 1e3:.1f} us")
+            print(f"misses: {n['deadline_misses']} deadline, {n['budget_overruns']} budget")
+            for key in ("publishers", "subscribers"):
+                topics = ", ".join(f"{t['topic']} ({t['type'] or '?'})" for t in n[key]) or "-"
+                print(f"{key}: {topics}")
+    _emit(matches, args.json, render)
+    return EXIT_OK
+
+
 def _log_filter(args):
     minimum = LEVELS.index(args.level) if args.level else 0
     since_ns = None
@@ -202,11 +264,14 @@ def shm_list(args) -> int:
 
 
 def shm_clean(args) -> int:
-    removed = _core().clean_namespace(args.namespace)
+    core = _core()
+    removed = core.clean_namespace(args.namespace)
+    announcements = core.clean_presence(args.namespace)
     if args.json:
-        print(json.dumps({"removed": removed}))
+        print(json.dumps({"removed": removed, "announcements": announcements}))
     else:
-        print(f"removed {removed} segment{'s' if removed != 1 else ''} left by dead processes")
+        print(f"removed {removed} segment{'s' if removed != 1 else ''} and {announcements} "
+              f"announcement{'s' if announcements != 1 else ''} left by dead processes")
     return EXIT_OK
 
 
@@ -228,6 +293,8 @@ _horus() {
     esac
   elif [ "$COMP_CWORD" -eq 3 ] && [ "$prev" = topic ]; then
     words=$(horus topic list 2>/dev/null)
+  elif [ "$COMP_CWORD" -eq 3 ] && [ "$prev" = node ]; then
+    words=$(horus node list 2>/dev/null)
   elif [ "$COMP_CWORD" -eq 3 ] && [ "$prev" = service ]; then
     words=$(horus service list 2>/dev/null)
   fi
@@ -285,6 +352,13 @@ def build_parser() -> argparse.ArgumentParser:
                      help="seconds over which -v measures rates (default 0.5)")
     sub = action(topic, "info", "one topic: type, schema, capacity, users, counters", topic_info)
     sub.add_argument("topic")
+
+    node = group("node", "nodes of the running schedulers: list, inspect")
+    sub = action(node, "list", "the nodes of the namespace's live schedulers", node_list)
+    sub.add_argument("-v", "--verbose", action="store_true",
+                     help="with process, rates, ticks, tick time, misses, state and health")
+    sub = action(node, "info", "one node: topics, rate, timing, misses, health, state", node_info)
+    sub.add_argument("node")
 
     service = group("service", "services: list, inspect")
     sub = action(service, "list", "the namespace's services", service_list)

@@ -6,6 +6,7 @@
 
 #include "bindings.hpp"
 #include "horus/log.hpp"
+#include "horus/presence.hpp"
 #include "horus/service_registry.hpp"
 #include "horus/topic_registry.hpp"
 
@@ -57,6 +58,29 @@ void bind_introspection(py::module_& m) {
       },
       py::arg("namespace_name") = "",
       "The namespace's log ring: retained lines oldest first, and its counters.");
+  m.def(
+      "list_presence",
+      [](const std::string& namespace_name) {
+        py::list out;
+        for (const PresenceInfo& info : list_presence(namespace_name)) {
+          py::dict entry;
+          entry["entry"] = info.entry;
+          entry["pid"] = info.pid;
+          entry["alive"] = info.alive;
+          entry["updated_wall_ns"] = info.updated_wall_ns;
+          entry["snapshot_json"] = info.snapshot_json;
+          entry["error"] = info.error;
+          out.append(entry);
+        }
+        return out;
+      },
+      py::arg("namespace_name") = "",
+      "The schedulers' presence announcements of a namespace, dead processes' included.");
+  m.def(
+      "clean_presence",
+      [](const std::string& namespace_name) { return clean_presence(namespace_name); },
+      py::arg("namespace_name") = "",
+      "Removes the presence announcements dead processes left; returns how many.");
   m.def(
       "clean_namespace",
       [](const std::string& namespace_name) { return clean_namespace(namespace_name); },
