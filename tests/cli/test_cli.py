@@ -60,7 +60,7 @@ horus.run(horus.Node(name={sensor!r}, tick=sense, rate=100, order=0, pubs=["scan
 def test_help_at_every_level_exits_zero():
     for args in ([], ["topic"], ["topic", "list"], ["topic", "info"], ["service"],
                  ["service", "list"], ["service", "info"], ["node"], ["node", "list"],
-                 ["node", "info"], ["log"], ["shm"], ["shm", "list"],
+                 ["node", "info"], ["topic", "hz"], ["topic", "bw"], ["log"], ["shm"], ["shm", "list"],
                  ["shm", "clean"], ["completion"]):
         result = run_horus(*args, "--help")
         assert result.returncode == 0, (args, result.stderr)
@@ -207,7 +207,7 @@ def test_completion_script_names_the_subcommands():
     result = run_horus("completion")
     assert result.returncode == 0
     assert "complete -F _horus horus" in result.stdout
-    assert 'topic) words="list info"' in result.stdout
+    assert 'topic) words="list info hz bw"' in result.stdout
     assert 'node) words="list info"' in result.stdout
     checked = subprocess.run(["bash", "-n"], input=result.stdout, text=True, capture_output=True)
     assert checked.returncode == 0, checked.stderr
@@ -255,3 +255,21 @@ def test_a_killed_schedulers_nodes_are_never_shown_and_shm_clean_removes_them(ch
     assert json.loads(result.stdout)["announcements"] == 1
     assert json.loads(run_horus("shm", "clean", "--json").stdout)["announcements"] == 0
     assert run_horus("node", "list").stdout.split() == ["planner", "survivor"]
+
+
+def test_hz_and_bw_measure_a_100_hz_publisher_from_slot_headers(children):
+    wait_ready(children.python(SCHEDULER.format(sensor="lidar")))
+    # The issue's acceptance bar: within 10 % of the publisher's 100 Hz.
+    hz = json.loads(run_horus("topic", "hz", "scan", "--once", "--window", "2", "--json").stdout)
+    assert 90 <= hz["rate_hz"] <= 110, hz
+    bw = json.loads(run_horus("topic", "bw", "scan", "--once", "--window", "1", "--json").stdout)
+    # {"range": 1.0} as the Python runtime encodes a dict: the same size every time.
+    assert bw["messages"] > 0 and bw["mean_message_bytes"] == bw["bytes"] / bw["messages"]
+    text = run_horus("topic", "hz", "scan", "--once", "--window", "0.5").stdout
+    assert text.startswith("average rate: ") and text.rstrip().endswith(" s)")
+
+
+def test_hz_of_an_unknown_topic_is_one_line_and_exits_one():
+    result = run_horus("topic", "hz", "nowhere", "--once")
+    assert result.returncode == 1
+    assert result.stderr.count("\n") == 1 and "'nowhere'" in result.stderr

@@ -113,6 +113,65 @@ def topic_info(args) -> int:
     return EXIT_OK
 
 
+def _measure_traffic(args, on_window) -> None:
+    """Samples a topic's slot headers every 20 ms (fast enough not to be lapped by the ring at a
+    few kHz) and hands each window's figures to `on_window`, forever or once with --once."""
+    core = _core()
+    traffic = core.topic_traffic(args.topic, 0, args.namespace)
+    while True:
+        start = time.monotonic()
+        first = since = traffic["message_count"]
+        counted = size = 0
+        while time.monotonic() - start < args.window:
+            time.sleep(0.02)
+            traffic = core.topic_traffic(args.topic, since, args.namespace)
+            counted += traffic["counted"]
+            size += traffic["bytes"]
+            since = traffic["message_count"]
+        elapsed = time.monotonic() - start
+        messages = since - first
+        # Messages overwritten between two samples count with the mean size of the others.
+        total_bytes = size * messages / counted if counted else 0
+        window = {"topic": args.topic, "window_s": round(elapsed, 3), "messages": messages,
+                  "rate_hz": round(messages / elapsed, 2), "bytes": int(total_bytes),
+                  "bytes_per_s": round(total_bytes / elapsed, 1),
+                  "mean_message_bytes": round(size / counted, 1) if counted else None}
+        on_window(window)
+        if args.once:
+            return
+
+
+def topic_hz(args) -> int:
+    def show(w):
+        if args.json:
+            print(json.dumps(w, sort_keys=True), flush=True)
+        else:
+            print(f"average rate: {w['rate_hz']:.2f} Hz ({w['messages']} messages in "
+                  f"{w['window_s']:.2f} s)", flush=True)
+    _measure_traffic(args, show)
+    return EXIT_OK
+
+
+def _bytes(value: float) -> str:
+    for unit in ("B", "KB", "MB"):
+        if value < 1000 or unit == "MB":
+            return f"{value:.1f} {unit}" if unit != "B" else f"{value:.0f} B"
+        value /= 1000
+    return ""
+
+
+def topic_bw(args) -> int:
+    def show(w):
+        if args.json:
+            print(json.dumps(w, sort_keys=True), flush=True)
+        else:
+            mean = "-" if w["mean_message_bytes"] is None else _bytes(w["mean_message_bytes"])
+            print(f"bandwidth: {_bytes(w['bytes_per_s'])}/s, mean message {mean} "
+                  f"({w['messages']} messages in {w['window_s']:.2f} s)", flush=True)
+    _measure_traffic(args, show)
+    return EXIT_OK
+
+
 def service_list(args) -> int:
     services = _core().list_services(args.namespace)
 
@@ -344,7 +403,7 @@ def build_parser() -> argparse.ArgumentParser:
         sub.set_defaults(handler=handler)
         return sub
 
-    topic = group("topic", "topics: list, inspect")
+    topic = group("topic", "topics: list, inspect, measure")
     sub = action(topic, "list", "the namespace's topics", topic_list)
     sub.add_argument("-v", "--verbose", action="store_true",
                      help="with type, publishers, subscribers and rate")
@@ -359,6 +418,15 @@ def build_parser() -> argparse.ArgumentParser:
                      help="with process, rates, ticks, tick time, misses, state and health")
     sub = action(node, "info", "one node: topics, rate, timing, misses, health, state", node_info)
     sub.add_argument("node")
+
+    for name, handler, what in (("hz", topic_hz, "message rate"),
+                                ("bw", topic_bw, "bandwidth (payload bytes per second)")):
+        sub = action(topic, name, f"a topic's {what}, from slot headers (nothing decoded), "
+                                  "each window until Ctrl+C", handler)
+        sub.add_argument("topic")
+        sub.add_argument("--window", type=float, default=1.0,
+                         help="seconds per measurement (default 1)")
+        sub.add_argument("--once", action="store_true", help="print one window and exit")
 
     service = group("service", "services: list, inspect")
     sub = action(service, "list", "the namespace's services", service_list)

@@ -82,6 +82,19 @@ void bind_introspection(py::module_& m) {
       py::arg("namespace_name") = "",
       "Removes the presence announcements dead processes left; returns how many.");
   m.def(
+      "topic_traffic",
+      [](const std::string& topic, std::uint64_t since, const std::string& namespace_name) {
+        const TopicTraffic traffic = topic_traffic(topic, since, namespace_name);
+        py::dict out;
+        out["message_count"] = traffic.message_count;
+        out["counted"] = traffic.counted;
+        out["bytes"] = traffic.bytes;
+        return out;
+      },
+      py::arg("topic"), py::arg("since"), py::arg("namespace_name") = "",
+      "A topic's message count, and the messages from ticket `since` still in the ring with "
+      "their payload bytes (slot headers only).");
+  m.def(
       "clean_namespace",
       [](const std::string& namespace_name) { return clean_namespace(namespace_name); },
       py::arg("namespace_name") = "",
