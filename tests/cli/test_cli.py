@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 
 from conftest import HORUS, run_horus, wait_ready, wait_until
@@ -60,7 +61,7 @@ horus.run(horus.Node(name={sensor!r}, tick=sense, rate=100, order=0, pubs=["scan
 def test_help_at_every_level_exits_zero():
     for args in ([], ["topic"], ["topic", "list"], ["topic", "info"], ["service"],
                  ["service", "list"], ["service", "info"], ["node"], ["node", "list"],
-                 ["node", "info"], ["topic", "hz"], ["topic", "bw"], ["log"], ["shm"], ["shm", "list"],
+                 ["node", "info"], ["topic", "hz"], ["topic", "bw"], ["monitor"], ["log"], ["shm"], ["shm", "list"],
                  ["shm", "clean"], ["completion"]):
         result = run_horus(*args, "--help")
         assert result.returncode == 0, (args, result.stderr)
@@ -273,3 +274,36 @@ def test_hz_of_an_unknown_topic_is_one_line_and_exits_one():
     result = run_horus("topic", "hz", "nowhere", "--once")
     assert result.returncode == 1
     assert result.stderr.count("\n") == 1 and "'nowhere'" in result.stderr
+
+
+def test_monitor_in_a_real_terminal_shows_nodes_and_rates_and_quits_on_q(children, namespace):
+    assert shutil.which("tmux"), "tmux runs the monitor in a real terminal (scripts/install-deps)"
+    wait_ready(children.python(SCHEDULER.format(sensor="lidar")))
+    session = f"horus_{namespace}"
+    environment = [f"{key}={os.environ[key]}" for key in
+                   ("PYTHONPATH", "HORUS_SHM_DIR", "HORUS_NAMESPACE")]
+    subprocess.run(["tmux", "new-session", "-d", "-s", session, "-x", "120", "-y", "30", "env",
+                    *environment, HORUS, "monitor", "--interval", "0.3"], check=True)
+    try:
+        def screen_with_rates():
+            pane = subprocess.run(["tmux", "capture-pane", "-p", "-t", session],
+                                  capture_output=True, text=True).stdout
+            rows = {line.split()[0]: line.split() for line in pane.splitlines() if line.split()}
+            # Rates appear from the second refresh on (they need two samples).
+            if "lidar" in rows and "scan" in rows and rows["scan"][4] != "-":
+                return rows
+            return None
+        rows = wait_until(screen_with_rates, "the monitor's nodes and topic rates")
+        assert rows["lidar"][2] == "100.0" and rows["planner"][2] == "20.0"
+        assert float(rows["scan"][4]) > 0 and rows["scan"][-1].endswith("/s")
+        subprocess.run(["tmux", "send-keys", "-t", session, "q"], check=True)
+        wait_until(lambda: subprocess.run(["tmux", "has-session", "-t", session],
+                                          capture_output=True).returncode != 0,
+                   "the monitor to quit on q")
+    finally:
+        subprocess.run(["tmux", "kill-session", "-t", session], capture_output=True)
+
+
+def test_monitor_without_a_terminal_is_a_usage_error():
+    result = run_horus("monitor")
+    assert result.returncode == 2 and "needs a terminal" in result.stderr

@@ -334,6 +334,82 @@ def shm_clean(args) -> int:
     return EXIT_OK
 
 
+class _TopicRates:
+    """Each topic's rate and bandwidth between two refreshes, from slot headers."""
+
+    def __init__(self) -> None:
+        self.previous: dict[str, int] = {}
+        self.stamp = time.monotonic()
+
+    def sample(self, core, namespace: str) -> list[dict]:
+        now = time.monotonic()
+        elapsed = now - self.stamp
+        topics = core.list_topics(namespace)
+        for topic in topics:
+            before = self.previous.get(topic["name"])
+            topic["rate_hz"] = topic["bytes_per_s"] = None
+            if before is None or elapsed <= 0:
+                continue
+            messages = topic["message_count"] - before
+            topic["rate_hz"] = messages / elapsed
+            try:
+                traffic = core.topic_traffic(topic["name"], before, namespace)
+            except Exception:  # noqa: BLE001 (a topic removed meanwhile shows no bandwidth)
+                continue
+            if traffic["counted"]:
+                topic["bytes_per_s"] = traffic["bytes"] * messages / traffic["counted"] / elapsed
+        self.previous = {t["name"]: t["message_count"] for t in topics}
+        self.stamp = now
+        return topics
+
+
+def _monitor_lines(args, rates: _TopicRates) -> list[str]:
+    core = _core()
+    lines = [f"horus monitor  namespace {args.namespace or core.current_namespace()}  "
+             f"{time.strftime('%H:%M:%S')}   q: quit", ""]
+    node_rows = [[n["name"], n["pid"], _rate(n["rate_hz"]), _rate(n["achieved_rate_hz"]),
+                  f"{n['avg_tick_ns'] / 1e3:.1f}", f"{n['max_tick_ns'] / 1e3:.1f}",
+                  n["deadline_misses"] + n["budget_overruns"], n["health"], n["state"]]
+                 for n in _live_nodes(args)]
+    topic_rows = [[t["name"], t["type_name"] or "-", t["publishers"], t["subscribers"],
+                   _rate(t["rate_hz"]),
+                   "-" if t["bytes_per_s"] is None else _bytes(t["bytes_per_s"]) + "/s"]
+                  for t in rates.sample(core, args.namespace)]
+    for title, header, rows in (
+            ("NODES", ["NODE", "PID", "RATE_HZ", "ACHIEVED_HZ", "AVG_US", "MAX_US", "MISSES",
+                       "HEALTH", "STATE"], node_rows),
+            ("TOPICS", ["TOPIC", "TYPE", "PUBS", "SUBS", "RATE_HZ", "BANDWIDTH"], topic_rows)):
+        lines.append(f"{title} ({len(rows)})")
+        widths = [max(len(str(row[i])) for row in [header, *rows]) for i in range(len(header))]
+        for row in [header, *rows]:
+            lines.append("  ".join(str(c).ljust(w) for c, w in zip(row, widths)).rstrip())
+        lines.append("")
+    return lines
+
+
+def monitor(args) -> int:
+    if not (sys.stdin.isatty() and sys.stdout.isatty()):
+        raise CommandFailed("horus monitor needs a terminal; use `node list -v` and "
+                            "`topic list -v` in scripts", EXIT_USAGE)
+    import curses
+
+    def run(screen) -> None:
+        curses.curs_set(0)
+        screen.timeout(int(args.interval * 1000))
+        rates = _TopicRates()
+        while True:
+            lines = _monitor_lines(args, rates)
+            screen.erase()
+            height, width = screen.getmaxyx()
+            for row, line in enumerate(lines[:height - 1]):
+                screen.addnstr(row, 0, line, width - 1)
+            screen.refresh()
+            if screen.getch() in (ord("q"), ord("Q")):
+                return
+    curses.wrapper(run)
+    return EXIT_OK
+
+
 def blackbox(args) -> int:
     try:
         os.execvp(BLACKBOX_PROGRAM, [BLACKBOX_PROGRAM, *args.blackbox_args])
@@ -448,6 +524,14 @@ def build_parser() -> argparse.ArgumentParser:
     shm = group("shm", "shared-memory segments: list, clean")
     action(shm, "list", "the namespace's segments and how many live processes use each", shm_list)
     action(shm, "clean", "remove the segments whose every user died (never a live one)", shm_clean)
+
+    sub = commands.add_parser("monitor", help="live view of nodes and topics (q quits)",
+                              description="A live terminal view of the namespace's nodes (rate, "
+                                          "tick time, misses, health) and topics (rate, "
+                                          "bandwidth), until q or Ctrl+C.", parents=[common])
+    sub.add_argument("--interval", type=float, default=1.0,
+                     help="seconds between refreshes (default 1)")
+    sub.set_defaults(handler=monitor)
 
     sub = commands.add_parser("blackbox", help="print a scheduler flight-recorder file",
                               description="Runs horus-blackbox with the given arguments.",
