@@ -161,6 +161,9 @@ def test_log_filters_and_follows_a_nodes_log_info(children):
     lines = run_horus("log", "--node", "chatty", "--level", "info").stdout.splitlines()
     assert all(" INFO chatty: tick number " in line for line in lines), lines
     assert run_horus("log", "--node", "chatty", "--level", "warn").stdout == ""
+    assert run_horus("log", "--node", "other").stdout == ""
+    assert run_horus("log", "--node", "chatty", "--since", "3600").stdout.count("tick number") \
+        >= len(lines)
     records = json.loads(run_horus("log", "--node", "chatty", "--json").stdout)
     assert records and all(r["source"] == "chatty" and r["pid"] == node.pid for r in records)
 

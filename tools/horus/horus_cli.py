@@ -47,6 +47,17 @@ def _table(header: list[str], rows: list[list[str]]) -> None:
         print("  ".join(str(cell).ljust(width) for cell, width in zip(row, widths)).rstrip())
 
 
+def _names_or_table(args, header: list[str], row):
+    """The renderer of a listing: names alone, or with -v a table of `row(item)`."""
+    def render(items):
+        if args.verbose:
+            _table(header, [row(item) for item in items])
+        else:
+            for item in items:
+                print(item["name"])
+    return render
+
+
 def _topics(args) -> list[dict]:
     return _core().list_topics(args.namespace)
 
@@ -75,15 +86,10 @@ def topic_list(args) -> int:
             rate = _topic_rate(topic, first.get(topic["name"]), args.window)
             topic["rate_hz"] = None if rate is None else round(rate, 1)
 
-    def render(rows):
-        if not args.verbose:
-            for row in rows:
-                print(row["name"])
-            return
-        _table(["TOPIC", "TYPE", "PUBS", "SUBS", "RATE_HZ", "MESSAGES"],
-               [[r["name"], r["type_name"] or "-", r["publishers"], r["subscribers"],
-                 "-" if r.get("rate_hz") is None else f"{r['rate_hz']:.1f}", r["message_count"]]
-                for r in rows])
+    render = _names_or_table(
+        args, ["TOPIC", "TYPE", "PUBS", "SUBS", "RATE_HZ", "MESSAGES"],
+        lambda r: [r["name"], r["type_name"] or "-", r["publishers"], r["subscribers"],
+                   "-" if r.get("rate_hz") is None else f"{r['rate_hz']:.1f}", r["message_count"]])
     _emit(topics, args.json, render)
     return EXIT_OK
 
@@ -175,14 +181,10 @@ def topic_bw(args) -> int:
 def service_list(args) -> int:
     services = _core().list_services(args.namespace)
 
-    def render(rows):
-        if not args.verbose:
-            for row in rows:
-                print(row["name"])
-            return
-        _table(["SERVICE", "REQUEST", "RESPONSE", "SERVERS", "SERVER_PID", "CLIENTS"],
-               [[r["name"], r["request_type"], r["response_type"], r["servers"],
-                 r["server_pid"] or "-", r["clients"]] for r in rows])
+    render = _names_or_table(
+        args, ["SERVICE", "REQUEST", "RESPONSE", "SERVERS", "SERVER_PID", "CLIENTS"],
+        lambda r: [r["name"], r["request_type"], r["response_type"], r["servers"],
+                   r["server_pid"] or "-", r["clients"]])
     _emit(services, args.json, render)
     return EXIT_OK
 
@@ -228,16 +230,12 @@ def _rate(value) -> str:
 def node_list(args) -> int:
     nodes = _live_nodes(args)
 
-    def render(rows):
-        if not args.verbose:
-            for row in rows:
-                print(row["name"])
-            return
-        _table(["NODE", "PID", "SCHEDULER", "RATE_HZ", "ACHIEVED_HZ", "TICKS", "AVG_US", "MISSES",
-                "STATE", "HEALTH"],
-               [[n["name"], n["pid"], n["scheduler"], _rate(n["rate_hz"]),
-                 _rate(n["achieved_rate_hz"]), n["total_ticks"], f"{n['avg_tick_ns'] / 1e3:.1f}",
-                 n["deadline_misses"], n["state"], n["health"]] for n in rows])
+    render = _names_or_table(
+        args, ["NODE", "PID", "SCHEDULER", "RATE_HZ", "ACHIEVED_HZ", "TICKS", "AVG_US", "MISSES",
+               "STATE", "HEALTH"],
+        lambda n: [n["name"], n["pid"], n["scheduler"], _rate(n["rate_hz"]),
+                   _rate(n["achieved_rate_hz"]), n["total_ticks"], f"{n['avg_tick_ns'] / 1e3:.1f}",
+                   n["deadline_misses"], n["state"], n["health"]])
     _emit(nodes, args.json, render)
     return EXIT_OK
 

@@ -81,8 +81,8 @@ PresenceInfo read_entry(int folder, const std::string& folder_path, const std::s
   info.entry = name;
   identity = 0;
   try {
-    const detail::FileDescriptor file = detail::open_trusted_file(
-        folder, name, folder_path + "/" + name, O_RDONLY, 0, false);
+    const detail::FileDescriptor file =
+        detail::open_trusted_file(folder, name, folder_path + "/" + name, O_RDONLY, 0, false);
     struct stat status {};
     if (::fstat(file.get(), &status) != 0) {
       info.error = "cannot stat: " + detail::errno_text(errno);
@@ -95,8 +95,8 @@ PresenceInfo read_entry(int folder, const std::string& folder_path, const std::s
     std::string text(static_cast<std::size_t>(status.st_size), '\0');
     std::size_t done = 0;
     while (done < text.size()) {
-      const ssize_t got = ::pread(file.get(), text.data() + done, text.size() - done,
-                                  static_cast<off_t>(done));
+      const ssize_t got =
+          ::pread(file.get(), text.data() + done, text.size() - done, static_cast<off_t>(done));
       if (got < 0 && errno == EINTR) continue;
       if (got <= 0) break;
       done += static_cast<std::size_t>(got);
@@ -147,8 +147,7 @@ std::size_t clean_presence(std::string_view namespace_name) {
     std::uint64_t identity = 0;
     const PresenceInfo info = read_entry(folder.get(), path, entry, identity);
     // Only a readable announcement of a process known dead goes; anything else is left alone.
-    if (info.error.empty() && !info.alive &&
-        ::unlinkat(folder.get(), entry.c_str(), 0) == 0) {
+    if (info.error.empty() && !info.alive && ::unlinkat(folder.get(), entry.c_str(), 0) == 0) {
       ++removed;
     }
   }
@@ -182,13 +181,12 @@ bool PresenceAnnouncement::announce(std::string_view snapshot_json, std::string&
   }
   char header[96];
   const auto now = std::chrono::system_clock::now().time_since_epoch();
-  const int header_size =
-      std::snprintf(header, sizeof header, kHeaderFormat, this_process_identity(),
-                    static_cast<std::int64_t>(
-                        std::chrono::duration_cast<std::chrono::nanoseconds>(now).count()));
+  const int header_size = std::snprintf(
+      header, sizeof header, kHeaderFormat, this_process_identity(),
+      static_cast<std::int64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(now).count()));
   bool written = true;
-  for (std::string_view part : {std::string_view(header, static_cast<std::size_t>(header_size)),
-                                snapshot_json}) {
+  for (std::string_view part :
+       {std::string_view(header, static_cast<std::size_t>(header_size)), snapshot_json}) {
     while (written && !part.empty()) {
       const ssize_t put = ::write(fd, part.data(), part.size());
       if (put < 0 && errno == EINTR) continue;

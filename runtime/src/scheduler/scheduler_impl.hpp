@@ -135,6 +135,9 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   void run_executor(Executor& ex, std::int64_t end_ns) noexcept;
   void run_event(NodeSlot& slot, std::int64_t end_ns) noexcept;
   void run_watchdog(const std::vector<SlotPtr>& watched, std::int64_t end_ns) noexcept;
+  /// Calls `action` every `interval_ns` on the loop's grid until `end_ns` or the loop ends.
+  void run_every(std::int64_t interval_ns, std::int64_t end_ns,
+                 void (SchedulerImpl::*action)() noexcept) noexcept;
   void run_telemetry(std::int64_t end_ns) noexcept;
   void export_telemetry() noexcept;
   std::string telemetry_snapshot() const;

@@ -113,8 +113,8 @@ std::string SchedulerImpl::telemetry_snapshot() const {
     json += ",\"avg_tick_ns\":" + std::to_string(m.avg_tick_duration.count());
     json += ",\"max_tick_ns\":" + std::to_string(m.max_tick_duration.count());
     json += ",\"last_tick_ns\":" + std::to_string(m.last_tick_duration.count());
-    for (const auto& [key, topics] : {std::pair{"publishers", &node.publishers},
-                                      std::pair{"subscribers", &node.subscribers}}) {
+    for (const auto& [key, topics] :
+         {std::pair{"publishers", &node.publishers}, std::pair{"subscribers", &node.subscribers}}) {
       json += std::string(",\"") + key + "\":[";
       for (const TopicMetadata& topic : *topics) {
         json += &topic == topics->data() ? "{" : ",{";
@@ -163,26 +163,24 @@ void SchedulerImpl::announce_presence() noexcept {
   }
 }
 
-void SchedulerImpl::run_presence(std::int64_t end) noexcept {
-  announce_presence();
-  std::int64_t next = monotonic_ns() + kPresenceIntervalNs;
-  while (sleep_until(std::min(next, end))) {
-    const std::int64_t now = monotonic_ns();
-    if (now >= end) break;
-    announce_presence();
-    next = next_on_grid(next, kPresenceIntervalNs, now);
-  }
-}
-
-void SchedulerImpl::run_telemetry(std::int64_t end) noexcept {
-  const std::int64_t interval = config_.telemetry_interval().count();
+void SchedulerImpl::run_every(std::int64_t interval, std::int64_t end,
+                              void (SchedulerImpl::*action)() noexcept) noexcept {
   std::int64_t next = monotonic_ns() + interval;
   while (sleep_until(std::min(next, end))) {
     const std::int64_t now = monotonic_ns();
     if (now >= end) break;
-    export_telemetry();
+    (this->*action)();
     next = next_on_grid(next, interval, now);
   }
+}
+
+void SchedulerImpl::run_presence(std::int64_t end) noexcept {
+  announce_presence();
+  run_every(kPresenceIntervalNs, end, &SchedulerImpl::announce_presence);
+}
+
+void SchedulerImpl::run_telemetry(std::int64_t end) noexcept {
+  run_every(config_.telemetry_interval().count(), end, &SchedulerImpl::export_telemetry);
 }
 
 }  // namespace horus::detail

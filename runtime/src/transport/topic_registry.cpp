@@ -245,8 +245,8 @@ TopicTraffic topic_traffic(std::string_view topic, std::uint64_t since,
     inspect(folder, info, &traffic, since);
   }
   if (folder.descriptor.get() < 0 || !info.error.empty()) {
-    throw Error("topic '" + std::string(topic) + "': " +
-                (info.error.empty() ? "no such topic" : info.error));
+    throw Error("topic '" + std::string(topic) +
+                "': " + (info.error.empty() ? "no such topic" : info.error));
   }
   return traffic;
 }
