@@ -61,7 +61,7 @@ horus.run(horus.Node(name={sensor!r}, tick=sense, rate=100, order=0, pubs=["scan
 def test_help_at_every_level_exits_zero():
     for args in ([], ["topic"], ["topic", "list"], ["topic", "info"], ["service"],
                  ["service", "list"], ["service", "info"], ["node"], ["node", "list"],
-                 ["node", "info"], ["topic", "hz"], ["topic", "bw"], ["monitor"], ["log"], ["shm"], ["shm", "list"],
+                 ["node", "info"], ["topic", "hz"], ["topic", "bw"], ["monitor"], ["msg"], ["msg", "show"], ["log"], ["shm"], ["shm", "list"],
                  ["shm", "clean"], ["completion"]):
         result = run_horus(*args, "--help")
         assert result.returncode == 0, (args, result.stderr)
@@ -310,3 +310,30 @@ def test_monitor_in_a_real_terminal_shows_nodes_and_rates_and_quits_on_q(childre
 def test_monitor_without_a_terminal_is_a_usage_error():
     result = run_horus("monitor")
     assert result.returncode == 2 and "needs a terminal" in result.stderr
+
+
+def test_msg_list_show_and_hash_of_installed_types_match_the_live_segment(children):
+    assert "horus.msg.CmdVel" in run_horus("msg", "list").stdout.split()
+    shown = json.loads(run_horus("msg", "show", "CmdVel", "--json").stdout)
+    assert shown["name"] == "horus.msg.CmdVel" and shown["size"] == 16
+    assert [f["name"] for f in shown["fields"]] == ["stamp_nanos", "linear", "angular"]
+    fingerprint = run_horus("msg", "hash", "horus.msg.CmdVel").stdout.strip()
+    wait_ready(children.python(PUBLISH_CMDVEL.format(name="cmd_vel")))
+    segment = json.loads(run_horus("topic", "info", "cmd_vel", "--json").stdout)
+    assert int(fingerprint, 16) == segment["fingerprint"]
+
+
+def test_msg_show_of_a_user_type_given_with_I(tmp_path):
+    schemas = tmp_path / "schemas" / "my_robot"
+    schemas.mkdir(parents=True)
+    (schemas / "arm.hmsg").write_text("package my_robot;\n\nJointGoal {\n    joint: u16,\n"
+                                      "    angle: f64,\n}\n")
+    result = run_horus("msg", "show", "my_robot.JointGoal", "-I", str(tmp_path / "schemas"))
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0] == "type: my_robot.JointGoal (message)"
+    assert lines[2] == "tier: pod, size 16, alignment 8"
+    assert lines[4].split() == ["joint", "u16", "0", "2"]
+    assert lines[5].split() == ["angle", "f64", "8", "8"]
+    missing = run_horus("msg", "hash", "Nope", "-I", str(tmp_path / "schemas"))
+    assert missing.returncode == 1 and "'Nope'" in missing.stderr

@@ -17,6 +17,10 @@ EXIT_OK, EXIT_NOT_FOUND, EXIT_USAGE = 0, 1, 2
 # Filled in by the launcher (bin/horus) with the horus-blackbox beside it.
 BLACKBOX_PROGRAM = os.environ.get("HORUS_BLACKBOX_PROGRAM", "horus-blackbox")
 
+# The schema compiler and the installed schemas `horus msg` describes (set by the launcher).
+GENERATOR_PROGRAM = os.environ.get("HORUS_GEN_PROGRAM", "horus-gen")
+SCHEMA_DIR = os.environ.get("HORUS_SCHEMA_DIR", "")
+
 LEVELS = ("debug", "info", "warn", "error")
 
 
@@ -332,6 +336,63 @@ def shm_clean(args) -> int:
     return EXIT_OK
 
 
+def _described_types(args) -> list[dict]:
+    """Every type of the schema folders (-I, else the installed schemas), as `horus-gen describe
+    --json` lays it out: fingerprint, tier, size, alignment, fields with offsets."""
+    import pathlib
+    import subprocess
+    folders = args.include or ([SCHEMA_DIR] if SCHEMA_DIR else [])
+    files = sorted(str(path) for folder in folders for pattern in ("*.hmsg", "*.hsrv")
+                   for path in pathlib.Path(folder).rglob(pattern))
+    if not files:
+        raise CommandFailed(f"no schema files (.hmsg, .hsrv) in {', '.join(folders) or '(none)'}")
+    command = [GENERATOR_PROGRAM, "describe", "--json",
+               *[arg for folder in folders for arg in ("-I", folder)], *files]
+    try:
+        described = subprocess.run(command, capture_output=True, text=True)
+    except OSError as error:
+        raise CommandFailed(f"cannot run {GENERATOR_PROGRAM}: {error.strerror}") from None
+    if described.returncode != 0:
+        first = (described.stderr.strip().splitlines() or ["(no message)"])[0]
+        raise CommandFailed(f"horus-gen describe failed: {first}")
+    return json.loads(described.stdout)["types"]
+
+
+def _described_type(args) -> dict:
+    types = _described_types(args)
+    for described in types:
+        if described["name"] == args.type or described["name"].rsplit(".", 1)[-1] == args.type:
+            return described
+    raise CommandFailed(f"no message type '{args.type}' in the schemas (horus msg list)")
+
+
+def msg_list(args) -> int:
+    types = _described_types(args)
+    _emit(types, args.json, lambda rows: [print(t["name"]) for t in rows])
+    return EXIT_OK
+
+
+def msg_show(args) -> int:
+    described = _described_type(args)
+
+    def render(t):
+        print(f"type: {t['name']} ({t['kind']})")
+        print(f"fingerprint: {t['fingerprint']}")
+        if "tier" in t:
+            print(f"tier: {t['tier']}, size {t.get('size', '-')}, alignment {t.get('alignment', '-')}")
+        if t.get("fields"):
+            _table(["FIELD", "TYPE", "OFFSET", "SIZE"],
+                   [[f["name"], f["type"], f.get("offset", "-"), f.get("size", "-")]
+                    for f in t["fields"]])
+    _emit(described, args.json, render)
+    return EXIT_OK
+
+
+def msg_hash(args) -> int:
+    print(_described_type(args)["fingerprint"])
+    return EXIT_OK
+
+
 class _TopicRates:
     """Each topic's rate and bandwidth between two refreshes, from slot headers."""
 
@@ -507,6 +568,18 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("-v", "--verbose", action="store_true", help="with types, server and clients")
     sub = action(service, "info", "one service: types, server, clients", service_info)
     sub.add_argument("service")
+
+    message = group("msg", "message types of the installed (or given) schemas: list, show, hash")
+    for name, handler, what in (
+            ("list", msg_list, "every message type of the schemas"),
+            ("show", msg_show, "a type's fingerprint, tier, size and field layout"),
+            ("hash", msg_hash, "a type's fingerprint")):
+        sub = action(message, name, what, handler, json_output=name != "hash")
+        if name != "list":
+            sub.add_argument("type", help="qualified (horus.msg.CmdVel) or bare (CmdVel) name")
+        sub.add_argument("-I", dest="include", action="append", metavar="DIR",
+                         help="schema folder to read, like horus-gen's -I (repeatable; default: "
+                              "the installed schemas)")
 
     sub = commands.add_parser("log", help="the namespace's log ring",
                               description="Lines nodes logged, oldest first.",
