@@ -45,6 +45,20 @@ std::string current_namespace();
 /// used yet has none.
 std::vector<TopicInfo> list_topics(std::string_view namespace_name = {});
 
+/// What `topic_traffic` counted: read from slot headers, no message decoded (`horus hz`, `bw`).
+struct TopicTraffic {
+  /// Messages sent since the segment was created.
+  std::uint64_t message_count = 0;
+  /// Of the messages from the asked ticket on, those still in the ring, and their payload bytes.
+  std::uint64_t counted = 0;
+  std::uint64_t bytes = 0;
+};
+
+/// The traffic of one topic from ticket `since` on (a message_count seen before). Throws
+/// horus::Error naming the topic when it does not exist or cannot be read.
+TopicTraffic topic_traffic(std::string_view topic, std::uint64_t since,
+                           std::string_view namespace_name = {});
+
 /// Unlinks the segments of a namespace whose every user process has died (they would otherwise
 /// be re-used by the next opener); returns how many. Segments in use are left alone.
 std::size_t clean_namespace(std::string_view namespace_name = {});

@@ -11,5 +11,7 @@ void bind_scheduler(pybind11::module_& m);
 void bind_topics(pybind11::module_& m);
 /// horus._core: type-erased service clients and servers.
 void bind_services(pybind11::module_& m);
+/// horus._core: services, log ring, presence and cleaning, for the `horus` command.
+void bind_introspection(pybind11::module_& m);
 
 }  // namespace horus::python

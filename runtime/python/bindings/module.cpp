@@ -15,4 +15,5 @@ PYBIND11_MODULE(_core, m) {
   horus::python::bind_scheduler(m);
   horus::python::bind_topics(m);
   horus::python::bind_services(m);
+  horus::python::bind_introspection(m);
 }

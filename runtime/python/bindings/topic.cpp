@@ -129,6 +129,15 @@ void bind_topics(py::module_& m) {
           topic["publishers"] = info.publishers;
           topic["subscribers"] = info.subscribers;
           topic["message_count"] = info.message_count;
+          topic["schema"] = info.schema;
+          topic["capacity"] = info.capacity;
+          topic["max_message_size"] = info.max_message_size;
+          topic["single_publisher"] = info.single_publisher;
+          topic["last_send_s"] =
+              info.last_send ? py::object(py::int_(std::chrono::duration_cast<std::chrono::seconds>(
+                                                       info.last_send->time_since_epoch())
+                                                       .count()))
+                             : py::object(py::none());
           topic["error"] = info.error;
           out.append(topic);
         }

@@ -275,6 +275,7 @@ void SchedulerImpl::start_threads(const LoopPlan& plan, std::int64_t end, Thread
       threads.spawn([this, watched = plan.watched, end] { run_watchdog(watched, end); });
     }
     if (telemetry_) threads.spawn([this, end] { run_telemetry(end); });
+    if (presence_) threads.spawn([this, end] { run_presence(end); });
   } catch (...) {
     threads.unblock_signals();
     request_stop("could not start the scheduler's threads", true);

@@ -71,6 +71,7 @@ int SchedulerImpl::run(std::optional<std::int64_t> duration_ns) {
     }
     record_scheduler(BlackboxEventKind::SchedulerStop, stop_reason());
     export_telemetry();  // the final figures, also for runs shorter than one interval
+    announce_presence();
   }
   if (failed_.load() && blackbox_) {
     try {

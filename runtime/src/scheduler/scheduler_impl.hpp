@@ -15,6 +15,7 @@
 
 #include "horus/blackbox.hpp"
 #include "horus/log.hpp"
+#include "horus/presence.hpp"
 #include "horus/scheduler.hpp"
 #include "node_slot.hpp"
 
@@ -134,9 +135,18 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   void run_executor(Executor& ex, std::int64_t end_ns) noexcept;
   void run_event(NodeSlot& slot, std::int64_t end_ns) noexcept;
   void run_watchdog(const std::vector<SlotPtr>& watched, std::int64_t end_ns) noexcept;
+  /// Calls `action` every `interval_ns` on the loop's grid until `end_ns` or the loop ends.
+  void run_every(std::int64_t interval_ns, std::int64_t end_ns,
+                 void (SchedulerImpl::*action)() noexcept) noexcept;
   void run_telemetry(std::int64_t end_ns) noexcept;
   void export_telemetry() noexcept;
   std::string telemetry_snapshot() const;
+  /// Rewrites this scheduler's presence announcement (horus/presence.hpp) with the telemetry
+  /// snapshot: off the tick path, on its own thread while running and once at the end.
+  void run_presence(std::int64_t end_ns) noexcept;
+  void announce_presence() noexcept;
+  /// Often enough for `horus node list` and `horus monitor`, rare enough to cost nothing.
+  static constexpr std::int64_t kPresenceIntervalNs = 500'000'000;
   void apply_thread_settings(const Executor& ex) noexcept;
   bool sleep_until(std::int64_t mono_ns) noexcept;
   bool loop_ending() const noexcept { return wake_word_.load(std::memory_order_acquire) != 0; }
@@ -159,6 +169,8 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   std::unique_ptr<Blackbox> blackbox_;
   std::unique_ptr<TelemetrySink> telemetry_;
   std::atomic<bool> telemetry_failure_logged_{false};
+  std::unique_ptr<PresenceAnnouncement> presence_;  // null when the registry could not be opened
+  std::atomic<bool> presence_failure_logged_{false};
   RtCapabilities capabilities_;
   bool locked_memory_ = false;
 

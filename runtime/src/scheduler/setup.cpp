@@ -105,6 +105,11 @@ SchedulerImpl::SchedulerImpl(SchedulerConfig config)
     telemetry_ = std::make_unique<TelemetrySink>(config_.telemetry());
   }
   if (config_.rt()) probe_rt();
+  try {
+    presence_ = std::make_unique<PresenceAnnouncement>(current_namespace());
+  } catch (const Error& e) {
+    log(LogLevel::Warn, "not announced to `horus node list`: %s", e.what());
+  }
 }
 
 SchedulerImpl::~SchedulerImpl() {

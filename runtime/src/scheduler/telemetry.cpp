@@ -93,15 +93,36 @@ std::string SchedulerImpl::telemetry_snapshot() const {
   bool first = true;
   for (const SlotPtr& slot : ordered_slots()) {
     const NodeMetrics m = metrics(*slot);
+    const NodeInfo node = info(*slot);
     json += first ? "{" : ",{";
     first = false;
     json += "\"name\":" + json_string(m.name);
-    json += ",\"state\":" + json_string(std::string(to_string(slot->state.load())));
-    json += ",\"health\":" + json_string(std::string(to_string(slot->health.load())));
+    json += ",\"order\":" + std::to_string(node.order);
+    json += ",\"class\":" + json_string(std::string(to_string(node.execution_class)));
+    if (node.rate) {
+      char rate_hz[32];
+      std::snprintf(rate_hz, sizeof(rate_hz), "%.3f", node.rate->hz());
+      json += ",\"rate_hz\":" + std::string(rate_hz);
+    } else {
+      json += ",\"rate_hz\":null";
+    }
+    json += ",\"state\":" + json_string(std::string(to_string(node.state)));
+    json += ",\"health\":" + json_string(std::string(to_string(node.health)));
     json += ",\"total_ticks\":" + std::to_string(m.total_ticks);
     json += ",\"failed_ticks\":" + std::to_string(m.failed_ticks);
     json += ",\"avg_tick_ns\":" + std::to_string(m.avg_tick_duration.count());
     json += ",\"max_tick_ns\":" + std::to_string(m.max_tick_duration.count());
+    json += ",\"last_tick_ns\":" + std::to_string(m.last_tick_duration.count());
+    for (const auto& [key, topics] :
+         {std::pair{"publishers", &node.publishers}, std::pair{"subscribers", &node.subscribers}}) {
+      json += std::string(",\"") + key + "\":[";
+      for (const TopicMetadata& topic : *topics) {
+        json += &topic == topics->data() ? "{" : ",{";
+        json += "\"topic\":" + json_string(topic.topic_name) +
+                ",\"type\":" + json_string(topic.type_name) + "}";
+      }
+      json += "]";
+    }
     json += ",\"deadline_misses\":" + std::to_string(m.deadline_misses);
     json += ",\"budget_overruns\":" + std::to_string(m.budget_overruns);
     json += ",\"messages_sent\":" + std::to_string(m.messages_sent);
@@ -127,15 +148,39 @@ void SchedulerImpl::export_telemetry() noexcept {
   }
 }
 
-void SchedulerImpl::run_telemetry(std::int64_t end) noexcept {
-  const std::int64_t interval = config_.telemetry_interval().count();
+void SchedulerImpl::announce_presence() noexcept {
+  if (!presence_) return;
+  std::string error;
+  bool announced = false;
+  try {
+    announced = presence_->announce(telemetry_snapshot(), error);
+  } catch (...) {
+    error = "out of memory";
+  }
+  if (!announced && !presence_failure_logged_.exchange(true)) {
+    log(LogLevel::Warn, "presence announcement failed (%s); further failures are not logged",
+        error.c_str());
+  }
+}
+
+void SchedulerImpl::run_every(std::int64_t interval, std::int64_t end,
+                              void (SchedulerImpl::*action)() noexcept) noexcept {
   std::int64_t next = monotonic_ns() + interval;
   while (sleep_until(std::min(next, end))) {
     const std::int64_t now = monotonic_ns();
     if (now >= end) break;
-    export_telemetry();
+    (this->*action)();
     next = next_on_grid(next, interval, now);
   }
+}
+
+void SchedulerImpl::run_presence(std::int64_t end) noexcept {
+  announce_presence();
+  run_every(kPresenceIntervalNs, end, &SchedulerImpl::announce_presence);
+}
+
+void SchedulerImpl::run_telemetry(std::int64_t end) noexcept {
+  run_every(config_.telemetry_interval().count(), end, &SchedulerImpl::export_telemetry);
 }
 
 }  // namespace horus::detail

@@ -58,6 +58,24 @@ std::vector<std::string> segment_names(const detail::NamespaceFolder& folder) {
   return names;
 }
 
+void count_traffic(const std::byte* bytes, const LayoutHeader& header, std::uint64_t written,
+                   std::uint64_t since, TopicTraffic& traffic) {
+  traffic.message_count = written;
+  const std::uint64_t oldest = written > header.capacity ? written - header.capacity : 0;
+  for (std::uint64_t ticket = std::max(since, oldest); ticket < written; ++ticket) {
+    const auto& slot = *reinterpret_cast<const detail::SlotHeader*>(
+        bytes + header.slots_offset + (ticket & (header.capacity - 1)) * header.slot_stride);
+    const std::uint64_t committed = 2 * ticket + 2;
+    if (slot.seq.load(std::memory_order_acquire) != committed) continue;
+    const std::uint32_t size = slot.size.load(std::memory_order_relaxed);
+    detail::seqlock_fence(std::memory_order_acquire);
+    if (slot.seq.load(std::memory_order_relaxed) == committed && size != detail::kReleasedSlot) {
+      ++traffic.counted;
+      traffic.bytes += size;
+    }
+  }
+}
+
 /// A segment opened read-only and checked like any opener would, under `lock`.
 class LockedFile {
  public:
@@ -76,7 +94,10 @@ class LockedFile {
   detail::FileDescriptor file_;
 };
 
-void inspect(const detail::NamespaceFolder& folder, TopicInfo& info) {
+/// Fills `info` from the segment; with `traffic`, also counts the payload bytes of the messages
+/// from ticket `since` on that are still in the ring (slot headers only, nothing decoded).
+void inspect(const detail::NamespaceFolder& folder, TopicInfo& info,
+             TopicTraffic* traffic = nullptr, std::uint64_t since = 0) {
   std::optional<LockedFile> file;
   try {
     file.emplace(folder, info.name, LOCK_SH);
@@ -129,6 +150,9 @@ void inspect(const detail::NamespaceFolder& folder, TopicInfo& info) {
       info.is_pod = header.is_pod != 0;
       info.capacity = header.capacity;
       info.max_message_size = header.payload_capacity;
+      if (traffic != nullptr) {
+        count_traffic(bytes, header, info.message_count, since, *traffic);
+      }
       const std::uint64_t depth = std::min(info.message_count, header.capacity);
       for (std::uint64_t back = 1; back <= depth; ++back) {
         const std::uint64_t ticket = info.message_count - back;
@@ -207,6 +231,24 @@ std::vector<TopicInfo> list_topics(std::string_view namespace_name) {
     topics.push_back(std::move(info));
   }
   return topics;
+}
+
+TopicTraffic topic_traffic(std::string_view topic, std::uint64_t since,
+                           std::string_view namespace_name) {
+  detail::validate_segment_name("topic", topic);
+  const detail::NamespaceFolder folder =
+      detail::open_namespace_folder(namespace_name, kToolAccess, false);
+  TopicInfo info;
+  info.name = topic;
+  TopicTraffic traffic;
+  if (folder.descriptor.get() >= 0) {
+    inspect(folder, info, &traffic, since);
+  }
+  if (folder.descriptor.get() < 0 || !info.error.empty()) {
+    throw Error("topic '" + std::string(topic) +
+                "': " + (info.error.empty() ? "no such topic" : info.error));
+  }
+  return traffic;
 }
 
 std::size_t clean_namespace(std::string_view namespace_name) {

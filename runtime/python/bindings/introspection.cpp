@@ -1,0 +1,104 @@
+// horus._core: what the `horus` command reads about a namespace besides its topics: services,
+// the log ring, the processes' presence, and the cleaning of what dead processes left.
+#include <pybind11/stl.h>
+
+#include <string>
+
+#include "bindings.hpp"
+#include "horus/log.hpp"
+#include "horus/presence.hpp"
+#include "horus/service_registry.hpp"
+#include "horus/topic_registry.hpp"
+
+namespace horus::python {
+
+namespace py = pybind11;
+
+void bind_introspection(py::module_& m) {
+  m.def(
+      "list_services",
+      [](const std::string& namespace_name) {
+        py::list out;
+        for (const ServiceInfo& info : list_services(namespace_name)) {
+          py::dict service;
+          service["name"] = info.name;
+          service["request_type"] = info.request_type;
+          service["response_type"] = info.response_type;
+          service["fingerprint"] = info.fingerprint;
+          service["servers"] = info.servers;
+          service["server_pid"] = info.server_pid;
+          service["clients"] = info.clients;
+          out.append(service);
+        }
+        return out;
+      },
+      py::arg("namespace_name") = "",
+      "The services of a namespace (empty: HORUS_NAMESPACE), sorted by name.");
+  m.def(
+      "read_log",
+      [](const std::string& namespace_name) {
+        const LogSnapshot snapshot = read_log(namespace_name);
+        py::list records;
+        for (const LogRecord& record : snapshot.records) {
+          py::dict line;
+          line["sequence"] = record.sequence;
+          line["wall_time_ns"] = record.wall_time_ns;
+          line["pid"] = record.pid;
+          line["level"] = std::string(to_string(record.level));
+          line["source"] = record.source;
+          line["message"] = record.message;
+          line["text"] = format_log_line(record);
+          records.append(line);
+        }
+        py::dict out;
+        out["records"] = records;
+        out["written"] = snapshot.written;
+        out["dropped"] = snapshot.dropped;
+        return out;
+      },
+      py::arg("namespace_name") = "",
+      "The namespace's log ring: retained lines oldest first, and its counters.");
+  m.def(
+      "list_presence",
+      [](const std::string& namespace_name) {
+        py::list out;
+        for (const PresenceInfo& info : list_presence(namespace_name)) {
+          py::dict entry;
+          entry["entry"] = info.entry;
+          entry["pid"] = info.pid;
+          entry["alive"] = info.alive;
+          entry["updated_wall_ns"] = info.updated_wall_ns;
+          entry["snapshot_json"] = info.snapshot_json;
+          entry["error"] = info.error;
+          out.append(entry);
+        }
+        return out;
+      },
+      py::arg("namespace_name") = "",
+      "The schedulers' presence announcements of a namespace, dead processes' included.");
+  m.def(
+      "clean_presence",
+      [](const std::string& namespace_name) { return clean_presence(namespace_name); },
+      py::arg("namespace_name") = "",
+      "Removes the presence announcements dead processes left; returns how many.");
+  m.def(
+      "topic_traffic",
+      [](const std::string& topic, std::uint64_t since, const std::string& namespace_name) {
+        const TopicTraffic traffic = topic_traffic(topic, since, namespace_name);
+        py::dict out;
+        out["message_count"] = traffic.message_count;
+        out["counted"] = traffic.counted;
+        out["bytes"] = traffic.bytes;
+        return out;
+      },
+      py::arg("topic"), py::arg("since"), py::arg("namespace_name") = "",
+      "A topic's message count, and the messages from ticket `since` still in the ring with "
+      "their payload bytes (slot headers only).");
+  m.def(
+      "clean_namespace",
+      [](const std::string& namespace_name) { return clean_namespace(namespace_name); },
+      py::arg("namespace_name") = "",
+      "Unlinks the topic segments whose every user process died; returns how many.");
+}
+
+}  // namespace horus::python

@@ -1,0 +1,208 @@
+// The presence registry's files: the announcement a Scheduler rewrites, and the readers tools use.
+#include "horus/presence.hpp"
+
+#include <dirent.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <cinttypes>
+#include <cstdio>
+#include <string>
+
+#include "horus/detail/errno_text.hpp"
+#include "horus/detail/process.hpp"
+#include "horus/detail/shm_access.hpp"
+#include "horus/detail/shm_segment.hpp"
+#include "horus/error.hpp"
+
+namespace horus {
+namespace {
+
+constexpr const char* kPresenceFolder = "@presence";
+/// The first line of every announcement: format version, identity, update time.
+constexpr const char* kHeaderFormat = "horus-presence 1 %" PRIu64 " %" PRId64 "\n";
+/// An announcement larger than this is not one (a scheduler of thousands of nodes stays below).
+constexpr off_t kMaxAnnouncement = 4 << 20;
+
+std::string namespace_of(std::string_view namespace_name) {
+  std::string name =
+      namespace_name.empty() ? detail::current_namespace() : std::string(namespace_name);
+  detail::validate_segment_name("namespace", name);
+  return name;
+}
+
+/// The checked folder <root>/@presence/<namespace> (this user's only), or -1 when missing and
+/// not `create`d.
+detail::FileDescriptor open_presence_folder(const std::string& namespace_name, bool create) {
+  const std::string root = detail::shm_root();
+  const detail::FileDescriptor root_folder =
+      detail::open_trusted_directory(AT_FDCWD, root, root, 0600, true, false, create);
+  if (root_folder.get() < 0) return detail::FileDescriptor();
+  const std::string presence = root + "/" + kPresenceFolder;
+  const detail::FileDescriptor presence_folder = detail::open_trusted_directory(
+      root_folder.get(), kPresenceFolder, presence, 0600, false, false, create);
+  if (presence_folder.get() < 0) return detail::FileDescriptor();
+  return detail::open_trusted_directory(presence_folder.get(), namespace_name,
+                                        presence + "/" + namespace_name, 0600, false, false,
+                                        create);
+}
+
+/// Entry names ("<pid>.<n>"; the ".tmp" files being written are skipped), sorted.
+std::vector<std::string> entry_names(int folder, const std::string& path) {
+  std::vector<std::string> names;
+  const int duplicate = ::fcntl(folder, F_DUPFD_CLOEXEC, 0);
+  DIR* dir = duplicate >= 0 ? ::fdopendir(duplicate) : nullptr;
+  if (dir == nullptr) {
+    const int error = errno;
+    if (duplicate >= 0) ::close(duplicate);
+    throw Error("cannot list presence directory " + path + ": " + detail::errno_text(error));
+  }
+  // This DIR stream is local to the call, which is all readdir needs to be safe.
+  while (const dirent* entry = ::readdir(dir)) {  // NOLINT(concurrency-mt-unsafe)
+    const std::string name = entry->d_name;
+    if (name != "." && name != ".." && name.find(".tmp") == std::string::npos) {
+      names.push_back(name);
+    }
+  }
+  ::closedir(dir);
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+/// Reads one announcement; its identity goes to `identity`.
+PresenceInfo read_entry(int folder, const std::string& folder_path, const std::string& name,
+                        std::uint64_t& identity) {
+  PresenceInfo info;
+  info.entry = name;
+  identity = 0;
+  try {
+    const detail::FileDescriptor file =
+        detail::open_trusted_file(folder, name, folder_path + "/" + name, O_RDONLY, 0, false);
+    struct stat status {};
+    if (::fstat(file.get(), &status) != 0) {
+      info.error = "cannot stat: " + detail::errno_text(errno);
+      return info;
+    }
+    if (status.st_size > kMaxAnnouncement) {
+      info.error = "not an announcement: " + std::to_string(status.st_size) + " bytes";
+      return info;
+    }
+    std::string text(static_cast<std::size_t>(status.st_size), '\0');
+    std::size_t done = 0;
+    while (done < text.size()) {
+      const ssize_t got =
+          ::pread(file.get(), text.data() + done, text.size() - done, static_cast<off_t>(done));
+      if (got < 0 && errno == EINTR) continue;
+      if (got <= 0) break;
+      done += static_cast<std::size_t>(got);
+    }
+    text.resize(done);
+    std::int64_t updated = 0;
+    int header_size = 0;
+    if (std::sscanf(text.c_str(), "horus-presence 1 %" SCNu64 " %" SCNd64 "\n%n", &identity,
+                    &updated, &header_size) != 2 ||
+        header_size <= 0) {
+      info.error = "not an announcement (bad header)";
+      return info;
+    }
+    info.pid = detail::identity_pid(identity);
+    info.updated_wall_ns = updated;
+    info.snapshot_json = text.substr(static_cast<std::size_t>(header_size));
+    info.alive = detail::identity_alive(identity);
+  } catch (const Error& e) {
+    info.error = e.what();
+  }
+  return info;
+}
+
+std::atomic<std::uint32_t> announcements_made{0};
+
+}  // namespace
+
+std::vector<PresenceInfo> list_presence(std::string_view namespace_name) {
+  const std::string name = namespace_of(namespace_name);
+  const detail::FileDescriptor folder = open_presence_folder(name, false);
+  std::vector<PresenceInfo> out;
+  if (folder.get() < 0) return out;
+  const std::string path = detail::shm_root() + "/" + kPresenceFolder + "/" + name;
+  for (const std::string& entry : entry_names(folder.get(), path)) {
+    std::uint64_t identity = 0;
+    out.push_back(read_entry(folder.get(), path, entry, identity));
+  }
+  return out;
+}
+
+std::size_t clean_presence(std::string_view namespace_name) {
+  const std::string name = namespace_of(namespace_name);
+  const detail::FileDescriptor folder = open_presence_folder(name, false);
+  if (folder.get() < 0) return 0;
+  const std::string path = detail::shm_root() + "/" + kPresenceFolder + "/" + name;
+  std::size_t removed = 0;
+  for (const std::string& entry : entry_names(folder.get(), path)) {
+    std::uint64_t identity = 0;
+    const PresenceInfo info = read_entry(folder.get(), path, entry, identity);
+    // Only a readable announcement of a process known dead goes; anything else is left alone.
+    if (info.error.empty() && !info.alive && ::unlinkat(folder.get(), entry.c_str(), 0) == 0) {
+      ++removed;
+    }
+  }
+  return removed;
+}
+
+namespace detail {
+
+PresenceAnnouncement::PresenceAnnouncement(std::string_view namespace_name) {
+  FileDescriptor folder = open_presence_folder(namespace_of(namespace_name), true);
+  entry_ = std::to_string(this_pid()) + "." +
+           std::to_string(announcements_made.fetch_add(1, std::memory_order_relaxed));
+  folder_ = ::fcntl(folder.get(), F_DUPFD_CLOEXEC, 0);
+  if (folder_ < 0) {
+    throw Error("cannot keep the presence directory open: " + errno_text(errno));
+  }
+}
+
+PresenceAnnouncement::~PresenceAnnouncement() {
+  ::unlinkat(folder_, entry_.c_str(), 0);
+  ::close(folder_);
+}
+
+bool PresenceAnnouncement::announce(std::string_view snapshot_json, std::string& error) noexcept {
+  const std::string temporary = entry_ + ".tmp";
+  const int fd = ::openat(folder_, temporary.c_str(),
+                          O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0600);
+  if (fd < 0) {
+    error = "cannot write " + temporary + ": " + errno_text(errno);
+    return false;
+  }
+  char header[96];
+  const auto now = std::chrono::system_clock::now().time_since_epoch();
+  const int header_size = std::snprintf(
+      header, sizeof header, kHeaderFormat, this_process_identity(),
+      static_cast<std::int64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(now).count()));
+  bool written = true;
+  for (std::string_view part :
+       {std::string_view(header, static_cast<std::size_t>(header_size)), snapshot_json}) {
+    while (written && !part.empty()) {
+      const ssize_t put = ::write(fd, part.data(), part.size());
+      if (put < 0 && errno == EINTR) continue;
+      written = put > 0;
+      if (written) part.remove_prefix(static_cast<std::size_t>(put));
+    }
+  }
+  if (!written) error = "cannot write " + temporary + ": " + errno_text(errno);
+  ::close(fd);
+  if (written && ::renameat(folder_, temporary.c_str(), folder_, entry_.c_str()) != 0) {
+    error = "cannot publish " + entry_ + ": " + errno_text(errno);
+    written = false;
+  }
+  if (!written) ::unlinkat(folder_, temporary.c_str(), 0);
+  return written;
+}
+
+}  // namespace detail
+}  // namespace horus

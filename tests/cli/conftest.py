@@ -1,0 +1,87 @@
+"""Fixtures of the `horus` command's suite: a namespace per test, the command, live peers."""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import time
+import uuid
+
+import pytest
+
+
+HORUS = os.environ.get("HORUS_CLI", "")
+
+
+@pytest.fixture(autouse=True)
+def namespace(monkeypatch, tmp_path):
+    """Each test in its own namespace under a shared-memory root of its own (children and the
+    command inherit both), so nothing another run left in the default root can disturb it."""
+    root = tmp_path / "shm"
+    root.mkdir(mode=0o700)
+    monkeypatch.setenv("HORUS_SHM_DIR", str(root))
+    name = f"cli_{uuid.uuid4().hex[:12]}"
+    monkeypatch.setenv("HORUS_NAMESPACE", name)
+    monkeypatch.chdir(tmp_path)
+    yield name
+    shutil.rmtree(root, ignore_errors=True)
+
+
+def run_horus(*args: str, timeout: float = 30) -> subprocess.CompletedProcess:
+    """Runs the command as a user would (bin/horus of the build tree)."""
+    assert HORUS, "HORUS_CLI names bin/horus; run this suite through ctest (pytest_cli)"
+    return subprocess.run([HORUS, *args], capture_output=True, text=True, timeout=timeout)
+
+
+class Children:
+    """Processes a test starts, killed at its end."""
+
+    def __init__(self) -> None:
+        self.processes: list[subprocess.Popen] = []
+
+    def python(self, code: str) -> subprocess.Popen:
+        """A Python process that prints "ready" once its set-up is done, then runs on."""
+        process = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+                                   stderr=subprocess.PIPE, text=True)
+        self.processes.append(process)
+        return process
+
+    def program(self, *argv: str) -> subprocess.Popen:
+        """A program whose stdin stays open until the test ends (the service peer serves
+        until it closes)."""
+        process = subprocess.Popen(list(argv), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                   stderr=subprocess.PIPE, text=True)
+        self.processes.append(process)
+        return process
+
+    def kill_all(self) -> None:
+        for process in self.processes:
+            if process.poll() is None:
+                process.kill()
+            process.communicate()
+
+
+@pytest.fixture
+def children():
+    spawned = Children()
+    yield spawned
+    spawned.kill_all()
+
+
+def wait_ready(process: subprocess.Popen, word: str = "ready") -> None:
+    """Waits for the child's first line, which says its set-up is done."""
+    line = process.stdout.readline()
+    if line.strip() != word:
+        process.kill()
+        raise AssertionError(f"child failed: {line!r} {process.communicate()[1]}")
+
+
+def wait_until(predicate, what: str, limit: float = 10.0):
+    deadline = time.monotonic() + limit
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(0.05)
+    raise AssertionError(f"timed out waiting for {what}")

@@ -1,0 +1,339 @@
+"""The `horus` command against live C++ and Python processes (bin/horus, as a user runs it)."""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+
+from conftest import HORUS, run_horus, wait_ready, wait_until
+
+PUBLISH_CMDVEL = """
+import time, horus
+from horus.msg import CmdVel
+topic = horus.Topic(CmdVel, {name!r})
+topic.send(CmdVel(linear=1.0, angular=0.5))
+print("ready", flush=True)
+while True:
+    time.sleep(0.01)
+    topic.send(CmdVel(linear=1.0, angular=0.5))
+"""
+
+SUBSCRIBE_DICT = """
+import time, horus
+topic = horus.Topic(dict, {name!r})
+topic.try_recv()
+print("ready", flush=True)
+while True:
+    time.sleep(0.01)
+    topic.try_recv()
+"""
+
+LOGGING_NODE = """
+import horus
+count = [0]
+def tick(node):
+    count[0] += 1
+    if count[0] % 5 == 1:
+        node.log_info(f"tick number {{count[0]}}")
+    if count[0] == 1:
+        print("ready", flush=True)
+horus.run(horus.Node(name={name!r}, tick=tick, rate=50), tick_rate=50)
+"""
+
+SCHEDULER = """
+import horus
+ticks = [0]
+def sense(node):
+    node.send("scan", {{"range": 1.0}})
+    ticks[0] += 1
+    if ticks[0] == 3:
+        print("ready", flush=True)
+def plan(node):
+    if node.has_msg("scan"):
+        node.recv("scan")
+horus.run(horus.Node(name={sensor!r}, tick=sense, rate=100, order=0, pubs=["scan"]),
+          horus.Node(name="planner", tick=plan, rate=20, order=10, subs=["scan"]),
+          tick_rate=100)
+"""
+
+
+def test_help_at_every_level_exits_zero():
+    for args in ([], ["topic"], ["topic", "list"], ["topic", "info"], ["service"],
+                 ["service", "list"], ["service", "info"], ["node"], ["node", "list"],
+                 ["node", "info"], ["topic", "hz"], ["topic", "bw"], ["monitor"], ["msg"], ["msg", "show"], ["log"], ["shm"], ["shm", "list"],
+                 ["shm", "clean"], ["completion"]):
+        result = run_horus(*args, "--help")
+        assert result.returncode == 0, (args, result.stderr)
+        assert result.stdout.startswith("usage: horus"), (args, result.stdout)
+
+
+def test_usage_errors_exit_two_with_one_line():
+    for args in (["frobnicate"], ["topic", "info"], ["log", "--level", "loud"],
+                 ["topic", "list", "--window", "soon"]):
+        result = run_horus(*args)
+        assert result.returncode == 2, (args, result)
+        assert len(result.stderr.strip().splitlines()) == 1, (args, result.stderr)
+        assert "Traceback" not in result.stderr
+
+
+def test_no_subcommand_prints_help():
+    result = run_horus()
+    assert result.returncode == 0
+    assert "topic" in result.stdout and "service" in result.stdout
+
+
+def test_topic_list_shows_live_python_and_cpp_publishers(children, namespace):
+    wait_ready(children.python(PUBLISH_CMDVEL.format(name="py_cmd")))
+    wait_ready(children.python(SUBSCRIBE_DICT.format(name="py_dict")))
+    cpp = children.program(os.environ["HORUS_PY_PEER"], "pub", "cmdvel", "cpp_cmd", "1")
+    assert cpp.wait(timeout=30) == 0
+
+    plain = run_horus("topic", "list")
+    assert plain.returncode == 0, plain.stderr
+    assert plain.stdout.split() == ["cpp_cmd", "py_cmd", "py_dict"]
+
+    listing = json.loads(run_horus("topic", "list", "--json").stdout)
+    by_name = {t["name"]: t for t in listing}
+    assert by_name["py_cmd"]["type_name"] == "horus.msg.CmdVel"
+    assert by_name["py_cmd"]["publishers"] == 1
+    assert by_name["py_dict"]["subscribers"] == 1
+    # The C++ publisher exited: its message stays, its handle no longer counts.
+    assert by_name["cpp_cmd"]["message_count"] == 1
+    assert by_name["cpp_cmd"]["publishers"] == 0
+
+    verbose = run_horus("topic", "list", "-v", "--namespace", namespace)
+    lines = verbose.stdout.splitlines()
+    assert lines[0].split() == ["TOPIC", "TYPE", "PUBS", "SUBS", "RATE_HZ", "MESSAGES"]
+    py_row = next(line.split() for line in lines if line.startswith("py_cmd"))
+    assert py_row[1:4] == ["horus.msg.CmdVel", "1", "0"]
+    assert float(py_row[4]) > 0  # it publishes about every 10 ms
+
+
+def test_namespace_option_overrides_the_environment(children, namespace):
+    wait_ready(children.python(PUBLISH_CMDVEL.format(name="here")))
+    assert run_horus("topic", "list", "--namespace", "cli_nobody_uses_this").stdout == ""
+    assert run_horus("--namespace", namespace, "topic", "list").stdout.split() == ["here"]
+
+
+def test_topic_info_shows_type_schema_and_users(children):
+    wait_ready(children.python(PUBLISH_CMDVEL.format(name="cmd_vel")))
+    result = run_horus("topic", "info", "cmd_vel")
+    assert result.returncode == 0, result.stderr
+    assert "type: horus.msg.CmdVel" in result.stdout
+    assert "encoding: POD" in result.stdout
+    assert "publishers: 1" in result.stdout
+    assert "linear" in result.stdout  # the schema text
+    info = json.loads(run_horus("topic", "info", "cmd_vel", "--json").stdout)
+    assert info["is_pod"] and "angular" in info["schema"] and info["message_count"] >= 1
+
+
+def test_unknown_topic_and_service_are_one_line_and_exit_one():
+    for args, name in ((["topic", "info", "nope"], "'nope'"),
+                       (["service", "info", "missing"], "'missing'")):
+        result = run_horus(*args)
+        assert result.returncode == 1, result
+        assert result.stderr.count("\n") == 1 and name in result.stderr
+        assert "Traceback" not in result.stderr
+
+
+def test_service_list_and_info_against_a_live_cpp_server(children):
+    server = children.program(os.environ["HORUS_PY_SERVICE_PEER"], "serve")
+    wait_ready(server, "serving")
+    listing = json.loads(run_horus("service", "list", "--json").stdout)
+    names = [s["name"] for s in listing]
+    assert names, "the server registered nothing"
+    served = next(s for s in listing if s["servers"] == 1)
+    assert served["server_pid"] == server.pid
+    info = run_horus("service", "info", served["name"])
+    assert info.returncode == 0, info.stderr
+    assert f"server: pid {server.pid}" in info.stdout
+    assert f"request: {served['request_type']}" in info.stdout
+    verbose = run_horus("service", "list", "-v")
+    assert verbose.stdout.splitlines()[0].split()[:3] == ["SERVICE", "REQUEST", "RESPONSE"]
+
+
+def test_log_filters_and_follows_a_nodes_log_info(children):
+    node = children.python(LOGGING_NODE.format(name="chatty"))
+    wait_ready(node)
+    wait_until(lambda: "tick number" in run_horus("log", "--node", "chatty").stdout,
+               "chatty's log line")
+    lines = run_horus("log", "--node", "chatty", "--level", "info").stdout.splitlines()
+    assert all(" INFO chatty: tick number " in line for line in lines), lines
+    assert run_horus("log", "--node", "chatty", "--level", "warn").stdout == ""
+    assert run_horus("log", "--node", "other").stdout == ""
+    assert run_horus("log", "--node", "chatty", "--since", "3600").stdout.count("tick number") \
+        >= len(lines)
+    records = json.loads(run_horus("log", "--node", "chatty", "--json").stdout)
+    assert records and all(r["source"] == "chatty" and r["pid"] == node.pid for r in records)
+
+    follow = subprocess.Popen([HORUS, "log", "--follow", "--node", "chatty"],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        newest = max(int(r["message"].split()[-1]) for r in records)
+        # Lines logged after the command started reach it without running it again.
+        for _ in range(200):
+            line = follow.stdout.readline()
+            assert line, follow.stderr.read()
+            if int(line.split()[-1]) > newest:
+                break
+        else:
+            raise AssertionError("--follow never showed a new line")
+    finally:
+        follow.kill()
+        follow.communicate()
+
+
+def test_shm_clean_removes_only_the_dead(children, namespace):
+    wait_ready(children.python(PUBLISH_CMDVEL.format(name="alive")))
+    dead = children.program(os.environ["HORUS_PY_PEER"], "pub", "cmdvel", "dead", "1")
+    assert dead.wait(timeout=30) == 0
+    listing = {s["name"]: s for s in json.loads(run_horus("shm", "list", "--json").stdout)}
+    assert listing["alive"]["live_users"] == 1 and listing["dead"]["live_users"] == 0
+    assert listing["dead"]["size"] > 0
+
+    result = run_horus("shm", "clean")
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == \
+        "removed 1 segment and 0 announcements left by dead processes"
+    assert run_horus("topic", "list").stdout.split() == ["alive"]
+    assert json.loads(run_horus("shm", "clean", "--json").stdout) == \
+        {"removed": 0, "announcements": 0}
+
+
+def test_blackbox_is_folded_in():
+    result = run_horus("blackbox", "no_such_file.blackbox")
+    assert result.returncode != 0
+    assert "no_such_file.blackbox" in result.stderr
+
+
+def test_completion_script_names_the_subcommands():
+    result = run_horus("completion")
+    assert result.returncode == 0
+    assert "complete -F _horus horus" in result.stdout
+    assert 'topic) words="list info hz bw"' in result.stdout
+    assert 'node) words="list info"' in result.stdout
+    checked = subprocess.run(["bash", "-n"], input=result.stdout, text=True, capture_output=True)
+    assert checked.returncode == 0, checked.stderr
+
+
+def test_node_list_shows_a_schedulers_nodes_with_their_topics(children):
+    process = children.python(SCHEDULER.format(sensor="lidar"))
+    wait_ready(process)
+    nodes = wait_until(lambda: json.loads(run_horus("node", "list", "--json").stdout),
+                       "the scheduler's announcement")
+    assert [n["name"] for n in nodes] == ["lidar", "planner"]
+    lidar, planner = nodes
+    assert lidar["pid"] == planner["pid"] == process.pid
+    assert lidar["rate_hz"] == 100.0 and planner["rate_hz"] == 20.0
+    assert lidar["publishers"] == [{"topic": "scan", "type": "horus.msg.GenericMessage"}]
+    assert planner["subscribers"] == [{"topic": "scan", "type": "horus.msg.GenericMessage"}]
+    assert lidar["state"] == "Running" and lidar["health"] == "Healthy"
+
+    assert run_horus("node", "list").stdout.split() == ["lidar", "planner"]
+    verbose = run_horus("node", "list", "-v").stdout.splitlines()
+    assert verbose[0].split()[:4] == ["NODE", "PID", "SCHEDULER", "RATE_HZ"]
+    info = run_horus("node", "info", "planner")
+    assert info.returncode == 0, info.stderr
+    assert f"process: pid {process.pid}" in info.stdout
+    assert "subscribers: scan (horus.msg.GenericMessage)" in info.stdout
+    assert "rate: 20.0 Hz requested" in info.stdout
+
+    missing = run_horus("node", "info", "ghost")
+    assert missing.returncode == 1 and "'ghost'" in missing.stderr
+    assert missing.stderr.count("\n") == 1
+
+
+def test_a_killed_schedulers_nodes_are_never_shown_and_shm_clean_removes_them(children):
+    survivor = children.python(SCHEDULER.format(sensor="survivor"))
+    victim = children.python(SCHEDULER.format(sensor="victim"))
+    wait_ready(survivor)
+    wait_ready(victim)
+    wait_until(lambda: "victim" in run_horus("node", "list").stdout.split(), "the victim's nodes")
+    victim.kill()  # no destructor runs: its announcement stays behind
+    victim.wait()
+
+    names = [n["name"] for n in json.loads(run_horus("node", "list", "--json").stdout)]
+    assert names == ["planner", "survivor"]
+    result = run_horus("shm", "clean", "--json")
+    assert json.loads(result.stdout)["announcements"] == 1
+    assert json.loads(run_horus("shm", "clean", "--json").stdout)["announcements"] == 0
+    assert run_horus("node", "list").stdout.split() == ["planner", "survivor"]
+
+
+def test_hz_and_bw_measure_a_100_hz_publisher_from_slot_headers(children):
+    wait_ready(children.python(SCHEDULER.format(sensor="lidar")))
+    # The issue's acceptance bar: within 10 % of the publisher's 100 Hz.
+    hz = json.loads(run_horus("topic", "hz", "scan", "--once", "--window", "2", "--json").stdout)
+    assert 90 <= hz["rate_hz"] <= 110, hz
+    bw = json.loads(run_horus("topic", "bw", "scan", "--once", "--window", "1", "--json").stdout)
+    # {"range": 1.0} as the Python runtime encodes a dict: the same size every time.
+    assert bw["messages"] > 0 and bw["mean_message_bytes"] == bw["bytes"] / bw["messages"]
+    text = run_horus("topic", "hz", "scan", "--once", "--window", "0.5").stdout
+    assert text.startswith("average rate: ") and text.rstrip().endswith(" s)")
+
+
+def test_hz_of_an_unknown_topic_is_one_line_and_exits_one():
+    result = run_horus("topic", "hz", "nowhere", "--once")
+    assert result.returncode == 1
+    assert result.stderr.count("\n") == 1 and "'nowhere'" in result.stderr
+
+
+def test_monitor_in_a_real_terminal_shows_nodes_and_rates_and_quits_on_q(children, namespace):
+    assert shutil.which("tmux"), "tmux runs the monitor in a real terminal (scripts/install-deps)"
+    wait_ready(children.python(SCHEDULER.format(sensor="lidar")))
+    session = f"horus_{namespace}"
+    environment = [f"{key}={os.environ[key]}" for key in
+                   ("PYTHONPATH", "HORUS_SHM_DIR", "HORUS_NAMESPACE")]
+    subprocess.run(["tmux", "new-session", "-d", "-s", session, "-x", "120", "-y", "30", "env",
+                    *environment, HORUS, "monitor", "--interval", "0.3"], check=True)
+    try:
+        def screen_with_rates():
+            pane = subprocess.run(["tmux", "capture-pane", "-p", "-t", session],
+                                  capture_output=True, text=True).stdout
+            rows = {line.split()[0]: line.split() for line in pane.splitlines() if line.split()}
+            # Rates appear from the second refresh on (they need two samples).
+            if "lidar" in rows and "scan" in rows and rows["scan"][4] != "-":
+                return rows
+            return None
+        rows = wait_until(screen_with_rates, "the monitor's nodes and topic rates")
+        assert rows["lidar"][2] == "100.0" and rows["planner"][2] == "20.0"
+        assert float(rows["scan"][4]) > 0 and rows["scan"][-1].endswith("/s")
+        subprocess.run(["tmux", "send-keys", "-t", session, "q"], check=True)
+        wait_until(lambda: subprocess.run(["tmux", "has-session", "-t", session],
+                                          capture_output=True).returncode != 0,
+                   "the monitor to quit on q")
+    finally:
+        subprocess.run(["tmux", "kill-session", "-t", session], capture_output=True)
+
+
+def test_monitor_without_a_terminal_is_a_usage_error():
+    result = run_horus("monitor")
+    assert result.returncode == 2 and "needs a terminal" in result.stderr
+
+
+def test_msg_list_show_and_hash_of_installed_types_match_the_live_segment(children):
+    assert "horus.msg.CmdVel" in run_horus("msg", "list").stdout.split()
+    shown = json.loads(run_horus("msg", "show", "CmdVel", "--json").stdout)
+    assert shown["name"] == "horus.msg.CmdVel" and shown["size"] == 16
+    assert [f["name"] for f in shown["fields"]] == ["stamp_nanos", "linear", "angular"]
+    fingerprint = run_horus("msg", "hash", "horus.msg.CmdVel").stdout.strip()
+    wait_ready(children.python(PUBLISH_CMDVEL.format(name="cmd_vel")))
+    segment = json.loads(run_horus("topic", "info", "cmd_vel", "--json").stdout)
+    assert int(fingerprint, 16) == segment["fingerprint"]
+
+
+def test_msg_show_of_a_user_type_given_with_I(tmp_path):
+    schemas = tmp_path / "schemas" / "my_robot"
+    schemas.mkdir(parents=True)
+    (schemas / "arm.hmsg").write_text("package my_robot;\n\nJointGoal {\n    joint: u16,\n"
+                                      "    angle: f64,\n}\n")
+    result = run_horus("msg", "show", "my_robot.JointGoal", "-I", str(tmp_path / "schemas"))
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0] == "type: my_robot.JointGoal (message)"
+    assert lines[2] == "tier: pod, size 16, alignment 8"
+    assert lines[4].split() == ["joint", "u16", "0", "2"]
+    assert lines[5].split() == ["angle", "f64", "8", "8"]
+    missing = run_horus("msg", "hash", "Nope", "-I", str(tmp_path / "schemas"))
+    assert missing.returncode == 1 and "'Nope'" in missing.stderr

@@ -1,0 +1,644 @@
+"""The `horus` command: see and clean a running HORUS system from the shell.
+
+Every listing takes --json; exit status is 0 on success, 1 when something asked for is not found
+(or a wait timed out) and 2 on a usage error. Errors are one line on stderr, never a traceback.
+Imports of the runtime happen inside the subcommands, so `--help` and completion stay instant.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+EXIT_OK, EXIT_NOT_FOUND, EXIT_USAGE = 0, 1, 2
+
+# Filled in by the launcher (bin/horus) with the horus-blackbox beside it.
+BLACKBOX_PROGRAM = os.environ.get("HORUS_BLACKBOX_PROGRAM", "horus-blackbox")
+
+# The schema compiler and the installed schemas `horus msg` describes (set by the launcher).
+GENERATOR_PROGRAM = os.environ.get("HORUS_GEN_PROGRAM", "horus-gen")
+SCHEMA_DIR = os.environ.get("HORUS_SCHEMA_DIR", "")
+
+LEVELS = ("debug", "info", "warn", "error")
+
+
+class CommandFailed(Exception):
+    """A failure reported as one line on stderr, with its exit status."""
+
+    def __init__(self, message: str, status: int = EXIT_NOT_FOUND) -> None:
+        super().__init__(message)
+        self.status = status
+
+
+def _core():
+    from horus import _core  # deferred: loading the extension is most of the start-up time
+    return _core
+
+
+def _emit(rows, as_json: bool, render) -> None:
+    if as_json:
+        json.dump(rows, sys.stdout, indent=2, sort_keys=True)
+        sys.stdout.write("\n")
+    else:
+        render(rows)
+
+
+def _table(header: list[str], rows: list[list[str]]) -> None:
+    widths = [max(len(str(row[i])) for row in [header, *rows]) for i in range(len(header))]
+    for row in [header, *rows]:
+        print("  ".join(str(cell).ljust(width) for cell, width in zip(row, widths)).rstrip())
+
+
+def _names_or_table(args, header: list[str], row):
+    """The renderer of a listing: names alone, or with -v a table of `row(item)`."""
+    def render(items):
+        if args.verbose:
+            _table(header, [row(item) for item in items])
+        else:
+            for item in items:
+                print(item["name"])
+    return render
+
+
+def _topics(args) -> list[dict]:
+    return _core().list_topics(args.namespace)
+
+
+def _find_topic(args, name: str) -> dict:
+    for topic in _topics(args):
+        if topic["name"] == name:
+            return topic
+    raise CommandFailed(f"no topic '{name}' in namespace '{args.namespace or _core().current_namespace()}'")
+
+
+def _topic_rate(topic: dict, since: dict | None, seconds: float) -> float | None:
+    if since is None or seconds <= 0:
+        return None
+    return (topic["message_count"] - since["message_count"]) / seconds
+
+
+def topic_list(args) -> int:
+    topics = _topics(args)
+    if args.verbose:
+        # The rate needs two looks at the counters; a short gap keeps the command quick.
+        first = {t["name"]: t for t in topics}
+        time.sleep(args.window)
+        topics = _topics(args)
+        for topic in topics:
+            rate = _topic_rate(topic, first.get(topic["name"]), args.window)
+            topic["rate_hz"] = None if rate is None else round(rate, 1)
+
+    render = _names_or_table(
+        args, ["TOPIC", "TYPE", "PUBS", "SUBS", "RATE_HZ", "MESSAGES"],
+        lambda r: [r["name"], r["type_name"] or "-", r["publishers"], r["subscribers"],
+                   "-" if r.get("rate_hz") is None else f"{r['rate_hz']:.1f}", r["message_count"]])
+    _emit(topics, args.json, render)
+    return EXIT_OK
+
+
+def topic_info(args) -> int:
+    topic = _find_topic(args, args.topic)
+
+    def render(t):
+        if t["error"]:
+            print(f"error: {t['error']}")
+        print(f"topic: {t['name']}")
+        print(f"type: {t['type_name'] or '(not chosen yet)'}")
+        print(f"fingerprint: {t['fingerprint']:016x}")
+        print(f"encoding: {'POD' if t['is_pod'] else 'serialized'}")
+        print(f"capacity: {t['capacity']} slots of {t['max_message_size']} bytes")
+        print(f"single publisher: {'yes' if t['single_publisher'] else 'no'}")
+        print(f"publishers: {t['publishers']}")
+        print(f"subscribers: {t['subscribers']}")
+        print(f"messages sent: {t['message_count']}")
+        if t["last_send_s"] is not None:
+            print("last send: " + time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(t["last_send_s"])))
+        if t["schema"]:
+            print("schema:")
+            for line in t["schema"].splitlines():
+                print(f"  {line}")
+    _emit(topic, args.json, render)
+    return EXIT_OK
+
+
+def _measure_traffic(args, on_window) -> None:
+    """Samples a topic's slot headers every 20 ms (fast enough not to be lapped by the ring at a
+    few kHz) and hands each window's figures to `on_window`, forever or once with --once."""
+    core = _core()
+    traffic = core.topic_traffic(args.topic, 0, args.namespace)
+    while True:
+        start = time.monotonic()
+        first = since = traffic["message_count"]
+        counted = size = 0
+        while time.monotonic() - start < args.window:
+            time.sleep(0.02)
+            traffic = core.topic_traffic(args.topic, since, args.namespace)
+            counted += traffic["counted"]
+            size += traffic["bytes"]
+            since = traffic["message_count"]
+        elapsed = time.monotonic() - start
+        messages = since - first
+        # Messages overwritten between two samples count with the mean size of the others.
+        total_bytes = size * messages / counted if counted else 0
+        window = {"topic": args.topic, "window_s": round(elapsed, 3), "messages": messages,
+                  "rate_hz": round(messages / elapsed, 2), "bytes": int(total_bytes),
+                  "bytes_per_s": round(total_bytes / elapsed, 1),
+                  "mean_message_bytes": round(size / counted, 1) if counted else None}
+        on_window(window)
+        if args.once:
+            return
+
+
+def topic_hz(args) -> int:
+    def show(w):
+        if args.json:
+            print(json.dumps(w, sort_keys=True), flush=True)
+        else:
+            print(f"average rate: {w['rate_hz']:.2f} Hz ({w['messages']} messages in "
+                  f"{w['window_s']:.2f} s)", flush=True)
+    _measure_traffic(args, show)
+    return EXIT_OK
+
+
+def _bytes(value: float) -> str:
+    for unit in ("B", "KB", "MB"):
+        if value < 1000 or unit == "MB":
+            return f"{value:.1f} {unit}" if unit != "B" else f"{value:.0f} B"
+        value /= 1000
+    return ""
+
+
+def topic_bw(args) -> int:
+    def show(w):
+        if args.json:
+            print(json.dumps(w, sort_keys=True), flush=True)
+        else:
+            mean = "-" if w["mean_message_bytes"] is None else _bytes(w["mean_message_bytes"])
+            print(f"bandwidth: {_bytes(w['bytes_per_s'])}/s, mean message {mean} "
+                  f"({w['messages']} messages in {w['window_s']:.2f} s)", flush=True)
+    _measure_traffic(args, show)
+    return EXIT_OK
+
+
+def service_list(args) -> int:
+    services = _core().list_services(args.namespace)
+
+    render = _names_or_table(
+        args, ["SERVICE", "REQUEST", "RESPONSE", "SERVERS", "SERVER_PID", "CLIENTS"],
+        lambda r: [r["name"], r["request_type"], r["response_type"], r["servers"],
+                   r["server_pid"] or "-", r["clients"]])
+    _emit(services, args.json, render)
+    return EXIT_OK
+
+
+def service_info(args) -> int:
+    for service in _core().list_services(args.namespace):
+        if service["name"] == args.service:
+            def render(s):
+                print(f"service: {s['name']}")
+                print(f"request: {s['request_type']}")
+                print(f"response: {s['response_type']}")
+                print(f"fingerprint: {s['fingerprint']:016x}")
+                server = f"pid {s['server_pid']}" if s["servers"] else "none (stopped or died)"
+                print(f"server: {server}")
+                print(f"clients: {s['clients']}")
+            _emit(service, args.json, render)
+            return EXIT_OK
+    raise CommandFailed(f"no service '{args.service}' in namespace "
+                        f"'{args.namespace or _core().current_namespace()}'")
+
+
+def _live_nodes(args) -> list[dict]:
+    """Every node of the namespace's live schedulers, with the process that runs it. Dead
+    processes' announcements are never shown: `horus shm clean` removes them."""
+    nodes = []
+    for entry in _core().list_presence(args.namespace):
+        if not entry["alive"] or entry["error"]:
+            continue
+        snapshot = json.loads(entry["snapshot_json"])
+        for node in snapshot["nodes"]:
+            node["pid"] = entry["pid"]
+            node["scheduler"] = snapshot["scheduler"]
+            node["updated_wall_ns"] = entry["updated_wall_ns"]
+            nodes.append(node)
+    nodes.sort(key=lambda n: (n["name"], n["pid"]))
+    return nodes
+
+
+def _rate(value) -> str:
+    return "-" if value is None else f"{value:.1f}"
+
+
+def node_list(args) -> int:
+    nodes = _live_nodes(args)
+
+    render = _names_or_table(
+        args, ["NODE", "PID", "SCHEDULER", "RATE_HZ", "ACHIEVED_HZ", "TICKS", "AVG_US", "MISSES",
+               "STATE", "HEALTH"],
+        lambda n: [n["name"], n["pid"], n["scheduler"], _rate(n["rate_hz"]),
+                   _rate(n["achieved_rate_hz"]), n["total_ticks"], f"{n['avg_tick_ns'] / 1e3:.1f}",
+                   n["deadline_misses"], n["state"], n["health"]])
+    _emit(nodes, args.json, render)
+    return EXIT_OK
+
+
+def node_info(args) -> int:
+    matches = [n for n in _live_nodes(args) if n["name"] == args.node]
+    if not matches:
+        raise CommandFailed(f"no running node '{args.node}' in namespace "
+                            f"'{args.namespace or _core().current_namespace()}'")
+
+    def render(rows):
+        for n in rows:
+            print(f"node: {n['name']}")
+            print(f"process: pid {n['pid']}, scheduler {n['scheduler']}")
+            print(f"state: {n['state']}, health: {n['health']}")
+            print(f"class: {n['class']}, order: {n['order']}")
+            print(f"rate: {_rate(n['rate_hz'])} Hz requested, {_rate(n['achieved_rate_hz'])} Hz achieved")
+            print(f"ticks: {n['total_ticks']} ({n['failed_ticks']} failed)")
+            print(f"tick time: avg {n['avg_tick_ns'] / 1e3:.1f} us, max {n['max_tick_ns'] / 1e3:.1f} us, "
+                  f"last {n['last_tick_ns'] / 1e3:.1f} us")
+            print(f"misses: {n['deadline_misses']} deadline, {n['budget_overruns']} budget")
+            for key in ("publishers", "subscribers"):
+                topics = ", ".join(f"{t['topic']} ({t['type'] or '?'})" for t in n[key]) or "-"
+                print(f"{key}: {topics}")
+    _emit(matches, args.json, render)
+    return EXIT_OK
+
+
+def _log_filter(args):
+    minimum = LEVELS.index(args.level) if args.level else 0
+    since_ns = None
+    if args.since is not None:
+        since_ns = int((time.time() - args.since) * 1e9)
+
+    def keep(record: dict) -> bool:
+        return (LEVELS.index(record["level"].lower()) >= minimum
+                and (args.node is None or record["source"] == args.node)
+                and (since_ns is None or record["wall_time_ns"] >= since_ns))
+    return keep
+
+
+def log(args) -> int:
+    core = _core()
+    keep = _log_filter(args)
+    snapshot = core.read_log(args.namespace)
+    records = [r for r in snapshot["records"] if keep(r)]
+    if not args.follow:
+        _emit(records, args.json, lambda rows: [print(r["text"]) for r in rows])
+        return EXIT_OK
+    seen = snapshot["written"]
+
+    def show(rows):
+        for row in rows:
+            print(json.dumps(row, sort_keys=True) if args.json else row["text"], flush=True)
+    show(records)
+    while True:
+        time.sleep(0.1)
+        snapshot = core.read_log(args.namespace)
+        show([r for r in snapshot["records"] if r["sequence"] >= seen and keep(r)])
+        seen = snapshot["written"]
+
+
+def shm_list(args) -> int:
+    core = _core()
+    folder = core.namespace_directory(args.namespace)
+    rows = []
+    for topic in core.list_topics(args.namespace):
+        path = os.path.join(folder, topic["name"])
+        try:
+            size = os.stat(path).st_size
+        except OSError:
+            size = None
+        users = topic["publishers"] + topic["subscribers"]
+        rows.append({"name": topic["name"], "path": path, "size": size,
+                     "live_users": users, "error": topic["error"]})
+
+    def render(items):
+        _table(["SEGMENT", "BYTES", "LIVE_USERS", "PATH"],
+               [[r["name"], "-" if r["size"] is None else r["size"], r["live_users"], r["path"]]
+                for r in items])
+    _emit(rows, args.json, render)
+    return EXIT_OK
+
+
+def shm_clean(args) -> int:
+    core = _core()
+    removed = core.clean_namespace(args.namespace)
+    announcements = core.clean_presence(args.namespace)
+    if args.json:
+        print(json.dumps({"removed": removed, "announcements": announcements}))
+    else:
+        print(f"removed {removed} segment{'s' if removed != 1 else ''} and {announcements} "
+              f"announcement{'s' if announcements != 1 else ''} left by dead processes")
+    return EXIT_OK
+
+
+def _described_types(args) -> list[dict]:
+    """Every type of the schema folders (-I, else the installed schemas), as `horus-gen describe
+    --json` lays it out: fingerprint, tier, size, alignment, fields with offsets."""
+    import pathlib
+    import subprocess
+    folders = args.include or ([SCHEMA_DIR] if SCHEMA_DIR else [])
+    files = sorted(str(path) for folder in folders for pattern in ("*.hmsg", "*.hsrv")
+                   for path in pathlib.Path(folder).rglob(pattern))
+    if not files:
+        raise CommandFailed(f"no schema files (.hmsg, .hsrv) in {', '.join(folders) or '(none)'}")
+    command = [GENERATOR_PROGRAM, "describe", "--json",
+               *[arg for folder in folders for arg in ("-I", folder)], *files]
+    try:
+        described = subprocess.run(command, capture_output=True, text=True)
+    except OSError as error:
+        raise CommandFailed(f"cannot run {GENERATOR_PROGRAM}: {error.strerror}") from None
+    if described.returncode != 0:
+        first = (described.stderr.strip().splitlines() or ["(no message)"])[0]
+        raise CommandFailed(f"horus-gen describe failed: {first}")
+    return json.loads(described.stdout)["types"]
+
+
+def _described_type(args) -> dict:
+    types = _described_types(args)
+    for described in types:
+        if described["name"] == args.type or described["name"].rsplit(".", 1)[-1] == args.type:
+            return described
+    raise CommandFailed(f"no message type '{args.type}' in the schemas (horus msg list)")
+
+
+def msg_list(args) -> int:
+    types = _described_types(args)
+    _emit(types, args.json, lambda rows: [print(t["name"]) for t in rows])
+    return EXIT_OK
+
+
+def msg_show(args) -> int:
+    described = _described_type(args)
+
+    def render(t):
+        print(f"type: {t['name']} ({t['kind']})")
+        print(f"fingerprint: {t['fingerprint']}")
+        if "tier" in t:
+            print(f"tier: {t['tier']}, size {t.get('size', '-')}, alignment {t.get('alignment', '-')}")
+        if t.get("fields"):
+            _table(["FIELD", "TYPE", "OFFSET", "SIZE"],
+                   [[f["name"], f["type"], f.get("offset", "-"), f.get("size", "-")]
+                    for f in t["fields"]])
+    _emit(described, args.json, render)
+    return EXIT_OK
+
+
+def msg_hash(args) -> int:
+    print(_described_type(args)["fingerprint"])
+    return EXIT_OK
+
+
+class _TopicRates:
+    """Each topic's rate and bandwidth between two refreshes, from slot headers."""
+
+    def __init__(self) -> None:
+        self.previous: dict[str, int] = {}
+        self.stamp = time.monotonic()
+
+    def sample(self, core, namespace: str) -> list[dict]:
+        now = time.monotonic()
+        elapsed = now - self.stamp
+        topics = core.list_topics(namespace)
+        for topic in topics:
+            before = self.previous.get(topic["name"])
+            topic["rate_hz"] = topic["bytes_per_s"] = None
+            if before is None or elapsed <= 0:
+                continue
+            messages = topic["message_count"] - before
+            topic["rate_hz"] = messages / elapsed
+            try:
+                traffic = core.topic_traffic(topic["name"], before, namespace)
+            except Exception:  # noqa: BLE001 (a topic removed meanwhile shows no bandwidth)
+                continue
+            if traffic["counted"]:
+                topic["bytes_per_s"] = traffic["bytes"] * messages / traffic["counted"] / elapsed
+        self.previous = {t["name"]: t["message_count"] for t in topics}
+        self.stamp = now
+        return topics
+
+
+def _monitor_lines(args, rates: _TopicRates) -> list[str]:
+    core = _core()
+    lines = [f"horus monitor  namespace {args.namespace or core.current_namespace()}  "
+             f"{time.strftime('%H:%M:%S')}   q: quit", ""]
+    node_rows = [[n["name"], n["pid"], _rate(n["rate_hz"]), _rate(n["achieved_rate_hz"]),
+                  f"{n['avg_tick_ns'] / 1e3:.1f}", f"{n['max_tick_ns'] / 1e3:.1f}",
+                  n["deadline_misses"] + n["budget_overruns"], n["health"], n["state"]]
+                 for n in _live_nodes(args)]
+    topic_rows = [[t["name"], t["type_name"] or "-", t["publishers"], t["subscribers"],
+                   _rate(t["rate_hz"]),
+                   "-" if t["bytes_per_s"] is None else _bytes(t["bytes_per_s"]) + "/s"]
+                  for t in rates.sample(core, args.namespace)]
+    for title, header, rows in (
+            ("NODES", ["NODE", "PID", "RATE_HZ", "ACHIEVED_HZ", "AVG_US", "MAX_US", "MISSES",
+                       "HEALTH", "STATE"], node_rows),
+            ("TOPICS", ["TOPIC", "TYPE", "PUBS", "SUBS", "RATE_HZ", "BANDWIDTH"], topic_rows)):
+        lines.append(f"{title} ({len(rows)})")
+        widths = [max(len(str(row[i])) for row in [header, *rows]) for i in range(len(header))]
+        for row in [header, *rows]:
+            lines.append("  ".join(str(c).ljust(w) for c, w in zip(row, widths)).rstrip())
+        lines.append("")
+    return lines
+
+
+def monitor(args) -> int:
+    if not (sys.stdin.isatty() and sys.stdout.isatty()):
+        raise CommandFailed("horus monitor needs a terminal; use `node list -v` and "
+                            "`topic list -v` in scripts", EXIT_USAGE)
+    import curses
+
+    def run(screen) -> None:
+        curses.curs_set(0)
+        screen.timeout(int(args.interval * 1000))
+        rates = _TopicRates()
+        while True:
+            lines = _monitor_lines(args, rates)
+            screen.erase()
+            height, width = screen.getmaxyx()
+            for row, line in enumerate(lines[:height - 1]):
+                screen.addnstr(row, 0, line, width - 1)
+            screen.refresh()
+            if screen.getch() in (ord("q"), ord("Q")):
+                return
+    curses.wrapper(run)
+    return EXIT_OK
+
+
+def blackbox(args) -> int:
+    try:
+        os.execvp(BLACKBOX_PROGRAM, [BLACKBOX_PROGRAM, *args.blackbox_args])
+    except OSError as error:
+        raise CommandFailed(f"cannot run {BLACKBOX_PROGRAM}: {error.strerror}") from None
+
+
+COMPLETION = """# bash completion for horus: `source <(horus completion)`
+_horus() {
+  local cur=${COMP_WORDS[COMP_CWORD]} prev=${COMP_WORDS[1]} words
+  if [ "$COMP_CWORD" -eq 1 ]; then
+    words="%(commands)s"
+  elif [ "$COMP_CWORD" -eq 2 ]; then
+    case "$prev" in
+%(cases)s
+    esac
+  elif [ "$COMP_CWORD" -eq 3 ] && [ "$prev" = topic ]; then
+    words=$(horus topic list 2>/dev/null)
+  elif [ "$COMP_CWORD" -eq 3 ] && [ "$prev" = node ]; then
+    words=$(horus node list 2>/dev/null)
+  elif [ "$COMP_CWORD" -eq 3 ] && [ "$prev" = service ]; then
+    words=$(horus service list 2>/dev/null)
+  fi
+  COMPREPLY=($(compgen -W "$words" -- "$cur"))
+}
+complete -F _horus horus
+"""
+
+
+def completion(args) -> int:
+    parser = args.root_parser
+    commands = parser._subparsers._group_actions[0].choices  # noqa: SLF001 (argparse has no API)
+    cases = []
+    for name, sub in commands.items():
+        if sub._subparsers is not None:  # noqa: SLF001
+            words = " ".join(sub._subparsers._group_actions[0].choices)  # noqa: SLF001
+            cases.append(f'      {name}) words="{words}" ;;')
+    print(COMPLETION % {"commands": " ".join(commands), "cases": "\n".join(cases)}, end="")
+    return EXIT_OK
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with the usage error on one line and exit status 2."""
+
+    def error(self, message: str):
+        self.exit(EXIT_USAGE, f"{self.prog}: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    common = _Parser(add_help=False)
+    common.add_argument("--namespace", "-n", default=argparse.SUPPRESS,
+                        help="the namespace to look at (default: $HORUS_NAMESPACE, else 'default')")
+    listing = _Parser(add_help=False)
+    listing.add_argument("--json", action="store_true", help="print JSON instead of text")
+
+    parser = _Parser(prog="horus", parents=[common],
+                     description="See, poke and clean a running HORUS system.")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    def group(name: str, help_text: str):
+        sub = commands.add_parser(name, help=help_text, description=help_text, parents=[common])
+        return sub.add_subparsers(dest="action", metavar="ACTION", parser_class=_Parser)
+
+    def action(parent, name: str, help_text: str, handler, json_output: bool = True):
+        sub = parent.add_parser(name, help=help_text, description=help_text,
+                                parents=[common, listing] if json_output else [common])
+        sub.set_defaults(handler=handler)
+        return sub
+
+    topic = group("topic", "topics: list, inspect, measure")
+    sub = action(topic, "list", "the namespace's topics", topic_list)
+    sub.add_argument("-v", "--verbose", action="store_true",
+                     help="with type, publishers, subscribers and rate")
+    sub.add_argument("--window", type=float, default=0.5,
+                     help="seconds over which -v measures rates (default 0.5)")
+    sub = action(topic, "info", "one topic: type, schema, capacity, users, counters", topic_info)
+    sub.add_argument("topic")
+
+    node = group("node", "nodes of the running schedulers: list, inspect")
+    sub = action(node, "list", "the nodes of the namespace's live schedulers", node_list)
+    sub.add_argument("-v", "--verbose", action="store_true",
+                     help="with process, rates, ticks, tick time, misses, state and health")
+    sub = action(node, "info", "one node: topics, rate, timing, misses, health, state", node_info)
+    sub.add_argument("node")
+
+    for name, handler, what in (("hz", topic_hz, "message rate"),
+                                ("bw", topic_bw, "bandwidth (payload bytes per second)")):
+        sub = action(topic, name, f"a topic's {what}, from slot headers (nothing decoded), "
+                                  "each window until Ctrl+C", handler)
+        sub.add_argument("topic")
+        sub.add_argument("--window", type=float, default=1.0,
+                         help="seconds per measurement (default 1)")
+        sub.add_argument("--once", action="store_true", help="print one window and exit")
+
+    service = group("service", "services: list, inspect")
+    sub = action(service, "list", "the namespace's services", service_list)
+    sub.add_argument("-v", "--verbose", action="store_true", help="with types, server and clients")
+    sub = action(service, "info", "one service: types, server, clients", service_info)
+    sub.add_argument("service")
+
+    message = group("msg", "message types of the installed (or given) schemas: list, show, hash")
+    for name, handler, what in (
+            ("list", msg_list, "every message type of the schemas"),
+            ("show", msg_show, "a type's fingerprint, tier, size and field layout"),
+            ("hash", msg_hash, "a type's fingerprint")):
+        sub = action(message, name, what, handler, json_output=name != "hash")
+        if name != "list":
+            sub.add_argument("type", help="qualified (horus.msg.CmdVel) or bare (CmdVel) name")
+        sub.add_argument("-I", dest="include", action="append", metavar="DIR",
+                         help="schema folder to read, like horus-gen's -I (repeatable; default: "
+                              "the installed schemas)")
+
+    sub = commands.add_parser("log", help="the namespace's log ring",
+                              description="Lines nodes logged, oldest first.",
+                              parents=[common, listing])
+    sub.set_defaults(handler=log)
+    sub.add_argument("--node", help="only lines of this node (its name, '-' or '@<scheduler>')")
+    sub.add_argument("--level", choices=LEVELS, help="only lines at this level or above")
+    sub.add_argument("--since", type=float, metavar="SECONDS",
+                     help="only lines of the last SECONDS seconds")
+    sub.add_argument("--follow", "-f", action="store_true",
+                     help="keep printing new lines until Ctrl+C")
+
+    shm = group("shm", "shared-memory segments: list, clean")
+    action(shm, "list", "the namespace's segments and how many live processes use each", shm_list)
+    action(shm, "clean", "remove the segments whose every user died (never a live one)", shm_clean)
+
+    sub = commands.add_parser("monitor", help="live view of nodes and topics (q quits)",
+                              description="A live terminal view of the namespace's nodes (rate, "
+                                          "tick time, misses, health) and topics (rate, "
+                                          "bandwidth), until q or Ctrl+C.", parents=[common])
+    sub.add_argument("--interval", type=float, default=1.0,
+                     help="seconds between refreshes (default 1)")
+    sub.set_defaults(handler=monitor)
+
+    sub = commands.add_parser("blackbox", help="print a scheduler flight-recorder file",
+                              description="Runs horus-blackbox with the given arguments.",
+                              add_help=False)
+    sub.add_argument("blackbox_args", nargs=argparse.REMAINDER)
+    sub.set_defaults(handler=blackbox)
+
+    sub = commands.add_parser("completion", help="print the bash completion script",
+                              description="Print the bash completion script: "
+                                          "source <(horus completion)")
+    sub.set_defaults(handler=completion)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if getattr(args, "handler", None) is None:
+        parser.parse_args([*(argv if argv is not None else sys.argv[1:]), "--help"])
+    args.root_parser = parser
+    args.namespace = getattr(args, "namespace", None) or ""
+    try:
+        return args.handler(args)
+    except CommandFailed as failure:
+        print(f"horus: {failure}", file=sys.stderr)
+        return failure.status
+    except KeyboardInterrupt:
+        return EXIT_OK
+    except BrokenPipeError:
+        return EXIT_OK
+    except Exception as error:  # noqa: BLE001 (a runtime error is one line, never a traceback)
+        if type(error).__name__ != "HorusError":
+            raise
+        print(f"horus: {error}", file=sys.stderr)
+        return EXIT_NOT_FOUND
+
+
+if __name__ == "__main__":
+    sys.exit(main())
