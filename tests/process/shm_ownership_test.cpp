@@ -55,12 +55,10 @@ bool ensure_user(const std::vector<std::string>& useradd, const char* name) {
   return ::getpwnam(name) != nullptr || (run(useradd) == 0 && ::getpwnam(name) != nullptr);
 }
 
-/// Why the users cannot be had, or empty once they exist. Test cases run in parallel processes:
-/// one at a time creates what is missing (concurrent useradd calls undo each other's work).
+/// Why root could not create the users, or empty once they exist. Test cases run in parallel
+/// processes: one at a time creates what is missing (concurrent useradd calls undo each other's
+/// work).
 std::string ensure_users() {
-  if (::geteuid() != 0) {
-    return "needs root to create users and switch to them (CI runs as root)";
-  }
   const int lock = ::open("/tmp/horus_shm_ownership_test.lock", O_RDWR | O_CREAT | O_CLOEXEC, 0600);
   if (lock < 0 || ::flock(lock, LOCK_EX) != 0) {
     return "cannot lock /tmp/horus_shm_ownership_test.lock to create the test users";
@@ -178,9 +176,13 @@ int refused_as(const char* user, const std::string& root, const char* name, unsi
 
 class ShmOwnership : public ::testing::Test {
  protected:
+  // Only a run that cannot create users may skip; as root (CI), failing to create them fails.
   void SetUp() override {
+    if (::geteuid() != 0) {
+      GTEST_SKIP() << "needs root to create users and switch to them (CI runs as root)";
+    }
     if (const std::string why = ensure_users(); !why.empty()) {
-      GTEST_SKIP() << why;
+      FAIL() << why;
     }
   }
 };
