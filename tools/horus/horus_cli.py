@@ -182,6 +182,164 @@ def topic_bw(args) -> int:
     return EXIT_OK
 
 
+def _typed_topic(args, name: str) -> dict:
+    topic = _find_topic(args, name)
+    if topic["error"]:
+        raise CommandFailed(f"topic '{name}' cannot be read: {topic['error']}")
+    if not topic["type_name"]:
+        raise CommandFailed(f"topic '{name}' has no type yet: no handle has opened it with one")
+    return topic
+
+
+def _message_class(type_name: str, schema: str, fingerprint: int):
+    """The class of a type from its stored schema (dynamic_types), errors as one line."""
+    import dynamic_types
+    try:
+        return dynamic_types.load_type(type_name, schema, fingerprint)
+    except dynamic_types.SchemaError as error:
+        raise CommandFailed(str(error)) from None
+
+
+def _open_topic(topic: dict, cls):
+    """A handle on a live topic with the identity its segment records."""
+    info = cls.__horus__
+    return _core().Topic(topic["name"], topic["type_name"], topic["fingerprint"], topic["schema"],
+                         topic["is_pod"], info.size if topic["is_pod"] else 0,
+                         info.alignment if topic["is_pod"] else 1, topic["capacity"],
+                         topic["max_message_size"], topic["single_publisher"])
+
+
+def _parse_value(text: str, what: str):
+    """A YAML (or JSON, which YAML reads too) mapping given on the command line."""
+    try:
+        import yaml
+    except ImportError:  # python3-yaml missing: JSON still works
+        yaml = None
+    try:
+        value = yaml.safe_load(text) if yaml is not None else json.loads(text)
+    except Exception as error:  # noqa: BLE001 (yaml and json raise their own error types)
+        reason = " ".join(str(error).split()) or type(error).__name__
+        raise CommandFailed(f"cannot parse the {what} {text!r}: {reason}", EXIT_USAGE) from None
+    return {} if value is None else value
+
+
+def _build(cls, value):
+    import dynamic_types
+    try:
+        return dynamic_types.from_plain(cls, value)
+    except ValueError as error:
+        raise CommandFailed(str(error)) from None
+
+
+def _plain_field(plain, path: str | None, type_name: str):
+    if not path:
+        return plain
+    value = plain
+    for part in path.split("."):
+        if isinstance(value, dict) and part in value:
+            value = value[part]
+        elif isinstance(value, list) and part.isdigit() and int(part) < len(value):
+            value = value[int(part)]
+        else:
+            known = ", ".join(value) if isinstance(value, dict) else f"indexes 0..{len(value) - 1}" \
+                if isinstance(value, list) else "nothing (not a message)"
+            raise CommandFailed(f"{type_name} has no field '{path}' ('{part}' is not one of: {known})")
+    return value
+
+
+def _jsonable(value):
+    if isinstance(value, bytes):
+        return list(value)
+    if isinstance(value, dict):
+        return {key: _jsonable(item) for key, item in value.items()}
+    if isinstance(value, list):
+        return [_jsonable(item) for item in value]
+    return value
+
+
+def _show_message(value, as_json: bool) -> None:
+    value = _jsonable(value)
+    if as_json:
+        print(json.dumps(value), flush=True)
+    elif not isinstance(value, (dict, list)):
+        print(value, flush=True)
+    else:
+        print(_yaml_text(value) + "---", flush=True)
+
+
+def _yaml_text(value) -> str:
+    """Block YAML with lists on one line each (as ros2 topic echo prints them, roughly)."""
+    try:
+        import yaml
+    except ImportError:  # python3-yaml missing: JSON is YAML too
+        return json.dumps(value, indent=2) + "\n"
+
+    class Dumper(yaml.SafeDumper):
+        pass
+    Dumper.add_representer(list, lambda dumper, items: dumper.represent_sequence(
+        "tag:yaml.org,2002:seq", items, flow_style=True))
+    return yaml.dump(value, Dumper=Dumper, sort_keys=False, default_flow_style=False, width=100)
+
+
+def topic_echo(args) -> int:
+    topic = _typed_topic(args, args.topic)
+    cls = _message_class(topic["type_name"], topic["schema"], topic["fingerprint"])
+    import dynamic_types
+    handle = _open_topic(topic, cls)
+    _plain_field(dynamic_types.to_plain(cls()), args.field, topic["type_name"])  # checked early
+    deadline = None if args.timeout is None else time.monotonic() + args.timeout
+
+    def show(data) -> None:
+        try:
+            message = cls.from_bytes(data)
+        except ValueError as error:
+            raise CommandFailed(f"topic '{args.topic}': a message does not decode: {error}") from None
+        _show_message(_plain_field(dynamic_types.to_plain(message), args.field, topic["type_name"]),
+                      args.json)
+
+    # The newest message already sent comes first (a topic is latched), then each new one.
+    data = handle.read_latest()
+    shown = 0
+    while True:
+        if data is not None:
+            show(data)
+            shown += 1
+            if args.once or (args.count and shown >= args.count):
+                return EXIT_OK
+        wait = 0.1 if deadline is None else deadline - time.monotonic()
+        if wait <= 0:
+            raise CommandFailed(f"no message on topic '{args.topic}' within {args.timeout:g} s")
+        data = handle.recv(min(wait, 0.1))
+
+
+def topic_pub(args) -> int:
+    topic = _typed_topic(args, args.topic)
+    cls = _message_class(topic["type_name"], topic["schema"], topic["fingerprint"])
+    message = _build(cls, _parse_value(args.value, f"value for {topic['type_name']}"))
+    payload = message.to_bytes()
+    if not topic["is_pod"] and len(payload) > topic["max_message_size"]:
+        raise CommandFailed(f"the message is {len(payload)} bytes, topic '{args.topic}' holds at "
+                            f"most {topic['max_message_size']}")
+    handle = _open_topic(topic, cls)
+    if args.rate is not None and args.rate <= 0:
+        raise CommandFailed(f"--rate must be above 0, got {args.rate:g}", EXIT_USAGE)
+    period = 1.0 / (args.rate or 1.0)
+    sent = 0
+    next_send = time.monotonic()
+    while True:
+        if not handle.send(payload):
+            stats = {key: value for key, value in handle.stats().items() if value}
+            raise CommandFailed(f"topic '{args.topic}' refused the message ({stats or 'no room'})")
+        sent += 1
+        if args.once or (args.count and sent >= args.count):
+            print(f"published {sent} message{'s' if sent != 1 else ''} on '{args.topic}'", flush=True)
+            return EXIT_OK
+        if sent == 1:
+            print(f"publishing on '{args.topic}' at {1 / period:g} Hz until Ctrl+C", flush=True)
+        next_send += period
+        time.sleep(max(0.0, next_send - time.monotonic()))
+
+
 def service_list(args) -> int:
     services = _core().list_services(args.namespace)
 
@@ -538,7 +696,7 @@ def build_parser() -> argparse.ArgumentParser:
         sub.set_defaults(handler=handler)
         return sub
 
-    topic = group("topic", "topics: list, inspect, measure")
+    topic = group("topic", "topics: list, inspect, measure, echo, publish")
     sub = action(topic, "list", "the namespace's topics", topic_list)
     sub.add_argument("-v", "--verbose", action="store_true",
                      help="with type, publishers, subscribers and rate")
@@ -562,6 +720,24 @@ def build_parser() -> argparse.ArgumentParser:
         sub.add_argument("--window", type=float, default=1.0,
                          help="seconds per measurement (default 1)")
         sub.add_argument("--once", action="store_true", help="print one window and exit")
+
+    sub = action(topic, "echo", "print a topic's messages, decoded from its stored schema "
+                                "(any type), the newest one sent first", topic_echo)
+    sub.add_argument("topic")
+    sub.add_argument("--once", action="store_true", help="print one message and exit")
+    sub.add_argument("--count", type=int, metavar="N", help="print N messages and exit")
+    sub.add_argument("--field", metavar="A.B", help="print only this field (dotted path; list "
+                                                   "elements by index)")
+    sub.add_argument("--timeout", type=float, metavar="SECONDS",
+                     help="exit 1 when no message came within SECONDS")
+    sub = action(topic, "pub", "publish a message given as YAML or JSON (any type, from the "
+                               "topic's stored schema), every 1/RATE s until Ctrl+C", topic_pub,
+                 json_output=False)
+    sub.add_argument("topic")
+    sub.add_argument("value", help="the fields, e.g. '{linear: 0.5}'; fields left out are zero")
+    sub.add_argument("--rate", type=float, metavar="HZ", help="messages per second (default 1)")
+    sub.add_argument("--once", action="store_true", help="publish one message and exit")
+    sub.add_argument("--count", type=int, metavar="N", help="publish N messages and exit")
 
     service = group("service", "services: list, inspect")
     sub = action(service, "list", "the namespace's services", service_list)
@@ -624,6 +800,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.parse_args([*(argv if argv is not None else sys.argv[1:]), "--help"])
     args.root_parser = parser
     args.namespace = getattr(args, "namespace", None) or ""
+    if args.namespace:
+        # Handles the command opens (echo, pub, call) read the namespace from the environment.
+        os.environ["HORUS_NAMESPACE"] = args.namespace
     try:
         return args.handler(args)
     except CommandFailed as failure:
