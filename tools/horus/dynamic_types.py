@@ -3,8 +3,8 @@
 A segment records its type's name, fingerprint and readable schema text (the type's definition
 followed by every type it uses, docs/schema-language.md "Identity"). This module turns that text
 back into schema files, compiles them with horus-gen into Python (the very code a generated
-package holds, so bytes are exactly C++'s: POD layout and MessagePack), caches the result by
-fingerprint and imports it privately, without disturbing packages of the same name that the
+package holds, so bytes are exactly C++'s: POD layout and MessagePack), caches the result and
+imports it privately, without disturbing packages of the same name that the
 process already uses (horus.msg included).
 
     cls = load_type("demo.Pose", schema_text, 0x72b8e8dd8bd50428)
@@ -15,11 +15,12 @@ process already uses (horus.msg included).
 Errors are `SchemaError` (the text cannot be compiled or gives another fingerprint) and
 `ValueError` (a value that does not fit the type), each one line naming the problem.
 
-The cache is $XDG_CACHE_HOME/horus/types/<fingerprint> (default ~/.cache/horus/types), made by
-the user alone (mode 0700); horus-gen is $HORUS_GEN_PROGRAM, else `horus-gen` on PATH.
+The cache is $XDG_CACHE_HOME/horus/types/<hash of name and schema text> (default
+~/.cache/horus/types), made by the user alone (mode 0700); horus-gen is $HORUS_GEN_PROGRAM, else `horus-gen` on PATH.
 """
 from __future__ import annotations
 
+import hashlib
 import importlib
 import importlib.machinery
 import os
@@ -159,33 +160,37 @@ def _import_private(root: str, module_name: str, top_names: set[str]):
         sys.modules.update(saved)
 
 
-def load_type(type_name: str, schema_text: str, fingerprint: int) -> type:
+def load_type(type_name: str, schema_text: str, fingerprint: int | None) -> type:
     """The generated class of `type_name` compiled from `schema_text` (as a segment stores it),
-    checked to have `fingerprint`. Cached on disk and in the process. Raises SchemaError."""
-    key = (type_name, fingerprint)
+    checked to have `fingerprint` (None: the caller checks the identity another way, as a
+    service frame's does). Cached on disk and in the process. Raises SchemaError."""
+    key = (type_name, schema_text)
     with _importing:
-        cached = _loaded.get(key)
-        if cached is not None:
-            return cached
-        declarations = parse_schema(schema_text)
-        if declarations[0][1] != type_name:
-            raise SchemaError(f"the stored schema describes {declarations[0][1]}, not {type_name}")
-        entry = os.path.join(cache_root(), f"{fingerprint:016x}-{_CACHE_FORMAT}")
-        if not os.path.isdir(os.path.join(entry, "python")):
-            _compile(type_name, declarations, entry)
-        package, short = type_name.rsplit(".", 1)
-        top_names = {qualified.split(".", 1)[0] for _kind, qualified, _source in declarations}
-        try:
-            module = _import_private(os.path.join(entry, "python"), package, top_names)
-            cls = getattr(module, short)
-        except (ImportError, AttributeError, SyntaxError) as error:
-            raise SchemaError(f"cannot load the compiled {type_name} from {entry} ({error}); "
-                              "remove that folder to rebuild it") from None
-        if cls.__horus__.fingerprint != fingerprint:
-            raise SchemaError(f"the stored schema of {type_name} gives fingerprint "
-                              f"{cls.__horus__.fingerprint:016x}, the segment says {fingerprint:016x}")
-        _loaded[key] = cls
-        return cls
+        cls = _loaded.get(key)
+        if cls is None:
+            cls = _loaded[key] = _compiled_class(type_name, schema_text)
+    if fingerprint is not None and cls.__horus__.fingerprint != fingerprint:
+        raise SchemaError(f"the stored schema of {type_name} gives fingerprint "
+                          f"{cls.__horus__.fingerprint:016x}, the segment says {fingerprint:016x}")
+    return cls
+
+
+def _compiled_class(type_name: str, schema_text: str) -> type:
+    declarations = parse_schema(schema_text)
+    if declarations[0][1] != type_name:
+        raise SchemaError(f"the stored schema describes {declarations[0][1]}, not {type_name}")
+    digest = hashlib.sha256(f"{type_name}\n{schema_text}".encode()).hexdigest()[:24]
+    entry = os.path.join(cache_root(), f"{digest}-{_CACHE_FORMAT}")
+    if not os.path.isdir(os.path.join(entry, "python")):
+        _compile(type_name, declarations, entry)
+    package, short = type_name.rsplit(".", 1)
+    top_names = {qualified.split(".", 1)[0] for _kind, qualified, _source in declarations}
+    try:
+        module = _import_private(os.path.join(entry, "python"), package, top_names)
+        return getattr(module, short)
+    except (ImportError, AttributeError, SyntaxError) as error:
+        raise SchemaError(f"cannot load the compiled {type_name} from {entry} ({error}); "
+                          "remove that folder to rebuild it") from None
 
 
 # -- plain values ---------------------------------------------------------------------------------

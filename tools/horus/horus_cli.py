@@ -368,6 +368,101 @@ def service_info(args) -> int:
                         f"'{args.namespace or _core().current_namespace()}'")
 
 
+def _find_service(args) -> dict:
+    for service in _core().list_services(args.namespace):
+        if service["name"] == args.service:
+            return service
+    raise CommandFailed(f"no service '{args.service}' in namespace "
+                        f"'{args.namespace or _core().current_namespace()}'")
+
+
+def _frame_payload(args, topic: dict, payload_type: str, response: bool):
+    """The payload class of a service frame topic, from its stored schema (the frame's own
+    declaration, then the payload's), checked against the frame's fingerprint."""
+    from horus._service import _Frame
+    frame_text = topic["schema"]
+    payload_text = frame_text[frame_text.find("\n}\n") + 3:]
+    cls = _message_class(payload_type, payload_text, None)
+    frame = _Frame(cls, response=response)
+    if frame.fingerprint != topic["fingerprint"] or frame.name != topic["type_name"]:
+        raise CommandFailed(f"topic '{topic['name']}' carries {topic['type_name']}, not the "
+                            f"frame of {payload_type} this command builds")
+    return frame
+
+
+def _reply_topics(args, service: dict) -> tuple[dict | None, int]:
+    """(a typed reply topic of the service, to learn the response type from; the smallest
+    reply index no live client receives on)."""
+    prefix = f"{service['name']}.response."
+    typed, taken = None, set()
+    for topic in _topics(args):
+        suffix = topic["name"][len(prefix):]
+        if not topic["name"].startswith(prefix) or not suffix.isdigit():
+            continue
+        if topic["subscribers"]:
+            taken.add(int(suffix))
+        if topic["type_name"] and not topic["error"] and typed is None:
+            typed = topic
+    return typed, next(index for index in range(len(taken) + 1) if index not in taken)
+
+
+def service_call(args) -> int:
+    from horus._service import _alive, _endpoint_id
+    service = _find_service(args)
+    if not service["servers"]:
+        raise CommandFailed(f"service '{args.service}' has no live server")
+    topics = {t["name"]: t for t in _topics(args)}
+    request_topic = topics.get(f"{args.service}.request")
+    if request_topic is None or not request_topic["type_name"]:
+        raise CommandFailed(f"service '{args.service}' has no request topic to learn its type from")
+    requests = _frame_payload(args, request_topic, service["request_type"], response=False)
+    request = _build(requests.payload_type, _parse_value(
+        args.value, f"request for {service['request_type']}"))
+
+    typed, index = _reply_topics(args, service)
+    reply_name = f"{args.service}.response.{index}"
+    responses = replies = None
+    if typed is not None:  # the response type is known: receive on the reply topic from the start
+        responses = _frame_payload(args, typed, service["response_type"], response=True)
+        replies = responses.open(reply_name)
+        replies.try_recv()  # marks this handle a subscriber: other clients leave the index alone
+    client_id, request_id = _endpoint_id(), 1
+    sender = requests.open(f"{args.service}.request")
+    if not sender.send(requests.pack((client_id, request_id, index), request)):
+        raise CommandFailed(f"service '{args.service}': the request does not fit its topic")
+
+    deadline = time.monotonic() + args.timeout
+    while True:
+        data = None
+        if replies is None:
+            # The first call of this reply index: the server creates the topic with the response
+            # type when it answers, and its answer is then the topic's newest message.
+            created = next((t for t in _topics(args) if t["name"] == reply_name), None)
+            if created is not None and created["type_name"]:
+                responses = _frame_payload(args, created, service["response_type"], response=True)
+                replies = responses.open(reply_name)
+                data = replies.read_latest()
+            else:
+                time.sleep(0.01)
+        else:
+            data = replies.recv(min(0.01, max(0.0, deadline - time.monotonic())))
+        if data is not None:
+            (got_client, got_request, status, error), response = responses.unpack(data, 4)
+            if (got_client, got_request) == (client_id, request_id):
+                if status != 0:
+                    raise CommandFailed(f"service '{args.service}' failed: {error}")
+                import dynamic_types
+                _show_message(dynamic_types.to_plain(response), args.json)
+                return EXIT_OK
+            continue
+        if not _alive(service["server_pid"]):
+            raise CommandFailed(f"the server of service '{args.service}' (pid "
+                                f"{service['server_pid']}) died before answering")
+        if time.monotonic() >= deadline:
+            raise CommandFailed(f"no response from service '{args.service}' within "
+                                f"{args.timeout:g} s")
+
+
 def _live_nodes(args) -> list[dict]:
     """Every node of the namespace's live schedulers, with the process that runs it. Dead
     processes' announcements are never shown: `horus shm clean` removes them."""
@@ -739,11 +834,18 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("--once", action="store_true", help="publish one message and exit")
     sub.add_argument("--count", type=int, metavar="N", help="publish N messages and exit")
 
-    service = group("service", "services: list, inspect")
+    service = group("service", "services: list, inspect, call")
     sub = action(service, "list", "the namespace's services", service_list)
     sub.add_argument("-v", "--verbose", action="store_true", help="with types, server and clients")
     sub = action(service, "info", "one service: types, server, clients", service_info)
     sub.add_argument("service")
+
+    sub = action(service, "call", "call a service with a request given as YAML or JSON (any "
+                                  "type, from the service's stored schemas)", service_call)
+    sub.add_argument("service")
+    sub.add_argument("value", help="the request's fields, e.g. '{a: 1, b: 2}'; fields left out are zero")
+    sub.add_argument("--timeout", type=float, default=5.0, metavar="SECONDS",
+                     help="how long to wait for the response (default 5)")
 
     message = group("msg", "message types of the installed (or given) schemas: list, show, hash")
     for name, handler, what in (
