@@ -7,7 +7,6 @@ import sys
 
 import pytest
 
-from conftest import wait_ready
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "tools", "horus"))
 import dynamic_types  # noqa: E402

@@ -231,11 +231,15 @@ def _build(cls, value):
         raise CommandFailed(str(error)) from None
 
 
-def _plain_field(plain, path: str | None, type_name: str):
+def _plain_field(plain, path: str | None, type_name: str, checking: bool = False):
+    """The field `path` (a.b, list elements by index) of a plain message. `checking` a default
+    message, whose lists are empty and options None, what lies below them is not checked."""
     if not path:
         return plain
     value = plain
     for part in path.split("."):
+        if checking and (value is None or isinstance(value, list)):
+            return None
         if isinstance(value, dict) and part in value:
             value = value[part]
         elif isinstance(value, list) and part.isdigit() and int(part) < len(value):
@@ -286,7 +290,7 @@ def topic_echo(args) -> int:
     cls = _message_class(topic["type_name"], topic["schema"], topic["fingerprint"])
     import dynamic_types
     handle = _open_topic(topic, cls)
-    _plain_field(dynamic_types.to_plain(cls()), args.field, topic["type_name"])  # checked early
+    _plain_field(dynamic_types.to_plain(cls()), args.field, topic["type_name"], checking=True)
     deadline = None if args.timeout is None else time.monotonic() + args.timeout
 
     def show(data) -> None:
@@ -334,7 +338,7 @@ def topic_pub(args) -> int:
         if args.once or (args.count and sent >= args.count):
             print(f"published {sent} message{'s' if sent != 1 else ''} on '{args.topic}'", flush=True)
             return EXIT_OK
-        if sent == 1:
+        if sent == 1 and not args.count:
             print(f"publishing on '{args.topic}' at {1 / period:g} Hz until Ctrl+C", flush=True)
         next_send += period
         time.sleep(max(0.0, next_send - time.monotonic()))
