@@ -100,6 +100,8 @@ def topic_list(args) -> int:
 
 def topic_info(args) -> int:
     topic = _find_topic(args, args.topic)
+    topic["processes"] = [{"pid": p["pid"], "program": p["program"]} for p in _processes(args)
+                          if any(t["topic"] == args.topic for t in p["topics"])]
 
     def render(t):
         if t["error"]:
@@ -113,6 +115,8 @@ def topic_info(args) -> int:
         print(f"publishers: {t['publishers']}")
         print(f"subscribers: {t['subscribers']}")
         print(f"messages sent: {t['message_count']}")
+        users = ", ".join(f"pid {p['pid']} ({p['program']})" for p in t["processes"]) or "none"
+        print(f"open in: {users}")
         if t["last_send_s"] is not None:
             print("last send: " + time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(t["last_send_s"])))
         if t["schema"]:
@@ -467,18 +471,52 @@ def service_call(args) -> int:
                                 f"{args.timeout:g} s")
 
 
-def _live_nodes(args) -> list[dict]:
-    """Every node of the namespace's live schedulers, with the process that runs it. Dead
-    processes' announcements are never shown: `horus shm clean` removes them."""
-    nodes = []
+def _announcements(args) -> list[tuple[int, dict]]:
+    """(pid, announcement) of the namespace's live processes: a scheduler's (with "nodes") or a
+    process's (with "process": its topics and services). Dead processes' announcements are never
+    shown: `horus shm clean` removes them."""
+    found = []
     for entry in _core().list_presence(args.namespace):
-        if not entry["alive"] or entry["error"]:
-            continue
-        snapshot = json.loads(entry["snapshot_json"])
-        for node in snapshot["nodes"]:
-            node["pid"] = entry["pid"]
+        if entry["alive"] and not entry["error"]:
+            found.append((entry["pid"], json.loads(entry["snapshot_json"])))
+    return found
+
+
+def _processes(args) -> list[dict]:
+    """The namespace's live processes, each with its schedulers' nodes, topics and services."""
+    by_pid: dict[int, dict] = {}
+    for pid, snapshot in _announcements(args):
+        process = by_pid.setdefault(pid, {"pid": pid, "program": "?", "nodes": [], "topics": [],
+                                          "services": []})
+        if "process" in snapshot:
+            process["program"] = snapshot["process"]
+            process["topics"] += snapshot["topics"]
+            process["services"] += snapshot["services"]
+        else:
+            process["nodes"] += [node["name"] for node in snapshot["nodes"]]
+    return sorted(by_pid.values(), key=lambda p: p["pid"])
+
+
+def process_list(args) -> int:
+    processes = _processes(args)
+
+    def render(rows):
+        _table(["PID", "PROGRAM", "NODES", "TOPICS", "SERVICES"],
+               [[p["pid"], p["program"], ",".join(p["nodes"]) or "-",
+                 ",".join(t["topic"] for t in p["topics"]) or "-",
+                 ",".join(f"{s['service']}({s['role']})" for s in p["services"]) or "-"]
+                for p in rows])
+    _emit(processes, args.json, render)
+    return EXIT_OK
+
+
+def _live_nodes(args) -> list[dict]:
+    """Every node of the namespace's live schedulers, with the process that runs it."""
+    nodes = []
+    for pid, snapshot in _announcements(args):
+        for node in snapshot.get("nodes", []):
+            node["pid"] = pid
             node["scheduler"] = snapshot["scheduler"]
-            node["updated_wall_ns"] = entry["updated_wall_ns"]
             nodes.append(node)
     nodes.sort(key=lambda n: (n["name"], n["pid"]))
     return nodes
@@ -803,6 +841,10 @@ def build_parser() -> argparse.ArgumentParser:
                      help="seconds over which -v measures rates (default 0.5)")
     sub = action(topic, "info", "one topic: type, schema, capacity, users, counters", topic_info)
     sub.add_argument("topic")
+
+    process = group("process", "the processes using the namespace")
+    sub = action(process, "list", "live processes with their nodes, open topics and services",
+                 process_list)
 
     node = group("node", "nodes of the running schedulers: list, inspect")
     sub = action(node, "list", "the nodes of the namespace's live schedulers", node_list)

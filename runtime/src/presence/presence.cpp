@@ -12,8 +12,13 @@
 #include <chrono>
 #include <cinttypes>
 #include <cstdio>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <string>
+#include <tuple>
 
+#include "../scheduler/telemetry.hpp"
 #include "horus/detail/errno_text.hpp"
 #include "horus/detail/process.hpp"
 #include "horus/detail/shm_access.hpp"
@@ -203,6 +208,86 @@ bool PresenceAnnouncement::announce(std::string_view snapshot_json, std::string&
   if (!written) ::unlinkat(folder_, temporary.c_str(), 0);
   return written;
 }
+
+namespace {
+
+/// This process's uses in one namespace, and the announcement that lists them.
+struct NamespaceUses {
+  std::map<std::tuple<int, std::string, std::string, std::string>, std::size_t> counts;
+  std::unique_ptr<PresenceAnnouncement> announcement;
+};
+
+struct ProcessUses {
+  std::mutex mutex;
+  std::map<std::string, NamespaceUses> namespaces;
+};
+
+ProcessUses& process_uses() {
+  // Never destroyed: handles in other static objects may close after it would have been.
+  static auto* uses = new ProcessUses();  // NOLINT(cppcoreguidelines-owning-memory)
+  return *uses;
+}
+
+std::string program_name() {
+  char name[64] = {};
+  const int fd = ::open("/proc/self/comm", O_RDONLY | O_CLOEXEC);
+  ssize_t got = fd >= 0 ? ::read(fd, name, sizeof name - 1) : -1;
+  if (fd >= 0) ::close(fd);
+  while (got > 0 && (name[got - 1] == '\n' || name[got - 1] == '\0')) --got;
+  return got > 0 ? std::string(name, static_cast<std::size_t>(got)) : "?";
+}
+
+std::string uses_json(const NamespaceUses& uses) {
+  std::string topics;
+  std::string services;
+  for (const auto& [key, count] : uses.counts) {
+    const auto& [kind, name, type, response_type] = key;
+    if (kind == static_cast<int>(ProcessUse::Kind::Topic)) {
+      topics += std::string(topics.empty() ? "" : ",") + "{\"topic\":" + json_string(name) +
+                ",\"type\":" + json_string(type) + ",\"handles\":" + std::to_string(count) + "}";
+    } else {
+      const char* role =
+          kind == static_cast<int>(ProcessUse::Kind::ServiceServer) ? "server" : "client";
+      services += std::string(services.empty() ? "" : ",") + "{\"service\":" + json_string(name) +
+                  ",\"role\":\"" + role + "\",\"request_type\":" + json_string(type) +
+                  ",\"response_type\":" + json_string(response_type) + "}";
+    }
+  }
+  return "{\"process\":" + json_string(program_name()) + ",\"topics\":[" + topics +
+         "],\"services\":[" + services + "]}";
+}
+
+void change_use(const ProcessUse& use, bool add) noexcept {
+  try {
+    const std::string namespace_name = namespace_of(use.namespace_name);
+    ProcessUses& all = process_uses();
+    const std::lock_guard lock(all.mutex);
+    NamespaceUses& uses = all.namespaces[namespace_name];
+    const auto key =
+        std::make_tuple(static_cast<int>(use.kind), use.name, use.type, use.response_type);
+    if (add) {
+      ++uses.counts[key];
+    } else if (auto found = uses.counts.find(key);
+               found != uses.counts.end() && --found->second == 0) {
+      uses.counts.erase(found);
+    }
+    if (uses.counts.empty()) {
+      uses.announcement.reset();  // the last use went: so does the announcement
+      return;
+    }
+    if (!uses.announcement) {
+      uses.announcement = std::make_unique<PresenceAnnouncement>(namespace_name);
+    }
+    std::string error;
+    static_cast<void>(uses.announcement->announce(uses_json(uses), error));
+  } catch (...) {  // NOLINT(bugprone-empty-catch): an unannounced process still works
+  }
+}
+
+}  // namespace
+
+void announce_use(const ProcessUse& use) noexcept { change_use(use, true); }
+void withdraw_use(const ProcessUse& use) noexcept { change_use(use, false); }
 
 }  // namespace detail
 }  // namespace horus
