@@ -338,6 +338,8 @@ def test_msg_show_of_a_user_type_given_with_I(tmp_path):
     assert lines[2] == "tier: pod, size 16, alignment 8"
     assert lines[4].split() == ["joint", "u16", "0", "2"]
     assert lines[5].split() == ["angle", "f64", "8", "8"]
+    assert lines[6:] == ["schema:", "  message my_robot.JointGoal {", "    joint: u16,",
+                         "    angle: f64,", "  }"]
     missing = run_horus("msg", "hash", "Nope", "-I", str(tmp_path / "schemas"))
     assert missing.returncode == 1 and "'Nope'" in missing.stderr
 

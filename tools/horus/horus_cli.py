@@ -677,8 +677,21 @@ def msg_show(args) -> int:
             print(f"tier: {t['tier']}, size {t.get('size', '-')}, alignment {t.get('alignment', '-')}")
         if t.get("fields"):
             _table(["FIELD", "TYPE", "OFFSET", "SIZE"],
-                   [[f["name"], f["type"], f.get("offset", "-"), f.get("size", "-")]
+                   [[f["name"], f["type"], "-" if f.get("offset") is None else f["offset"],
+                     "-" if f.get("size") is None else f["size"]]
                     for f in t["fields"]])
+        if t["kind"] == "enum":
+            print(f"underlying: {t['underlying']}")
+            for name, value in t["values"].items():
+                print(f"  {name} = {value}")
+        if t["kind"] == "service":
+            print(f"request: {t['request']} (topic {t['request_topic']})")
+            print(f"response: {t['response']} (topic {t['response_topic']})")
+        if t.get("schema"):
+            # What a topic's segment stores: the definition, then every type it uses.
+            print("schema:")
+            for line in t["schema"].splitlines():
+                print(f"  {line}")
     _emit(described, args.json, render)
     return EXIT_OK
 
@@ -896,7 +909,7 @@ def build_parser() -> argparse.ArgumentParser:
     message = group("msg", "message types of the installed (or given) schemas: list, show, hash")
     for name, handler, what in (
             ("list", msg_list, "every message type of the schemas"),
-            ("show", msg_show, "a type's fingerprint, tier, size and field layout"),
+            ("show", msg_show, "a type's fingerprint, tier, size, field layout and schema text"),
             ("hash", msg_hash, "a type's fingerprint")):
         sub = action(message, name, what, handler, json_output=name != "hash")
         if name != "list":
