@@ -90,6 +90,9 @@ def test_a_standard_type_loads_beside_the_installed_package_without_replacing_it
     assert horus.msg.CmdVel is CmdVel
     message = dynamic_types.from_plain(loaded, {"linear": 1.0, "angular": -0.5})
     assert message.to_bytes() == CmdVel(linear=1.0, angular=-0.5).to_bytes()
+    # An f32 shows as the shortest decimal that reads back as the same f32.
+    shown = dynamic_types.to_plain(loaded.from_bytes(CmdVel(angular=0.1).to_bytes()))
+    assert shown["angular"] == 0.1 and dynamic_types.from_plain(loaded, shown).angular == CmdVel(angular=0.1).angular
 
 
 def test_values_that_do_not_fit_are_one_clear_error():

@@ -197,17 +197,40 @@ def _compiled_class(type_name: str, schema_text: str) -> type:
 
 def to_plain(message):
     """The message as plain values: a dict per message, lists for arrays and Vec, None for an
-    empty Option, enum member names, bytes for bytes fields."""
-    info = getattr(type(message), "__horus__", None)
-    if info is not None and hasattr(info, "fields"):
-        return {name: to_plain(getattr(message, name)) for name in info.fields}
-    if hasattr(message, "tolist"):  # numpy array of a fixed array field
-        return message.tolist()
-    if isinstance(message, list):
-        return [to_plain(item) for item in message]
-    if hasattr(message, "name") and hasattr(type(message), "__members__"):
-        return message.name
-    return message
+    empty Option, enum member names, bytes for bytes fields. An f32 is the shortest decimal that
+    reads back as the same f32 (0.1, not 0.10000000149011612)."""
+    info = type(message).__horus__
+    return {name: _plain(codec, getattr(message, name))
+            for name, codec in zip(info.fields, info.codecs)}
+
+
+def _plain(codec, value):
+    kind = type(codec).__name__  # the support module is the compiled type's private copy
+    if value is None:
+        return None
+    if kind == "Nested":
+        return to_plain(value)
+    if kind == "Enum":
+        return value.name if hasattr(value, "name") else int(value)
+    if kind == "Float" and codec.single:
+        return _short_f32(value)
+    if kind == "NumArray":
+        values = value.tolist()
+        return _map_nested(values, _short_f32) if codec.kind == "f" and codec.element.single else values
+    if kind in ("Vec", "ListArray"):
+        return [_plain(codec.element, item) for item in value]
+    if kind == "Option":
+        return _plain(codec.element, value)
+    return value
+
+
+def _short_f32(value: float) -> float:
+    import numpy
+    return float(repr(numpy.float32(value)).removeprefix("np.float32(").removesuffix(")"))
+
+
+def _map_nested(values, convert):
+    return [_map_nested(v, convert) if isinstance(v, list) else convert(v) for v in values]
 
 
 def from_plain(cls, value, path: str = ""):
