@@ -30,7 +30,8 @@ import sys
 import tempfile
 import threading
 
-__all__ = ["SchemaError", "load_type", "to_plain", "from_plain", "parse_schema", "cache_root"]
+__all__ = ["SchemaError", "load_type", "to_plain", "from_plain", "parse_schema", "cache_root",
+           "run_generator"]
 
 # Bump when the way classes are produced changes, so stale cache entries are not reused.
 _CACHE_FORMAT = "v1"
@@ -91,8 +92,18 @@ def _schema_files(declarations) -> dict[str, str]:
             for package, sources in packages.items()}
 
 
-def _generator() -> str:
-    return os.environ.get("HORUS_GEN_PROGRAM") or "horus-gen"
+def run_generator(arguments: list[str], failure: str) -> str:
+    """horus-gen's output for `arguments`; SchemaError "<failure>: <its first error line>" when
+    it fails, or naming the program when it cannot run."""
+    command = [os.environ.get("HORUS_GEN_PROGRAM") or "horus-gen", *arguments]
+    try:
+        result = subprocess.run(command, capture_output=True, text=True)
+    except OSError as error:
+        raise SchemaError(f"cannot run {command[0]}: {error.strerror}") from None
+    if result.returncode != 0:
+        first = (result.stderr.strip().splitlines() or ["(no message)"])[0]
+        raise SchemaError(f"{failure}: {first}")
+    return result.stdout
 
 
 def _compile(type_name: str, declarations, destination: str) -> None:
@@ -110,14 +121,8 @@ def _compile(type_name: str, declarations, destination: str) -> None:
                 handle.write(text)
             files.append(path)
         output = os.path.join(work, "out")
-        command = [_generator(), "generate", "--lang", "python", "--out", output, "-I", sources, *files]
-        try:
-            result = subprocess.run(command, capture_output=True, text=True)
-        except OSError as error:
-            raise SchemaError(f"cannot run {command[0]} to decode {type_name}: {error.strerror}") from None
-        if result.returncode != 0:
-            first = (result.stderr.strip().splitlines() or ["(no message)"])[0]
-            raise SchemaError(f"the stored schema of {type_name} does not compile: {first}")
+        run_generator(["generate", "--lang", "python", "--out", output, "-I", sources, *files],
+                      f"the stored schema of {type_name} does not compile")
         try:
             os.rename(output, destination)
         except OSError:

@@ -17,8 +17,8 @@ EXIT_OK, EXIT_NOT_FOUND, EXIT_USAGE = 0, 1, 2
 # Filled in by the launcher (bin/horus) with the horus-blackbox beside it.
 BLACKBOX_PROGRAM = os.environ.get("HORUS_BLACKBOX_PROGRAM", "horus-blackbox")
 
-# The schema compiler and the installed schemas `horus msg` describes (set by the launcher).
-GENERATOR_PROGRAM = os.environ.get("HORUS_GEN_PROGRAM", "horus-gen")
+# The installed schemas `horus msg` describes (set by the launcher, as is HORUS_GEN_PROGRAM, the
+# schema compiler dynamic_types runs).
 SCHEMA_DIR = os.environ.get("HORUS_SCHEMA_DIR", "")
 
 LEVELS = ("debug", "info", "warn", "error")
@@ -635,22 +635,20 @@ def _described_types(args) -> list[dict]:
     """Every type of the schema folders (-I, else the installed schemas), as `horus-gen describe
     --json` lays it out: fingerprint, tier, size, alignment, fields with offsets."""
     import pathlib
-    import subprocess
+
+    import dynamic_types
     folders = args.include or ([SCHEMA_DIR] if SCHEMA_DIR else [])
     files = sorted(str(path) for folder in folders for pattern in ("*.hmsg", "*.hsrv")
                    for path in pathlib.Path(folder).rglob(pattern))
     if not files:
         raise CommandFailed(f"no schema files (.hmsg, .hsrv) in {', '.join(folders) or '(none)'}")
-    command = [GENERATOR_PROGRAM, "describe", "--json",
-               *[arg for folder in folders for arg in ("-I", folder)], *files]
     try:
-        described = subprocess.run(command, capture_output=True, text=True)
-    except OSError as error:
-        raise CommandFailed(f"cannot run {GENERATOR_PROGRAM}: {error.strerror}") from None
-    if described.returncode != 0:
-        first = (described.stderr.strip().splitlines() or ["(no message)"])[0]
-        raise CommandFailed(f"horus-gen describe failed: {first}")
-    return json.loads(described.stdout)["types"]
+        described = dynamic_types.run_generator(
+            ["describe", "--json", *[arg for folder in folders for arg in ("-I", folder)], *files],
+            "horus-gen describe failed")
+    except dynamic_types.SchemaError as error:
+        raise CommandFailed(str(error)) from None
+    return json.loads(described)["types"]
 
 
 def _described_type(args) -> dict:
