@@ -143,3 +143,21 @@ def test_bad_values_and_topics_are_one_line(children):
         assert result.returncode == status, (args, result)
         assert result.stderr.count("\n") == 1 and expected in result.stderr, (args, result.stderr)
         assert "Traceback" not in result.stderr
+
+
+def test_pub_with_a_type_creates_a_topic_nobody_opened_yet(tmp_path, user_types):
+    result = run_horus("topic", "pub", "fresh", "{linear: 1.5}", "--type", "CmdVel", "--once")
+    assert result.returncode == 0, result.stderr
+    assert _echo_json("fresh") == {"stamp_nanos": 0, "linear": 1.5, "angular": 0.0}
+    # A user type, from its schema folder (which the user_types fixture wrote); what it uses of
+    # horus.msg comes from the installed schemas.
+    result = run_horus("topic", "pub", "fresh_route", "{name: r, poses: [{gear: Drive}]}",
+                       "--type", "cli_user.Route", "-I", str(tmp_path / "user_schemas"), "--once")
+    assert result.returncode == 0, result.stderr
+    assert _echo_json("fresh_route")["poses"][0]["gear"] == "Drive"
+    result = run_horus("topic", "pub", "fresh_pose", "{x: 2.5, gear: Drive}", "--type",
+                       "cli_user.Pose", "-I", str(tmp_path / "user_schemas"), "--once")
+    assert result.returncode == 0, result.stderr
+    assert _echo_json("fresh_pose")["gear"] == "Drive"
+    missing = run_horus("topic", "pub", "other", "{}", "--once")
+    assert missing.returncode == 1 and "give --type TYPE" in missing.stderr

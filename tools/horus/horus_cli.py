@@ -320,8 +320,28 @@ def topic_echo(args) -> int:
         data = handle.recv(min(wait, 0.1))
 
 
+def _new_topic(args) -> dict:
+    """What a topic nobody opened yet is given by `pub --type`: the type from the schemas (-I,
+    else the installed ones), the runtime's default geometry."""
+    described = _described_type(args)
+    if described["kind"] != "message":
+        raise CommandFailed(f"'{described['name']}' is a {described['kind']}, not a message type")
+    pod = described["tier"] == "pod"
+    return {"name": args.topic, "type_name": described["name"], "schema": described["schema"],
+            "fingerprint": int(described["fingerprint"], 16), "is_pod": pod, "capacity": 64,
+            "max_message_size": 16 * 1024, "single_publisher": False, "error": ""}
+
+
 def topic_pub(args) -> int:
-    topic = _typed_topic(args, args.topic)
+    if args.type is None:
+        if not any(t["name"] == args.topic for t in _topics(args)):
+            raise CommandFailed(f"no topic '{args.topic}' in namespace "
+                                f"'{args.namespace or _core().current_namespace()}' (give --type "
+                                "TYPE to create it)")
+        topic = _typed_topic(args, args.topic)
+    else:
+        existing = [t for t in _topics(args) if t["name"] == args.topic and t["type_name"]]
+        topic = existing[0] if existing else _new_topic(args)
     cls = _message_class(topic["type_name"], topic["schema"], topic["fingerprint"])
     message = _build(cls, _parse_value(args.value, f"value for {topic['type_name']}"))
     payload = message.to_bytes()
@@ -633,7 +653,8 @@ def shm_clean(args) -> int:
 
 def _described_types(args) -> list[dict]:
     """Every type of the schema folders (-I, else the installed schemas), as `horus-gen describe
-    --json` lays it out: fingerprint, tier, size, alignment, fields with offsets."""
+    --json` lays it out: fingerprint, tier, size, alignment, fields with offsets. The installed
+    schemas also resolve what the -I folders' types use (horus.msg.Pose2D)."""
     import pathlib
 
     import dynamic_types
@@ -642,10 +663,11 @@ def _described_types(args) -> list[dict]:
                    for path in pathlib.Path(folder).rglob(pattern))
     if not files:
         raise CommandFailed(f"no schema files (.hmsg, .hsrv) in {', '.join(folders) or '(none)'}")
+    resolving = folders + ([SCHEMA_DIR] if SCHEMA_DIR and SCHEMA_DIR not in folders else [])
     try:
         described = dynamic_types.run_generator(
-            ["describe", "--json", *[arg for folder in folders for arg in ("-I", folder)], *files],
-            "horus-gen describe failed")
+            ["describe", "--json", *[arg for folder in resolving for arg in ("-I", folder)],
+             *files], "horus-gen describe failed")
     except dynamic_types.SchemaError as error:
         raise CommandFailed(str(error)) from None
     return json.loads(described)["types"]
@@ -890,6 +912,11 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("--rate", type=float, metavar="HZ", help="messages per second (default 1)")
     sub.add_argument("--once", action="store_true", help="publish one message and exit")
     sub.add_argument("--count", type=int, metavar="N", help="publish N messages and exit")
+    sub.add_argument("--type", metavar="TYPE", help="the message type (qualified or bare name) "
+                                                    "when nobody has opened the topic yet")
+    sub.add_argument("-I", dest="include", action="append", metavar="DIR",
+                     help="with --type: schema folder to find it in (default: the installed "
+                          "schemas)")
 
     service = group("service", "services: list, inspect, call")
     sub = action(service, "list", "the namespace's services", service_list)
