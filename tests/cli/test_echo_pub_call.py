@@ -22,6 +22,8 @@ for topic in inbox.values():
     topic.try_recv()
 
 def shift(request):
+    if request.dx > 50:
+        time.sleep(5)  # a server too slow for the caller's timeout
     moved = Pose(gear=request.pose.gear, x=request.pose.x + request.dx, label=request.pose.label)
     return Shift.Response(pose=moved, note=f"moved {{request.pose.label}} by {{request.dx}}")
 
@@ -125,6 +127,9 @@ def test_service_call_against_a_python_server_of_a_user_service(children, user_t
         answer = json.loads(result.stdout)
         assert answer["pose"]["x"] == 1.5 and answer["pose"]["label"] == "cart"
         assert answer["note"] == "moved cart by 0.5"
+    slow = run_horus("service", "call", "Shift", "{dx: 99}", "--timeout", "0.5")
+    assert slow.returncode == 1 and slow.stderr.count("\n") == 1, slow
+    assert "no response from service 'Shift' within 0.5 s" in slow.stderr
 
 
 def test_bad_values_and_topics_are_one_line(children):
