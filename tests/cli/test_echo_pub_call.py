@@ -166,3 +166,15 @@ def test_pub_with_a_type_creates_a_topic_nobody_opened_yet(tmp_path, user_types)
     assert _echo_json("fresh_pose")["gear"] == "Drive"
     missing = run_horus("topic", "pub", "other", "{}", "--once")
     assert missing.returncode == 1 and "give --type TYPE" in missing.stderr
+
+
+def test_dict_topics_show_and_take_their_plain_value(children):
+    publisher = children.program(os.environ["HORUS_PY_PEER"], "pub", "dict", "values", "2")
+    assert publisher.wait(timeout=30) == 0
+    # A C++ GenericMessage holding {"linear": 2}: shown as that value, not as MessagePack bytes.
+    assert _echo_json("values") == {"linear": 2.0}
+    subscriber = children.program(os.environ["HORUS_PY_PEER"], "sub", "dict", "values", "1")
+    wait_ready(subscriber)
+    result = run_horus("topic", "pub", "values", "{linear: 6.5}", "--once")
+    assert result.returncode == 0, result.stderr
+    assert subscriber.stdout.read().split() == ["6.5"]

@@ -227,12 +227,33 @@ def _parse_value(text: str, what: str):
     return {} if value is None else value
 
 
+# The type of the Python runtime's dict topics: any plain value, as MessagePack in `data`.
+# echo shows (and pub takes) that value rather than the bytes.
+PLAIN_VALUES = "horus.msg.GenericMessage"
+
+
 def _build(cls, value):
     import dynamic_types
     try:
+        if cls.__horus__.name == PLAIN_VALUES:
+            import msgpack
+            return dynamic_types.from_plain(cls, {"data": msgpack.packb(value, use_bin_type=True)})
         return dynamic_types.from_plain(cls, value)
-    except ValueError as error:
+    except (ValueError, TypeError) as error:
         raise CommandFailed(str(error)) from None
+
+
+def _plain(message):
+    """What echo and call show of a message: its fields, or a plain-values message's value."""
+    import dynamic_types
+    plain = dynamic_types.to_plain(message)
+    if type(message).__horus__.name == PLAIN_VALUES and plain["metadata"] is None:
+        import msgpack
+        try:
+            return msgpack.unpackb(plain["data"], raw=False, strict_map_key=False)
+        except (ValueError, msgpack.UnpackException):
+            pass  # not one MessagePack value: shown as its fields
+    return plain
 
 
 def _plain_field(plain, path: str | None, type_name: str, checking: bool = False):
@@ -292,9 +313,9 @@ def _yaml_text(value) -> str:
 def topic_echo(args) -> int:
     topic = _typed_topic(args, args.topic)
     cls = _message_class(topic["type_name"], topic["schema"], topic["fingerprint"])
-    import dynamic_types
     handle = _open_topic(topic, cls)
-    _plain_field(dynamic_types.to_plain(cls()), args.field, topic["type_name"], checking=True)
+    if cls.__horus__.name != PLAIN_VALUES:  # a plain value has no fields to check beforehand
+        _plain_field(_plain(cls()), args.field, topic["type_name"], checking=True)
     deadline = None if args.timeout is None else time.monotonic() + args.timeout
 
     def show(data) -> None:
@@ -302,8 +323,7 @@ def topic_echo(args) -> int:
             message = cls.from_bytes(data)
         except ValueError as error:
             raise CommandFailed(f"topic '{args.topic}': a message does not decode: {error}") from None
-        _show_message(_plain_field(dynamic_types.to_plain(message), args.field, topic["type_name"]),
-                      args.json)
+        _show_message(_plain_field(_plain(message), args.field, topic["type_name"]), args.json)
 
     # The newest message already sent comes first (a topic is latched), then each new one.
     data = handle.read_latest()
@@ -479,8 +499,7 @@ def service_call(args) -> int:
             if (got_client, got_request) == (client_id, request_id):
                 if status != 0:
                     raise CommandFailed(f"service '{args.service}' failed: {error}")
-                import dynamic_types
-                _show_message(dynamic_types.to_plain(response), args.json)
+                _show_message(_plain(response), args.json)
                 return EXIT_OK
             continue
         if not _alive(service["server_pid"]):
