@@ -117,3 +117,13 @@ def test_a_schema_that_does_not_give_the_fingerprint_is_refused():
         dynamic_types.load_type(info.name, "struct Foo {}", 1)
     with pytest.raises(dynamic_types.SchemaError, match="does not compile"):
         dynamic_types.load_type("a.B", "message a.B {\n  x: f33,\n}\n", 1)
+
+
+def test_a_type_cache_others_can_write_is_refused(tmp_path):
+    from horus.msg import CmdVel
+    info = CmdVel.__horus__
+    root = tmp_path / "cache" / "horus" / "types"
+    root.mkdir(parents=True)
+    root.chmod(0o777)
+    with pytest.raises(dynamic_types.SchemaError, match="not this user's alone"):
+        dynamic_types.load_type(info.name, info.schema, info.fingerprint)

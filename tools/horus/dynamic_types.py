@@ -110,7 +110,6 @@ def _compile(type_name: str, declarations, destination: str) -> None:
     """Writes the Python of `declarations` to destination/python, atomically (a concurrent run
     compiling the same type leaves one complete copy)."""
     parent = os.path.dirname(destination)
-    os.makedirs(parent, mode=0o700, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=parent, prefix=".build-") as work:
         sources = os.path.join(work, "schemas")
         files = []
@@ -180,12 +179,28 @@ def load_type(type_name: str, schema_text: str, fingerprint: int | None) -> type
     return cls
 
 
+def _trusted_cache_root() -> str:
+    """The cache folder, made if missing; SchemaError unless only this user can write it (its
+    code is imported: another user's files there would run as this one)."""
+    root = cache_root()
+    try:
+        os.makedirs(root, mode=0o700, exist_ok=True)
+        status = os.stat(root)
+    except OSError as error:
+        raise SchemaError(f"cannot use the type cache {root}: {error.strerror}") from None
+    if status.st_uid != os.geteuid() or status.st_mode & 0o022:
+        raise SchemaError(f"the type cache {root} is not this user's alone (owner uid "
+                          f"{status.st_uid}, mode {status.st_mode & 0o777:o}); remove it")
+    return root
+
+
 def _compiled_class(type_name: str, schema_text: str) -> type:
     declarations = parse_schema(schema_text)
     if declarations[0][1] != type_name:
         raise SchemaError(f"the stored schema describes {declarations[0][1]}, not {type_name}")
     digest = hashlib.sha256(f"{type_name}\n{schema_text}".encode()).hexdigest()[:24]
-    entry = os.path.join(cache_root(), f"{digest}-{_CACHE_FORMAT}")
+    root = _trusted_cache_root()
+    entry = os.path.join(root, f"{digest}-{_CACHE_FORMAT}")
     if not os.path.isdir(os.path.join(entry, "python")):
         _compile(type_name, declarations, entry)
     package, short = type_name.rsplit(".", 1)
