@@ -38,6 +38,16 @@ while True:
             print("route", m.name, [p.x for p in m.poses], m.speed, flush=True)
 """
 
+SHIFT_CLIENT = """
+import sys, time
+sys.path.insert(0, {python!r})
+import horus
+from cli_user import Shift
+client = horus.ServiceClient(Shift)
+print("ready", flush=True)
+time.sleep(60)
+"""
+
 
 def _echo_json(*args: str) -> dict:
     result = run_horus("topic", "echo", *args, "--once", "--json", "--timeout", "10")
@@ -127,6 +137,10 @@ def test_service_call_against_a_python_server_of_a_user_service(children, user_t
         answer = json.loads(result.stdout)
         assert answer["pose"]["x"] == 1.5 and answer["pose"]["label"] == "cart"
         assert answer["note"] == "moved cart by 0.5"
+    client = children.python(SHIFT_CLIENT.format(python=user_types))
+    wait_ready(client)
+    info = run_horus("service", "info", "Shift")
+    assert f"clients: 1 in pid {client.pid} (python3)" in info.stdout, info.stdout
     slow = run_horus("service", "call", "Shift", "{dx: 99}", "--timeout", "0.5")
     assert slow.returncode == 1 and slow.stderr.count("\n") == 1, slow
     assert "no response from service 'Shift' within 0.5 s" in slow.stderr

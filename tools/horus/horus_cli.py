@@ -400,20 +400,22 @@ def service_list(args) -> int:
 
 
 def service_info(args) -> int:
-    for service in _core().list_services(args.namespace):
-        if service["name"] == args.service:
-            def render(s):
-                print(f"service: {s['name']}")
-                print(f"request: {s['request_type']}")
-                print(f"response: {s['response_type']}")
-                print(f"fingerprint: {s['fingerprint']:016x}")
-                server = f"pid {s['server_pid']}" if s["servers"] else "none (stopped or died)"
-                print(f"server: {server}")
-                print(f"clients: {s['clients']}")
-            _emit(service, args.json, render)
-            return EXIT_OK
-    raise CommandFailed(f"no service '{args.service}' in namespace "
-                        f"'{args.namespace or _core().current_namespace()}'")
+    service = _find_service(args)
+    service["client_processes"] = [
+        {"pid": p["pid"], "program": p["program"]} for p in _processes(args)
+        if any(s["service"] == args.service and s["role"] == "client" for s in p["services"])]
+
+    def render(s):
+        print(f"service: {s['name']}")
+        print(f"request: {s['request_type']}")
+        print(f"response: {s['response_type']}")
+        print(f"fingerprint: {s['fingerprint']:016x}")
+        server = f"pid {s['server_pid']}" if s["servers"] else "none (stopped or died)"
+        print(f"server: {server}")
+        callers = ", ".join(f"pid {p['pid']} ({p['program']})" for p in s["client_processes"])
+        print(f"clients: {s['clients']}" + (f" in {callers}" if callers else ""))
+    _emit(service, args.json, render)
+    return EXIT_OK
 
 
 def _find_service(args) -> dict:
