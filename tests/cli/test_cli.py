@@ -359,7 +359,12 @@ def test_processes_without_a_scheduler_announce_their_topics_and_services(childr
     wait_ready(python)
     server = children.program(os.environ["HORUS_PY_SERVICE_PEER"], "serve")
     wait_ready(server, "serving")
-    processes = {p["pid"]: p for p in json.loads(run_horus("process", "list", "--json").stdout)}
+
+    def both_announced():
+        found = {p["pid"]: p for p in json.loads(run_horus("process", "list", "--json").stdout)}
+        # Changes after a process's first are written a moment later (coalesced).
+        return found if len(found.get(server.pid, {}).get("services", [])) == 2 else None
+    processes = wait_until(both_announced, "the server's services in its announcement")
     assert set(processes) == {python.pid, server.pid}
     assert processes[python.pid]["topics"] == [
         {"topic": "alone", "type": "horus.msg.CmdVel", "handles": 1}]

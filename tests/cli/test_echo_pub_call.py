@@ -139,8 +139,8 @@ def test_service_call_against_a_python_server_of_a_user_service(children, user_t
         assert answer["note"] == "moved cart by 0.5"
     client = children.python(SHIFT_CLIENT.format(python=user_types))
     wait_ready(client)
-    info = run_horus("service", "info", "Shift")
-    assert f"clients: 1 in pid {client.pid} (python3)" in info.stdout, info.stdout
+    wait_until(lambda: f"clients: 1 in pid {client.pid} (python3)" in
+               run_horus("service", "info", "Shift").stdout, "the client in service info")
     slow = run_horus("service", "call", "Shift", "{dx: 99}", "--timeout", "0.5")
     assert slow.returncode == 1 and slow.stderr.count("\n") == 1, slow
     assert "no response from service 'Shift' within 0.5 s" in slow.stderr

@@ -11,11 +11,13 @@
 #include <cerrno>
 #include <chrono>
 #include <cinttypes>
+#include <condition_variable>
 #include <cstdio>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <tuple>
 
 #include "../scheduler/telemetry.hpp"
@@ -212,14 +214,22 @@ bool PresenceAnnouncement::announce(std::string_view snapshot_json, std::string&
 namespace {
 
 /// This process's uses in one namespace, and the announcement that lists them.
+/// How long the writer lets changes pile up after a rewrite: a process opening hundreds of
+/// topics rewrites its announcement a few times, not once per topic.
+constexpr auto kRewriteInterval = std::chrono::milliseconds(50);
+
 struct NamespaceUses {
   std::map<std::tuple<int, std::string, std::string, std::string>, std::size_t> counts;
   std::unique_ptr<PresenceAnnouncement> announcement;
+  bool dirty = false;  // the counts changed since the announcement was written
 };
 
 struct ProcessUses {
   std::mutex mutex;
+  std::condition_variable changed;
   std::map<std::string, NamespaceUses> namespaces;
+  /// The process whose writer thread runs (a forked child starts its own).
+  std::uint32_t writer_pid = 0;
 };
 
 ProcessUses& process_uses() {
@@ -257,11 +267,52 @@ std::string uses_json(const NamespaceUses& uses) {
          "],\"services\":[" + services + "]}";
 }
 
+void write_announcement(const std::string& namespace_name, NamespaceUses& uses) {
+  uses.dirty = false;
+  if (!uses.announcement) {
+    uses.announcement = std::make_unique<PresenceAnnouncement>(namespace_name);
+  }
+  std::string error;
+  static_cast<void>(uses.announcement->announce(uses_json(uses), error));
+}
+
+/// Rewrites the announcements whose uses changed, at most once per kRewriteInterval.
+[[noreturn]] void rewrite_changed(ProcessUses& all) noexcept {
+  std::unique_lock lock(all.mutex);
+  while (true) {
+    all.changed.wait(lock, [&] {
+      return std::any_of(all.namespaces.begin(), all.namespaces.end(),
+                         [](const auto& entry) { return entry.second.dirty; });
+    });
+    for (auto& [namespace_name, uses] : all.namespaces) {
+      try {
+        if (uses.dirty) write_announcement(namespace_name, uses);
+      } catch (...) {  // NOLINT(bugprone-empty-catch): an unannounced process still works
+      }
+    }
+    lock.unlock();
+    std::this_thread::sleep_for(kRewriteInterval);
+    lock.lock();
+  }
+}
+
 void change_use(const ProcessUse& use, bool add) noexcept {
   try {
     const std::string namespace_name = namespace_of(use.namespace_name);
     ProcessUses& all = process_uses();
     const std::lock_guard lock(all.mutex);
+    if (all.writer_pid != this_pid()) {
+      // A forked child: the announcements it inherited are its parent's (their destruction
+      // would remove the parent's files), and it needs a writer thread of its own.
+      for (auto& entry : all.namespaces) {
+        static_cast<void>(
+            entry.second.announcement.release());  // NOLINT(bugprone-unused-return-value)
+        entry.second.counts.clear();
+        entry.second.dirty = false;
+      }
+      std::thread(rewrite_changed, std::ref(all)).detach();
+      all.writer_pid = this_pid();
+    }
     NamespaceUses& uses = all.namespaces[namespace_name];
     const auto key =
         std::make_tuple(static_cast<int>(use.kind), use.name, use.type, use.response_type);
@@ -272,14 +323,15 @@ void change_use(const ProcessUse& use, bool add) noexcept {
       uses.counts.erase(found);
     }
     if (uses.counts.empty()) {
-      uses.announcement.reset();  // the last use went: so does the announcement
-      return;
+      // The last use went, and so does the announcement, at once: the process may be exiting.
+      uses.announcement.reset();
+      uses.dirty = false;
+    } else if (!uses.announcement) {
+      write_announcement(namespace_name, uses);  // the first use: announced at once
+    } else {
+      uses.dirty = true;
+      all.changed.notify_one();
     }
-    if (!uses.announcement) {
-      uses.announcement = std::make_unique<PresenceAnnouncement>(namespace_name);
-    }
-    std::string error;
-    static_cast<void>(uses.announcement->announce(uses_json(uses), error));
   } catch (...) {  // NOLINT(bugprone-empty-catch): an unannounced process still works
   }
 }
