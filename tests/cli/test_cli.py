@@ -384,3 +384,35 @@ def test_processes_without_a_scheduler_announce_their_topics_and_services(childr
     assert [p["pid"] for p in json.loads(run_horus("process", "list", "--json").stdout)] == \
         [server.pid]
     assert json.loads(run_horus("shm", "clean", "--json").stdout)["announcements"] == 1
+
+
+FORKING = """
+import os, time, horus
+from horus.msg import CmdVel
+parent_topics = [horus.Topic(CmdVel, f"parent_{i}") for i in range(20)]  # the writer is busy
+child = os.fork()
+if child == 0:
+    mine = horus.Topic(CmdVel, "child_only")
+    print("child", os.getpid(), flush=True)
+    time.sleep(60)
+    os._exit(0)
+print("parent", os.getpid(), flush=True)
+time.sleep(60)
+"""
+
+
+def test_a_forked_child_announces_itself_and_leaves_its_parents_announcement_alone(children):
+    process = children.python(FORKING)
+    pids = dict(process.stdout.readline().split() for _ in range(2))
+    parent, child = int(pids["parent"]), int(pids["child"])
+    try:
+        def both():
+            found = {p["pid"]: p for p in json.loads(run_horus("process", "list", "--json").stdout)}
+            if child in found and len(found.get(parent, {}).get("topics", [])) == 20:
+                return found
+            return None
+        found = wait_until(both, "the parent's and the child's announcements")
+        assert [t["topic"] for t in found[child]["topics"]] == ["child_only"]
+        assert "child_only" not in [t["topic"] for t in found[parent]["topics"]]
+    finally:
+        os.kill(child, 9)

@@ -3,6 +3,7 @@
 
 #include <dirent.h>
 #include <fcntl.h>
+#include <pthread.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -16,6 +17,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <new>
 #include <string>
 #include <thread>
 #include <tuple>
@@ -234,7 +236,19 @@ struct ProcessUses {
 
 ProcessUses& process_uses() {
   // Never destroyed: handles in other static objects may close after it would have been.
-  static auto* uses = new ProcessUses();  // NOLINT(cppcoreguidelines-owning-memory)
+  static auto* uses = [] {
+    auto* created = new ProcessUses();  // NOLINT(cppcoreguidelines-owning-memory)
+    // fork() waits until no thread (the writer above all) holds the lock, so that a child never
+    // starts with it held by a thread it does not have; the child's condition variable starts
+    // afresh (the parent's writer waits on it, a thread the child does not have).
+    ::pthread_atfork([] { process_uses().mutex.lock(); }, [] { process_uses().mutex.unlock(); },
+                     [] {
+                       ProcessUses& all = process_uses();
+                       new (&all.changed) std::condition_variable();
+                       all.mutex.unlock();
+                     });
+    return created;
+  }();
   return *uses;
 }
 
