@@ -109,7 +109,8 @@ inline std::string thread_states(pid_t pid) {
     const std::string stat = read_line(task + "/stat");
     // "tid (name) S ...": the name may hold spaces, the state follows its closing parenthesis.
     const std::size_t close = stat.rfind(')');
-    const char state = close != std::string::npos && close + 2 < stat.size() ? stat[close + 2] : '?';
+    const char state =
+        close != std::string::npos && close + 2 < stat.size() ? stat[close + 2] : '?';
     states += (states.empty() ? "" : "; ") + read_line(task + "/comm") + " " + state + " " +
               read_line(task + "/wchan");
   }
