@@ -24,8 +24,8 @@
 //   horus_soak [--seconds S] [--publishers N] [--subscribers M] [--clients C] [--seed X]
 //              [--stuck-seconds T]
 // Defaults: 600 s, 3 publishers, 3 subscribers, 3 clients, 10 s. Exit status 0 when every check
-// held. (--inject-hang ROLE, for the test of the hang detection only, makes the steady process
-// of that role hang two seconds after it starts.)
+// held. For the tests of the checks themselves only: --inject-hang ROLE makes the steady process
+// of that role hang two seconds after it starts, --inject-leak ROLE makes it leak 1.25 MiB/s.
 #include <signal.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
@@ -38,6 +38,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -81,6 +82,9 @@ constexpr auto kCallTimeout = 2s;
 constexpr int kPublisherShift = 48;
 /// How long after its start the steady process chosen by --inject-hang stops making progress.
 constexpr auto kInjectedHangAfter = 2s;
+/// What the steady process chosen by --inject-leak keeps and never frees: 1.25 MiB a second.
+constexpr std::size_t kInjectedLeakBytes = 128 * 1024;
+constexpr auto kInjectedLeakEvery = 100ms;
 
 // Footprint tolerances of a steady process, second half of the run against the first (both
 // after the warm-up). A leak of one allocation per message, call or peer restart grows without
@@ -146,14 +150,22 @@ bool stopping() { return shared->stop.load(std::memory_order_relaxed); }
 
 /// In a child chosen by --inject-hang: when its progress stops for good (never by default).
 Clock::time_point hang_at{};
+/// In a child chosen by --inject-leak: when it next keeps a block it will never give back.
+Clock::time_point next_leak{};
+std::vector<std::unique_ptr<char[]>> leaked;
 
 /// Records progress, unless an injected hang is due: then the calling thread blocks for good,
-/// holding whatever it holds, as a deadlock would.
+/// holding whatever it holds, as a deadlock would. (A role's beats all come from one thread.)
 void beat(SlotStats& stats) {
   if (hang_at != Clock::time_point{} && Clock::now() >= hang_at) {
     for (;;) {
       ::pause();
     }
+  }
+  if (next_leak != Clock::time_point{} && Clock::now() >= next_leak) {
+    leaked.push_back(std::make_unique<char[]>(kInjectedLeakBytes));
+    std::memset(leaked.back().get(), 1, kInjectedLeakBytes);  // touched: resident
+    next_leak += kInjectedLeakEvery;
   }
   stats.heartbeat.fetch_add(1, std::memory_order_relaxed);
 }
@@ -406,6 +418,7 @@ struct Options {
   std::uint64_t seed = 1;
   double stuck_seconds = 10;
   std::string inject_hang;
+  std::string inject_leak;
 };
 
 /// Every name the run uses: its namespace (topics, the killed server, presence, log ring) and
@@ -423,6 +436,9 @@ pid_t start(std::size_t slot, const Process& process, const Namespaces& names,
   }
   if (process.steady && options.inject_hang == role_name(process.role)) {
     hang_at = Clock::now() + kInjectedHangAfter;
+  }
+  if (process.steady && options.inject_leak == role_name(process.role)) {
+    next_leak = Clock::now();
   }
   int status = 0;
   try {
@@ -493,18 +509,21 @@ bool parse(int argc, char** argv, Options& options) {
       options.stuck_seconds = std::stod(value);
     } else if (flag == "--inject-hang") {
       options.inject_hang = value;
+    } else if (flag == "--inject-leak") {
+      options.inject_leak = value;
     } else {
       return false;
     }
   }
-  const bool known_role = options.inject_hang.empty() ||
-                          std::any_of(std::begin(kRoles), std::end(kRoles), [&](Role role) {
-                            return options.inject_hang == role_name(role);
-                          });
+  const auto known_role = [](const std::string& name) {
+    return name.empty() || std::any_of(std::begin(kRoles), std::end(kRoles),
+                                       [&](Role role) { return name == role_name(role); });
+  };
   // The steady processes: a publisher, a subscriber per topic, a server, a client, a scheduler.
   const std::size_t steady = 1 + kTopicCount + 3;
   return argc % 2 == 1 && options.publishers >= 1 && options.publishers < kMaxPublishers &&
-         options.subscribers >= 1 && options.stuck_seconds > 0 && known_role &&
+         options.subscribers >= 1 && options.stuck_seconds > 0 && known_role(options.inject_hang) &&
+         known_role(options.inject_leak) &&
          options.publishers + options.subscribers + options.clients + 2 + steady <= kMaxProcesses;
 }
 
@@ -748,22 +767,39 @@ std::int64_t allocated_kb(const std::string& path) {
   return ::lstat(path.c_str(), &status) == 0 ? static_cast<std::int64_t>(status.st_blocks) / 2 : 0;
 }
 
-/// The run's own entries under the root, each with its size; empty when there is none.
-std::vector<std::string> entries_left(const Namespaces& names) {
-  std::vector<std::string> left;
+/// Every path where the runtime keeps files of the run's namespaces.
+std::vector<std::string> run_paths(const Namespaces& names) {
+  std::vector<std::string> paths;
   for (const std::string& name : {names.main, names.steady}) {
-    for (const std::string& path :
-         {horus::detail::namespace_directory(name), presence_folder(name), log_ring(name)}) {
-      std::error_code error;
-      if (!std::filesystem::exists(path, error)) {
-        continue;
-      }
-      left.push_back(path + " (" + std::to_string(allocated_kb(path)) + " kB)");
-      if (std::filesystem::is_directory(path, error)) {
-        for (const auto& entry : std::filesystem::directory_iterator(path, error)) {
-          left.push_back(entry.path().string() + " (" +
-                         std::to_string(allocated_kb(entry.path().string())) + " kB)");
-        }
+    paths.push_back(horus::detail::namespace_directory(name));
+    paths.push_back(presence_folder(name));
+    paths.push_back(log_ring(name));
+  }
+  return paths;
+}
+
+/// The blocks (kB) the run's own files and folders hold.
+std::int64_t run_kb(const std::vector<std::string>& paths) {
+  std::int64_t kb = 0;
+  for (const std::string& path : paths) {
+    kb += allocated_kb(path) + soak::tree_kb(path, {});
+  }
+  return kb;
+}
+
+/// The run's own entries under the root, each with its size; empty when there is none.
+std::vector<std::string> entries_left(const std::vector<std::string>& paths) {
+  std::vector<std::string> left;
+  for (const std::string& path : paths) {
+    std::error_code error;
+    if (!std::filesystem::exists(path, error)) {
+      continue;
+    }
+    left.push_back(path + " (" + std::to_string(allocated_kb(path)) + " kB)");
+    if (std::filesystem::is_directory(path, error)) {
+      for (const auto& entry : std::filesystem::directory_iterator(path, error)) {
+        left.push_back(entry.path().string() + " (" +
+                       std::to_string(allocated_kb(entry.path().string())) + " kB)");
       }
     }
   }
@@ -786,17 +822,37 @@ void report_log(const std::string& name) {
               static_cast<unsigned long long>(log.dropped));
 }
 
+/// Machine-wide memory, and how much of /dev/shm other programs' files hold (all but the run's).
+struct MachineFigures {
+  soak::MachineMemory memory;
+  std::int64_t others_kb = 0;
+};
+
+MachineFigures machine_figures(const std::vector<std::string>& run) {
+  return {soak::machine_memory(), soak::tree_kb("/dev/shm", run)};
+}
+
+/// Growth since `before` that other programs' /dev/shm files do not account for: of Shmem, and
+/// of /dev/shm in use.
+std::int64_t unexplained_shmem_kb(const MachineFigures& before, const MachineFigures& after) {
+  return after.memory.shmem_kb - before.memory.shmem_kb - (after.others_kb - before.others_kb);
+}
+std::int64_t unexplained_dev_shm_kb(const MachineFigures& before, const MachineFigures& after) {
+  return after.memory.dev_shm_used_kb - before.memory.dev_shm_used_kb -
+         (after.others_kb - before.others_kb);
+}
+
 /// Machine-wide memory once the run is over. A figure above the tolerance is sampled again for
 /// up to five seconds: what another program held for a moment goes, a leak stays.
-soak::MachineMemory settled_memory(const soak::MachineMemory& before) {
-  soak::MachineMemory after = soak::machine_memory();
+MachineFigures settled_figures(const MachineFigures& before, const std::vector<std::string>& run) {
+  MachineFigures after = machine_figures(run);
   for (int retry = 0; retry < 5; ++retry) {
-    if (after.shmem_kb - before.shmem_kb <= kShmGrowthToleranceKb &&
-        after.dev_shm_used_kb - before.dev_shm_used_kb <= kShmGrowthToleranceKb) {
+    if (unexplained_shmem_kb(before, after) <= kShmGrowthToleranceKb &&
+        unexplained_dev_shm_kb(before, after) <= kShmGrowthToleranceKb) {
       break;
     }
     std::this_thread::sleep_for(1s);
-    after = soak::machine_memory();
+    after = machine_figures(run);
   }
   return after;
 }
@@ -824,8 +880,10 @@ int main(int argc, char** argv) {
   ::setenv("HORUS_NAMESPACE", names.main.c_str(), 1);  // NOLINT(concurrency-mt-unsafe)
 
   // Before any child exists (the counters above are already mapped: they count in both).
-  const soak::MachineMemory before = soak::machine_memory();
-  soak::MachineMemory peak = before;
+  const std::vector<std::string> paths = run_paths(names);
+  const MachineFigures before = machine_figures(paths);
+  soak::MachineMemory peak = before.memory;
+  std::int64_t run_peak_kb = 0;
   Supervisor supervisor(options, names);
   std::vector<Process>& processes = supervisor.processes();
   std::vector<std::size_t> mortal;
@@ -854,6 +912,7 @@ int main(int argc, char** argv) {
       peak.shmem_kb = std::max(peak.shmem_kb, machine.shmem_kb);
       peak.dev_shm_used_kb = std::max(peak.dev_shm_used_kb, machine.dev_shm_used_kb);
       peak.dev_shm_entries = std::max(peak.dev_shm_entries, machine.dev_shm_entries);
+      run_peak_kb = std::max(run_peak_kb, run_kb(paths));
       next_sample += 1s;
     }
     if (now >= next_kill) {
@@ -891,7 +950,7 @@ int main(int argc, char** argv) {
   // Kept by design after cleaning: the log ring (read_log() and `horus log` read it once the
   // processes are gone) and the presence folder (a Scheduler may be starting in it). Only these,
   // empty of announcements, may be left; the run's namespaces are its own, so it removes them.
-  const std::vector<std::string> left = entries_left(names);
+  const std::vector<std::string> left = entries_left(paths);
   bool only_kept_by_design = true;
   for (const std::string& entry : left) {
     const bool kept = entry.starts_with(log_ring(names.main) + " ") ||
@@ -903,7 +962,7 @@ int main(int argc, char** argv) {
     ::unlink(log_ring(name).c_str());
     ::rmdir(presence_folder(name).c_str());
   }
-  const soak::MachineMemory after = settled_memory(before);
+  const MachineFigures after = settled_figures(before, paths);
 
   const std::uint64_t delivered = total(processes, &SlotStats::delivered);
   const std::uint64_t gaps = total(processes, &SlotStats::gaps);
@@ -940,18 +999,29 @@ int main(int argc, char** argv) {
                 static_cast<long long>(to), static_cast<long long>(to - from));
   };
   std::printf("  machine-wide:\n");
-  memory_figure("Shmem kB (/proc/meminfo)", before.shmem_kb, peak.shmem_kb, after.shmem_kb);
-  memory_figure("/dev/shm in use kB", before.dev_shm_used_kb, peak.dev_shm_used_kb,
-                after.dev_shm_used_kb);
-  memory_figure("/dev/shm entries", before.dev_shm_entries, peak.dev_shm_entries,
-                after.dev_shm_entries);
+  memory_figure("Shmem kB (/proc/meminfo)", before.memory.shmem_kb, peak.shmem_kb,
+                after.memory.shmem_kb);
+  memory_figure("/dev/shm in use kB", before.memory.dev_shm_used_kb, peak.dev_shm_used_kb,
+                after.memory.dev_shm_used_kb);
+  memory_figure("/dev/shm entries", before.memory.dev_shm_entries, peak.dev_shm_entries,
+                after.memory.dev_shm_entries);
+  memory_figure("  the run's own files kB", 0, run_peak_kb, run_kb(paths));
+  std::printf("  %-28s %10lld before, %10lld after (%+lld)\n", "  other programs' files kB",
+              static_cast<long long>(before.others_kb), static_cast<long long>(after.others_kb),
+              static_cast<long long>(after.others_kb - before.others_kb));
+  std::printf(
+      "  growth not explained by other programs' files: Shmem %+lld kB, /dev/shm %+lld "
+      "kB\n",
+      static_cast<long long>(unexplained_shmem_kb(before, after)),
+      static_cast<long long>(unexplained_dev_shm_kb(before, after)));
   // Not checked: the page cache and every other program on the machine move it by far more
   // than a leak of this run could; what it would show is checked directly above and below
   // (shared memory, each steady process's private memory, processes that did not end).
-  std::printf("  %-28s %10lld before, %10lld after (%+lld; not checked, see the source)\n",
-              "MemAvailable kB", static_cast<long long>(before.mem_available_kb),
-              static_cast<long long>(after.mem_available_kb),
-              static_cast<long long>(after.mem_available_kb - before.mem_available_kb));
+  std::printf(
+      "  %-28s %10lld before, %10lld after (%+lld; not checked, see the source)\n",
+      "MemAvailable kB", static_cast<long long>(before.memory.mem_available_kb),
+      static_cast<long long>(after.memory.mem_available_kb),
+      static_cast<long long>(after.memory.mem_available_kb - before.memory.mem_available_kb));
   const double warm_up = std::max(3.0, run_seconds / 10);
   const int grown = check_footprints(processes, warm_up, run_seconds);
 
@@ -976,9 +1046,9 @@ int main(int argc, char** argv) {
       check(grown == 0, "no steady process grew (RssAnon 1 MiB, VmSize 4 MiB, threads, fds 2)");
   failures += check(only_kept_by_design,
                     "after cleaning, /dev/shm holds none of the run's entries but its log ring");
-  failures += check(after.shmem_kb - before.shmem_kb <= kShmGrowthToleranceKb,
-                    "machine-wide Shmem back within 1 MiB of before the run");
-  failures += check(after.dev_shm_used_kb - before.dev_shm_used_kb <= kShmGrowthToleranceKb,
-                    "/dev/shm in use back within 1 MiB of before the run");
+  failures += check(unexplained_shmem_kb(before, after) <= kShmGrowthToleranceKb,
+                    "machine-wide Shmem back within 1 MiB of before (others' files aside)");
+  failures += check(unexplained_dev_shm_kb(before, after) <= kShmGrowthToleranceKb,
+                    "/dev/shm in use back within 1 MiB of before (others' files aside)");
   return failures == 0 ? 0 : 1;
 }

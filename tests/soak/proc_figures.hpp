@@ -4,14 +4,18 @@
 #pragma once
 
 #include <dirent.h>
+#include <sys/stat.h>
 #include <sys/statvfs.h>
 #include <sys/types.h>
 
+#include <algorithm>
 #include <cstdint>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace soak {
 
@@ -49,6 +53,34 @@ inline MachineMemory machine_memory() {
     memory.dev_shm_entries = static_cast<std::int64_t>(shm.f_files - shm.f_ffree);
   }
   return memory;
+}
+
+/// Blocks (kB) the files and folders under `root` hold on their file system, leaving out those
+/// under the paths in `excluded`. Entries that vanish during the walk are skipped (other programs
+/// create and remove theirs meanwhile).
+inline std::int64_t tree_kb(const std::string& root, const std::vector<std::string>& excluded) {
+  namespace fs = std::filesystem;
+  const auto left_out = [&excluded](const std::string& path) {
+    return std::any_of(excluded.begin(), excluded.end(), [&path](const std::string& prefix) {
+      return path == prefix || path.starts_with(prefix + "/");
+    });
+  };
+  std::int64_t kb = 0;
+  std::error_code error;
+  fs::recursive_directory_iterator entry(root, fs::directory_options::skip_permission_denied,
+                                         error);
+  for (; !error && entry != fs::recursive_directory_iterator(); entry.increment(error)) {
+    const std::string path = entry->path().string();
+    if (left_out(path)) {
+      entry.disable_recursion_pending();
+      continue;
+    }
+    struct stat status {};
+    if (::lstat(path.c_str(), &status) == 0) {
+      kb += static_cast<std::int64_t>(status.st_blocks) / 2;
+    }
+  }
+  return kb;
 }
 
 /// One process's footprint (kB, except the counts).
