@@ -83,7 +83,7 @@ constexpr int kPublisherShift = 48;
 /// How long after its start the steady process chosen by --inject-hang stops making progress.
 constexpr auto kInjectedHangAfter = 2s;
 /// What the steady process chosen by --inject-leak keeps and never frees: 1.25 MiB a second.
-constexpr std::size_t kInjectedLeakBytes = 128 * 1024;
+constexpr std::size_t kInjectedLeakBytes = std::size_t{128} * 1024;
 constexpr auto kInjectedLeakEvery = 100ms;
 
 // Footprint tolerances of a steady process, second half of the run against the first (both
