@@ -1,0 +1,371 @@
+// horus._core.PodFastPath: send() and try_recv() of a topic whose message is POD with scalar
+// fields only (integers, floats, bool: CmdVel and the like), as plain CPython functions. A typed
+// hop through the general path costs a pybind11 dispatch each way plus to_bytes() / from_bytes()
+// (a bytearray, a struct call, a bytes copy, an object); here send() reads the message's slots
+// and writes the C++ struct bytes in one pass, and try_recv() builds the message object straight
+// from the received bytes. Anything this path does not take as is (a subclass, an int too large,
+// a numpy scalar, an unset field) goes through the message's own encoder, so the values accepted
+// and the errors raised stay exactly the general path's.
+#include <pybind11/stl.h>
+#include <structmember.h>
+
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <new>
+#include <span>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "bindings.hpp"
+#include "erased_topic.hpp"
+#include "horus/error.hpp"
+
+namespace py = pybind11;
+
+namespace horus::python {
+
+namespace {
+
+// The bytes are the C++ struct's: the struct module's "<" layout is the native one only here.
+static_assert(std::endian::native == std::endian::little, "POD bytes assume a little-endian host");
+
+/// One scalar field: where its value lives in the Python object (a __slots__ member) and in the
+/// C++ struct, and its struct-module format character.
+struct ScalarField {
+  Py_ssize_t slot = 0;
+  std::uint32_t offset = 0;
+  char format = 0;
+};
+
+std::size_t width(char format) {
+  switch (format) {
+    case '?':
+    case 'b':
+    case 'B':
+      return 1;
+    case 'h':
+    case 'H':
+      return 2;
+    case 'i':
+    case 'I':
+    case 'f':
+      return 4;
+    case 'q':
+    case 'Q':
+    case 'd':
+      return 8;
+    default:
+      return 0;
+  }
+}
+
+template <class T>
+void store(std::byte* out, T value) noexcept {
+  std::memcpy(out, &value, sizeof(T));
+}
+
+template <class T>
+T load(const std::byte* in) noexcept {
+  T value;
+  std::memcpy(&value, in, sizeof(T));
+  return value;
+}
+
+/// An integer within [lo, hi] (Python ints and bools only); false (no error set) otherwise.
+bool signed_value(PyObject* v, long long lo, long long hi, long long& out) noexcept {
+  if (!PyLong_Check(v)) return false;
+  int overflow = 0;
+  out = PyLong_AsLongLongAndOverflow(v, &overflow);
+  if (overflow != 0 || (out == -1 && PyErr_Occurred() != nullptr)) {
+    PyErr_Clear();
+    return false;
+  }
+  return out >= lo && out <= hi;
+}
+
+bool unsigned_value(PyObject* v, unsigned long long hi, unsigned long long& out) noexcept {
+  if (!PyLong_Check(v)) return false;
+  out = PyLong_AsUnsignedLongLong(v);  // OverflowError for a negative or too large value
+  if (out == static_cast<unsigned long long>(-1) && PyErr_Occurred() != nullptr) {
+    PyErr_Clear();
+    return false;
+  }
+  return out <= hi;
+}
+
+/// A float or int as a double, as struct's "d" and "f" take them; false (no error set) otherwise.
+bool real_value(PyObject* v, double& out) noexcept {
+  if (PyFloat_CheckExact(v)) {
+    out = PyFloat_AS_DOUBLE(v);
+    return true;
+  }
+  if (!PyLong_Check(v)) return false;
+  out = PyLong_AsDouble(v);
+  if (out == -1.0 && PyErr_Occurred() != nullptr) {
+    PyErr_Clear();
+    return false;
+  }
+  return true;
+}
+
+/// Writes one field's value; false (no error set) when the general encoder must judge it.
+bool pack_field(PyObject* v, char format, std::byte* out) noexcept {
+  long long s = 0;
+  unsigned long long u = 0;
+  double d = 0.0;
+  switch (format) {
+    case '?': {
+      const int truth = v == Py_True ? 1 : v == Py_False ? 0 : PyObject_IsTrue(v);
+      if (truth < 0) {
+        PyErr_Clear();
+        return false;
+      }
+      store<std::uint8_t>(out, static_cast<std::uint8_t>(truth));
+      return true;
+    }
+    case 'b':
+      return signed_value(v, INT8_MIN, INT8_MAX, s) && (store(out, static_cast<std::int8_t>(s)), true);
+    case 'h':
+      return signed_value(v, INT16_MIN, INT16_MAX, s) &&
+             (store(out, static_cast<std::int16_t>(s)), true);
+    case 'i':
+      return signed_value(v, INT32_MIN, INT32_MAX, s) &&
+             (store(out, static_cast<std::int32_t>(s)), true);
+    case 'q':
+      return signed_value(v, INT64_MIN, INT64_MAX, s) &&
+             (store(out, static_cast<std::int64_t>(s)), true);
+    case 'B':
+      return unsigned_value(v, UINT8_MAX, u) && (store(out, static_cast<std::uint8_t>(u)), true);
+    case 'H':
+      return unsigned_value(v, UINT16_MAX, u) && (store(out, static_cast<std::uint16_t>(u)), true);
+    case 'I':
+      return unsigned_value(v, UINT32_MAX, u) && (store(out, static_cast<std::uint32_t>(u)), true);
+    case 'Q':
+      return unsigned_value(v, UINT64_MAX, u) && (store(out, static_cast<std::uint64_t>(u)), true);
+    case 'f': {
+      if (!real_value(v, d)) return false;
+      const auto single = static_cast<float>(d);
+      if (std::isinf(single) && !std::isinf(d)) return false;  // out of range: the encoder says so
+      store(out, single);
+      return true;
+    }
+    case 'd':
+      return real_value(v, d) && (store(out, d), true);
+    default:
+      return false;
+  }
+}
+
+/// A new reference to the value of one field read from the struct bytes (as struct unpacks it).
+PyObject* unpack_field(const std::byte* in, char format) noexcept {
+  switch (format) {
+    case '?':
+      return PyBool_FromLong(load<std::uint8_t>(in) != 0);
+    case 'b':
+      return PyLong_FromLong(load<std::int8_t>(in));
+    case 'h':
+      return PyLong_FromLong(load<std::int16_t>(in));
+    case 'i':
+      return PyLong_FromLong(load<std::int32_t>(in));
+    case 'q':
+      return PyLong_FromLongLong(load<std::int64_t>(in));
+    case 'B':
+      return PyLong_FromUnsignedLong(load<std::uint8_t>(in));
+    case 'H':
+      return PyLong_FromUnsignedLong(load<std::uint16_t>(in));
+    case 'I':
+      return PyLong_FromUnsignedLong(load<std::uint32_t>(in));
+    case 'Q':
+      return PyLong_FromUnsignedLongLong(load<std::uint64_t>(in));
+    case 'f':
+      return PyFloat_FromDouble(static_cast<double>(load<float>(in)));
+    case 'd':
+      return PyFloat_FromDouble(load<double>(in));
+    default:
+      PyErr_SetString(PyExc_SystemError, "horus: a scalar field of unknown format");
+      return nullptr;
+  }
+}
+
+/// What a PodFastPath object owns besides its Python header.
+struct State {
+  py::object core;      // the horus._core.Topic that owns `topic`
+  ErasedTopic* topic;   // owned by `core`
+  py::object cls;       // the message class (exact type: a subclass takes the general path)
+  py::object encode;    // msg -> bytes, raising the general path's errors
+  py::object view;      // cls.view, for try_recv(view=True)
+  std::vector<ScalarField> fields;
+  std::vector<std::byte> staging;  // the struct bytes being sent (padding stays zero)
+};
+
+struct PodFastPath {
+  PyObject_HEAD State state;
+};
+
+State& state_of(PyObject* self) { return reinterpret_cast<PodFastPath*>(self)->state; }
+
+PyObject*& slot_of(PyObject* msg, const ScalarField& field) {
+  return *reinterpret_cast<PyObject**>(reinterpret_cast<char*>(msg) + field.slot);
+}
+
+/// The struct bytes of `msg` into the staging buffer; false (no error set) when a value is not
+/// one this path takes as is.
+bool pack(State& s, PyObject* msg) noexcept {
+  if (Py_TYPE(msg) != reinterpret_cast<PyTypeObject*>(s.cls.ptr())) return false;
+  for (const ScalarField& field : s.fields) {
+    PyObject* value = slot_of(msg, field);
+    if (value == nullptr || !pack_field(value, field.format, s.staging.data() + field.offset)) {
+      return false;
+    }
+  }
+  return true;
+}
+
+PyObject* fast_send(PyObject* self, PyObject* msg) {
+  State& s = state_of(self);
+  if (pack(s, msg)) {
+    return PyBool_FromLong(s.topic->send(s.staging));
+  }
+  PyObject* encoded = PyObject_CallOneArg(s.encode.ptr(), msg);
+  if (encoded == nullptr) return nullptr;
+  Py_buffer buffer;
+  if (PyObject_GetBuffer(encoded, &buffer, PyBUF_SIMPLE) != 0) {
+    Py_DECREF(encoded);
+    return nullptr;
+  }
+  const bool sent = s.topic->send(
+      {static_cast<const std::byte*>(buffer.buf), static_cast<std::size_t>(buffer.len)});
+  PyBuffer_Release(&buffer);
+  Py_DECREF(encoded);
+  return PyBool_FromLong(sent);
+}
+
+/// A new message object made from the received struct bytes.
+PyObject* unpack(State& s, const std::byte* bytes) noexcept {
+  auto* type = reinterpret_cast<PyTypeObject*>(s.cls.ptr());
+  PyObject* msg = type->tp_alloc(type, 0);
+  if (msg == nullptr) return nullptr;
+  for (const ScalarField& field : s.fields) {
+    PyObject* value = unpack_field(bytes + field.offset, field.format);
+    if (value == nullptr) {
+      Py_DECREF(msg);
+      return nullptr;
+    }
+    slot_of(msg, field) = value;  // a fresh object: the slot was empty
+  }
+  return msg;
+}
+
+/// try_recv(*, view=False): the next message (or a view over this handle's receive buffer), or
+/// None.
+PyObject* fast_try_recv(PyObject* self, PyObject* const* args, Py_ssize_t nargs,
+                        PyObject* kwnames) {
+  bool view = false;
+  const Py_ssize_t nkw = kwnames == nullptr ? 0 : PyTuple_GET_SIZE(kwnames);
+  if (nargs != 0 || nkw > 1 ||
+      (nkw == 1 && PyUnicode_CompareWithASCIIString(PyTuple_GET_ITEM(kwnames, 0), "view") != 0)) {
+    PyErr_SetString(PyExc_TypeError, "try_recv() takes only the keyword argument 'view'");
+    return nullptr;
+  }
+  if (nkw == 1) {
+    const int truth = PyObject_IsTrue(args[0]);
+    if (truth < 0) return nullptr;
+    view = truth != 0;
+  }
+  State& s = state_of(self);
+  const std::ptrdiff_t size = s.topic->try_recv();
+  if (size < 0) {
+    Py_RETURN_NONE;
+  }
+  const std::span<std::byte> bytes = s.topic->received(static_cast<std::size_t>(size));
+  if (!view) {
+    return unpack(s, bytes.data());
+  }
+  PyObject* memory = PyMemoryView_FromMemory(reinterpret_cast<char*>(bytes.data()),
+                                             static_cast<Py_ssize_t>(bytes.size()), PyBUF_WRITE);
+  if (memory == nullptr) return nullptr;
+  PyObject* out = PyObject_CallOneArg(s.view.ptr(), memory);
+  Py_DECREF(memory);
+  return out;
+}
+
+void dealloc(PyObject* self) {
+  PyTypeObject* type = Py_TYPE(self);
+  state_of(self).~State();
+  type->tp_free(self);
+  Py_DECREF(type);  // instances of a heap type hold a reference to it
+}
+
+PyMethodDef methods[] = {
+    {"send", fast_send, METH_O,
+     "send(msg): publishes msg (the general path's values and errors); False when nothing was "
+     "published."},
+    {"try_recv", reinterpret_cast<PyCFunction>(reinterpret_cast<void (*)()>(fast_try_recv)),
+     METH_FASTCALL | METH_KEYWORDS,
+     "try_recv(*, view=False): the next message, a view over the receive buffer, or None."},
+    {nullptr, nullptr, 0, nullptr}};
+
+PyType_Slot slots[] = {{Py_tp_dealloc, reinterpret_cast<void*>(dealloc)},
+                       {Py_tp_methods, methods},
+                       {Py_tp_doc, const_cast<char*>("send() and try_recv() of a topic whose "
+                                                     "message has scalar fields only, in C.")},
+                       {0, nullptr}};
+
+PyType_Spec spec = {"horus._core.PodFastPath", sizeof(PodFastPath), 0,
+                    Py_TPFLAGS_DEFAULT | Py_TPFLAGS_DISALLOW_INSTANTIATION, slots};
+
+/// The __slots__ member of `cls` named `name`: where the field's value sits in an instance.
+Py_ssize_t member_offset(const py::handle& cls, const std::string& name) {
+  const py::object descriptor = cls.attr(name.c_str());
+  if (!Py_IS_TYPE(descriptor.ptr(), &PyMemberDescr_Type)) {
+    throw Error("PodFastPath: field '" + name + "' is not a __slots__ member");
+  }
+  const PyMemberDef* member = reinterpret_cast<PyMemberDescrObject*>(descriptor.ptr())->d_member;
+  if (member->type != T_OBJECT_EX || (member->flags & READONLY) != 0) {
+    throw Error("PodFastPath: field '" + name + "' is not a writable object slot");
+  }
+  return member->offset;
+}
+
+}  // namespace
+
+void bind_pod_fast_path(py::module_& m) {
+  auto* type = reinterpret_cast<PyTypeObject*>(PyType_FromSpec(&spec));
+  if (type == nullptr) throw py::error_already_set();
+  m.add_object("PodFastPath", reinterpret_cast<PyObject*>(type));
+  m.def(
+      "pod_fast_path",
+      [type](py::object core, py::type cls, std::size_t size,
+             const std::vector<std::tuple<std::string, std::string, std::uint32_t>>& fields,
+             py::object encode) {
+        auto* message_type = reinterpret_cast<PyTypeObject*>(cls.ptr());
+        // The objects try_recv() makes are allocated as object.__new__ would: only for classes
+        // that keep it.
+        if (message_type->tp_new != PyBaseObject_Type.tp_new) {
+          throw Error("PodFastPath: " + std::string(message_type->tp_name) +
+                      " has a __new__ of its own");
+        }
+        State state{core, core.cast<ErasedTopic*>(), cls, std::move(encode), cls.attr("view"),
+                    {}, std::vector<std::byte>(size)};
+        for (const auto& [name, format, offset] : fields) {
+          if (format.size() != 1 || width(format[0]) == 0 || offset + width(format[0]) > size) {
+            throw Error("PodFastPath: field '" + name + "' (format '" + format + "', offset " +
+                        std::to_string(offset) + ") does not fit a " + std::to_string(size) +
+                        "-byte struct");
+          }
+          state.fields.push_back({member_offset(cls, name), offset, format[0]});
+        }
+        PyObject* self = type->tp_alloc(type, 0);
+        if (self == nullptr) throw py::error_already_set();
+        new (&state_of(self)) State(std::move(state));
+        return py::reinterpret_steal<py::object>(self);
+      },
+      py::arg("core"), py::arg("cls"), py::arg("size"), py::arg("fields"), py::arg("encode"),
+      "send() and try_recv() in C for `core` (a Topic) carrying `cls`, a POD message of `size` "
+      "bytes whose fields are all scalars: (name, struct format, offset).");
+}
+
+}  // namespace horus::python
