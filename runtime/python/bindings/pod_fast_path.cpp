@@ -13,10 +13,12 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <new>
 #include <span>
 #include <string>
 #include <tuple>
+#include <type_traits>
 #include <vector>
 
 #include "bindings.hpp"
@@ -74,26 +76,31 @@ T load(const std::byte* in) noexcept {
   return value;
 }
 
-/// An integer within [lo, hi] (Python ints and bools only); false (no error set) otherwise.
-bool signed_value(PyObject* v, long long lo, long long hi, long long& out) noexcept {
+/// A Python int (or bool) that fits T, stored as T; false (no error set) otherwise.
+template <class T>
+bool pack_integer(PyObject* v, std::byte* out) noexcept {
   if (!PyLong_Check(v)) return false;
-  int overflow = 0;
-  out = PyLong_AsLongLongAndOverflow(v, &overflow);
-  if (overflow != 0 || (out == -1 && PyErr_Occurred() != nullptr)) {
-    PyErr_Clear();
-    return false;
+  if constexpr (std::is_signed_v<T>) {
+    int overflow = 0;
+    const long long value = PyLong_AsLongLongAndOverflow(v, &overflow);
+    if (overflow != 0 || (value == -1 && PyErr_Occurred() != nullptr)) {
+      PyErr_Clear();
+      return false;
+    }
+    if (value < std::numeric_limits<T>::min() || value > std::numeric_limits<T>::max()) {
+      return false;
+    }
+    store(out, static_cast<T>(value));
+  } else {
+    const unsigned long long value = PyLong_AsUnsignedLongLong(v);  // raises for negatives
+    if (value == static_cast<unsigned long long>(-1) && PyErr_Occurred() != nullptr) {
+      PyErr_Clear();
+      return false;
+    }
+    if (value > std::numeric_limits<T>::max()) return false;
+    store(out, static_cast<T>(value));
   }
-  return out >= lo && out <= hi;
-}
-
-bool unsigned_value(PyObject* v, unsigned long long hi, unsigned long long& out) noexcept {
-  if (!PyLong_Check(v)) return false;
-  out = PyLong_AsUnsignedLongLong(v);  // OverflowError for a negative or too large value
-  if (out == static_cast<unsigned long long>(-1) && PyErr_Occurred() != nullptr) {
-    PyErr_Clear();
-    return false;
-  }
-  return out <= hi;
+  return true;
 }
 
 /// A float or int as a double, as struct's "d" and "f" take them; false (no error set) otherwise.
@@ -113,8 +120,6 @@ bool real_value(PyObject* v, double& out) noexcept {
 
 /// Writes one field's value; false (no error set) when the general encoder must judge it.
 bool pack_field(PyObject* v, char format, std::byte* out) noexcept {
-  long long s = 0;
-  unsigned long long u = 0;
   double d = 0.0;
   switch (format) {
     case '?': {
@@ -127,24 +132,21 @@ bool pack_field(PyObject* v, char format, std::byte* out) noexcept {
       return true;
     }
     case 'b':
-      return signed_value(v, INT8_MIN, INT8_MAX, s) && (store(out, static_cast<std::int8_t>(s)), true);
+      return pack_integer<std::int8_t>(v, out);
     case 'h':
-      return signed_value(v, INT16_MIN, INT16_MAX, s) &&
-             (store(out, static_cast<std::int16_t>(s)), true);
+      return pack_integer<std::int16_t>(v, out);
     case 'i':
-      return signed_value(v, INT32_MIN, INT32_MAX, s) &&
-             (store(out, static_cast<std::int32_t>(s)), true);
+      return pack_integer<std::int32_t>(v, out);
     case 'q':
-      return signed_value(v, INT64_MIN, INT64_MAX, s) &&
-             (store(out, static_cast<std::int64_t>(s)), true);
+      return pack_integer<std::int64_t>(v, out);
     case 'B':
-      return unsigned_value(v, UINT8_MAX, u) && (store(out, static_cast<std::uint8_t>(u)), true);
+      return pack_integer<std::uint8_t>(v, out);
     case 'H':
-      return unsigned_value(v, UINT16_MAX, u) && (store(out, static_cast<std::uint16_t>(u)), true);
+      return pack_integer<std::uint16_t>(v, out);
     case 'I':
-      return unsigned_value(v, UINT32_MAX, u) && (store(out, static_cast<std::uint32_t>(u)), true);
+      return pack_integer<std::uint32_t>(v, out);
     case 'Q':
-      return unsigned_value(v, UINT64_MAX, u) && (store(out, static_cast<std::uint64_t>(u)), true);
+      return pack_integer<std::uint64_t>(v, out);
     case 'f': {
       if (!real_value(v, d)) return false;
       const auto single = static_cast<float>(d);
@@ -153,7 +155,9 @@ bool pack_field(PyObject* v, char format, std::byte* out) noexcept {
       return true;
     }
     case 'd':
-      return real_value(v, d) && (store(out, d), true);
+      if (!real_value(v, d)) return false;
+      store(out, d);
+      return true;
     default:
       return false;
   }
@@ -192,11 +196,11 @@ PyObject* unpack_field(const std::byte* in, char format) noexcept {
 
 /// What a PodFastPath object owns besides its Python header.
 struct State {
-  py::object core;      // the horus._core.Topic that owns `topic`
-  ErasedTopic* topic;   // owned by `core`
-  py::object cls;       // the message class (exact type: a subclass takes the general path)
-  py::object encode;    // msg -> bytes, raising the general path's errors
-  py::object view;      // cls.view, for try_recv(view=True)
+  py::object core;     // the horus._core.Topic that owns `topic`
+  ErasedTopic* topic;  // owned by `core`
+  py::object cls;      // the message class (exact type: a subclass takes the general path)
+  py::object encode;   // msg -> bytes, raising the general path's errors
+  py::object view;     // cls.view, for try_recv(view=True)
   std::vector<ScalarField> fields;
   std::vector<std::byte> staging;  // the struct bytes being sent (padding stays zero)
 };
@@ -348,8 +352,8 @@ void bind_pod_fast_path(py::module_& m) {
           throw Error("PodFastPath: " + std::string(message_type->tp_name) +
                       " has a __new__ of its own");
         }
-        State state{core, core.cast<ErasedTopic*>(), cls, std::move(encode), cls.attr("view"),
-                    {}, std::vector<std::byte>(size)};
+        State state{core, core.cast<ErasedTopic*>(),   cls, std::move(encode), cls.attr("view"),
+                    {},   std::vector<std::byte>(size)};
         for (const auto& [name, format, offset] : fields) {
           if (format.size() != 1 || width(format[0]) == 0 || offset + width(format[0]) > size) {
             throw Error("PodFastPath: field '" + name + "' (format '" + format + "', offset " +
