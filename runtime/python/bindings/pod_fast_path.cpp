@@ -9,6 +9,7 @@
 #include <pybind11/stl.h>
 #include <structmember.h>
 
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -122,15 +123,12 @@ bool real_value(PyObject* v, double& out) noexcept {
 bool pack_field(PyObject* v, char format, std::byte* out) noexcept {
   double d = 0.0;
   switch (format) {
-    case '?': {
-      const int truth = v == Py_True ? 1 : v == Py_False ? 0 : PyObject_IsTrue(v);
-      if (truth < 0) {
-        PyErr_Clear();
-        return false;
-      }
-      store<std::uint8_t>(out, static_cast<std::uint8_t>(truth));
+    case '?':
+      // True and False only: another object's truth is its __bool__, Python code that could
+      // send on this topic while the staging buffer is half written.
+      if (v != Py_True && v != Py_False) return false;
+      store<std::uint8_t>(out, v == Py_True ? 1 : 0);
       return true;
-    }
     case 'b':
       return pack_integer<std::int8_t>(v, out);
     case 'h':
@@ -249,16 +247,30 @@ PyObject* fast_send(PyObject* self, PyObject* msg) {
 
 /// A new message object made from the received struct bytes.
 PyObject* unpack(State& s, const std::byte* bytes) noexcept {
+  // Every value first: ints and floats are not garbage-collected objects, so making them runs
+  // no Python code, while allocating the message may start a collection whose finalizers could
+  // receive on this topic and overwrite `bytes`.
+  constexpr std::size_t kOnStack = 32;
+  std::array<PyObject*, kOnStack> on_stack{};
+  std::vector<PyObject*> on_heap;
+  PyObject** values = on_stack.data();
+  if (s.fields.size() > kOnStack) {
+    on_heap.resize(s.fields.size());
+    values = on_heap.data();
+  }
+  std::size_t made = 0;
+  for (; made < s.fields.size(); ++made) {
+    values[made] = unpack_field(bytes + s.fields[made].offset, s.fields[made].format);
+    if (values[made] == nullptr) break;
+  }
   auto* type = reinterpret_cast<PyTypeObject*>(s.cls.ptr());
-  PyObject* msg = type->tp_alloc(type, 0);
-  if (msg == nullptr) return nullptr;
-  for (const ScalarField& field : s.fields) {
-    PyObject* value = unpack_field(bytes + field.offset, field.format);
-    if (value == nullptr) {
-      Py_DECREF(msg);
-      return nullptr;
-    }
-    slot_of(msg, field) = value;  // a fresh object: the slot was empty
+  PyObject* msg = made == s.fields.size() ? type->tp_alloc(type, 0) : nullptr;
+  if (msg == nullptr) {
+    for (std::size_t i = 0; i < made; ++i) Py_DECREF(values[i]);
+    return nullptr;
+  }
+  for (std::size_t i = 0; i < made; ++i) {
+    slot_of(msg, s.fields[i]) = values[i];  // a fresh object: the slot was empty
   }
   return msg;
 }

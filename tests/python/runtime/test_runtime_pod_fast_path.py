@@ -148,3 +148,18 @@ def test_a_dropped_topic_is_freed_at_once():
     alive = weakref.ref(topic)
     del topic  # no reference cycle through the C path: freed without the garbage collector
     assert alive() is None
+
+
+def test_a_bool_whose_truth_sends_on_the_same_topic_does_not_mix_the_two_messages():
+    pub = horus.Topic(Scalars, "reentrant")
+    raw = horus.Topic(Scalars, "reentrant")._core
+    inner = Scalars(word=2, precise=2.0)
+
+    class Truth:
+        def __bool__(self):
+            pub.send(inner)
+            return True
+
+    assert pub.send(Scalars(word=1, precise=1.0, last=Truth()))  # `last` is the final field
+    assert raw.try_recv() == inner.to_bytes()
+    assert raw.try_recv() == Scalars(word=1, precise=1.0, last=True).to_bytes()
