@@ -250,7 +250,7 @@ PyObject* unpack(State& s, const std::byte* bytes) noexcept {
   // Every value first: ints and floats are not garbage-collected objects, so making them runs
   // no Python code, while allocating the message may start a collection whose finalizers could
   // receive on this topic and overwrite `bytes`.
-  constexpr std::size_t kOnStack = 32;
+  constexpr std::size_t kOnStack = 16;  // fields; CmdVel has 3, the largest standard one 10
   std::array<PyObject*, kOnStack> on_stack{};
   std::vector<PyObject*> on_heap;
   PyObject** values = on_stack.data();

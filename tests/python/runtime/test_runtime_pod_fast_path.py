@@ -10,7 +10,7 @@ import pytest
 
 import horus
 from horus.msg import CmdVel, CompressedImage, Pose2D, Twist
-from pyrt_test import Scalars
+from pyrt_test import ManyScalars, Scalars
 
 EVERY_SCALAR = dict(flag=True, small=-30000, tiny=-128, octet=255, half=65535,
                     word=-2**31, uword=2**32 - 1, single=0.1, wide=-2**63, ulong=2**64 - 1,
@@ -163,3 +163,12 @@ def test_a_bool_whose_truth_sends_on_the_same_topic_does_not_mix_the_two_message
     assert pub.send(Scalars(word=1, precise=1.0, last=Truth()))  # `last` is the final field
     assert raw.try_recv() == inner.to_bytes()
     assert raw.try_recv() == Scalars(word=1, precise=1.0, last=True).to_bytes()
+
+
+def test_a_message_with_many_fields_round_trips():
+    pub, sub = pair(ManyScalars)
+    msg = ManyScalars(**{f"v{i}": (-i if i % 2 else i / 4) for i in range(20)})
+    assert pub.send(msg)
+    got = sub.try_recv()
+    assert type(got) is ManyScalars and got == msg
+    assert got.to_bytes() == msg.to_bytes()
