@@ -16,6 +16,7 @@
 #include <cstring>
 #include <limits>
 #include <new>
+#include <optional>
 #include <span>
 #include <string>
 #include <tuple>
@@ -194,11 +195,11 @@ PyObject* unpack_field(const std::byte* in, char format) noexcept {
 
 /// What a PodFastPath object owns besides its Python header.
 struct State {
-  py::object core;     // the horus._core.Topic that owns `topic`
-  ErasedTopic* topic;  // owned by `core`
-  py::object cls;      // the message class (exact type: a subclass takes the general path)
-  py::object encode;   // msg -> bytes, raising the general path's errors
-  py::object view;     // cls.view, for try_recv(view=True)
+  py::object core;               // the horus._core.Topic that owns `topic`
+  ErasedTopic* topic = nullptr;  // owned by `core`
+  py::object cls;     // the message class (exact type: a subclass takes the general path)
+  py::object encode;  // msg -> bytes, raising the general path's errors
+  py::object view;    // cls.view, for try_recv(view=True)
   std::vector<ScalarField> fields;
   std::vector<std::byte> staging;  // the struct bytes being sent (padding stays zero)
 };
@@ -333,15 +334,18 @@ PyType_Slot slots[] = {{Py_tp_dealloc, reinterpret_cast<void*>(dealloc)},
 PyType_Spec spec = {"horus._core.PodFastPath", sizeof(PodFastPath), 0,
                     Py_TPFLAGS_DEFAULT | Py_TPFLAGS_DISALLOW_INSTANTIATION, slots};
 
-/// The __slots__ member of `cls` named `name`: where the field's value sits in an instance.
-Py_ssize_t member_offset(const py::handle& cls, const std::string& name) {
-  const py::object descriptor = cls.attr(name.c_str());
-  if (!Py_IS_TYPE(descriptor.ptr(), &PyMemberDescr_Type)) {
-    throw Error("PodFastPath: field '" + name + "' is not a __slots__ member");
+/// Where the value of the field `name` sits in an instance of `cls`: its writable __slots__
+/// member; nothing when the class keeps it some other way (a subclass's property, say).
+std::optional<Py_ssize_t> member_offset(const py::handle& cls, const std::string& name) {
+  const py::object descriptor = py::getattr(cls, name.c_str(), py::none());
+  if (!Py_IS_TYPE(descriptor.ptr(), &PyMemberDescr_Type) ||
+      PyType_IsSubtype(reinterpret_cast<PyTypeObject*>(cls.ptr()),
+                       PyDescr_TYPE(descriptor.ptr())) == 0) {
+    return std::nullopt;
   }
   const PyMemberDef* member = reinterpret_cast<PyMemberDescrObject*>(descriptor.ptr())->d_member;
   if (member->type != T_OBJECT_EX || (member->flags & READONLY) != 0) {
-    throw Error("PodFastPath: field '" + name + "' is not a writable object slot");
+    return std::nullopt;
   }
   return member->offset;
 }
@@ -356,23 +360,28 @@ void bind_pod_fast_path(py::module_& m) {
       "pod_fast_path",
       [type](py::object core, py::type cls, std::size_t size,
              const std::vector<std::tuple<std::string, std::string, std::uint32_t>>& fields,
-             py::object encode) {
-        auto* message_type = reinterpret_cast<PyTypeObject*>(cls.ptr());
+             py::object encode) -> py::object {
         // The objects try_recv() makes are allocated as object.__new__ would: only for classes
-        // that keep it.
-        if (message_type->tp_new != PyBaseObject_Type.tp_new) {
-          throw Error("PodFastPath: " + std::string(message_type->tp_name) +
-                      " has a __new__ of its own");
+        // that keep it (a user's subclass may not).
+        if (reinterpret_cast<PyTypeObject*>(cls.ptr())->tp_new != PyBaseObject_Type.tp_new) {
+          return py::none();
         }
-        State state{core, core.cast<ErasedTopic*>(),   cls, std::move(encode), cls.attr("view"),
-                    {},   std::vector<std::byte>(size)};
+        State state;
+        state.core = core;
+        state.topic = core.cast<ErasedTopic*>();
+        state.cls = cls;
+        state.encode = std::move(encode);
+        state.view = cls.attr("view");
+        state.staging.resize(size);
         for (const auto& [name, format, offset] : fields) {
           if (format.size() != 1 || width(format[0]) == 0 || offset + width(format[0]) > size) {
             throw Error("PodFastPath: field '" + name + "' (format '" + format + "', offset " +
                         std::to_string(offset) + ") does not fit a " + std::to_string(size) +
                         "-byte struct");
           }
-          state.fields.push_back({member_offset(cls, name), offset, format[0]});
+          const std::optional<Py_ssize_t> slot = member_offset(cls, name);
+          if (!slot) return py::none();
+          state.fields.push_back({*slot, offset, format[0]});
         }
         PyObject* self = type->tp_alloc(type, 0);
         if (self == nullptr) throw py::error_already_set();
@@ -381,7 +390,9 @@ void bind_pod_fast_path(py::module_& m) {
       },
       py::arg("core"), py::arg("cls"), py::arg("size"), py::arg("fields"), py::arg("encode"),
       "send() and try_recv() in C for `core` (a Topic) carrying `cls`, a POD message of `size` "
-      "bytes whose fields are all scalars: (name, struct format, offset).");
+      "bytes whose fields are all scalars: (name, struct format, offset). None when `cls` does "
+      "not keep its fields in __slots__ or has a __new__ of its own: the general path serves "
+      "it.");
 }
 
 }  // namespace horus::python

@@ -77,7 +77,8 @@ class Topic:
             # and the like): the same bytes, values and errors, a fraction of the cost (see
             # bench/python/RESULTS.md). Instance attributes, so a call is one C call.
             fast = _core.pod_fast_path(self._core, self.type, meta.size, layout, self._encode)
-            self.send, self.try_recv = fast.send, fast.try_recv
+            if fast is not None:  # None: a class (a user's subclass) that keeps fields otherwise
+                self.send, self.try_recv = fast.send, fast.try_recv
 
     @property
     def name(self) -> str:

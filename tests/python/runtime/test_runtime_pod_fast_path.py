@@ -172,3 +172,20 @@ def test_a_message_with_many_fields_round_trips():
     got = sub.try_recv()
     assert type(got) is ManyScalars and got == msg
     assert got.to_bytes() == msg.to_bytes()
+
+
+def test_a_subclass_that_keeps_its_fields_otherwise_takes_the_general_path():
+    class Scaled(CmdVel):
+        linear = property(lambda self: 2.0, lambda self, value: None)  # not the slot
+
+    class Counted(CmdVel):
+        __slots__ = ()
+
+        def __new__(cls, *args, **kwargs):
+            return super().__new__(cls)
+
+    for cls in (Scaled, Counted):
+        pub, sub = pair(cls, cls.__name__)
+        assert type(pub.send).__name__ == "method"
+        assert pub.send(cls()) and type(sub.try_recv()) is cls
+    assert horus.Topic(CmdVel, "Scaled").read_latest().linear == 2.0
