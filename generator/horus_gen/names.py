@@ -20,7 +20,7 @@ def snake_case(name: str) -> str:
 # topic, service or data member so named would hide one of them.
 NODE_RESERVED_MEMBERS = frozenset({
     "name", "init", "tick", "shutdown", "is_safe_state", "enter_safe_state", "on_error", "publishers",
-    "subscribers", "request_stop", "node_config", "add_to",
+    "subscribers", "request_stop", "node_config", "add_to", "run_node", "topic_capacities",
     "rate", "order", "budget", "deadline", "watchdog", "on_miss", "failure_policy", "compute", "on",
     "priority", "core", "subs", "pubs", "is_async", "open_topics", "send", "recv", "has_msg",
     "log_info", "log_warning", "log_error", "log_debug",

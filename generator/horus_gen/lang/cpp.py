@@ -6,8 +6,8 @@ import re
 import struct
 
 from ..data import DataPaths
-from ..model import (Bytes, DynString, Enum, EnumRef, EnumValue, Field, FixedArray, FixedString,
-                     Message, MessageRef, Model, Optional, Primitive, Service, Type, Vec)
+from ..model import (Bytes, DynString, Enum, EnumRef, EnumValue, FailurePolicy, Field, FixedArray, FixedString,
+                     Message, MessageRef, Model, Node, Optional, Primitive, Service, Type, Vec)
 from ..names import snake_case
 from .common import CONTRACT_VERSION, banner, environment
 
@@ -227,6 +227,52 @@ def contract_check(header: str) -> str:
             f"with this runtime's horus-gen\");")
 
 
+def node_std_headers(node: Node) -> list[str]:
+    """The standard headers a node's data fields need beyond what its base class includes."""
+    needed: set[str] = set()
+
+    def visit(t: Type) -> None:
+        if isinstance(t, FixedArray):
+            needed.add("<array>")
+        if isinstance(t, Optional):
+            needed.add("<optional>")
+        if isinstance(t, (FixedArray, Vec, Optional)):
+            visit(t.element)
+
+    for f in node.data:
+        visit(f.type)
+    if node.servers:
+        needed.add("<optional>")
+        needed.add("<utility>")
+    if any(isinstance(f.type, Primitive) and not f.type.is_bool and not f.type.is_float for f in node.data):
+        needed.add("<cstdint>")
+    return sorted(needed)
+
+
+def node_headers(node: Node) -> list[str]:
+    """The generated headers of the messages, enums and services a node names."""
+    return [header_path(q) for q in node.uses]
+
+
+def cpp_ref(qualified: str, package: str) -> str:
+    """A message's or service's C++ name as code in namespace `package` spells it."""
+    owner, name = qualified.rsplit(".", 1)
+    return name if owner == package else f"::{namespace(owner)}::{name}"
+
+
+def nanoseconds(ns: int) -> str:
+    return f"std::chrono::nanoseconds({ns}LL)"
+
+
+def failure_policy(policy: FailurePolicy) -> str:
+    """A horus::FailurePolicy expression; arguments not given keep the runtime's defaults."""
+    if not policy.arguments:
+        return f"horus::FailurePolicy::{policy.kind}{{}}"
+    fields = ", ".join(f".{name} = " + (f"{value}U" if name.startswith("max_") else nanoseconds(value))
+                       for name, value in policy.arguments)
+    return f"horus::FailurePolicy::{policy.kind}{{{fields}}}"
+
+
 def doc_lines(docs: tuple[str, ...]) -> list[str]:
     return [f"/// {line}".rstrip() for line in docs]
 
@@ -236,7 +282,10 @@ FILTERS = {
     "value_literal": value_literal, "padding_initializer": padding_initializer, "constant_type": constant_type, "constant_literal": constant_literal, "string_literal": string_literal,
     "header_path": header_path, "std_headers": std_headers, "type_headers": type_headers,
     "lighter_header": lighter_header, "mixin_path": mixin_path,
-    "doc_lines": doc_lines, "contract_check": contract_check,
+    "doc_lines": doc_lines, "contract_check": contract_check, "node_std_headers": node_std_headers,
+    "node_headers": node_headers, "nanoseconds": nanoseconds, "cpp_ref": cpp_ref,
+    "basename": os.path.basename, "failure_policy": failure_policy,
+    "float_literal": float_literal,
     "hex": lambda n: f"0x{n:016x}ULL",
 }
 
@@ -244,10 +293,12 @@ FILTERS = {
 def emit(model: Model, data: DataPaths) -> dict[str, str]:
     env = environment(data, "cpp", FILTERS)
     files: dict[str, str] = {}
-    by_package: dict[str, list[Message | Enum | Service]] = {}
+    by_package: dict[str, list[Message | Enum | Service | Node]] = {}
     for item in model.generated_items():
         path = header_path(item.qualified)
-        if isinstance(item, Service):
+        if isinstance(item, Node):
+            template, context = "node.hpp.j2", {"node": item, "model": model}
+        elif isinstance(item, Service):
             template, context = "service.hpp.j2", {"service": item}
         elif isinstance(item, Enum):
             template, context = "enum.hpp.j2", {"enum": item}
