@@ -78,6 +78,12 @@ def package_source_path(package: str) -> str:
     return "/".join(package.split(".")) + ".cpp"
 
 
+def package_nodes_source_path(package: str) -> str:
+    """The one .cpp holding the out-of-line code of a package's nodes, in the package's folder:
+    my_robot.nodes -> my_robot/nodes/_nodes.cpp (no header is named so: headers end in .hpp)."""
+    return "/".join(package.split(".") + ["_nodes.cpp"])
+
+
 def type_name(t: Type, package: str) -> str:
     if isinstance(t, Primitive):
         return PRIMITIVE_TYPES[t.name]
@@ -228,7 +234,7 @@ def contract_check(header: str) -> str:
 
 
 def node_std_headers(node: Node) -> list[str]:
-    """The standard headers a node's data fields need beyond what its base class includes."""
+    """The headers a node's data fields need beyond those every node header includes."""
     needed: set[str] = set()
 
     def visit(t: Type) -> None:
@@ -236,6 +242,10 @@ def node_std_headers(node: Node) -> list[str]:
             needed.add("<array>")
         if isinstance(t, Optional):
             needed.add("<optional>")
+        if isinstance(t, DynString):
+            needed.add("<string>")
+        if isinstance(t, FixedString):
+            needed.add('"horus/fixed_string.hpp"')
         if isinstance(t, (FixedArray, Vec, Optional)):
             visit(t.element)
 
@@ -243,7 +253,6 @@ def node_std_headers(node: Node) -> list[str]:
         visit(f.type)
     if node.servers:
         needed.add("<optional>")
-        needed.add("<utility>")
     if any(isinstance(f.type, Primitive) and not f.type.is_bool and not f.type.is_float for f in node.data):
         needed.add("<cstdint>")
     return sorted(needed)
@@ -314,6 +323,10 @@ def emit(model: Model, data: DataPaths) -> dict[str, str]:
         package_banner = banner("//", [i.source for i in items])
         files[os.path.join("cpp", package_header_path(package))] = env.get_template("package.hpp.j2").render(
             banner=package_banner, package=package, headers=sorted(header_path(i.qualified) for i in items))
+        nodes = [i for i in items if isinstance(i, Node)]
+        if nodes:
+            files[os.path.join("cpp", package_nodes_source_path(package))] = env.get_template("nodes.cpp.j2").render(
+                banner=banner("//", [n.source for n in nodes]), package=package, nodes=nodes)
         messages = [i for i in items if isinstance(i, Message)]
         if messages:
             files[os.path.join("cpp", package_source_path(package))] = env.get_template("source.cpp.j2").render(
