@@ -94,7 +94,7 @@ def node_json(node: Node) -> dict:
         "clients": [{"member": c.member, "service": c.service} for c in node.clients],
         "servers": [{"member": c.member, "service": c.service} for c in node.servers],
         "data": [{"member": f.name, "type": f.spelling} for f in node.data],
-        "settings": {k: v for k, v in settings.items() if v not in (None, False)},
+        "settings": {k: v for k, v in settings.items() if v is not None and v is not False},
     }
 
 
