@@ -10,6 +10,7 @@
 
 #include "horus/literals.hpp"
 #include "horus/scheduler.hpp"
+#include "pair_talker.hpp"
 #include "test_nodes.hpp"
 #include "topic_test_support.hpp"
 
@@ -19,16 +20,7 @@ using horus::TopicMetadata;
 namespace {
 
 // The user's side of each node: tick() only, the rest is generated.
-class Talker : public test_nodes::TalkerBase {
- public:
-  void tick() override {
-    test_msgs::Pose2 pose{};
-    pose.position.x = step_ * static_cast<double>(++sent_);
-    pose_.send(pose);
-  }
-  std::uint64_t sent() const { return sent_; }
-  double step() const { return step_; }
-};
+using test_nodes_user::Talker;
 
 class Listener : public test_nodes::ListenerBase {
  public:

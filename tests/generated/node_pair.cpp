@@ -11,18 +11,12 @@
 #include <thread>
 
 #include "horus/scheduler.hpp"
+#include "pair_talker.hpp"
 #include "test_nodes.hpp"
 
 namespace {
 
-class Talker : public test_nodes::TalkerBase {
- public:
-  void tick() override {
-    test_msgs::Pose2 pose{};
-    pose.position.x = step_ * static_cast<double>(++sent_);
-    pose_.send(pose);
-  }
-};
+using test_nodes_user::Talker;
 
 class Listener : public test_nodes::ListenerBase {
  public:

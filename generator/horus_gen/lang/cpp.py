@@ -190,8 +190,8 @@ def constant_literal(value, t: Type, package: str) -> str:
     return value_literal(value, t, package)
 
 
-def std_headers(message: Message) -> list[str]:
-    """The standard headers a message's fields need beyond horus/message.hpp."""
+def field_headers(types: list[Type]) -> set[str]:
+    """Every header that declares what fields of these types spell (standard ones in <>)."""
     needed: set[str] = set()
 
     def visit(t: Type) -> None:
@@ -199,11 +199,25 @@ def std_headers(message: Message) -> list[str]:
             needed.add("<vector>")
         if isinstance(t, Optional):
             needed.add("<optional>")
+        if isinstance(t, FixedArray):
+            needed.add("<array>")
+        if isinstance(t, DynString):
+            needed.add("<string>")
+        if isinstance(t, FixedString):
+            needed.add('"horus/fixed_string.hpp"')
+        if isinstance(t, Primitive) and t.is_integer:
+            needed.add("<cstdint>")
         if isinstance(t, (FixedArray, Vec, Optional)):
             visit(t.element)
 
-    for f in message.fields:
-        visit(f.type)
+    for t in types:
+        visit(t)
+    return needed
+
+
+def std_headers(message: Message) -> list[str]:
+    """The standard headers a message's fields need beyond horus/message.hpp (which has the rest)."""
+    needed = field_headers([f.type for f in message.fields]) & {"<vector>", "<optional>"}
     return sorted(needed | set(message.cpp_includes))
 
 
@@ -234,28 +248,9 @@ def contract_check(header: str) -> str:
 
 
 def node_std_headers(node: Node) -> list[str]:
-    """The headers a node's data fields need beyond those every node header includes."""
-    needed: set[str] = set()
-
-    def visit(t: Type) -> None:
-        if isinstance(t, FixedArray):
-            needed.add("<array>")
-        if isinstance(t, Optional):
-            needed.add("<optional>")
-        if isinstance(t, DynString):
-            needed.add("<string>")
-        if isinstance(t, FixedString):
-            needed.add('"horus/fixed_string.hpp"')
-        if isinstance(t, (FixedArray, Vec, Optional)):
-            visit(t.element)
-
-    for f in node.data:
-        visit(f.type)
-    if node.servers:
-        needed.add("<optional>")
-    if any(isinstance(f.type, Primitive) and not f.type.is_bool and not f.type.is_float for f in node.data):
-        needed.add("<cstdint>")
-    return sorted(needed)
+    """The headers a node's data fields and servers need beyond those every node header includes."""
+    needed = field_headers([f.type for f in node.data]) - {"<vector>"}
+    return sorted(needed | ({"<optional>"} if node.servers else set()))
 
 
 def node_headers(node: Node) -> list[str]:
