@@ -247,10 +247,19 @@ def contract_check(header: str) -> str:
             f"with this runtime's horus-gen\");")
 
 
+# What every node header includes from the standard library: its declarations need them.
+NODE_STD_HEADERS = frozenset({"<cstddef>", "<memory>", "<string_view>", "<utility>", "<vector>"})
+
+
 def node_std_headers(node: Node) -> list[str]:
-    """The headers a node's data fields and servers need beyond those every node header includes."""
-    needed = field_headers([f.type for f in node.data]) - {"<vector>"}
-    return sorted(needed | ({"<optional>"} if node.servers else set()))
+    """The standard headers a node header includes: its own and what its data and servers need."""
+    needed = {h for h in field_headers([f.type for f in node.data]) if h.startswith("<")}
+    return sorted(NODE_STD_HEADERS | needed | ({"<optional>"} if node.servers else set()))
+
+
+def node_horus_headers(node: Node) -> list[str]:
+    """The runtime headers a node's data fields need beyond the node, topic and scheduler ones."""
+    return sorted(h.strip('"') for h in field_headers([f.type for f in node.data]) if not h.startswith("<"))
 
 
 def node_headers(node: Node) -> list[str]:
@@ -287,6 +296,7 @@ FILTERS = {
     "header_path": header_path, "std_headers": std_headers, "type_headers": type_headers,
     "lighter_header": lighter_header, "mixin_path": mixin_path,
     "doc_lines": doc_lines, "contract_check": contract_check, "node_std_headers": node_std_headers,
+    "node_horus_headers": node_horus_headers,
     "node_headers": node_headers, "nanoseconds": nanoseconds, "cpp_ref": cpp_ref,
     "basename": os.path.basename, "failure_policy": failure_policy,
     "float_literal": float_literal,
