@@ -610,6 +610,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("blackbox_args", nargs=argparse.REMAINDER)
     sub.set_defaults(handler=blackbox)
 
+    commands.add_parser("record", add_help=False, help="record, inspect, repair, replay, compare "
+                        "and export sessions (MCAP): horus record --help")  # horus_record_cli.py
+
     sub = commands.add_parser("completion", help="print the bash completion script",
                               description="Print the bash completion script: "
                                           "source <(horus completion)")
@@ -618,6 +621,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from horus_record_cli import run_if_record  # `record` parses its own arguments
+    status = run_if_record(sys.argv[1:] if argv is None else argv)
+    if status is not None:
+        return status
     parser = build_parser()
     args = parser.parse_args(argv)
     if getattr(args, "handler", None) is None:
