@@ -319,10 +319,9 @@ def check_types(topics: dict[int, _ReplayTopic], namespace: str, includes: list[
 
 def _open_topic(topic: _ReplayTopic, capacity: int):
     from horus import _core
-    alignment = 8  # the segment's minimum; a POD type aligned wider states it in its schema
-    loaded = _loaded_type(topic.type_name, topic.schema, topic.fingerprint)
-    if loaded is not None and topic.is_pod:
-        alignment = max(alignment, loaded.__horus__.alignment)
+    alignment = 1
+    if topic.is_pod:  # the recording states no alignment: the type compiled from its schema does
+        alignment = _loaded_type(topic.type_name, topic.schema, topic.fingerprint).__horus__.alignment
     topic.handle = _core.Topic(topic.channel.topic, topic.type_name, topic.fingerprint,
                                topic.schema, topic.is_pod, topic.size, alignment, capacity,
                                max(16 * 1024, topic.largest), False)
@@ -436,13 +435,12 @@ def diff(args) -> int:
 
 
 def _loaded_type(type_name: str, schema: str, fingerprint: int):
-    """The Python class of a recorded type, built from its schema text, or None while the loader
-    (dynamic_types.py) is not there."""
+    """The Python class of a recorded type, built from its schema text (dynamic_types.py)."""
+    import dynamic_types
     try:
-        import dynamic_types
-    except ImportError:
-        return None
-    return dynamic_types.load_type(type_name, schema, fingerprint)
+        return dynamic_types.load_type(type_name, schema, fingerprint)
+    except dynamic_types.SchemaError as error:
+        raise RecordFailed(str(error)) from None
 
 
 def export(args) -> int:
