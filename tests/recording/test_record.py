@@ -2,6 +2,7 @@
 (an MCAP reader that is not ours) and `jsonschema`; replay into a live subscriber process."""
 from __future__ import annotations
 
+import base64
 import json
 import os
 import subprocess
@@ -229,3 +230,157 @@ def test_a_file_that_is_not_mcap_is_refused_clearly(tmp_path):
     result = run_horus("record", "info", str(corrupt), "--check")
     assert result.returncode == 1
     assert f"offset {chunk.chunk_start_offset}" in result.stderr
+
+
+def generate(tmp_path, language: str, *files: str) -> str:
+    out = tmp_path / f"out_{language}"
+    subprocess.run([os.environ["HORUS_GEN_PROGRAM"], "generate", "--lang", language, "--out",
+                    str(out), "-I", os.environ["HORUS_SCHEMA_DIR"], *files], check=True)
+    return str(out)
+
+
+def standard_schema_files() -> list[str]:
+    folder = os.path.join(os.environ["HORUS_SCHEMA_DIR"], "horus", "msg")
+    return sorted(os.path.join(folder, f) for f in os.listdir(folder) if f.endswith(".hmsg"))
+
+
+def test_horus_gen_jsonschema_describes_what_the_export_writes_for_every_standard_type(tmp_path):
+    import dynamic_types
+    import horus.msg
+    import horus_foxglove
+    first = generate(tmp_path, "jsonschema", *standard_schema_files())
+    schemas = {}
+    for folder, _, names in os.walk(os.path.join(first, "jsonschema")):
+        for name in names:
+            with open(os.path.join(folder, name), encoding="utf-8") as handle:
+                text = handle.read()
+            schema = json.loads(text)
+            jsonschema.Draft202012Validator.check_schema(schema)
+            schemas[schema["title"]] = (text, schema)
+    assert len(schemas) > 50
+    # Deterministic: a second run writes the same bytes.
+    second = generate(tmp_path / "again", "jsonschema", *standard_schema_files())
+    for title, (text, _) in schemas.items():
+        package, name = title.rsplit(".", 1)
+        with open(os.path.join(second, "jsonschema", *package.split("."), f"{name}.schema.json"),
+                  encoding="utf-8") as handle:
+            assert handle.read() == text
+    checked = 0
+    for title, (_, schema) in schemas.items():
+        cls = getattr(horus.msg, title.rsplit(".", 1)[1], None)
+        if cls is None or not hasattr(cls.__horus__, "fields"):
+            continue  # an enum
+        value = horus_foxglove.plain_json(dynamic_types.to_plain(cls()))
+        jsonschema.validate(value, schema)
+        checked += 1
+    assert checked > 50
+    # A value of the wrong kind is rejected, so the validation above can fail.
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate({"linear": "fast", "angular": 0.0, "stamp_nanos": 0},
+                            schemas["horus.msg.CmdVel"][1])
+
+
+USER_TYPES = """package demo;
+
+import "horus/msg/vision.hmsg";
+
+/// A camera frame that carries its pixels.
+Frame {
+    width: u32,
+    height: u32,
+    step: u32,
+    encoding: horus.msg.ImageEncoding,
+    data: bytes,
+    frame_id: string<16>,
+    timestamp_ns: u64,
+}
+
+/// A point cloud that carries its points.
+Cloud {
+    point_count: u64,
+    fields_per_point: u32,
+    dtype: horus.msg.TensorDtype,
+    data: bytes,
+    frame_id: string<16>,
+    timestamp_ns: u64,
+}
+"""
+
+
+def test_foxglove_export_maps_messages_carrying_pixels_or_points_by_shape(tmp_path):
+    schema_file = tmp_path / "demo" / "types.hmsg"
+    schema_file.parent.mkdir()
+    schema_file.write_text(USER_TYPES)
+    sys_path = generate(tmp_path, "python", str(schema_file))
+    import sys
+    sys.path.insert(0, os.path.join(sys_path, "python"))
+    try:
+        from demo import Cloud, Frame
+    finally:
+        sys.path.pop(0)
+    from horus.msg import ImageEncoding, TensorDtype
+    pixels = bytes(range(12))
+    frame = Frame(width=2, height=2, step=6, encoding=ImageEncoding.Rgb8, data=pixels,
+                  frame_id="cam", timestamp_ns=3)
+    points = struct_points = b"".join(
+        v.to_bytes(4, "little") for v in range(6))  # two XYZ points of f32 bit patterns
+    cloud = Cloud(point_count=2, fields_per_point=3, dtype=TensorDtype.F32, data=struct_points,
+                  frame_id="lidar", timestamp_ns=4)
+    path, out = tmp_path / "user.mcap", tmp_path / "user_foxglove.mcap"
+    write_recording(path, {"camera": (Frame, [frame]), "cloud": (Cloud, [cloud])})
+    exported = run_horus("record", "export", str(path), "--foxglove", str(out))
+    assert exported.returncode == 0, exported.stderr
+    seen = {}
+    with open(out, "rb") as stream:
+        for schema, channel, message in make_reader(stream, validate_crcs=True).iter_messages():
+            value = json.loads(message.data)
+            jsonschema.validate(value, json.loads(schema.data))
+            seen[channel.topic] = (schema.name, value)
+    name, image = seen["camera"]
+    assert name == "foxglove.RawImage"
+    assert (image["width"], image["height"], image["step"], image["encoding"],
+            image["frame_id"]) == (2, 2, 6, "rgb8", "cam")
+    assert base64.b64decode(image["data"]) == pixels
+    name, cloud_json = seen["cloud"]
+    assert name == "foxglove.PointCloud"
+    assert cloud_json["point_stride"] == 12
+    assert [(f["name"], f["offset"], f["type"]) for f in cloud_json["fields"]] == [
+        ("x", 0, 7), ("y", 4, 7), ("z", 8, 7)]
+    assert base64.b64decode(cloud_json["data"]) == points
+
+
+def test_replay_selects_topics_and_a_time_window(tmp_path, children):
+    # 100 messages on each topic, 2 ms apart (cmd and scan alternate, 1 ms apart).
+    path = tmp_path / "w.mcap"
+    write_recording(path, {"cmd": (CmdVel, cmd_vels(100)), "scan": (LaserScan, [LaserScan()] * 100)})
+    subscriber = children.python(SUBSCRIBER.format(count=1000))
+    assert subscriber.stdout.readline().strip() == "ready"
+    replayed = run_horus("record", "replay", str(path), "--topics", "cmd", "--start", "0.05",
+                         "--end", "0.1")
+    assert replayed.returncode == 0, replayed.stderr
+    subscriber.kill()
+    out, _ = subscriber.communicate(timeout=60)
+    # cmd message i is at 2*i ms: the window [50 ms, 100 ms] holds i = 25..50.
+    assert out.split() == [m.to_bytes().hex() for m in cmd_vels(100)[25:51]]
+    missing = run_horus("record", "replay", str(path), "--topics", "nope")
+    assert missing.returncode == 1 and "not in the recording: nope" in missing.stderr
+
+
+def test_record_runs_horus_record_with_the_arguments(tmp_path):
+    fake = tmp_path / "horus-record"
+    fake.write_text("#!/bin/sh\necho \"$@\"\n")
+    fake.chmod(0o755)
+    env = dict(os.environ, HORUS_RECORD_PROGRAM=str(fake))
+    ran = subprocess.run([HORUS, "-n", "ns1", "record", "-a", "-o", "x.mcap", "--duration", "2"],
+                         capture_output=True, text=True, env=env, timeout=30)
+    assert ran.returncode == 0, ran.stderr
+    assert ran.stdout.split() == ["-a", "-o", "x.mcap", "--duration", "2.0", "--namespace", "ns1"]
+    ran = subprocess.run([HORUS, "record", "--", "list", "cmd"], capture_output=True, text=True,
+                         env=env, timeout=30)
+    assert ran.stdout.split()[:2] == ["list", "cmd"]
+    assert run_horus("record").returncode == 2
+    assert run_horus("record", "-a", "cmd").returncode == 2
+    env["HORUS_RECORD_PROGRAM"] = str(tmp_path / "missing")
+    ran = subprocess.run([HORUS, "record", "-a"], capture_output=True, text=True, env=env,
+                         timeout=30)
+    assert ran.returncode == 1 and "cannot run" in ran.stderr

@@ -3,7 +3,7 @@ enum under `jsonschema/<package path>/` (a service gives its request and respons
 
 A schema describes a message as JSON values (the HORUS recording export to Foxglove writes them):
 an object per message with every field required, integers with their range, floats as numbers or
-null (JSON has no NaN or infinity), strings, `bytes` as base64 strings, arrays (of exact length
+null (JSON has no NaN or infinity), strings, `bytes` and `Vec<u8>` as base64 strings, arrays (of exact length
 for fixed arrays), an empty Option as null, an enum as its variant's name. Nested messages are
 inlined, so each file stands alone (Foxglove reads one schema per channel).
 """
@@ -13,9 +13,10 @@ import json
 import os
 
 from ..data import DataPaths
-from ..model import (Bytes, DynString, Enum, EnumRef, FixedArray, FixedString, Message, MessageRef,
+from ..model import (DynString, Enum, EnumRef, FixedArray, FixedString, Message, MessageRef,
                      Model, Optional, Primitive, Service, Type, Vec)
 from .common import environment
+from .python import _is_bytes  # bytes and Vec<u8> are one thing on the wire, bytes in Python
 
 DISPLAY_NAME = "JSON Schema"
 KEYWORDS: frozenset[str] = frozenset()  # field names become JSON keys: any name suits
@@ -58,7 +59,7 @@ def type_schema(model: Model, spelled: Type) -> dict:
         return {"type": "integer", "minimum": low, "maximum": high}
     if isinstance(spelled, (FixedString, DynString)):
         return {"type": "string"}
-    if isinstance(spelled, Bytes):
+    if _is_bytes(spelled):
         return {"type": "string", "contentEncoding": "base64"}
     if isinstance(spelled, FixedArray):
         return {"type": "array", "items": type_schema(model, spelled.element),
