@@ -22,9 +22,9 @@ import subprocess
 import tempfile
 
 import horus_mcap as mcap
+from horus_mcap import MSGPACK_ENCODING, POD_ENCODING
 
 GENERATOR_PROGRAM = os.environ.get("HORUS_GEN_PROGRAM", "horus-gen")
-POD_ENCODING, MSGPACK_ENCODING = "horus.pod", "horus.msgpack"
 
 # ImageEncoding names -> Foxglove's RawImage encodings (those it draws).
 IMAGE_ENCODINGS = {"Mono8": "mono8", "Mono16": "mono16", "Rgb8": "rgb8", "Bgr8": "bgr8",

@@ -29,6 +29,11 @@ RECORD_HEAD = struct.Struct("<BQ")  # opcode, content length
 FOOTER_SIZE = RECORD_HEAD.size + 20  # opcode, length, summary_start, summary_offset_start, crc
 DEFAULT_CHUNK_SIZE = 1 << 20  # uncompressed bytes of records per chunk, as the C++ recorder
 
+# The HORUS convention: channels of topics carry their raw POD or MessagePack bytes; the node
+# ticks are JSON on a channel no topic can be named (topic names have no '/').
+POD_ENCODING, MSGPACK_ENCODING = "horus.pod", "horus.msgpack"
+TICKS_TOPIC = "/horus/ticks"
+
 
 class McapError(Exception):
     """A file that is not MCAP, or whose contents contradict themselves (CRC, lengths)."""

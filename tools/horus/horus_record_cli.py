@@ -14,31 +14,18 @@ command: 0, 1 (not found, refused, a difference for diff), 2 (usage).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
 
 import horus_mcap as mcap
+from horus_mcap import MSGPACK_ENCODING, POD_ENCODING, TICKS_TOPIC
+from horus_cli import (EXIT_NOT_FOUND, EXIT_OK, EXIT_USAGE, SCHEMA_DIR, CommandFailed,
+                       _described_types, _emit, _Parser, _table)
 
-EXIT_OK, EXIT_NOT_FOUND, EXIT_USAGE = 0, 1, 2
-ACTIONS = ("list", "info", "delete", "repair", "replay", "diff", "export")
 
 # The standalone recorder, set by the launcher (bin/horus) to the horus-record beside it.
 RECORD_PROGRAM = os.environ.get("HORUS_RECORD_PROGRAM", "horus-record")
-GENERATOR_PROGRAM = os.environ.get("HORUS_GEN_PROGRAM", "horus-gen")
-SCHEMA_DIR = os.environ.get("HORUS_SCHEMA_DIR", "")
-
-TICKS_TOPIC = "/horus/ticks"
-POD_ENCODING, MSGPACK_ENCODING = "horus.pod", "horus.msgpack"
-
-
-class RecordFailed(Exception):
-    """A failure reported as one line on stderr, with its exit status."""
-
-    def __init__(self, message: str, status: int = EXIT_NOT_FOUND) -> None:
-        super().__init__(message)
-        self.status = status
 
 
 def recordings_folder() -> str:
@@ -55,21 +42,7 @@ def resolve(name: str) -> str:
     for candidate in candidates:
         if os.path.isfile(candidate):
             return candidate
-    raise RecordFailed(f"no recording '{name}' (not a file, nor in {recordings_folder()})")
-
-
-def _emit(value, as_json: bool, render) -> None:
-    if as_json:
-        json.dump(value, sys.stdout, indent=2, sort_keys=True)
-        sys.stdout.write("\n")
-    else:
-        render(value)
-
-
-def _table(header: list[str], rows: list[list]) -> None:
-    widths = [max(len(str(row[i])) for row in [header, *rows]) for i in range(len(header))]
-    for row in [header, *rows]:
-        print("  ".join(str(cell).ljust(width) for cell, width in zip(row, widths)).rstrip())
+    raise CommandFailed(f"no recording '{name}' (not a file, nor in {recordings_folder()})")
 
 
 def _walk(path: str) -> mcap.Reader:
@@ -79,7 +52,7 @@ def _walk(path: str) -> mcap.Reader:
         for _ in reader:
             pass
     except OSError as error:
-        raise RecordFailed(f"cannot read {path}: {error.strerror}") from None
+        raise CommandFailed(f"cannot read {path}: {error.strerror}") from None
     return reader
 
 
@@ -98,7 +71,7 @@ def record(args) -> int:
     try:
         os.execvp(command[0], command)
     except OSError as error:
-        raise RecordFailed(f"cannot run {RECORD_PROGRAM}: {error.strerror}") from None
+        raise CommandFailed(f"cannot run {RECORD_PROGRAM}: {error.strerror}") from None
 
 
 def list_recordings(args) -> int:
@@ -127,12 +100,12 @@ def list_recordings(args) -> int:
 def delete(args) -> int:
     name = args.name[:-len(".mcap")] if args.name.endswith(".mcap") else args.name
     if not name or os.sep in name or name in (".", ".."):
-        raise RecordFailed(f"'{args.name}' is not a recording name (horus record list)", EXIT_USAGE)
+        raise CommandFailed(f"'{args.name}' is not a recording name (horus record list)", EXIT_USAGE)
     path = os.path.join(recordings_folder(), name + ".mcap")
     try:
         os.unlink(path)
     except FileNotFoundError:
-        raise RecordFailed(f"no recording '{name}' in {recordings_folder()}") from None
+        raise CommandFailed(f"no recording '{name}' in {recordings_folder()}") from None
     print(f"deleted {path}")
     return EXIT_OK
 
@@ -221,7 +194,7 @@ def repair(args) -> int:
     try:
         reader = mcap.repair(path, args.output)
     except OSError as error:
-        raise RecordFailed(f"cannot repair {path}: {error.strerror}") from None
+        raise CommandFailed(f"cannot repair {path}: {error.strerror}") from None
     print(f"repaired {args.output or path}: kept {reader.statistics.message_count} messages in "
           f"{reader.statistics.chunk_count} chunks, dropped {reader.cut_bytes} bytes of an "
           "incomplete record")
@@ -242,7 +215,7 @@ class _ReplayTopic:
         try:
             self.fingerprint = int(fingerprint, 16)
         except ValueError:
-            raise RecordFailed(f"channel '{channel.topic}' has no valid horus.fingerprint "
+            raise CommandFailed(f"channel '{channel.topic}' has no valid horus.fingerprint "
                                f"({fingerprint!r}): not a HORUS recording") from None
         self.schema = schema.data.decode("utf-8", "replace")
         self.is_pod = channel.message_encoding == POD_ENCODING
@@ -261,49 +234,35 @@ def _replay_channels(reader_channels: dict[int, mcap.Channel], schemas: dict[int
             continue  # node ticks and anything not a HORUS topic are not republished
         schema = schemas.get(channel.schema_id)
         if schema is None:
-            raise RecordFailed(f"channel '{channel.topic}' has no schema record")
+            raise CommandFailed(f"channel '{channel.topic}' has no schema record")
         topics[channel.id] = _ReplayTopic(channel, schema)
     if wanted is not None:
         missing = sorted(wanted - {t.channel.topic for t in topics.values()})
         if missing:
-            raise RecordFailed(f"not in the recording: {', '.join(missing)}")
+            raise CommandFailed(f"not in the recording: {', '.join(missing)}")
     return topics
 
 
-def _installed_fingerprints(includes: list[str]) -> dict[str, str]:
+def _installed_fingerprints(args) -> dict[str, str]:
     """Each type of the installed (or -I) schemas with its current fingerprint (16 hex digits);
     empty when there are no schemas to read."""
-    import pathlib
-    import subprocess
-    folders = includes or ([SCHEMA_DIR] if SCHEMA_DIR else [])
-    files = sorted(str(p) for folder in folders for pattern in ("*.hmsg", "*.hsrv")
-                   for p in pathlib.Path(folder).rglob(pattern))
-    if not files:
+    if not (args.include or SCHEMA_DIR):
         return {}
-    command = [GENERATOR_PROGRAM, "describe", "--json",
-               *[arg for folder in folders for arg in ("-I", folder)], *files]
-    try:
-        described = subprocess.run(command, capture_output=True, text=True)
-    except OSError as error:
-        raise RecordFailed(f"cannot run {GENERATOR_PROGRAM}: {error.strerror}") from None
-    if described.returncode != 0:
-        first = (described.stderr.strip().splitlines() or ["(no message)"])[0]
-        raise RecordFailed(f"horus-gen describe failed: {first}")
     return {t["name"]: t["fingerprint"].lower().removeprefix("0x")
-            for t in json.loads(described.stdout)["types"]}
+            for t in _described_types(args)}
 
 
-def check_types(topics: dict[int, _ReplayTopic], namespace: str, includes: list[str]) -> None:
+def check_types(topics: dict[int, _ReplayTopic], args) -> None:
     """Refuses (by type name) a type whose fingerprint differs from the recorded one, in the
     schemas or on a live topic of the namespace: its bytes would be read as another layout."""
     from horus import _core
-    installed = _installed_fingerprints(includes)
-    live = {t["name"]: t for t in _core.list_topics(namespace)}
+    installed = _installed_fingerprints(args)
+    live = {t["name"]: t for t in _core.list_topics(args.namespace)}
     for topic in topics.values():
         recorded = f"{topic.fingerprint:016x}"
         current = installed.get(topic.type_name)
         if current is not None and current != recorded:
-            raise RecordFailed(f"type {topic.type_name} changed since the recording (topic "
+            raise CommandFailed(f"type {topic.type_name} changed since the recording (topic "
                                f"'{topic.channel.topic}': recorded fingerprint {recorded}, the "
                                f"schemas now give {current}); refusing to replay it")
         segment = live.get(topic.channel.topic)
@@ -311,7 +270,7 @@ def check_types(topics: dict[int, _ReplayTopic], namespace: str, includes: list[
                 segment["type_name"] != topic.type_name or segment["fingerprint"] != topic.fingerprint):
             what = ("type " + topic.type_name + " changed since the recording"
                     if segment["type_name"] == topic.type_name else "the topic carries another type")
-            raise RecordFailed(f"{what}: topic '{topic.channel.topic}' now carries "
+            raise CommandFailed(f"{what}: topic '{topic.channel.topic}' now carries "
                                f"{segment['type_name']} (fingerprint {segment['fingerprint']:016x}), "
                                f"the recording has {topic.type_name} (fingerprint {recorded}); "
                                "refusing to replay it")
@@ -335,15 +294,15 @@ def _selected(message: mcap.Message, first: int, start: float | None, end: float
 def replay(args) -> int:
     path = resolve(args.file)
     if args.rate <= 0:
-        raise RecordFailed("--rate must be > 0 (1 is the recorded speed)", EXIT_USAGE)
+        raise CommandFailed("--rate must be > 0 (1 is the recorded speed)", EXIT_USAGE)
     wanted = {t for t in args.topics.split(",") if t} if args.topics else None
     # A first walk finds the channels, the first message's time and each topic's largest message
     # (a serialized topic's slots must hold it) before anything is published.
     reader = _walk(path)
     topics = _replay_channels(reader.channels, reader.schemas, wanted)
     if not topics:
-        raise RecordFailed(f"{path} has no HORUS topic to replay")
-    check_types(topics, args.namespace, args.include or [])
+        raise CommandFailed(f"{path} has no HORUS topic to replay")
+    check_types(topics, args)
     first = None
     for record in mcap.Reader(path):
         if isinstance(record, mcap.Message) and record.channel_id in topics:
@@ -351,7 +310,7 @@ def replay(args) -> int:
             topic = topics[record.channel_id]
             topic.largest = max(topic.largest, len(record.data))
     if first is None:
-        raise RecordFailed(f"{path} holds no message on the topics to replay")
+        raise CommandFailed(f"{path} holds no message on the topics to replay")
     for topic in topics.values():
         _open_topic(topic, args.capacity)
     sent = failed = 0
@@ -440,7 +399,7 @@ def _loaded_type(type_name: str, schema: str, fingerprint: int):
     try:
         return dynamic_types.load_type(type_name, schema, fingerprint)
     except dynamic_types.SchemaError as error:
-        raise RecordFailed(str(error)) from None
+        raise CommandFailed(str(error)) from None
 
 
 def export(args) -> int:
@@ -449,7 +408,7 @@ def export(args) -> int:
     try:
         counts = horus_foxglove.export(path, args.foxglove)
     except horus_foxglove.ExportError as error:
-        raise RecordFailed(str(error)) from None
+        raise CommandFailed(str(error)) from None
     print(f"wrote {args.foxglove}: {sum(counts.values())} JSON messages on {len(counts)} topics")
     return EXIT_OK
 
@@ -458,18 +417,18 @@ def export(args) -> int:
 # command line
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str):
-        self.exit(EXIT_USAGE, f"{self.prog}: {message}\n")
-
-
-def build_parser() -> argparse.ArgumentParser:
+def _parents() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser]:
+    """The options every `horus record` parser takes, and those of the listings."""
     common = _Parser(add_help=False)
     common.add_argument("--namespace", "-n", default=argparse.SUPPRESS,
                         help="the namespace (default: $HORUS_NAMESPACE, else 'default')")
     listing = _Parser(add_help=False)
     listing.add_argument("--json", action="store_true", help="print JSON instead of text")
-    parser = _Parser(prog="horus record", parents=[common],
+    return common, listing
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="horus record", parents=[_parents()[0]],
                      description="Record the namespace's topics (runs horus-record until Ctrl+C "
                                  "or --duration), or, with an action, work on recordings: "
                                  + ", ".join(ACTIONS) + ". `horus record ACTION --help` for each.")
@@ -484,73 +443,64 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _replay_arguments(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument("file")
+    sub.add_argument("--rate", type=float, default=1.0,
+                     help="speed factor (default 1: as recorded; 2: twice as fast)")
+    sub.add_argument("--loop", action="store_true", help="start again at the end, until Ctrl+C")
+    sub.add_argument("--topics", metavar="A,B", help="only these topics")
+    sub.add_argument("--start", type=float, metavar="S",
+                     help="from S seconds after the first message")
+    sub.add_argument("--end", type=float, metavar="S",
+                     help="up to S seconds after the first message")
+    sub.add_argument("--capacity", type=int, default=64,
+                     help="slots of topics the replay creates (default 64)")
+    sub.add_argument("-I", dest="include", action="append", metavar="DIR",
+                     help="schema folder whose types must match the recording (repeatable; "
+                          "default: the installed schemas)")
+
+
+# Each action: its handler, whether it lists (--json), what it does, its own arguments.
+ACTION_SPECS = {
+    "list": (list_recordings, True, "The recordings in $HORUS_RECORDINGS.",
+             lambda sub: sub.add_argument("-v", "--verbose", action="store_true",
+                                          help="with size, time and path")),
+    "info": (info, True, "A recording's topics, types, message counts, duration, losses and "
+                         "whether its summary is there (a cut file has none).",
+             lambda sub: (sub.add_argument("file", help="a path, or a name of `horus record list`"),
+                          sub.add_argument("--check", action="store_true",
+                                           help="read every record (checking every CRC) instead "
+                                                "of the summary"))),
+    "delete": (delete, False, "Delete a recording of the folder.",
+               lambda sub: sub.add_argument("name", help="a name of `horus record list`")),
+    "repair": (repair, False, "Write the summary and footer of a cut file (a recorder killed with "
+                              "kill -9), keeping every complete chunk.",
+               lambda sub: (sub.add_argument("file"),
+                            sub.add_argument("-o", "--output", metavar="FILE",
+                                             help="write the repaired file there (default: in "
+                                                  "place)"))),
+    "replay": (replay, False, "Publish a recording's messages into the namespace's shared-memory "
+                              "topics with the recorded timing.", _replay_arguments),
+    "diff": (diff, True, "The first differing message of each topic of two recordings (bytes, in "
+                         "order; times are ignored). Exit status 1 when they differ.",
+             lambda sub: (sub.add_argument("a"), sub.add_argument("b"))),
+    "export": (export, False, "Write an MCAP that Foxglove opens with no plugin: JSON messages "
+                              "with JSON Schema schemas; images, point clouds, laser scans, poses "
+                              "and transforms as Foxglove's own schemas.",
+               lambda sub: (sub.add_argument("file"),
+                            sub.add_argument("--foxglove", required=True, metavar="OUT",
+                                             help="the file to write"))),
+}
+ACTIONS = tuple(ACTION_SPECS)
+
+
 def build_action_parser(action: str) -> argparse.ArgumentParser:
-    common = _Parser(add_help=False)
-    common.add_argument("--namespace", "-n", default=argparse.SUPPRESS,
-                        help="the namespace (default: $HORUS_NAMESPACE, else 'default')")
-    listing = _Parser(add_help=False)
-    listing.add_argument("--json", action="store_true", help="print JSON instead of text")
-    prog = f"horus record {action}"
-    if action == "list":
-        sub = _Parser(prog=prog, parents=[common, listing],
-                      description="The recordings in $HORUS_RECORDINGS.")
-        sub.add_argument("-v", "--verbose", action="store_true", help="with size, time and path")
-        sub.set_defaults(handler=list_recordings)
-    elif action == "info":
-        sub = _Parser(prog=prog, parents=[common, listing],
-                      description="A recording's topics, types, message counts, duration, losses "
-                                  "and whether its summary is there (a cut file has none).")
-        sub.add_argument("file", help="a path, or a name of `horus record list`")
-        sub.add_argument("--check", action="store_true",
-                         help="read every record (checking every CRC) instead of the summary")
-        sub.set_defaults(handler=info)
-    elif action == "delete":
-        sub = _Parser(prog=prog, parents=[common], description="Delete a recording of the folder.")
-        sub.add_argument("name", help="a name of `horus record list`")
-        sub.set_defaults(handler=delete)
-    elif action == "repair":
-        sub = _Parser(prog=prog, parents=[common],
-                      description="Write the summary and footer of a cut file (a recorder killed "
-                                  "with kill -9), keeping every complete chunk.")
-        sub.add_argument("file")
-        sub.add_argument("-o", "--output", metavar="FILE",
-                         help="write the repaired file there (default: in place)")
-        sub.set_defaults(handler=repair)
-    elif action == "replay":
-        sub = _Parser(prog=prog, parents=[common],
-                      description="Publish a recording's messages into the namespace's "
-                                  "shared-memory topics with the recorded timing.")
-        sub.add_argument("file")
-        sub.add_argument("--rate", type=float, default=1.0,
-                         help="speed factor (default 1: as recorded; 2: twice as fast)")
-        sub.add_argument("--loop", action="store_true", help="start again at the end, until Ctrl+C")
-        sub.add_argument("--topics", metavar="A,B", help="only these topics")
-        sub.add_argument("--start", type=float, metavar="S",
-                         help="from S seconds after the first message")
-        sub.add_argument("--end", type=float, metavar="S",
-                         help="up to S seconds after the first message")
-        sub.add_argument("--capacity", type=int, default=64,
-                         help="slots of topics the replay creates (default 64)")
-        sub.add_argument("-I", dest="include", action="append", metavar="DIR",
-                         help="schema folder whose types must match the recording (repeatable; "
-                              "default: the installed schemas)")
-        sub.set_defaults(handler=replay)
-    elif action == "diff":
-        sub = _Parser(prog=prog, parents=[common, listing],
-                      description="The first differing message of each topic of two recordings "
-                                  "(bytes, in order; times are ignored). Exit status 1 when they "
-                                  "differ.")
-        sub.add_argument("a")
-        sub.add_argument("b")
-        sub.set_defaults(handler=diff)
-    else:
-        sub = _Parser(prog=prog, parents=[common],
-                      description="Write an MCAP that Foxglove opens with no plugin: JSON "
-                                  "messages with JSON Schema schemas; images, point clouds, laser "
-                                  "scans, poses and transforms as Foxglove's own schemas.")
-        sub.add_argument("file")
-        sub.add_argument("--foxglove", required=True, metavar="OUT", help="the file to write")
-        sub.set_defaults(handler=export)
+    handler, lists, description, add_arguments = ACTION_SPECS[action]
+    common, listing = _parents()
+    sub = _Parser(prog=f"horus record {action}", description=description,
+                  parents=[common, listing] if lists else [common])
+    add_arguments(sub)
+    sub.set_defaults(handler=handler)
     return sub
 
 
@@ -591,7 +541,7 @@ def main(argv: list[str], namespace: str = "") -> int:
     args.namespace = getattr(args, "namespace", None) or namespace
     try:
         return args.handler(args)
-    except RecordFailed as failure:
+    except CommandFailed as failure:
         print(f"horus: {failure}", file=sys.stderr)
         return failure.status
     except mcap.McapError as error:
