@@ -132,7 +132,7 @@ class RecorderImpl {
 
   RecordingSummary summary() const {
     std::lock_guard lock(mutex_);
-    return current_summary();
+    return final_summary_ ? *final_summary_ : current_summary();
   }
 
   RecordingSummary stop() {
@@ -142,7 +142,7 @@ class RecorderImpl {
       finish_file();
     }
     std::lock_guard lock(mutex_);
-    return current_summary();
+    return final_summary_ ? *final_summary_ : current_summary();
   }
 
  private:
@@ -319,7 +319,7 @@ class RecorderImpl {
   void finish_file() {
     std::lock_guard lock(mutex_);
     for (NodeTicks& ticks : tick_logs_) ticks.log->close();
-    const RecordingSummary summary = current_summary();
+    RecordingSummary& summary = final_summary_.emplace(current_summary());
     McapMap entries{{"lost_total", std::to_string(summary.lost_total)}};
     for (const auto& [topic, lost] : summary.lost) entries.emplace_back("lost." + topic, std::to_string(lost));
     entries.emplace_back("end_ns", std::to_string(realtime_ns()));
@@ -327,6 +327,7 @@ class RecorderImpl {
     try {
       writer_.add_metadata("horus.recorder", entries);
       writer_.finish();
+      summary.bytes = writer_.file_size();
     } catch (const std::exception& e) {
       log::error("recorder: cannot finish recording %s: %s", summary_.path.c_str(), e.what());
       return;
@@ -361,6 +362,7 @@ class RecorderImpl {
   std::string tick_text_;
   std::string error_;
   RecordingSummary summary_;
+  std::optional<RecordingSummary> final_summary_;  // once stopped
 
   std::mutex stop_mutex_;
   std::atomic<bool> stopped_{false};
