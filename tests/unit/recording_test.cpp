@@ -6,14 +6,17 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
 #include "horus/horus.hpp"
 #include "horus/recording.hpp"
-#include "topic_test/sample.hpp"
+#include "topic_test/big.hpp"
 #include "topic_test/blob.hpp"
 #include "topic_test/other.hpp"
+#include "topic_test/sample.hpp"
 #include "topic_test_support.hpp"
 
 namespace {
@@ -106,8 +109,7 @@ TEST(Recording, RecorderWritesEveryMessageWithItsTypeAndReadsBack) {
   const horus::RecordedChannel* channel = reader.channel("samples");
   ASSERT_NE(channel, nullptr);
   EXPECT_EQ(channel->message_encoding, "horus.pod");
-  EXPECT_EQ(channel->metadata.at("horus.fingerprint"),
-            hex16(horus::TypeInfo<Sample>::fingerprint));
+  EXPECT_EQ(channel->metadata.at("horus.fingerprint"), hex16(horus::TypeInfo<Sample>::fingerprint));
   EXPECT_EQ(channel->metadata.at("horus.type"), horus::TypeInfo<Sample>::name);
   EXPECT_EQ(channel->metadata.at("horus.payload_size"), std::to_string(sizeof(Sample)));
   const horus::RecordedSchema& schema = reader.schemas().at(channel->schema_id);
@@ -254,8 +256,10 @@ TEST(Recording, SchedulerRecordsItsNodesTopicsAndTicksIntoOneSession) {
   const auto tick_records = messages_of(reader, "/horus/ticks");
   ASSERT_EQ(tick_records.size(), 100U);
   const std::string first(tick_records[0]->data.begin(), tick_records[0]->data.end());
-  EXPECT_THAT(first, ::testing::MatchesRegex(
-                         R"(\{"node":"producer","tick":0,"start_ns":[0-9]+,"duration_ns":[0-9]+,"outcome":"ok"\})"));
+  EXPECT_THAT(
+      first,
+      ::testing::MatchesRegex(
+          R"(\{"node":"producer","tick":0,"start_ns":[0-9]+,"duration_ns":[0-9]+,"outcome":"ok"\})"));
 
   horus::Scheduler other(quiet_config());
   EXPECT_TRUE(other.delete_recording(file.stem().string()));
@@ -326,6 +330,47 @@ TEST(Recording, ReplayRefusesATopicWhoseTypeChangedNamingIt) {
     EXPECT_THAT(e.what(), ::testing::HasSubstr("topic_test.Other"));
     EXPECT_THAT(e.what(), ::testing::HasSubstr("type changed"));
   }
+}
+
+/// A recorder killed with kill -9 leaves its complete chunks, then a cut one: every cut point
+/// reads back as a prefix of the messages, and the file says it is incomplete.
+TEST(Recording, AFileCutAnywhereReadsBackItsCompleteChunks) {
+  topic_test::PrivateNamespace ns;
+  RecordingsFolder folder;
+  horus::Topic<topic_test::Big> big("big", {.capacity = 4096});
+  horus::Recorder recorder(options_for({"big"}));
+  for (std::uint64_t i = 0; i < 1500; ++i)
+    ASSERT_TRUE(big.send(topic_test::sealed<topic_test::Big>(i)));
+  const horus::RecordingSummary summary = recorder.stop();
+  ASSERT_EQ(summary.lost_total, 0U);
+  std::ifstream in(summary.path, std::ios::binary);
+  const std::string whole((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const horus::RecordingReader full(summary.path);
+  ASSERT_GE(full.chunk_count(), 4U);
+  const auto all = messages_of(full, "big");
+  ASSERT_EQ(all.size(), 1500U);
+
+  const std::filesystem::path cut_path = folder.path() / "cut.mcap";
+  std::size_t previous = 0;
+  for (std::size_t cut = 64; cut < whole.size(); cut += whole.size() / 23) {
+    std::ofstream(cut_path, std::ios::binary | std::ios::trunc)
+        .write(whole.data(), static_cast<std::streamsize>(cut));
+    const horus::RecordingReader reader(cut_path);
+    EXPECT_FALSE(reader.complete());
+    const auto got = messages_of(reader, "big");
+    EXPECT_GE(got.size(), previous);  // a longer prefix never reads fewer messages
+    previous = got.size();
+    for (std::size_t i = 0; i < got.size(); ++i) {
+      ASSERT_EQ(got[i]->data, all[i]->data) << "cut at " << cut << ", message " << i;
+    }
+  }
+  EXPECT_GT(previous, 0U);
+  // A damaged byte inside a complete chunk is reported, not read as data.
+  std::string damaged = whole;
+  damaged[whole.size() / 2] ^= 0x5a;
+  std::ofstream(cut_path, std::ios::binary | std::ios::trunc)
+      .write(damaged.data(), static_cast<std::streamsize>(damaged.size()));
+  EXPECT_THROW(horus::RecordingReader{cut_path}, horus::Error);
 }
 
 TEST(Recording, ReplayNeedsDeterministicMode) {

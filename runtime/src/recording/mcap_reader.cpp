@@ -5,7 +5,6 @@
 #include <cerrno>
 #include <cstring>
 #include <fstream>
-#include <iterator>
 
 #include "horus/detail/errno_text.hpp"
 #include "horus/error.hpp"
@@ -36,12 +35,15 @@ std::string hex32(std::uint32_t value) {
 }  // namespace
 
 RecordingReader::RecordingReader(const std::filesystem::path& path) : path_(path) {
-  std::ifstream in(path, std::ios::binary);
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) {
     throw Error("cannot open recording " + path.string() + ": " + detail::errno_text(errno));
   }
-  const std::vector<std::uint8_t> file((std::istreambuf_iterator<char>(in)),
-                                       std::istreambuf_iterator<char>());
+  std::vector<std::uint8_t> file(static_cast<std::size_t>(in.tellg()));
+  in.seekg(0);
+  if (!in.read(reinterpret_cast<char*>(file.data()), static_cast<std::streamsize>(file.size()))) {
+    throw Error("cannot read recording " + path.string() + ": " + detail::errno_text(errno));
+  }
   const auto& magic = detail::mcap::kMagic;
   if (file.size() < magic.size() || std::memcmp(file.data(), magic.data(), magic.size()) != 0) {
     throw Error("recording " + path.string() + " is not an MCAP file (no magic)");
