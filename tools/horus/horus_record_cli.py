@@ -296,21 +296,25 @@ def replay(args) -> int:
     if args.rate <= 0:
         raise CommandFailed("--rate must be > 0 (1 is the recorded speed)", EXIT_USAGE)
     wanted = {t for t in args.topics.split(",") if t} if args.topics else None
-    # A first walk finds the channels, the first message's time and each topic's largest message
-    # (a serialized topic's slots must hold it) before anything is published.
-    reader = _walk(path)
+    # A first walk finds the channels, each one's first message time and largest message (a
+    # serialized topic's slots must hold it) before anything is published.
+    reader = mcap.Reader(path)
+    first_time: dict[int, int] = {}
+    largest: dict[int, int] = {}
+    for record in reader:
+        if isinstance(record, mcap.Message):
+            first_time[record.channel_id] = min(first_time.get(record.channel_id, record.log_time),
+                                                record.log_time)
+            largest[record.channel_id] = max(largest.get(record.channel_id, 0), len(record.data))
     topics = _replay_channels(reader.channels, reader.schemas, wanted)
     if not topics:
         raise CommandFailed(f"{path} has no HORUS topic to replay")
     check_types(topics, args)
-    first = None
-    for record in mcap.Reader(path):
-        if isinstance(record, mcap.Message) and record.channel_id in topics:
-            first = record.log_time if first is None else min(first, record.log_time)
-            topic = topics[record.channel_id]
-            topic.largest = max(topic.largest, len(record.data))
-    if first is None:
+    if not any(channel_id in first_time for channel_id in topics):
         raise CommandFailed(f"{path} holds no message on the topics to replay")
+    first = min(first_time[channel_id] for channel_id in topics if channel_id in first_time)
+    for channel_id, topic in topics.items():
+        topic.largest = largest.get(channel_id, 0)
     for topic in topics.values():
         _open_topic(topic, args.capacity)
     sent = failed = 0

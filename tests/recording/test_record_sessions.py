@@ -1,0 +1,151 @@
+"""`horus record` over files the C++ recorder writes (a Python Scheduler(recording=True) session,
+and horus-record run by `horus record`, finished or killed with kill -9), checked again with PyPI
+`mcap` and `jsonschema`."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import time
+
+import jsonschema
+from mcap.reader import make_reader
+
+import horus
+from horus import Node, Scheduler
+from horus.msg import CmdVel, CompressedImage
+
+from test_record import SUBSCRIBER, run_horus
+
+HORUS = os.environ.get("HORUS_CLI", "")
+
+
+def record_python_session(count: int) -> tuple[str, list]:
+    sent = []
+
+    def drive(node):
+        message = CmdVel(linear=float(len(sent)) + 0.25, angular=-0.5)
+        sent.append(message)
+        node.send("cmd", message)
+
+    scheduler = Scheduler(tick_rate=100, recording=True)
+    scheduler.add(Node(name="driver", tick=drive, order=0, pubs={"cmd": CmdVel}))
+    scheduler.add(Node(name="motor", tick=lambda n: list(iter(lambda: n.recv("cmd"), None)),
+                       order=1, subs={"cmd": CmdVel}))
+    for _ in range(count):
+        scheduler.tick_once()
+    files = scheduler.stop_recording()
+    assert len(files) == 1
+    return files[0], sent
+
+
+def test_a_python_session_reads_lists_diffs_and_exports(tmp_path):
+    path, sent = record_python_session(40)
+    name = os.path.basename(path)[:-len(".mcap")]
+    assert name in run_horus("record", "list").stdout.split()
+    for extra in ([], ["--check"]):  # from the summary, then walking every record and CRC
+        info = run_horus("record", "info", name, "--json", *extra)
+        assert info.returncode == 0, info.stderr
+        described = json.loads(info.stdout)
+        assert described["summary"] is True and described["lost"] == 0
+        counts = {t["topic"]: t["messages"] for t in described["topics"]}
+        assert counts == {"cmd": len(sent), "/horus/ticks": 2 * len(sent)}
+        cmd = next(t for t in described["topics"] if t["topic"] == "cmd")
+        assert cmd["type"] == "horus.msg.CmdVel" and cmd["lost"] == 0
+        assert cmd["fingerprint"] == f"{CmdVel.__horus__.fingerprint:016x}"
+        assert described["session"]["session"] == name
+    same = run_horus("record", "diff", name, path)
+    assert same.returncode == 0, same.stdout + same.stderr
+
+    out = tmp_path / "session_foxglove.mcap"
+    exported = run_horus("record", "export", name, "--foxglove", str(out))
+    assert exported.returncode == 0, exported.stderr
+    counts = {}
+    with open(out, "rb") as stream:
+        for schema, channel, message in make_reader(stream, validate_crcs=True).iter_messages():
+            value = json.loads(message.data)
+            jsonschema.validate(value, json.loads(schema.data))
+            counts[channel.topic] = counts.get(channel.topic, 0) + 1
+            if channel.topic == "cmd":
+                assert value["linear"] == sent[counts["cmd"] - 1].linear
+    assert counts == {"cmd": len(sent), "/horus/ticks": 2 * len(sent)}
+
+
+def test_a_python_session_replays_into_a_live_subscriber(children):
+    path, sent = record_python_session(60)
+    subscriber = children.python(SUBSCRIBER.format(count=len(sent)))
+    assert subscriber.stdout.readline().strip() == "ready"
+    replayed = run_horus("record", "replay", path, "--rate", "10")
+    assert replayed.returncode == 0, replayed.stderr
+    out, _ = subscriber.communicate(timeout=60)
+    assert out.split() == [m.to_bytes().hex() for m in sent]
+
+
+def start_recording(*args: str) -> subprocess.Popen:
+    """`horus record ARGS...` (which runs horus-record)."""
+    return subprocess.Popen([HORUS, "record", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def wait_subscribed(topic: str, probe, limit: float = 20.0) -> None:
+    deadline = time.monotonic() + limit
+    while time.monotonic() < deadline:
+        info = {t["name"]: t for t in horus._core.list_topics("")}.get(topic)
+        if info and info["subscribers"] >= 1:
+            return
+        probe()
+        time.sleep(0.01)
+    raise AssertionError(f"horus-record never subscribed to {topic}")
+
+
+def test_horus_record_runs_the_cpp_recorder_whose_file_info_reads(tmp_path):
+    out = tmp_path / "vel.mcap"
+    publisher = horus.Topic(CmdVel, "vel", capacity=1024)
+    recorder = start_recording("vel", "-o", str(out))
+    wait_subscribed("vel", lambda: publisher.send(CmdVel(linear=-1.0)))
+    for i in range(300):
+        assert publisher.send(CmdVel(linear=float(i)))
+    time.sleep(0.2)
+    recorder.send_signal(signal.SIGINT)
+    _, stderr = recorder.communicate(timeout=30)
+    assert recorder.returncode == 0, stderr
+    described = json.loads(run_horus("record", "info", str(out), "--json").stdout)
+    vel = next(t for t in described["topics"] if t["topic"] == "vel")
+    with open(out, "rb") as stream:
+        recorded = [m for _, _, m in make_reader(stream, validate_crcs=True).iter_messages()]
+    assert vel["messages"] == len(recorded) >= 300
+    assert described["lost"] == vel["lost"] == 0
+
+
+def test_a_cpp_recording_cut_by_kill_9_is_read_and_repaired(tmp_path):
+    out = tmp_path / "cut.mcap"
+    frames = horus.Topic(CompressedImage, "frames", capacity=256, max_message_size=64 * 1024)
+    recorder = start_recording("frames", "-o", str(out))
+    wait_subscribed("frames", lambda: frames.send(CompressedImage(format="probe")))
+    sent = 0
+    deadline = time.monotonic() + 60
+    while (not out.exists() or out.stat().st_size < 3 * 1024 * 1024) and time.monotonic() < deadline:
+        frames.send(CompressedImage(format="jpeg", width=sent, data=os.urandom(32 * 1024)))
+        sent += 1
+        if sent % 16 == 0:
+            time.sleep(0.002)
+    recorder.kill()
+    recorder.wait(timeout=30)
+
+    info = run_horus("record", "info", str(out), "--json")
+    assert info.returncode == 0, info.stderr
+    described = json.loads(info.stdout)
+    assert described["summary"] is False and described["lost"] is None
+    kept = described["messages"]
+    assert kept > 0 and described["chunks"] >= 2
+
+    repaired = run_horus("record", "repair", str(out), "-o", str(tmp_path / "fixed.mcap"))
+    assert repaired.returncode == 0, repaired.stderr
+    with open(tmp_path / "fixed.mcap", "rb") as stream:
+        reader = make_reader(stream, validate_crcs=True)
+        assert reader.get_summary().statistics.message_count == kept
+        frames = [CompressedImage.from_bytes(m.data) for _, _, m in reader.iter_messages()]
+    assert len(frames) == kept
+    widths = [f.width for f in frames if f.format == "jpeg"]
+    assert widths and widths == list(range(widths[0], widths[0] + len(widths)))
