@@ -384,3 +384,24 @@ def test_record_runs_horus_record_with_the_arguments(tmp_path):
     ran = subprocess.run([HORUS, "record", "-a"], capture_output=True, text=True, env=env,
                          timeout=30)
     assert ran.returncode == 1 and "cannot run" in ran.stderr
+
+
+def test_replay_into_cpp_subscribers_pod_and_serialized(tmp_path, children):
+    from horus.msg import CompressedImage
+    peer = os.environ["HORUS_PY_PEER"]
+    count = 50  # fewer than a topic's 64 slots: a subscriber that stalls still loses nothing
+    commands = [CmdVel(linear=i, angular=-i) for i in range(1, count + 1)]
+    images = [CompressedImage(format="png", width=i, height=2, data=bytes([0xAB]) * i)
+              for i in range(1, count + 1)]
+    path = tmp_path / "cross.mcap"
+    write_recording(path, {"cmd": (CmdVel, commands), "imgs": (CompressedImage, images)})
+    subscribers = [children.program(peer, "sub", "cmdvel", "cmd", str(count)),
+                   children.program(peer, "sub", "image", "imgs", str(count))]
+    for subscriber in subscribers:
+        assert subscriber.stdout.readline().strip() == "ready"
+    replayed = run_horus("record", "replay", str(path), "--rate", "5")
+    assert replayed.returncode == 0, replayed.stderr
+    for subscriber in subscribers:
+        out, err = subscriber.communicate(timeout=60)
+        assert subscriber.returncode == 0, err
+        assert out.split() == [str(i) for i in range(1, count + 1)]
