@@ -621,12 +621,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from horus_record_cli import run_if_record  # `record` parses its own arguments
-    status = run_if_record(sys.argv[1:] if argv is None else argv)
-    if status is not None:
-        return status
+    from horus_record_cli import parse_record  # `record` parses its own arguments
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parse_record(sys.argv[1:] if argv is None else argv) or parser.parse_args(argv)
     if getattr(args, "handler", None) is None:
         parser.parse_args([*(argv if argv is not None else sys.argv[1:]), "--help"])
     args.root_parser = parser

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import time
 
 import horus_mcap as mcap
@@ -508,46 +507,37 @@ def build_action_parser(action: str) -> argparse.ArgumentParser:
     return sub
 
 
-def run_if_record(argv: list[str]) -> int | None:
-    """Runs `horus [--namespace NS] record ...` (its exit status), or None for any other command:
-    horus_cli.py calls this first, as `record` parses its own arguments (topics and actions)."""
-    namespace, at = "", 0
+def parse_record(argv: list[str]) -> argparse.Namespace | None:
+    """The parsed arguments of `horus [--namespace NS] record ...` (with their `handler`), or None
+    for any other command: horus_cli.py asks this first, as `record` parses its own arguments
+    (topics and actions mix), then runs the handler as it runs its own."""
+    namespace, at = None, 0
     while at < len(argv) and (argv[at] in ("-n", "--namespace")
                               or argv[at].startswith("--namespace=")):
         if "=" in argv[at]:
             namespace, at = argv[at].split("=", 1)[1], at + 1
         else:
-            namespace, at = (argv[at + 1] if at + 1 < len(argv) else ""), at + 2
+            namespace, at = (argv[at + 1] if at + 1 < len(argv) else None), at + 2
     if at >= len(argv) or argv[at] != "record":
         return None
-    try:
-        return main(argv[at + 1:], namespace)
-    except KeyboardInterrupt:
-        return EXIT_OK
-    except Exception as error:  # noqa: BLE001 (a runtime error is one line, never a traceback)
-        if type(error).__name__ != "HorusError":
-            raise
-        print(f"horus: {error}", file=sys.stderr)
-        return EXIT_NOT_FOUND
-
-
-def main(argv: list[str], namespace: str = "") -> int:
-    """Runs `horus record ARGV...`; `namespace` is the one given before `record`."""
+    argv = argv[at + 1:]
     if argv and argv[0] in ACTIONS:
         args = build_action_parser(argv[0]).parse_args(argv[1:])
     else:
         # `--` lets a topic be named like an action: horus record -- list
-        args = build_parser().parse_args(argv)
+        parser = build_parser()
+        args = parser.parse_args(argv)
         if not args.all and not args.topics:
-            build_parser().error("name the topics to record, or -a for all of them")
+            parser.error("name the topics to record, or -a for all of them")
         if args.all and args.topics:
-            build_parser().error("-a records every topic: name no topic with it")
+            parser.error("-a records every topic: name no topic with it")
     args.namespace = getattr(args, "namespace", None) or namespace
-    try:
-        return args.handler(args)
-    except CommandFailed as failure:
-        print(f"horus: {failure}", file=sys.stderr)
-        return failure.status
-    except mcap.McapError as error:
-        print(f"horus: {error}", file=sys.stderr)
-        return EXIT_NOT_FOUND
+    handler = args.handler
+
+    def reporting(parsed):
+        try:
+            return handler(parsed)
+        except mcap.McapError as error:  # a file's fault: one line, as every failure
+            raise CommandFailed(str(error)) from None
+    args.handler = reporting
+    return args
