@@ -51,6 +51,21 @@ def write_recording(path, topics: dict, *, fingerprint_of=None, chunk_size=4096)
         writer.finish()
 
 
+def export_validated(path, out) -> list[tuple[str, str, object]]:
+    """Exports `path` for Foxglove into `out`, reads it back with PyPI mcap (CRCs checked) and
+    validates every JSON message against its channel's schema: (topic, schema name, value)."""
+    exported = run_horus("record", "export", str(path), "--foxglove", str(out))
+    assert exported.returncode == 0, exported.stderr
+    messages = []
+    with open(out, "rb") as stream:
+        for schema, channel, message in make_reader(stream, validate_crcs=True).iter_messages():
+            assert channel.message_encoding == "json" and schema.encoding == "jsonschema"
+            value = json.loads(message.data)
+            jsonschema.validate(value, json.loads(schema.data))
+            messages.append((channel.topic, schema.name, value))
+    return messages
+
+
 def cmd_vels(count: int, offset: float = 0.0) -> list:
     return [CmdVel(linear=i + offset, angular=-i) for i in range(count)]
 
@@ -191,16 +206,9 @@ def test_foxglove_export_validates_every_message_against_its_schema(tmp_path):
     path, out = tmp_path / "f.mcap", tmp_path / "foxglove.mcap"
     write_recording(path, {"scan": (LaserScan, [scan] * 3), "pose": (PoseStamped, [pose] * 2),
                            "tf": (TransformStamped, [transform]), "cmd": (CmdVel, cmd_vels(5))})
-    exported = run_horus("record", "export", str(path), "--foxglove", str(out))
-    assert exported.returncode == 0, exported.stderr
     seen = {}
-    with open(out, "rb") as stream:
-        reader = make_reader(stream, validate_crcs=True)
-        for schema, channel, message in reader.iter_messages():
-            assert channel.message_encoding == "json" and schema.encoding == "jsonschema"
-            value = json.loads(message.data)
-            jsonschema.validate(value, json.loads(schema.data))
-            seen.setdefault(channel.topic, (schema.name, value))
+    for topic, schema_name, value in export_validated(path, out):
+        seen.setdefault(topic, (schema_name, value))
     assert {t: s for t, (s, _) in seen.items()} == {
         "scan": "foxglove.LaserScan", "pose": "foxglove.PoseInFrame",
         "tf": "foxglove.FrameTransform", "cmd": "horus.msg.CmdVel"}
@@ -322,20 +330,12 @@ def test_foxglove_export_maps_messages_carrying_pixels_or_points_by_shape(tmp_pa
     pixels = bytes(range(12))
     frame = Frame(width=2, height=2, step=6, encoding=ImageEncoding.Rgb8, data=pixels,
                   frame_id="cam", timestamp_ns=3)
-    points = struct_points = b"".join(
-        v.to_bytes(4, "little") for v in range(6))  # two XYZ points of f32 bit patterns
-    cloud = Cloud(point_count=2, fields_per_point=3, dtype=TensorDtype.F32, data=struct_points,
+    points = b"".join(v.to_bytes(4, "little") for v in range(6))  # two XYZ points, as f32 bits
+    cloud = Cloud(point_count=2, fields_per_point=3, dtype=TensorDtype.F32, data=points,
                   frame_id="lidar", timestamp_ns=4)
     path, out = tmp_path / "user.mcap", tmp_path / "user_foxglove.mcap"
     write_recording(path, {"camera": (Frame, [frame]), "cloud": (Cloud, [cloud])})
-    exported = run_horus("record", "export", str(path), "--foxglove", str(out))
-    assert exported.returncode == 0, exported.stderr
-    seen = {}
-    with open(out, "rb") as stream:
-        for schema, channel, message in make_reader(stream, validate_crcs=True).iter_messages():
-            value = json.loads(message.data)
-            jsonschema.validate(value, json.loads(schema.data))
-            seen[channel.topic] = (schema.name, value)
+    seen = {topic: (name, value) for topic, name, value in export_validated(path, out)}
     name, image = seen["camera"]
     assert name == "foxglove.RawImage"
     assert (image["width"], image["height"], image["step"], image["encoding"],
