@@ -405,3 +405,27 @@ def test_replay_into_cpp_subscribers_pod_and_serialized(tmp_path, children):
         out, err = subscriber.communicate(timeout=60)
         assert subscriber.returncode == 0, err
         assert out.split() == [str(i) for i in range(1, count + 1)]
+
+
+def test_foxglove_export_leaves_out_a_type_it_cannot_decode_and_says_so(tmp_path):
+    path, out = tmp_path / "odd.mcap", tmp_path / "odd_foxglove.mcap"
+    with open(path, "wb") as stream:
+        writer = horus_mcap.Writer(stream)
+        odd = writer.add_schema("[u8; 4]", "horus.hmsg", b"[u8; 4]")
+        raw = writer.add_channel("raw", "horus.pod", odd, {"horus.fingerprint": "00000000000000ab",
+                                                           "horus.type": "[u8; 4]"})
+        meta = CmdVel.__horus__
+        cmd = writer.add_channel("cmd", "horus.pod",
+                                 writer.add_schema(meta.name, "horus.hmsg", meta.schema.encode()),
+                                 {"horus.fingerprint": f"{meta.fingerprint:016x}",
+                                  "horus.type": meta.name})
+        writer.add_message(raw, 1, b"abcd")
+        writer.add_message(cmd, 2, CmdVel(linear=3.0).to_bytes())
+        writer.finish()
+    exported = run_horus("record", "export", str(path), "--foxglove", str(out))
+    assert exported.returncode == 1
+    assert "left out of the export: topic 'raw': cannot decode [u8; 4]" in exported.stderr
+    with open(out, "rb") as stream:
+        messages = [(c.topic, json.loads(m.data)) for s, c, m in
+                    make_reader(stream, validate_crcs=True).iter_messages()]
+    assert messages == [("cmd", {"linear": 3.0, "angular": 0.0, "stamp_nanos": 0})]

@@ -297,26 +297,34 @@ class _ExportChannel:
         return json.dumps(value, separators=(",", ":"), allow_nan=False).encode()
 
 
-def export(path: str, output: str) -> dict[str, int]:
-    """Writes the Foxglove form of the recording `path` to `output`; messages written per topic."""
+def export(path: str, output: str) -> tuple[dict[str, int], dict[str, str]]:
+    """Writes the Foxglove form of the recording `path` to `output`. Returns the messages written
+    per topic, and the topics left out with the reason (a type that cannot be decoded: its
+    schema text does not compile, as for a plain value that is not a message)."""
     reader = mcap.Reader(path)
     counts: dict[str, int] = {}
-    channels: dict[int, _ExportChannel] = {}
+    skipped: dict[str, str] = {}
+    channels: dict[int, _ExportChannel | None] = {}
     schema_ids: dict[str, int] = {}
     with open(output, "wb") as stream:
         writer = mcap.Writer(stream, library="horus record export")
         for record in reader:
             if isinstance(record, mcap.Message):
-                exported = channels.get(record.channel_id)
-                if exported is None:
+                if record.channel_id not in channels:
                     channel = reader.channels[record.channel_id]
-                    exported = _ExportChannel(channel, reader.schemas.get(channel.schema_id),
-                                              writer, schema_ids)
-                    channels[record.channel_id] = exported
+                    try:
+                        channels[record.channel_id] = _ExportChannel(
+                            channel, reader.schemas.get(channel.schema_id), writer, schema_ids)
+                    except ExportError as error:
+                        channels[record.channel_id] = None
+                        skipped[channel.topic] = str(error)
+                exported = channels[record.channel_id]
+                if exported is None:
+                    continue
                 writer.add_message(exported.id, record.log_time, exported.payload(record),
                                    publish_time=record.publish_time, sequence=record.sequence)
                 counts[exported.topic] = counts.get(exported.topic, 0) + 1
             elif isinstance(record, mcap.Metadata):
                 writer.add_metadata(record.name, record.metadata)
         writer.finish()
-    return counts
+    return counts, skipped

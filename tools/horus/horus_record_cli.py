@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import time
 
 import horus_mcap as mcap
@@ -278,7 +279,9 @@ def check_types(topics: dict[int, _ReplayTopic], args) -> None:
 def _open_topic(topic: _ReplayTopic, capacity: int):
     from horus import _core
     alignment = 1
-    if topic.is_pod:  # the recording states no alignment: the type compiled from its schema does
+    if topic.is_pod and not topic.type_name.startswith("["):
+        # The recording states no alignment: the message type compiled from its schema does (a
+        # plain value such as [u8; N] needs no more than the segment's own 8 bytes).
         alignment = _loaded_type(topic.type_name, topic.schema, topic.fingerprint).__horus__.alignment
     topic.handle = _core.Topic(topic.channel.topic, topic.type_name, topic.fingerprint,
                                topic.schema, topic.is_pod, topic.size, alignment, capacity,
@@ -409,11 +412,13 @@ def export(args) -> int:
     import horus_foxglove
     path = resolve(args.file)
     try:
-        counts = horus_foxglove.export(path, args.foxglove)
+        counts, skipped = horus_foxglove.export(path, args.foxglove)
     except horus_foxglove.ExportError as error:
         raise CommandFailed(str(error)) from None
     print(f"wrote {args.foxglove}: {sum(counts.values())} JSON messages on {len(counts)} topics")
-    return EXIT_OK
+    for reason in skipped.values():
+        print(f"horus: left out of the export: {reason}", file=sys.stderr)
+    return EXIT_NOT_FOUND if skipped else EXIT_OK
 
 
 # ---------------------------------------------------------------------------------------------
