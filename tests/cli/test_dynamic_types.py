@@ -7,7 +7,6 @@ import sys
 
 import pytest
 
-from conftest import wait_ready
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "tools", "horus"))
 import dynamic_types  # noqa: E402
@@ -91,6 +90,9 @@ def test_a_standard_type_loads_beside_the_installed_package_without_replacing_it
     assert horus.msg.CmdVel is CmdVel
     message = dynamic_types.from_plain(loaded, {"linear": 1.0, "angular": -0.5})
     assert message.to_bytes() == CmdVel(linear=1.0, angular=-0.5).to_bytes()
+    # An f32 shows as the shortest decimal that reads back as the same f32.
+    shown = dynamic_types.to_plain(loaded.from_bytes(CmdVel(angular=0.1).to_bytes()))
+    assert shown["angular"] == 0.1 and dynamic_types.from_plain(loaded, shown).angular == CmdVel(angular=0.1).angular
 
 
 def test_values_that_do_not_fit_are_one_clear_error():
@@ -115,3 +117,13 @@ def test_a_schema_that_does_not_give_the_fingerprint_is_refused():
         dynamic_types.load_type(info.name, "struct Foo {}", 1)
     with pytest.raises(dynamic_types.SchemaError, match="does not compile"):
         dynamic_types.load_type("a.B", "message a.B {\n  x: f33,\n}\n", 1)
+
+
+def test_a_type_cache_others_can_write_is_refused(tmp_path):
+    from horus.msg import CmdVel
+    info = CmdVel.__horus__
+    root = tmp_path / "cache" / "horus" / "types"
+    root.mkdir(parents=True)
+    root.chmod(0o777)
+    with pytest.raises(dynamic_types.SchemaError, match="not this user's alone"):
+        dynamic_types.load_type(info.name, info.schema, info.fingerprint)

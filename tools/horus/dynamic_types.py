@@ -3,8 +3,8 @@
 A segment records its type's name, fingerprint and readable schema text (the type's definition
 followed by every type it uses, docs/schema-language.md "Identity"). This module turns that text
 back into schema files, compiles them with horus-gen into Python (the very code a generated
-package holds, so bytes are exactly C++'s: POD layout and MessagePack), caches the result by
-fingerprint and imports it privately, without disturbing packages of the same name that the
+package holds, so bytes are exactly C++'s: POD layout and MessagePack), caches the result and
+imports it privately, without disturbing packages of the same name that the
 process already uses (horus.msg included).
 
     cls = load_type("demo.Pose", schema_text, 0x72b8e8dd8bd50428)
@@ -15,11 +15,12 @@ process already uses (horus.msg included).
 Errors are `SchemaError` (the text cannot be compiled or gives another fingerprint) and
 `ValueError` (a value that does not fit the type), each one line naming the problem.
 
-The cache is $XDG_CACHE_HOME/horus/types/<fingerprint> (default ~/.cache/horus/types), made by
-the user alone (mode 0700); horus-gen is $HORUS_GEN_PROGRAM, else `horus-gen` on PATH.
+The cache is $XDG_CACHE_HOME/horus/types/<hash of name and schema text> (default
+~/.cache/horus/types), made by the user alone (mode 0700); horus-gen is $HORUS_GEN_PROGRAM, else `horus-gen` on PATH.
 """
 from __future__ import annotations
 
+import hashlib
 import importlib
 import importlib.machinery
 import os
@@ -29,7 +30,8 @@ import sys
 import tempfile
 import threading
 
-__all__ = ["SchemaError", "load_type", "to_plain", "from_plain", "parse_schema", "cache_root"]
+__all__ = ["SchemaError", "load_type", "to_plain", "from_plain", "parse_schema", "cache_root",
+           "run_generator"]
 
 # Bump when the way classes are produced changes, so stale cache entries are not reused.
 _CACHE_FORMAT = "v1"
@@ -90,15 +92,24 @@ def _schema_files(declarations) -> dict[str, str]:
             for package, sources in packages.items()}
 
 
-def _generator() -> str:
-    return os.environ.get("HORUS_GEN_PROGRAM") or "horus-gen"
+def run_generator(arguments: list[str], failure: str) -> str:
+    """horus-gen's output for `arguments`; SchemaError "<failure>: <its first error line>" when
+    it fails, or naming the program when it cannot run."""
+    command = [os.environ.get("HORUS_GEN_PROGRAM") or "horus-gen", *arguments]
+    try:
+        result = subprocess.run(command, capture_output=True, text=True)
+    except OSError as error:
+        raise SchemaError(f"cannot run {command[0]}: {error.strerror}") from None
+    if result.returncode != 0:
+        first = (result.stderr.strip().splitlines() or ["(no message)"])[0]
+        raise SchemaError(f"{failure}: {first}")
+    return result.stdout
 
 
 def _compile(type_name: str, declarations, destination: str) -> None:
     """Writes the Python of `declarations` to destination/python, atomically (a concurrent run
     compiling the same type leaves one complete copy)."""
     parent = os.path.dirname(destination)
-    os.makedirs(parent, mode=0o700, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=parent, prefix=".build-") as work:
         sources = os.path.join(work, "schemas")
         files = []
@@ -109,14 +120,8 @@ def _compile(type_name: str, declarations, destination: str) -> None:
                 handle.write(text)
             files.append(path)
         output = os.path.join(work, "out")
-        command = [_generator(), "generate", "--lang", "python", "--out", output, "-I", sources, *files]
-        try:
-            result = subprocess.run(command, capture_output=True, text=True)
-        except OSError as error:
-            raise SchemaError(f"cannot run {command[0]} to decode {type_name}: {error.strerror}") from None
-        if result.returncode != 0:
-            first = (result.stderr.strip().splitlines() or ["(no message)"])[0]
-            raise SchemaError(f"the stored schema of {type_name} does not compile: {first}")
+        run_generator(["generate", "--lang", "python", "--out", output, "-I", sources, *files],
+                      f"the stored schema of {type_name} does not compile")
         try:
             os.rename(output, destination)
         except OSError:
@@ -159,50 +164,93 @@ def _import_private(root: str, module_name: str, top_names: set[str]):
         sys.modules.update(saved)
 
 
-def load_type(type_name: str, schema_text: str, fingerprint: int) -> type:
+def load_type(type_name: str, schema_text: str, fingerprint: int | None) -> type:
     """The generated class of `type_name` compiled from `schema_text` (as a segment stores it),
-    checked to have `fingerprint`. Cached on disk and in the process. Raises SchemaError."""
-    key = (type_name, fingerprint)
+    checked to have `fingerprint` (None: the caller checks the identity another way, as a
+    service frame's does). Cached on disk and in the process. Raises SchemaError."""
+    key = (type_name, schema_text)
     with _importing:
-        cached = _loaded.get(key)
-        if cached is not None:
-            return cached
-        declarations = parse_schema(schema_text)
-        if declarations[0][1] != type_name:
-            raise SchemaError(f"the stored schema describes {declarations[0][1]}, not {type_name}")
-        entry = os.path.join(cache_root(), f"{fingerprint:016x}-{_CACHE_FORMAT}")
-        if not os.path.isdir(os.path.join(entry, "python")):
-            _compile(type_name, declarations, entry)
-        package, short = type_name.rsplit(".", 1)
-        top_names = {qualified.split(".", 1)[0] for _kind, qualified, _source in declarations}
-        try:
-            module = _import_private(os.path.join(entry, "python"), package, top_names)
-            cls = getattr(module, short)
-        except (ImportError, AttributeError, SyntaxError) as error:
-            raise SchemaError(f"cannot load the compiled {type_name} from {entry} ({error}); "
-                              "remove that folder to rebuild it") from None
-        if cls.__horus__.fingerprint != fingerprint:
-            raise SchemaError(f"the stored schema of {type_name} gives fingerprint "
-                              f"{cls.__horus__.fingerprint:016x}, the segment says {fingerprint:016x}")
-        _loaded[key] = cls
-        return cls
+        cls = _loaded.get(key)
+        if cls is None:
+            cls = _loaded[key] = _compiled_class(type_name, schema_text)
+    if fingerprint is not None and cls.__horus__.fingerprint != fingerprint:
+        raise SchemaError(f"the stored schema of {type_name} gives fingerprint "
+                          f"{cls.__horus__.fingerprint:016x}, the segment says {fingerprint:016x}")
+    return cls
+
+
+def _trusted_cache_root() -> str:
+    """The cache folder, made if missing; SchemaError unless only this user can write it (its
+    code is imported: another user's files there would run as this one)."""
+    root = cache_root()
+    try:
+        os.makedirs(root, mode=0o700, exist_ok=True)
+        status = os.stat(root)
+    except OSError as error:
+        raise SchemaError(f"cannot use the type cache {root}: {error.strerror}") from None
+    if status.st_uid != os.geteuid() or status.st_mode & 0o022:
+        raise SchemaError(f"the type cache {root} is not this user's alone (owner uid "
+                          f"{status.st_uid}, mode {status.st_mode & 0o777:o}); remove it")
+    return root
+
+
+def _compiled_class(type_name: str, schema_text: str) -> type:
+    declarations = parse_schema(schema_text)
+    if declarations[0][1] != type_name:
+        raise SchemaError(f"the stored schema describes {declarations[0][1]}, not {type_name}")
+    digest = hashlib.sha256(f"{type_name}\n{schema_text}".encode()).hexdigest()[:24]
+    root = _trusted_cache_root()
+    entry = os.path.join(root, f"{digest}-{_CACHE_FORMAT}")
+    if not os.path.isdir(os.path.join(entry, "python")):
+        _compile(type_name, declarations, entry)
+    package, short = type_name.rsplit(".", 1)
+    top_names = {qualified.split(".", 1)[0] for _kind, qualified, _source in declarations}
+    try:
+        module = _import_private(os.path.join(entry, "python"), package, top_names)
+        return getattr(module, short)
+    except (ImportError, AttributeError, SyntaxError) as error:
+        raise SchemaError(f"cannot load the compiled {type_name} from {entry} ({error}); "
+                          "remove that folder to rebuild it") from None
 
 
 # -- plain values ---------------------------------------------------------------------------------
 
 def to_plain(message):
     """The message as plain values: a dict per message, lists for arrays and Vec, None for an
-    empty Option, enum member names, bytes for bytes fields."""
-    info = getattr(type(message), "__horus__", None)
-    if info is not None and hasattr(info, "fields"):
-        return {name: to_plain(getattr(message, name)) for name in info.fields}
-    if hasattr(message, "tolist"):  # numpy array of a fixed array field
-        return message.tolist()
-    if isinstance(message, list):
-        return [to_plain(item) for item in message]
-    if hasattr(message, "name") and hasattr(type(message), "__members__"):
-        return message.name
-    return message
+    empty Option, enum member names, bytes for bytes fields. An f32 is the shortest decimal that
+    reads back as the same f32 (0.1, not 0.10000000149011612)."""
+    info = type(message).__horus__
+    return {name: _plain(codec, getattr(message, name))
+            for name, codec in zip(info.fields, info.codecs)}
+
+
+def _plain(codec, value):
+    kind = type(codec).__name__  # the support module is the compiled type's private copy
+    if value is None:
+        return None
+    if kind == "Nested":
+        return to_plain(value)
+    if kind == "Enum":
+        return value.name if hasattr(value, "name") else int(value)
+    if kind == "Float" and codec.single:
+        return _short_f32(value)
+    if kind == "NumArray":
+        values = value.tolist()
+        return _map_nested(values, _short_f32) if codec.kind == "f" and codec.element.single else values
+    if kind in ("Vec", "ListArray"):
+        return [_plain(codec.element, item) for item in value]
+    if kind == "Option":
+        return _plain(codec.element, value)
+    return value
+
+
+def _short_f32(value: float) -> float:
+    import numpy
+    return float(repr(numpy.float32(value)).removeprefix("np.float32(").removesuffix(")"))
+
+
+def _map_nested(values, convert):
+    return [_map_nested(v, convert) if isinstance(v, list) else convert(v) for v in values]
 
 
 def from_plain(cls, value, path: str = ""):
