@@ -18,13 +18,11 @@ import base64
 import json
 import math
 import os
-import subprocess
 import tempfile
 
 import horus_mcap as mcap
 from horus_mcap import MSGPACK_ENCODING, POD_ENCODING
 
-GENERATOR_PROGRAM = os.environ.get("HORUS_GEN_PROGRAM", "horus-gen")
 
 # ImageEncoding names -> Foxglove's RawImage encodings (those it draws).
 IMAGE_ENCODINGS = {"Mono8": "mono8", "Mono16": "mono16", "Rgb8": "rgb8", "Bgr8": "bgr8",
@@ -232,15 +230,12 @@ def generated_json_schema(type_name: str, schema_text: str) -> dict:
                 handle.write(text)
             files.append(path)
         out = os.path.join(work, "out")
-        command = [GENERATOR_PROGRAM, "generate", "--lang", "jsonschema", "--out", out,
-                   "-I", sources, *files]
         try:
-            result = subprocess.run(command, capture_output=True, text=True)
-        except OSError as error:
-            raise ExportError(f"cannot run {GENERATOR_PROGRAM}: {error.strerror}") from None
-        if result.returncode != 0:
-            first = (result.stderr.strip().splitlines() or ["(no message)"])[0]
-            raise ExportError(f"horus-gen --lang jsonschema failed for {type_name}: {first}")
+            dynamic_types.run_generator(
+                ["generate", "--lang", "jsonschema", "--out", out, "-I", sources, *files],
+                f"horus-gen --lang jsonschema failed for {type_name}")
+        except dynamic_types.SchemaError as error:
+            raise ExportError(str(error)) from None
         package, name = type_name.rsplit(".", 1)
         with open(os.path.join(out, "jsonschema", *package.split("."), f"{name}.schema.json"),
                   encoding="utf-8") as handle:
