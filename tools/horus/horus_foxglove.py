@@ -221,14 +221,7 @@ def generated_json_schema(type_name: str, schema_text: str) -> dict:
     import dynamic_types
     with tempfile.TemporaryDirectory(prefix="horus-export-") as work:
         sources = os.path.join(work, "schemas")
-        files = []
-        for relative, text in dynamic_types._schema_files(  # noqa: SLF001 (one rebuilder of files)
-                dynamic_types.parse_schema(schema_text)).items():
-            path = os.path.join(sources, relative)
-            os.makedirs(os.path.dirname(path), exist_ok=True)
-            with open(path, "w", encoding="utf-8") as handle:
-                handle.write(text)
-            files.append(path)
+        files = dynamic_types.write_schema_files(dynamic_types.parse_schema(schema_text), sources)
         out = os.path.join(work, "out")
         try:
             dynamic_types.run_generator(
