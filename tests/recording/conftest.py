@@ -13,6 +13,7 @@ cli_fixtures = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(cli_fixtures)
 namespace = cli_fixtures.namespace
 children = cli_fixtures.children
+wait_until = cli_fixtures.wait_until
 
 
 @pytest.fixture(autouse=True)

@@ -7,7 +7,6 @@ import json
 import os
 import signal
 import subprocess
-import time
 
 from mcap.reader import make_reader
 
@@ -17,6 +16,7 @@ from horus.msg import CmdVel, CompressedImage
 
 import horus_mcap
 
+from conftest import wait_until
 from test_record import SUBSCRIBER, export_validated, run_horus
 
 HORUS = os.environ.get("HORUS_CLI", "")
@@ -83,33 +83,27 @@ def start_recording(*args: str) -> subprocess.Popen:
                             stderr=subprocess.PIPE, text=True)
 
 
-def wait_subscribed(topic: str, probe, limit: float = 20.0) -> None:
-    deadline = time.monotonic() + limit
-    while time.monotonic() < deadline:
-        info = {t["name"]: t for t in horus._core.list_topics("")}.get(topic)
-        if info and info["subscribers"] >= 1:
-            return
-        probe()
-        time.sleep(0.01)
-    raise AssertionError(f"horus-record never subscribed to {topic}")
+def subscribers(topic: str) -> int:
+    return next((t["subscribers"] for t in horus._core.list_topics("") if t["name"] == topic), 0)
 
 
 def test_horus_record_runs_the_cpp_recorder_whose_file_info_reads(tmp_path):
     out = tmp_path / "vel.mcap"
     publisher = horus.Topic(CmdVel, "vel", capacity=1024)
     recorder = start_recording("vel", "-o", str(out))
-    wait_subscribed("vel", lambda: publisher.send(CmdVel(linear=-1.0)))
-    for i in range(300):
-        assert publisher.send(CmdVel(linear=float(i)))
-    time.sleep(0.2)
+    wait_until(lambda: subscribers("vel") >= 1, "horus-record to subscribe to vel", limit=30)
+    sent = [CmdVel(linear=float(i)) for i in range(300)]
+    for message in sent:  # fewer than the topic's slots: the recorder drains them all at SIGINT
+        assert publisher.send(message)
     recorder.send_signal(signal.SIGINT)
     _, stderr = recorder.communicate(timeout=30)
     assert recorder.returncode == 0, stderr
     described = json.loads(run_horus("record", "info", str(out), "--json").stdout)
     vel = next(t for t in described["topics"] if t["topic"] == "vel")
     with open(out, "rb") as stream:
-        recorded = [m for _, _, m in make_reader(stream, validate_crcs=True).iter_messages()]
-    assert vel["messages"] == len(recorded) >= 300
+        recorded = [CmdVel.from_bytes(m.data)
+                    for _, _, m in make_reader(stream, validate_crcs=True).iter_messages()]
+    assert recorded == sent and vel["messages"] == len(sent)
     assert described["lost"] == vel["lost"] == 0
 
 
