@@ -34,11 +34,11 @@ std::vector<std::string> strings(const std::vector<std::filesystem::path>& paths
 
 void bind_recording(py::module_& m) {
   py::object scheduler = m.attr("Scheduler");
-  add_method(scheduler, "is_recording", [](const Scheduler& sched) { return sched.is_recording(); });
+  add_method(scheduler, "is_recording",
+             [](const Scheduler& sched) { return sched.is_recording(); });
   // Joins the recording thread, which never needs the GIL.
   add_method(
-      scheduler, "stop_recording",
-      [](Scheduler& sched) { return strings(sched.stop_recording()); },
+      scheduler, "stop_recording", [](Scheduler& sched) { return strings(sched.stop_recording()); },
       py::call_guard<py::gil_scoped_release>());
   add_method(scheduler, "list_recordings",
              [](const Scheduler& sched) { return sched.list_recordings(); });

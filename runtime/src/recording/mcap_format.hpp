@@ -66,7 +66,8 @@ class Bytes {
   }
   template <class Int>
   void put(Int value) {
-    std::memcpy(grow(sizeof(Int)), &value, sizeof(Int));  // little-endian hosts only (x86-64, arm64)
+    std::memcpy(grow(sizeof(Int)), &value,
+                sizeof(Int));  // little-endian hosts only (x86-64, arm64)
   }
   void raw(const void* bytes, std::size_t size) {
     if (size > 0) std::memcpy(grow(size), bytes, size);

@@ -5,8 +5,8 @@
 #include <unistd.h>
 #include <zstd.h>
 
-#include <cerrno>
 #include <algorithm>
+#include <cerrno>
 #include <cstring>
 
 #include "horus/detail/errno_text.hpp"
@@ -83,8 +83,7 @@ std::uint16_t McapWriter::add_schema(std::string_view name, std::string_view enc
 }
 
 std::uint16_t McapWriter::add_channel(std::string_view topic, std::uint16_t schema_id,
-                                      std::string_view message_encoding,
-                                      const McapMap& metadata) {
+                                      std::string_view message_encoding, const McapMap& metadata) {
   const auto id = static_cast<std::uint16_t>(channel_records_.size() + 1);
   const std::size_t begin = chunk_.size();
   const std::size_t record = chunk_.begin_record(mcap::Op::Channel);
@@ -136,9 +135,8 @@ void McapWriter::commit_message(std::uint16_t channel, std::uint32_t sequence,
   if (chunk_.size() >= chunk_size_) write_chunk();
 }
 
-void McapWriter::add_message(std::uint16_t channel, std::uint32_t sequence,
-                             std::uint64_t log_time, std::uint64_t publish_time,
-                             std::span<const std::uint8_t> data) {
+void McapWriter::add_message(std::uint16_t channel, std::uint32_t sequence, std::uint64_t log_time,
+                             std::uint64_t publish_time, std::span<const std::uint8_t> data) {
   std::uint8_t* at = reserve_message(data.size());
   if (!data.empty()) std::memcpy(at, data.data(), data.size());
   commit_message(channel, sequence, log_time, publish_time, data.size());

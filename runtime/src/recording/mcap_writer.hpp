@@ -29,8 +29,7 @@ class McapWriter {
   McapWriter& operator=(const McapWriter&) = delete;
 
   /// Ids start at 1; each record goes into the current chunk.
-  std::uint16_t add_schema(std::string_view name, std::string_view encoding,
-                           std::string_view data);
+  std::uint16_t add_schema(std::string_view name, std::string_view encoding, std::string_view data);
   std::uint16_t add_channel(std::string_view topic, std::uint16_t schema_id,
                             std::string_view message_encoding, const McapMap& metadata);
 
@@ -86,7 +85,7 @@ class McapWriter {
   /// Per channel (index = id): (log_time, offset in the chunk) of the open chunk's messages.
   std::vector<std::vector<std::pair<std::uint64_t, std::uint64_t>>> chunk_index_;
 
-  std::vector<std::vector<std::uint8_t>> schema_records_;   // copies for the summary
+  std::vector<std::vector<std::uint8_t>> schema_records_;  // copies for the summary
   std::vector<std::vector<std::uint8_t>> channel_records_;
   std::vector<std::uint64_t> channel_counts_;  // index = channel id
   std::vector<ChunkIndex> chunks_;

@@ -87,8 +87,7 @@ class RecorderImpl {
  public:
   explicit RecorderImpl(RecorderOptions options)
       : options_(std::move(options)),
-        namespace_(options_.namespace_name.empty() ? current_namespace()
-                                                   : options_.namespace_name),
+        namespace_(options_.namespace_name.empty() ? current_namespace() : options_.namespace_name),
         writer_(options_.path.empty() ? new_recording_path() : options_.path),
         clock_offset_ns_(clock_ns(CLOCK_REALTIME) - clock_ns(CLOCK_MONOTONIC)) {
     validate_segment_name("namespace", namespace_);
@@ -96,12 +95,11 @@ class RecorderImpl {
     summary_.path = writer_.path();
     char host[256] = {};
     ::gethostname(host, sizeof host - 1);
-    writer_.add_metadata("horus.session",
-                         {{"session", writer_.path().stem().string()},
-                          {"namespace", namespace_},
-                          {"hostname", host},
-                          {"pid", std::to_string(::getpid())},
-                          {"start_ns", std::to_string(realtime_ns())}});
+    writer_.add_metadata("horus.session", {{"session", writer_.path().stem().string()},
+                                           {"namespace", namespace_},
+                                           {"hostname", host},
+                                           {"pid", std::to_string(::getpid())},
+                                           {"start_ns", std::to_string(realtime_ns())}});
     {
       std::lock_guard lock(mutex_);
       for (const std::string& topic : options_.topics) pending_.push_back(topic);
@@ -184,8 +182,12 @@ class RecorderImpl {
   }
 
   void open(const TopicInfo& info) {
-    const TypeDescriptor type{info.type_name, info.fingerprint, info.schema, info.is_pod,
-                              info.is_pod ? info.max_message_size : 0, 1};
+    const TypeDescriptor type{info.type_name,
+                              info.fingerprint,
+                              info.schema,
+                              info.is_pod,
+                              info.is_pod ? info.max_message_size : 0,
+                              1};
     ShmSegment segment = ShmSegment::open_topic(
         info.name, type,
         SegmentOptions{info.capacity, info.max_message_size, 0600, namespace_, false});
@@ -193,7 +195,8 @@ class RecorderImpl {
     if (schema == 0) schema = writer_.add_schema(info.type_name, "horus.hmsg", info.schema);
     McapMap metadata{{"horus.fingerprint", hex16(info.fingerprint)},
                      {"horus.type", info.type_name}};
-    if (info.is_pod) metadata.emplace_back("horus.payload_size", std::to_string(info.max_message_size));
+    if (info.is_pod)
+      metadata.emplace_back("horus.payload_size", std::to_string(info.max_message_size));
     const std::uint16_t channel = writer_.add_channel(
         info.name, schema, info.is_pod ? "horus.pod" : "horus.msgpack", metadata);
     topics_.push_back(Recorded{info.name, TopicEndpoint(std::move(segment)), channel});
@@ -293,9 +296,9 @@ class RecorderImpl {
                   ",\"duration_ns\":" + std::to_string(entry.duration_ns) + ",\"outcome\":\"";
     tick_text_ += outcome_name(entry.outcome);
     tick_text_ += "\"}";
-    writer_.add_message(ticks_channel_, tick_sequence_++, start, start,
-                        {reinterpret_cast<const std::uint8_t*>(tick_text_.data()),
-                         tick_text_.size()});
+    writer_.add_message(
+        ticks_channel_, tick_sequence_++, start, start,
+        {reinterpret_cast<const std::uint8_t*>(tick_text_.data()), tick_text_.size()});
   }
 
   /// Counts as they stand (mutex_ held).
@@ -321,7 +324,8 @@ class RecorderImpl {
     for (NodeTicks& ticks : tick_logs_) ticks.log->close();
     RecordingSummary& summary = final_summary_.emplace(current_summary());
     McapMap entries{{"lost_total", std::to_string(summary.lost_total)}};
-    for (const auto& [topic, lost] : summary.lost) entries.emplace_back("lost." + topic, std::to_string(lost));
+    for (const auto& [topic, lost] : summary.lost)
+      entries.emplace_back("lost." + topic, std::to_string(lost));
     entries.emplace_back("end_ns", std::to_string(realtime_ns()));
     if (!error_.empty()) entries.emplace_back("error", error_);
     try {
