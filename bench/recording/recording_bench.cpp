@@ -29,6 +29,10 @@ namespace {
 
 constexpr std::size_t kSmallTopics = 10;
 constexpr std::size_t kFrameBytes = 1920 * 1080 * 3;
+/// Ring sizes: about one second of each stream, the pause a recorder thread may see on a loaded
+/// machine (a 64-slot ring at 1 kHz covers 64 ms).
+constexpr std::size_t kSmallCapacity = 1024;
+constexpr std::size_t kFrameCapacity = 32;
 using Small = std::array<std::uint64_t, 8>;
 using Frame = std::array<std::uint8_t, kFrameBytes>;
 
@@ -89,9 +93,10 @@ int main(int argc, char** argv) {
 
   std::vector<std::unique_ptr<horus::Topic<Small>>> small;
   for (std::size_t i = 0; i < kSmallTopics; ++i) {
-    small.push_back(std::make_unique<horus::Topic<Small>>("small" + std::to_string(i)));
+    small.push_back(std::make_unique<horus::Topic<Small>>(
+        "small" + std::to_string(i), horus::TopicOptions{.capacity = kSmallCapacity}));
   }
-  horus::Topic<Frame> camera("camera", {.capacity = 8});
+  horus::Topic<Frame> camera("camera", {.capacity = kFrameCapacity});
   std::vector<std::unique_ptr<Frame>> frames;
   for (std::uint64_t i = 0; i < 4; ++i) {
     frames.push_back(std::make_unique<Frame>());
