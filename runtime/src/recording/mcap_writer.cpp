@@ -22,6 +22,16 @@ std::vector<std::uint8_t> copy_record(const mcap::Bytes& from, std::size_t begin
   return {from.data() + begin, from.data() + from.size()};
 }
 
+/// A Map<string, string> field.
+void put_map(mcap::Bytes& bytes, const McapMap& entries) {
+  const std::size_t map = bytes.begin_block();
+  for (const auto& [key, value] : entries) {
+    bytes.string(key);
+    bytes.string(value);
+  }
+  bytes.end_block(map);
+}
+
 }  // namespace
 
 McapWriter::McapWriter(const std::filesystem::path& path, std::size_t chunk_size)
@@ -94,12 +104,7 @@ std::uint16_t McapWriter::add_channel(std::string_view topic, std::uint16_t sche
   chunk_.put(schema_id);
   chunk_.string(topic);
   chunk_.string(message_encoding);
-  const std::size_t map = chunk_.begin_block();
-  for (const auto& [key, value] : metadata) {
-    chunk_.string(key);
-    chunk_.string(value);
-  }
-  chunk_.end_block(map);
+  put_map(chunk_, metadata);
   chunk_.end_record(record);
   channel_records_.push_back(copy_record(chunk_, begin));
   channel_counts_.resize(id + 1, 0);
@@ -282,12 +287,7 @@ void McapWriter::add_metadata(std::string_view name, const McapMap& entries) {
   mcap::Bytes& bytes = job.records;
   const std::size_t record = bytes.begin_record(mcap::Op::Metadata);
   bytes.string(name);
-  const std::size_t map = bytes.begin_block();
-  for (const auto& [key, value] : entries) {
-    bytes.string(key);
-    bytes.string(value);
-  }
-  bytes.end_block(map);
+  put_map(bytes, entries);
   bytes.end_record(record);
   enqueue(std::move(job));
 }

@@ -10,6 +10,7 @@
 #include <optional>
 #include <thread>
 
+#include "horus/detail/json_string.hpp"
 #include "horus/detail/ring.hpp"
 #include "horus/detail/send_clock.hpp"
 #include "horus/detail/shm_segment.hpp"
@@ -60,25 +61,6 @@ std::string_view outcome_name(TickOutcome outcome) {
       return "deadline_miss";
   }
   return "ok";
-}
-
-/// Node names are identifiers in practice; quotes, backslashes and control characters are
-/// escaped all the same so the line stays JSON.
-void append_json_string(std::string& out, std::string_view text) {
-  out += '"';
-  for (const char c : text) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char escape[8];
-      std::snprintf(escape, sizeof escape, "\\u%04x", c);
-      out += escape;
-    } else {
-      out += c;
-    }
-  }
-  out += '"';
 }
 
 }  // namespace
@@ -290,7 +272,7 @@ class RecorderImpl {
     const auto start = static_cast<std::uint64_t>(entry.start_ns + clock_offset_ns_);
     tick_text_.clear();
     tick_text_ += "{\"node\":";
-    append_json_string(tick_text_, node);
+    tick_text_ += json_string(node);
     tick_text_ += ",\"tick\":" + std::to_string(entry.tick) +
                   ",\"start_ns\":" + std::to_string(start) +
                   ",\"duration_ns\":" + std::to_string(entry.duration_ns) + ",\"outcome\":\"";
