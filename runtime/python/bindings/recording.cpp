@@ -1,14 +1,11 @@
-// horus._core: session recording (docs/recording.md) as methods of horus._core.Scheduler, and
-// the recordings folder. SchedulerConfig::recording(true) itself is a constructor keyword
-// (scheduler.cpp).
+// horus._core: session recording (docs/recording.md) as methods of horus._core.Scheduler.
+// SchedulerConfig::recording(true) itself is a constructor keyword (scheduler.cpp).
 #include <pybind11/stl.h>
-#include <pybind11/stl/filesystem.h>
 
 #include <string>
 #include <vector>
 
 #include "bindings.hpp"
-#include "horus/recording.hpp"
 #include "horus/scheduler.hpp"
 
 namespace horus::python {
@@ -45,9 +42,6 @@ void bind_recording(py::module_& m) {
   add_method(scheduler, "delete_recording", [](Scheduler& sched, const std::string& name) {
     return sched.delete_recording(name);
   });
-  m.def(
-      "recordings_directory", [] { return recordings_directory().string(); },
-      "$HORUS_RECORDINGS, or ~/.local/share/horus/recordings (created when missing).");
 }
 
 }  // namespace horus::python
