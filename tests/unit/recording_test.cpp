@@ -4,11 +4,13 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "horus/horus.hpp"
@@ -170,6 +172,32 @@ TEST(Recording, WhatTheRecorderCouldNotKeepUpWithIsCountedNotSilent) {
     Sample sample;
     std::memcpy(&sample, m->data.data(), sizeof sample);
     EXPECT_TRUE(topic_test::valid(sample));
+  }
+}
+
+TEST(Recording, AllTopicsFindsTopicsThatAppearLater) {
+  topic_test::PrivateNamespace ns;
+  RecordingsFolder folder;
+  horus::RecorderOptions options;
+  options.all_topics = true;
+  horus::Recorder recorder(options);
+  horus::Topic<Sample> late("late", {.capacity = 1024});
+  // Until the recorder has found the topic, probes (seq 0) go unrecorded or recorded alike.
+  for (int i = 0; i < 2000 && recorder.summary().messages == 0; ++i) {
+    late.send(topic_test::sealed<Sample>(0));
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ASSERT_GT(recorder.summary().messages, 0U) << "the recorder never found topic 'late'";
+  for (std::uint64_t i = 1; i <= 100; ++i) ASSERT_TRUE(late.send(topic_test::sealed<Sample>(i)));
+  const horus::RecordingSummary summary = recorder.stop();
+  EXPECT_EQ(summary.lost_total, 0U);
+  const horus::RecordingReader reader(summary.path);
+  const auto recorded = messages_of(reader, "late");
+  ASSERT_GE(recorded.size(), 100U);
+  for (std::size_t i = 0; i < 100; ++i) {
+    Sample sample;
+    std::memcpy(&sample, recorded[recorded.size() - 100 + i]->data.data(), sizeof sample);
+    EXPECT_EQ(sample.seq, i + 1);
   }
 }
 
