@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <thread>
 
 #include "horus/detail/json_string.hpp"
@@ -33,6 +34,8 @@ constexpr std::int64_t kDiscoverIntervalNs = 200'000'000;
 /// A chunk open longer than this is written anyway: a recorder killed with kill -9 loses at
 /// most this much of a slow session.
 constexpr std::int64_t kChunkMaxAgeNs = 1'000'000'000;
+/// How long stop() keeps taking what the rings still hold.
+constexpr std::int64_t kFinalDrainNs = 1'000'000'000;
 /// Messages taken from one topic per round before the others get their turn.
 constexpr int kRoundLimit = 256;
 
@@ -156,8 +159,12 @@ class RecorderImpl {
       try {
         open(*info);
       } catch (const Error& e) {
-        // Re-typed under us or removed meanwhile: the next look decides.
-        log::warn("recorder: cannot record topic '%s' yet: %s", it->c_str(), e.what());
+        // Re-typed under us or removed meanwhile: the next look tries again (said once).
+        if (unopenable_.insert(*it).second) {
+          log::warn("recorder: cannot record topic '%s' yet: %s", it->c_str(), e.what());
+        }
+        ++it;
+        continue;
       }
       it = pending_.erase(it);
     }
@@ -218,8 +225,10 @@ class RecorderImpl {
         }
         if (taken == 0) std::this_thread::sleep_for(kIdleSleep);
       }
+      // What was sent before the stop; bounded, as a publisher may never pause.
       std::lock_guard lock(mutex_);
-      while (take_round(kRoundLimit) > 0) {
+      const std::int64_t give_up = clock_ns(CLOCK_MONOTONIC) + kFinalDrainNs;
+      while (take_round(kRoundLimit) > 0 && clock_ns(CLOCK_MONOTONIC) < give_up) {
       }
     } catch (const std::exception& e) {
       std::lock_guard lock(mutex_);
@@ -340,6 +349,7 @@ class RecorderImpl {
 
   mutable std::mutex mutex_;  // everything below, and the writer
   std::vector<std::string> pending_;
+  std::set<std::string> unopenable_;  // warned about once
   std::vector<Recorded> topics_;
   std::vector<NodeTicks> tick_logs_;
   std::map<std::string, std::uint16_t> schema_ids_;
