@@ -29,6 +29,10 @@ namespace {
 
 constexpr std::size_t kSmallTopics = 10;
 constexpr std::size_t kFrameBytes = 1920 * 1080 * 3;
+/// Ring sizes: about one second of each stream, the pause a recorder thread may see on a loaded
+/// machine (a 64-slot ring at 1 kHz covers 64 ms).
+constexpr std::size_t kSmallCapacity = 1024;
+constexpr std::size_t kFrameCapacity = 32;
 using Small = std::array<std::uint64_t, 8>;
 using Frame = std::array<std::uint8_t, kFrameBytes>;
 
@@ -61,7 +65,8 @@ struct RecorderResult {
 int run_recorder(const std::filesystem::path& file, int ready_fd, int stop_fd, int out_fd) {
   horus::RecorderOptions options;
   options.path = file;
-  for (std::size_t i = 0; i < kSmallTopics; ++i) options.topics.push_back("small" + std::to_string(i));
+  for (std::size_t i = 0; i < kSmallTopics; ++i)
+    options.topics.push_back("small" + std::to_string(i));
   options.topics.emplace_back("camera");
   horus::Recorder recorder(options);
   const char go = 1;
@@ -81,14 +86,17 @@ int main(int argc, char** argv) {
   const std::filesystem::path folder = argc > 2 ? argv[2] : ".";
   const std::string ns = "bench_rec_" + std::to_string(::getpid());
   ::setenv("HORUS_NAMESPACE", ns.c_str(), 1);
-  const std::filesystem::path file = folder / ("recording_bench_" + std::to_string(::getpid()) + ".mcap");
-  const std::filesystem::path plain = folder / ("write_floor_" + std::to_string(::getpid()) + ".bin");
+  const std::filesystem::path file =
+      folder / ("recording_bench_" + std::to_string(::getpid()) + ".mcap");
+  const std::filesystem::path plain =
+      folder / ("write_floor_" + std::to_string(::getpid()) + ".bin");
 
   std::vector<std::unique_ptr<horus::Topic<Small>>> small;
   for (std::size_t i = 0; i < kSmallTopics; ++i) {
-    small.push_back(std::make_unique<horus::Topic<Small>>("small" + std::to_string(i)));
+    small.push_back(std::make_unique<horus::Topic<Small>>(
+        "small" + std::to_string(i), horus::TopicOptions{.capacity = kSmallCapacity}));
   }
-  horus::Topic<Frame> camera("camera", {.capacity = 8});
+  horus::Topic<Frame> camera("camera", {.capacity = kFrameCapacity});
   std::vector<std::unique_ptr<Frame>> frames;
   for (std::uint64_t i = 0; i < 4; ++i) {
     frames.push_back(std::make_unique<Frame>());
@@ -163,7 +171,8 @@ int main(int argc, char** argv) {
 
   const std::uint64_t expected = sent_small + sent_frames;
   const double payload_mb = (static_cast<double>(sent_small) * sizeof(Small) +
-                             static_cast<double>(sent_frames) * kFrameBytes) / 1e6;
+                             static_cast<double>(sent_frames) * kFrameBytes) /
+                            1e6;
   const double file_mb = static_cast<double>(result.bytes) / 1e6;
   std::printf("| measure | value |\n|---|---:|\n");
   std::printf("| published: 1 kHz messages (10 topics x 64 B) | %llu |\n",
@@ -172,19 +181,24 @@ int main(int argc, char** argv) {
               static_cast<unsigned long long>(sent_frames));
   std::printf("| payload published | %.1f MB in %.2f s (%.1f MB/s) |\n", payload_mb, publish_s,
               payload_mb / publish_s);
-  std::printf("| recorded messages | %llu of %llu |\n", static_cast<unsigned long long>(result.messages),
+  std::printf("| recorded messages | %llu of %llu |\n",
+              static_cast<unsigned long long>(result.messages),
               static_cast<unsigned long long>(expected));
   std::printf("| **lost** (counted by the recorder) | **%llu** |\n",
               static_cast<unsigned long long>(result.lost));
   std::printf("| file size (zstd level 1 chunks) | %.1f MB (%.2fx of the payload) |\n", file_mb,
               file_mb / payload_mb);
-  std::printf("| **recorder CPU** (user + system, whole child process) | **%.2f s = %.0f %% of one CPU** |\n",
-              cpu_s, 100.0 * cpu_s / publish_s);
+  std::printf(
+      "| **recorder CPU** (user + system, whole child process) | **%.2f s = %.0f %% of one CPU** "
+      "|\n",
+      cpu_s, 100.0 * cpu_s / publish_s);
   std::printf("| recorder write rate while recording (file bytes / recording time) | %.1f MB/s |\n",
               file_mb / publish_s);
-  std::printf("| recorder capacity (file bytes / recorder CPU time) | %.1f MB/s |\n", file_mb / cpu_s);
-  std::printf("| floor: plain write() of the same bytes, 1 MiB blocks + fsync | %.1f MB/s (%.3f s) |\n",
-              file_mb / write_s, write_s);
+  std::printf("| recorder capacity (file bytes / recorder CPU time) | %.1f MB/s |\n",
+              file_mb / cpu_s);
+  std::printf(
+      "| floor: plain write() of the same bytes, 1 MiB blocks + fsync | %.1f MB/s (%.3f s) |\n",
+      file_mb / write_s, write_s);
   std::printf("| **capacity / floor** | **%.2fx** |\n", write_s / cpu_s);
   std::printf("| payload capacity (payload bytes / recorder CPU time) / floor | %.2fx |\n",
               (payload_mb / cpu_s) / (file_mb / write_s));

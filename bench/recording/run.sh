@@ -32,6 +32,8 @@ load_after="$(cut -d" " -f1-3 /proc/loadavg)"
   echo "recording file has (1 MiB blocks, then fsync, as the recorder's finish does). The recorder"
   echo "only ever writes as fast as the robot publishes, so its *capacity* is compared: file bytes"
   echo "per second of recorder CPU, against the floor's bytes per second of wall time."
+  echo "Rings: 1024 slots per 1 kHz topic, 32 per camera frame (about 1 s of each): what a"
+  echo "recorded topic needs to ride out the recorder's pauses on a loaded machine."
   echo "Goals: nothing lost; capacity at least 0.8x the floor."
   echo
   echo "$table"

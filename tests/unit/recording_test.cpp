@@ -4,11 +4,13 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "horus/horus.hpp"
@@ -173,6 +175,32 @@ TEST(Recording, WhatTheRecorderCouldNotKeepUpWithIsCountedNotSilent) {
   }
 }
 
+TEST(Recording, AllTopicsFindsTopicsThatAppearLater) {
+  topic_test::PrivateNamespace ns;
+  RecordingsFolder folder;
+  horus::RecorderOptions options;
+  options.all_topics = true;
+  horus::Recorder recorder(options);
+  horus::Topic<Sample> late("late", {.capacity = 1024});
+  // Until the recorder has found the topic, probes (seq 0) go unrecorded or recorded alike.
+  for (int i = 0; i < 2000 && recorder.summary().messages == 0; ++i) {
+    late.send(topic_test::sealed<Sample>(0));
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ASSERT_GT(recorder.summary().messages, 0U) << "the recorder never found topic 'late'";
+  for (std::uint64_t i = 1; i <= 100; ++i) ASSERT_TRUE(late.send(topic_test::sealed<Sample>(i)));
+  const horus::RecordingSummary summary = recorder.stop();
+  EXPECT_EQ(summary.lost_total, 0U);
+  const horus::RecordingReader reader(summary.path);
+  const auto recorded = messages_of(reader, "late");
+  ASSERT_GE(recorded.size(), 100U);
+  for (std::size_t i = 0; i < 100; ++i) {
+    Sample sample;
+    std::memcpy(&sample, recorded[recorded.size() - 100 + i]->data.data(), sizeof sample);
+    EXPECT_EQ(sample.seq, i + 1);
+  }
+}
+
 /// Publishes its tick index on `topic` each tick.
 class Producer : public horus::Node {
  public:
@@ -217,6 +245,18 @@ class Summer : public horus::Node {
   std::uint64_t sum_ = 0;
 };
 
+/// Sends on a topic it does not name in publishers(), as hand-written nodes often do.
+class Unnamed : public horus::Node {
+ public:
+  Unnamed() : out_("unnamed_out") {}
+  std::string_view name() const override { return "unnamed"; }
+  void tick() override { out_.send(topic_test::sealed<Sample>(next_++)); }
+
+ private:
+  horus::Topic<Sample> out_;
+  std::uint64_t next_ = 0;
+};
+
 horus::SchedulerConfig quiet_config() {
   return horus::SchedulerConfig{}.handle_signals(false).tick_rate(horus::Rate::hz(1000.0));
 }
@@ -229,6 +269,7 @@ TEST(Recording, SchedulerRecordsItsNodesTopicsAndTicksIntoOneSession) {
     horus::Scheduler sched(quiet_config().recording(true));
     sched.add(std::make_shared<Producer>("s_in")).order(0).build();
     sched.add(std::make_shared<Summer>("s_in", "s_out")).order(1).build();
+    sched.add(std::make_shared<Unnamed>()).order(2).build();
     EXPECT_FALSE(sched.is_recording());
     for (int i = 0; i < 50; ++i) sched.tick_once();
     EXPECT_TRUE(sched.is_recording());
@@ -244,6 +285,7 @@ TEST(Recording, SchedulerRecordsItsNodesTopicsAndTicksIntoOneSession) {
   const auto outputs = messages_of(reader, "s_out");
   ASSERT_EQ(inputs.size(), 50U);
   EXPECT_EQ(outputs.size(), 50U);
+  EXPECT_EQ(messages_of(reader, "unnamed_out").size(), 50U);  // opened, not named: recorded too
   for (std::size_t i = 0; i < inputs.size(); ++i) {
     Sample sample;
     std::memcpy(&sample, inputs[i]->data.data(), sizeof sample);
@@ -254,7 +296,7 @@ TEST(Recording, SchedulerRecordsItsNodesTopicsAndTicksIntoOneSession) {
   EXPECT_EQ(ticks->message_encoding, "json");
   EXPECT_EQ(reader.schemas().at(ticks->schema_id).name, "horus.recording.Tick");
   const auto tick_records = messages_of(reader, "/horus/ticks");
-  ASSERT_EQ(tick_records.size(), 100U);
+  ASSERT_EQ(tick_records.size(), 150U);
   const std::string first(tick_records[0]->data.begin(), tick_records[0]->data.end());
   EXPECT_THAT(
       first,

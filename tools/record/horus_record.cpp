@@ -39,15 +39,14 @@ void wait_for_end(const sigset_t& signals, double seconds) {
   }
   timespec now{};
   clock_gettime(CLOCK_MONOTONIC, &now);
-  const double end = static_cast<double>(now.tv_sec) + static_cast<double>(now.tv_nsec) * 1e-9 +
-                     seconds;
+  const double end =
+      static_cast<double>(now.tv_sec) + static_cast<double>(now.tv_nsec) * 1e-9 + seconds;
   for (;;) {
     clock_gettime(CLOCK_MONOTONIC, &now);
     const double left =
         end - (static_cast<double>(now.tv_sec) + static_cast<double>(now.tv_nsec) * 1e-9);
     if (left <= 0) return;
-    timespec timeout{static_cast<time_t>(left),
-                     static_cast<long>((left - std::floor(left)) * 1e9)};
+    timespec timeout{static_cast<time_t>(left), static_cast<long>((left - std::floor(left)) * 1e9)};
     if (sigtimedwait(&signals, nullptr, &timeout) >= 0) return;
     if (errno != EINTR && errno != EAGAIN) return;
   }
@@ -79,7 +78,8 @@ int main(int argc, char** argv) {
       char* end = nullptr;
       duration = std::strtod(text, &end);
       if (end == text || *end != '\0' || !(duration > 0) || !std::isfinite(duration)) {
-        std::fprintf(stderr, "horus-record: --duration needs a positive number of seconds, not '%s'\n",
+        std::fprintf(stderr,
+                     "horus-record: --duration needs a positive number of seconds, not '%s'\n",
                      text);
         return 2;
       }

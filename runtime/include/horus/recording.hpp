@@ -127,7 +127,8 @@ class RecordingReader {
   const std::vector<RecordedMetadata>& metadata() const noexcept { return metadata_; }
   /// The channel recorded for `topic`, or nullptr.
   const RecordedChannel* channel(std::string_view topic) const;
-  /// Whether the file ends with its data-end record, summary and footer (its recorder finished).
+  /// Whether the data section ends with its data-end record (its CRC checked): the recorder
+  /// finished the file. A file cut by kill -9 has none.
   bool complete() const noexcept { return complete_; }
   /// Chunks read (complete ones only).
   std::size_t chunk_count() const noexcept { return chunks_; }

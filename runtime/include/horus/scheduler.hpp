@@ -144,7 +144,8 @@ class SchedulerConfig {
     return *this;
   }
   /// Record a session (docs/recording.md): every topic the nodes publish or subscribe (as their
-  /// publishers()/subscribers() name them) and every node's ticks go to one MCAP file in
+  /// publishers()/subscribers() name them, and every topic this process has open once they are
+  /// initialised) and every node's ticks go to one MCAP file in
   /// recordings_directory() ($HORUS_RECORDINGS), from the first run()/tick_once() until
   /// stop_recording() or the scheduler's end. Recording runs on a thread of its own.
   SchedulerConfig& recording(bool on) {

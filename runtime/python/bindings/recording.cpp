@@ -1,14 +1,11 @@
-// horus._core: session recording (docs/recording.md) as methods of horus._core.Scheduler, and
-// the recordings folder. SchedulerConfig::recording(true) itself is a constructor keyword
-// (scheduler.cpp).
+// horus._core: session recording (docs/recording.md) as methods of horus._core.Scheduler.
+// SchedulerConfig::recording(true) itself is a constructor keyword (scheduler.cpp).
 #include <pybind11/stl.h>
-#include <pybind11/stl/filesystem.h>
 
 #include <string>
 #include <vector>
 
 #include "bindings.hpp"
-#include "horus/recording.hpp"
 #include "horus/scheduler.hpp"
 
 namespace horus::python {
@@ -34,20 +31,17 @@ std::vector<std::string> strings(const std::vector<std::filesystem::path>& paths
 
 void bind_recording(py::module_& m) {
   py::object scheduler = m.attr("Scheduler");
-  add_method(scheduler, "is_recording", [](const Scheduler& sched) { return sched.is_recording(); });
+  add_method(scheduler, "is_recording",
+             [](const Scheduler& sched) { return sched.is_recording(); });
   // Joins the recording thread, which never needs the GIL.
   add_method(
-      scheduler, "stop_recording",
-      [](Scheduler& sched) { return strings(sched.stop_recording()); },
+      scheduler, "stop_recording", [](Scheduler& sched) { return strings(sched.stop_recording()); },
       py::call_guard<py::gil_scoped_release>());
   add_method(scheduler, "list_recordings",
              [](const Scheduler& sched) { return sched.list_recordings(); });
   add_method(scheduler, "delete_recording", [](Scheduler& sched, const std::string& name) {
     return sched.delete_recording(name);
   });
-  m.def(
-      "recordings_directory", [] { return recordings_directory().string(); },
-      "$HORUS_RECORDINGS, or ~/.local/share/horus/recordings (created when missing).");
 }
 
 }  // namespace horus::python

@@ -4,10 +4,13 @@ from __future__ import annotations
 from . import _core
 from ._node import Node
 
+
 class Scheduler:
     """Runs nodes in order at their rates; a context manager that stops on exit.
 
-    Every keyword of seed 001; `seed` sets the deterministic random sequence.
+    Every keyword of seed 001; `seed` sets the deterministic random sequence. `telemetry`
+    ("udp://HOST:PORT" or "file:///PATH") exports every node's metrics as JSON each second while
+    it runs and once when run() ends.
     """
 
     def __init__(self, tick_rate: float = 1000.0, rt: bool = False, deterministic: bool = False,
@@ -15,8 +18,6 @@ class Scheduler:
                  name: str | None = None, cores: list[int] | None = None,
                  max_deadline_misses: int | None = None, verbose: bool = False,
                  telemetry: str | None = None, seed: int | None = None) -> None:
-        if telemetry is not None:
-            raise NotImplementedError("telemetry export is not implemented")
         if not float(tick_rate) > 0.0:
             raise ValueError(f"tick_rate must be > 0 Hz, got {tick_rate!r}")
         if watchdog_ms is None or not float(watchdog_ms) >= 0.0:
@@ -26,7 +27,7 @@ class Scheduler:
             tick_rate=float(tick_rate), rt=bool(rt), deterministic=bool(deterministic),
             watchdog_ms=float(watchdog_ms), blackbox_mb=int(blackbox_mb), name=name,
             cores=list(cores or []), max_deadline_misses=max_deadline_misses,
-            verbose=bool(verbose), seed=seed, recording=bool(recording))
+            verbose=bool(verbose), telemetry=telemetry, seed=seed, recording=bool(recording))
         self._nodes: dict[str, object] = {}
 
     # -- building ---------------------------------------------------------------------------

@@ -45,6 +45,21 @@ std::uint32_t crc32(std::uint32_t crc, const void* data, std::size_t size) noexc
 /// new bytes uninitialised: a 6 MB image is copied into it once, not zeroed first.
 class Bytes {
  public:
+  Bytes() = default;
+  Bytes(Bytes&& other) noexcept
+      : data_(std::move(other.data_)),
+        size_(std::exchange(other.size_, 0)),
+        capacity_(std::exchange(other.capacity_, 0)) {}
+  Bytes& operator=(Bytes&& other) noexcept {
+    data_ = std::move(other.data_);
+    size_ = std::exchange(other.size_, 0);
+    capacity_ = std::exchange(other.capacity_, 0);
+    return *this;
+  }
+  Bytes(const Bytes&) = delete;
+  Bytes& operator=(const Bytes&) = delete;
+  ~Bytes() = default;
+
   std::uint8_t* data() noexcept { return data_.get(); }
   const std::uint8_t* data() const noexcept { return data_.get(); }
   std::size_t size() const noexcept { return size_; }
@@ -66,7 +81,8 @@ class Bytes {
   }
   template <class Int>
   void put(Int value) {
-    std::memcpy(grow(sizeof(Int)), &value, sizeof(Int));  // little-endian hosts only (x86-64, arm64)
+    std::memcpy(grow(sizeof(Int)), &value,
+                sizeof(Int));  // little-endian hosts only (x86-64, arm64)
   }
   void raw(const void* bytes, std::size_t size) {
     if (size > 0) std::memcpy(grow(size), bytes, size);

@@ -124,8 +124,7 @@ void RecordingReader::read_records(const std::uint8_t* data, std::size_t size, b
         std::vector<std::uint8_t> plain;
         if (compression == "zstd") {
           plain.resize(uncompressed);
-          const std::size_t got =
-              ZSTD_decompress(plain.data(), plain.size(), records, compressed);
+          const std::size_t got = ZSTD_decompress(plain.data(), plain.size(), records, compressed);
           if (ZSTD_isError(got) != 0 || got != uncompressed) {
             throw Error(where + ": a chunk does not decompress (zstd: " +
                         (ZSTD_isError(got) != 0 ? ZSTD_getErrorName(got) : "wrong size") + ")");

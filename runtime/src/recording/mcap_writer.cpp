@@ -5,8 +5,8 @@
 #include <unistd.h>
 #include <zstd.h>
 
-#include <cerrno>
 #include <algorithm>
+#include <cerrno>
 #include <cstring>
 
 #include "horus/detail/errno_text.hpp"
@@ -20,6 +20,16 @@ constexpr int kZstdLevel = 1;
 
 std::vector<std::uint8_t> copy_record(const mcap::Bytes& from, std::size_t begin) {
   return {from.data() + begin, from.data() + from.size()};
+}
+
+/// A Map<string, string> field.
+void put_map(mcap::Bytes& bytes, const McapMap& entries) {
+  const std::size_t map = bytes.begin_block();
+  for (const auto& [key, value] : entries) {
+    bytes.string(key);
+    bytes.string(value);
+  }
+  bytes.end_block(map);
 }
 
 }  // namespace
@@ -42,6 +52,7 @@ McapWriter::McapWriter(const std::filesystem::path& path, std::size_t chunk_size
   start.string(std::string("horus ") + HORUS_VERSION_STRING);
   start.end_record(header);
   write_out(start.data(), start.size());
+  writer_ = std::thread([this] { run_writer(); });
 }
 
 McapWriter::~McapWriter() {
@@ -50,6 +61,7 @@ McapWriter::~McapWriter() {
   } catch (...) {
     // A destructor cannot report it; finish() called explicitly does.
   }
+  stop_writer();
   if (fd_ >= 0) ::close(fd_);
   ZSTD_freeCCtx(static_cast<ZSTD_CCtx*>(zstd_));
 }
@@ -64,7 +76,8 @@ void McapWriter::write_out(const std::uint8_t* data, std::size_t size) {
     }
     data += wrote;
     size -= static_cast<std::size_t>(wrote);
-    offset_ += static_cast<std::uint64_t>(wrote);
+    offset_.store(offset_.load(std::memory_order_relaxed) + static_cast<std::uint64_t>(wrote),
+                  std::memory_order_relaxed);
   }
 }
 
@@ -83,8 +96,7 @@ std::uint16_t McapWriter::add_schema(std::string_view name, std::string_view enc
 }
 
 std::uint16_t McapWriter::add_channel(std::string_view topic, std::uint16_t schema_id,
-                                      std::string_view message_encoding,
-                                      const McapMap& metadata) {
+                                      std::string_view message_encoding, const McapMap& metadata) {
   const auto id = static_cast<std::uint16_t>(channel_records_.size() + 1);
   const std::size_t begin = chunk_.size();
   const std::size_t record = chunk_.begin_record(mcap::Op::Channel);
@@ -92,12 +104,7 @@ std::uint16_t McapWriter::add_channel(std::string_view topic, std::uint16_t sche
   chunk_.put(schema_id);
   chunk_.string(topic);
   chunk_.string(message_encoding);
-  const std::size_t map = chunk_.begin_block();
-  for (const auto& [key, value] : metadata) {
-    chunk_.string(key);
-    chunk_.string(value);
-  }
-  chunk_.end_block(map);
+  put_map(chunk_, metadata);
   chunk_.end_record(record);
   channel_records_.push_back(copy_record(chunk_, begin));
   channel_counts_.resize(id + 1, 0);
@@ -133,31 +140,106 @@ void McapWriter::commit_message(std::uint16_t channel, std::uint32_t sequence,
   chunk_end_ = std::max(chunk_end_, log_time);
   first_time_ = std::min(first_time_, log_time);
   last_time_ = std::max(last_time_, log_time);
-  if (chunk_.size() >= chunk_size_) write_chunk();
+  if (chunk_.size() >= chunk_size_) enqueue_chunk();
 }
 
-void McapWriter::add_message(std::uint16_t channel, std::uint32_t sequence,
-                             std::uint64_t log_time, std::uint64_t publish_time,
-                             std::span<const std::uint8_t> data) {
+void McapWriter::add_message(std::uint16_t channel, std::uint32_t sequence, std::uint64_t log_time,
+                             std::uint64_t publish_time, std::span<const std::uint8_t> data) {
   std::uint8_t* at = reserve_message(data.size());
   if (!data.empty()) std::memcpy(at, data.data(), data.size());
   commit_message(channel, sequence, log_time, publish_time, data.size());
 }
 
-void McapWriter::write_chunk() {
-  const std::size_t bound = ZSTD_compressBound(chunk_.size());
+void McapWriter::enqueue(Job job) {
+  std::unique_lock lock(mutex_);
+  space_.wait(lock, [&] { return queued_bytes_ < kMaxQueuedBytes || error_ != nullptr; });
+  if (error_) std::rethrow_exception(error_);
+  queued_bytes_ += job.records.size();
+  queue_.push_back(std::move(job));
+  work_.notify_one();
+}
+
+void McapWriter::enqueue_chunk() {
+  Job job;
+  job.start_time = chunk_messages_ > 0 ? chunk_start_ : 0;
+  job.end_time = chunk_end_;
+  for (std::size_t channel = 1; channel < chunk_index_.size(); ++channel) {
+    if (chunk_index_[channel].empty()) continue;
+    job.indexes.emplace_back(static_cast<std::uint16_t>(channel), std::move(chunk_index_[channel]));
+    chunk_index_[channel].clear();
+  }
+  job.records = std::move(chunk_);
+  {
+    std::lock_guard lock(mutex_);
+    if (!spare_buffers_.empty()) {
+      chunk_ = std::move(spare_buffers_.back());
+      spare_buffers_.pop_back();
+    }
+  }
+  chunk_.clear();
+  chunk_messages_ = 0;
+  chunk_start_ = UINT64_MAX;
+  chunk_end_ = 0;
+  enqueue(std::move(job));
+}
+
+void McapWriter::run_writer() noexcept {
+  for (;;) {
+    Job job;
+    {
+      std::unique_lock lock(mutex_);
+      work_.wait(lock, [&] { return !queue_.empty() || closing_; });
+      if (queue_.empty()) return;
+      job = std::move(queue_.front());
+      queue_.pop_front();
+    }
+    const std::size_t size = job.records.size();
+    try {
+      if (job.chunk) {
+        write_chunk(job);
+      } else {
+        write_metadata(job);
+      }
+    } catch (...) {
+      std::lock_guard lock(mutex_);
+      error_ = std::current_exception();
+      queue_.clear();
+      queued_bytes_ = 0;
+      space_.notify_all();
+      return;
+    }
+    std::lock_guard lock(mutex_);
+    queued_bytes_ -= size;
+    if (job.chunk && spare_buffers_.size() < 2) spare_buffers_.push_back(std::move(job.records));
+    space_.notify_all();
+  }
+}
+
+void McapWriter::stop_writer() {
+  {
+    std::lock_guard lock(mutex_);
+    closing_ = true;
+    work_.notify_one();
+  }
+  if (writer_.joinable()) writer_.join();
+}
+
+void McapWriter::write_chunk(Job& job) {
+  const mcap::Bytes& records = job.records;
+  const std::size_t bound = ZSTD_compressBound(records.size());
+  const std::uint64_t offset = offset_.load(std::memory_order_relaxed);
   packed_.clear();
   const std::size_t record = packed_.begin_record(mcap::Op::Chunk);
-  packed_.put(chunk_messages_ > 0 ? chunk_start_ : std::uint64_t{0});
-  packed_.put(chunk_end_);
-  packed_.put(static_cast<std::uint64_t>(chunk_.size()));
-  packed_.put(mcap::crc32(0, chunk_.data(), chunk_.size()));
+  packed_.put(job.start_time);
+  packed_.put(job.end_time);
+  packed_.put(static_cast<std::uint64_t>(records.size()));
+  packed_.put(mcap::crc32(0, records.data(), records.size()));
   packed_.string("zstd");
   const std::size_t length_at = packed_.size();
   packed_.put(std::uint64_t{0});
   std::uint8_t* out = packed_.grow(bound);
   const std::size_t compressed = ZSTD_compressCCtx(static_cast<ZSTD_CCtx*>(zstd_), out, bound,
-                                                   chunk_.data(), chunk_.size(), kZstdLevel);
+                                                   records.data(), records.size(), kZstdLevel);
   if (ZSTD_isError(compressed) != 0) {
     throw Error("cannot compress a chunk of recording " + path_.string() + ": " +
                 ZSTD_getErrorName(compressed));
@@ -166,64 +248,59 @@ void McapWriter::write_chunk() {
   packed_.patch64(length_at, compressed);
   packed_.end_record(record);
 
-  ChunkIndex index{chunk_messages_ > 0 ? chunk_start_ : 0,
-                   chunk_end_,
-                   offset_,
-                   packed_.size(),
-                   0,
-                   compressed,
-                   chunk_.size(),
-                   {}};
-  for (std::size_t channel = 1; channel < chunk_index_.size(); ++channel) {
-    auto& entries = chunk_index_[channel];
-    if (entries.empty()) continue;
-    index.index_offsets.emplace_back(static_cast<std::uint16_t>(channel), offset_ + packed_.size());
+  ChunkIndex index{job.start_time, job.end_time,   offset, packed_.size(), 0,
+                   compressed,     records.size(), {}};
+  for (const auto& [channel, entries] : job.indexes) {
+    index.index_offsets.emplace_back(channel, offset + packed_.size());
     const std::size_t message_index = packed_.begin_record(mcap::Op::MessageIndex);
-    packed_.put(static_cast<std::uint16_t>(channel));
+    packed_.put(channel);
     const std::size_t array = packed_.begin_block();
-    for (const auto& [time, offset] : entries) {
+    for (const auto& [time, at] : entries) {
       packed_.put(time);
-      packed_.put(offset);
+      packed_.put(at);
     }
     packed_.end_block(array);
     packed_.end_record(message_index);
-    entries.clear();
   }
   index.index_length = packed_.size() - index.length;
   // One write for the chunk and its indexes: a recorder killed mid-way leaves every earlier
   // chunk complete, and at most this one cut short.
   write_out(packed_.data(), packed_.size());
   chunks_.push_back(std::move(index));
-  chunk_.clear();
-  chunk_messages_ = 0;
-  chunk_start_ = UINT64_MAX;
-  chunk_end_ = 0;
+}
+
+void McapWriter::write_metadata(Job& job) {
+  metadata_.push_back(MetadataIndex{offset_.load(std::memory_order_relaxed), job.records.size(),
+                                    std::move(job.metadata_name)});
+  write_out(job.records.data(), job.records.size());
 }
 
 void McapWriter::flush() {
-  if (chunk_.size() > 0) write_chunk();
+  if (chunk_.size() > 0) enqueue_chunk();
 }
 
 void McapWriter::add_metadata(std::string_view name, const McapMap& entries) {
   flush();
-  mcap::Bytes bytes;
+  Job job;
+  job.chunk = false;
+  job.metadata_name = std::string(name);
+  mcap::Bytes& bytes = job.records;
   const std::size_t record = bytes.begin_record(mcap::Op::Metadata);
   bytes.string(name);
-  const std::size_t map = bytes.begin_block();
-  for (const auto& [key, value] : entries) {
-    bytes.string(key);
-    bytes.string(value);
-  }
-  bytes.end_block(map);
+  put_map(bytes, entries);
   bytes.end_record(record);
-  metadata_.push_back(MetadataIndex{offset_, bytes.size(), std::string(name)});
-  write_out(bytes.data(), bytes.size());
+  enqueue(std::move(job));
 }
 
 void McapWriter::finish() {
   if (finished_ || fd_ < 0) return;
   finished_ = true;
   flush();
+  stop_writer();
+  {
+    std::lock_guard lock(mutex_);
+    if (error_) std::rethrow_exception(error_);
+  }
   mcap::Bytes end;
   const std::size_t data_end = end.begin_record(mcap::Op::DataEnd);
   end.put(data_crc_);
@@ -231,7 +308,7 @@ void McapWriter::finish() {
   write_out(end.data(), end.size());
 
   // The summary: every group is one run of records, then a SummaryOffset per group.
-  const std::uint64_t summary_start = offset_;
+  const std::uint64_t summary_start = offset_.load(std::memory_order_relaxed);
   mcap::Bytes summary;
   struct Group {
     mcap::Op op;

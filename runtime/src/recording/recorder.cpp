@@ -8,8 +8,10 @@
 #include <cstdio>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <thread>
 
+#include "horus/detail/json_string.hpp"
 #include "horus/detail/ring.hpp"
 #include "horus/detail/send_clock.hpp"
 #include "horus/detail/shm_segment.hpp"
@@ -32,6 +34,8 @@ constexpr std::int64_t kDiscoverIntervalNs = 200'000'000;
 /// A chunk open longer than this is written anyway: a recorder killed with kill -9 loses at
 /// most this much of a slow session.
 constexpr std::int64_t kChunkMaxAgeNs = 1'000'000'000;
+/// How long stop() keeps taking what the rings still hold.
+constexpr std::int64_t kFinalDrainNs = 1'000'000'000;
 /// Messages taken from one topic per round before the others get their turn.
 constexpr int kRoundLimit = 256;
 
@@ -62,33 +66,13 @@ std::string_view outcome_name(TickOutcome outcome) {
   return "ok";
 }
 
-/// Node names are identifiers in practice; quotes, backslashes and control characters are
-/// escaped all the same so the line stays JSON.
-void append_json_string(std::string& out, std::string_view text) {
-  out += '"';
-  for (const char c : text) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char escape[8];
-      std::snprintf(escape, sizeof escape, "\\u%04x", c);
-      out += escape;
-    } else {
-      out += c;
-    }
-  }
-  out += '"';
-}
-
 }  // namespace
 
 class RecorderImpl {
  public:
   explicit RecorderImpl(RecorderOptions options)
       : options_(std::move(options)),
-        namespace_(options_.namespace_name.empty() ? current_namespace()
-                                                   : options_.namespace_name),
+        namespace_(options_.namespace_name.empty() ? current_namespace() : options_.namespace_name),
         writer_(options_.path.empty() ? new_recording_path() : options_.path),
         clock_offset_ns_(clock_ns(CLOCK_REALTIME) - clock_ns(CLOCK_MONOTONIC)) {
     validate_segment_name("namespace", namespace_);
@@ -96,12 +80,11 @@ class RecorderImpl {
     summary_.path = writer_.path();
     char host[256] = {};
     ::gethostname(host, sizeof host - 1);
-    writer_.add_metadata("horus.session",
-                         {{"session", writer_.path().stem().string()},
-                          {"namespace", namespace_},
-                          {"hostname", host},
-                          {"pid", std::to_string(::getpid())},
-                          {"start_ns", std::to_string(realtime_ns())}});
+    writer_.add_metadata("horus.session", {{"session", writer_.path().stem().string()},
+                                           {"namespace", namespace_},
+                                           {"hostname", host},
+                                           {"pid", std::to_string(::getpid())},
+                                           {"start_ns", std::to_string(realtime_ns())}});
     {
       std::lock_guard lock(mutex_);
       for (const std::string& topic : options_.topics) pending_.push_back(topic);
@@ -176,16 +159,24 @@ class RecorderImpl {
       try {
         open(*info);
       } catch (const Error& e) {
-        // Re-typed under us or removed meanwhile: the next look decides.
-        log::warn("recorder: cannot record topic '%s' yet: %s", it->c_str(), e.what());
+        // Re-typed under us or removed meanwhile: the next look tries again (said once).
+        if (unopenable_.insert(*it).second) {
+          log::warn("recorder: cannot record topic '%s' yet: %s", it->c_str(), e.what());
+        }
+        ++it;
+        continue;
       }
       it = pending_.erase(it);
     }
   }
 
   void open(const TopicInfo& info) {
-    const TypeDescriptor type{info.type_name, info.fingerprint, info.schema, info.is_pod,
-                              info.is_pod ? info.max_message_size : 0, 1};
+    const TypeDescriptor type{info.type_name,
+                              info.fingerprint,
+                              info.schema,
+                              info.is_pod,
+                              info.is_pod ? info.max_message_size : 0,
+                              1};
     ShmSegment segment = ShmSegment::open_topic(
         info.name, type,
         SegmentOptions{info.capacity, info.max_message_size, 0600, namespace_, false});
@@ -193,7 +184,8 @@ class RecorderImpl {
     if (schema == 0) schema = writer_.add_schema(info.type_name, "horus.hmsg", info.schema);
     McapMap metadata{{"horus.fingerprint", hex16(info.fingerprint)},
                      {"horus.type", info.type_name}};
-    if (info.is_pod) metadata.emplace_back("horus.payload_size", std::to_string(info.max_message_size));
+    if (info.is_pod)
+      metadata.emplace_back("horus.payload_size", std::to_string(info.max_message_size));
     const std::uint16_t channel = writer_.add_channel(
         info.name, schema, info.is_pod ? "horus.pod" : "horus.msgpack", metadata);
     topics_.push_back(Recorded{info.name, TopicEndpoint(std::move(segment)), channel});
@@ -233,8 +225,10 @@ class RecorderImpl {
         }
         if (taken == 0) std::this_thread::sleep_for(kIdleSleep);
       }
+      // What was sent before the stop; bounded, as a publisher may never pause.
       std::lock_guard lock(mutex_);
-      while (take_round(kRoundLimit) > 0) {
+      const std::int64_t give_up = clock_ns(CLOCK_MONOTONIC) + kFinalDrainNs;
+      while (take_round(kRoundLimit) > 0 && clock_ns(CLOCK_MONOTONIC) < give_up) {
       }
     } catch (const std::exception& e) {
       std::lock_guard lock(mutex_);
@@ -287,15 +281,15 @@ class RecorderImpl {
     const auto start = static_cast<std::uint64_t>(entry.start_ns + clock_offset_ns_);
     tick_text_.clear();
     tick_text_ += "{\"node\":";
-    append_json_string(tick_text_, node);
+    tick_text_ += json_string(node);
     tick_text_ += ",\"tick\":" + std::to_string(entry.tick) +
                   ",\"start_ns\":" + std::to_string(start) +
                   ",\"duration_ns\":" + std::to_string(entry.duration_ns) + ",\"outcome\":\"";
     tick_text_ += outcome_name(entry.outcome);
     tick_text_ += "\"}";
-    writer_.add_message(ticks_channel_, tick_sequence_++, start, start,
-                        {reinterpret_cast<const std::uint8_t*>(tick_text_.data()),
-                         tick_text_.size()});
+    writer_.add_message(
+        ticks_channel_, tick_sequence_++, start, start,
+        {reinterpret_cast<const std::uint8_t*>(tick_text_.data()), tick_text_.size()});
   }
 
   /// Counts as they stand (mutex_ held).
@@ -321,7 +315,8 @@ class RecorderImpl {
     for (NodeTicks& ticks : tick_logs_) ticks.log->close();
     RecordingSummary& summary = final_summary_.emplace(current_summary());
     McapMap entries{{"lost_total", std::to_string(summary.lost_total)}};
-    for (const auto& [topic, lost] : summary.lost) entries.emplace_back("lost." + topic, std::to_string(lost));
+    for (const auto& [topic, lost] : summary.lost)
+      entries.emplace_back("lost." + topic, std::to_string(lost));
     entries.emplace_back("end_ns", std::to_string(realtime_ns()));
     if (!error_.empty()) entries.emplace_back("error", error_);
     try {
@@ -354,6 +349,7 @@ class RecorderImpl {
 
   mutable std::mutex mutex_;  // everything below, and the writer
   std::vector<std::string> pending_;
+  std::set<std::string> unopenable_;  // warned about once
   std::vector<Recorded> topics_;
   std::vector<NodeTicks> tick_logs_;
   std::map<std::string, std::uint16_t> schema_ids_;

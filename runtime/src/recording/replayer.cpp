@@ -45,7 +45,9 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
   const std::string where = "replay of " + path.string();
   const std::vector<TopicInfo> now = list_topics(namespace_name);
   std::map<std::uint16_t, TopicEndpoint*> endpoints;
-  for (const auto& [id, channel] : recording.channels()) {
+  for (const auto& entry : recording.channels()) {
+    const std::uint16_t id = entry.first;
+    const RecordedChannel& channel = entry.second;
     if (channel.topic == kTicksTopic || skip.count(channel.topic) != 0) continue;
     const auto schema = recording.schemas().find(channel.schema_id);
     if (schema == recording.schemas().end()) {
@@ -68,7 +70,8 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
     std::size_t size = 0;
     if (pod) {
       const auto found = channel.metadata.find("horus.payload_size");
-      size = found == channel.metadata.end() ? 0 : std::strtoull(found->second.c_str(), nullptr, 10);
+      size =
+          found == channel.metadata.end() ? 0 : std::strtoull(found->second.c_str(), nullptr, 10);
     }
     std::size_t largest = 0;
     for (const RecordedMessage& m : recording.messages()) {
@@ -95,7 +98,8 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
       continue;
     }
     const auto endpoint = endpoints.find(m.channel_id);
-    if (endpoint != endpoints.end()) messages_.push_back(Message{m.log_time, endpoint->second, m.data});
+    if (endpoint != endpoints.end())
+      messages_.push_back(Message{m.log_time, endpoint->second, m.data});
   }
   std::stable_sort(messages_.begin(), messages_.end(),
                    [](const Message& a, const Message& b) { return a.log_time < b.log_time; });

@@ -15,11 +15,11 @@
 #include <vector>
 
 #include "horus/blackbox.hpp"
+#include "horus/detail/replayer.hpp"
 #include "horus/log.hpp"
 #include "horus/presence.hpp"
 #include "horus/recording.hpp"
 #include "horus/scheduler.hpp"
-#include "horus/detail/replayer.hpp"
 #include "node_slot.hpp"
 
 namespace horus::detail {

@@ -14,6 +14,7 @@
 #include "horus/detail/created_segments.hpp"
 #include "horus/detail/errno_text.hpp"
 #include "horus/error.hpp"
+#include "horus/topic_registry.hpp"
 #include "logger.hpp"
 #include "scheduler_impl.hpp"
 #include "telemetry.hpp"
@@ -365,7 +366,7 @@ void SchedulerImpl::prepare() {
     s->init_attempted = true;
     init_node(*s);
   }
-  if (recorder_) {
+  if (recorder_ && !fresh.empty()) {
     // Topics a node names once initialised (publishers()/subscribers() are asked after init()).
     std::vector<std::string> topics;
     {
@@ -374,6 +375,10 @@ void SchedulerImpl::prepare() {
         for (const TopicMetadata& t : s->publishers) topics.push_back(t.topic_name);
         for (const TopicMetadata& t : s->subscribers) topics.push_back(t.topic_name);
       }
+    }
+    // And the topics this process has open, for nodes that open topics without naming them.
+    for (const TopicInfo& info : list_topics()) {
+      if (info.open_here && !info.type_name.empty()) topics.push_back(info.name);
     }
     for (const std::string& topic : topics) recorder_->add_topic(topic);
   }

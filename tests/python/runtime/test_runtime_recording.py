@@ -219,3 +219,29 @@ def metadata_linear(path) -> dict:
     whole = complete_records(path.read_bytes())
     return {r.name: r.metadata for r in records_until_end(io.BytesIO(whole))
             if isinstance(r, Metadata)}
+
+
+def test_horus_record_duration_and_sigterm_finish_the_file_and_usage_errors_say_why(tmp_path):
+    timed = subprocess.run([RECORD, "-a", "-o", str(tmp_path / "timed.mcap"), "--duration", "0.3"],
+                           capture_output=True, text=True, timeout=30)
+    assert timed.returncode == 0, timed.stderr
+    assert "horus.recorder" in metadata(tmp_path / "timed.mcap")
+
+    terminated = _start_recorder("-a", "-o", str(tmp_path / "term.mcap"))
+    deadline = time.monotonic() + 10
+    while not (tmp_path / "term.mcap").exists() and time.monotonic() < deadline:
+        time.sleep(0.01)  # the file exists once the signals are blocked for sigwait
+    terminated.send_signal(signal.SIGTERM)
+    _, stderr = terminated.communicate(timeout=30)
+    assert terminated.returncode == 0, stderr
+    assert "horus.recorder" in metadata(tmp_path / "term.mcap")
+
+    for args, reason in ((["-o", "x.mcap"], "name topics to record"),
+                         (["t", "--duration", "soon"], "--duration needs a positive number"),
+                         (["t", "--bogus"], "unknown option --bogus")):
+        bad = subprocess.run([RECORD, *args], capture_output=True, text=True, timeout=30)
+        assert bad.returncode == 2 and reason in bad.stderr
+    existing = tmp_path / "timed.mcap"
+    refused = subprocess.run([RECORD, "t", "-o", str(existing)], capture_output=True, text=True,
+                             timeout=30)
+    assert refused.returncode == 1 and str(existing) in refused.stderr

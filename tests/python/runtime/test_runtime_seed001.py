@@ -53,11 +53,6 @@ def test_horus_run_takes_every_scheduler_keyword():
     assert ticks == [0, 1, 2, 3, 4]
 
 
-def test_telemetry_is_not_silently_ignored():
-    with pytest.raises(NotImplementedError, match="telemetry"):
-        Scheduler(telemetry="http://localhost:1")
-
-
 def test_recording_keywords_record_a_session(monkeypatch, tmp_path):
     # The seed's calls; the file itself is checked by test_runtime_recording.py.
     monkeypatch.setenv("HORUS_RECORDINGS", str(tmp_path))

@@ -14,8 +14,8 @@ namespace horus::detail {
 enum class TickOutcome : std::uint8_t { Ok, Error, DeadlineMiss };
 
 struct TickEntry {
-  std::uint64_t tick;        // the scheduler's cycle when the node ticked
-  std::int64_t start_ns;     // CLOCK_MONOTONIC
+  std::uint64_t tick;     // the scheduler's cycle when the node ticked
+  std::int64_t start_ns;  // CLOCK_MONOTONIC
   std::int64_t duration_ns;
   TickOutcome outcome;
 };
