@@ -4,7 +4,7 @@
 #                  [PACKAGE my_robot.msg]          # package of files that declare none
 #                  FILES motor.hmsg pose.hmsg ...   # also .hsrv services and .hnode nodes
 #                  [INCLUDE_DIRS dir...]           # extra import roots (-I)
-#                  [LANGUAGES cpp python]          # default: cpp
+#                  [LANGUAGES cpp python jsonschema] # default: cpp
 #                  [DEPENDS other_msgs...]         # targets made by horus_generate()
 #                  [INSTALL | NO_INSTALL]
 #                  [EXPORT export_set])            # install(TARGETS ... EXPORT export_set)
@@ -20,7 +20,9 @@
 # the library then links horus::runtime too (and its Python classes need the `horus` package).
 # With `python` in LANGUAGES the Python package folder (put it on sys.path) is the target property
 # HORUS_PYTHON_DIR and the variable <TARGET>_PYTHON_DIR; with `cpp`, the generated C++ folder is
-# the target property HORUS_CPP_DIR. HORUS_SCHEMA_DIRS holds the folders that horus-gen searches
+# the target property HORUS_CPP_DIR; with `jsonschema` (a JSON Schema per message, as the recording
+# export to Foxglove writes messages), the folder of `<package path>/<Name>.schema.json` is the
+# target property HORUS_JSONSCHEMA_DIR (installed under share/horus/jsonschema). HORUS_SCHEMA_DIRS holds the folders that horus-gen searches
 # for imports and qualified names (-I), here and in every target that DEPENDS on this one: the
 # folders of FILES, the root above them when they sit in their package's folder
 # (schemas/ for schemas/my_robot/msg/motor.hmsg in my_robot.msg), INCLUDE_DIRS, and the folders
@@ -121,8 +123,8 @@ function(horus_generate)
     set(ARG_LANGUAGES cpp)
   endif()
   foreach(lang IN LISTS ARG_LANGUAGES)
-    if(NOT lang MATCHES "^(cpp|python)$")
-      message(FATAL_ERROR "${where}: unknown language '${lang}' (expected cpp or python)")
+    if(NOT lang MATCHES "^(cpp|python|jsonschema)$")
+      message(FATAL_ERROR "${where}: unknown language '${lang}' (expected cpp, python or jsonschema)")
     endif()
   endforeach()
   list(REMOVE_DUPLICATES ARG_LANGUAGES)
@@ -265,6 +267,9 @@ function(horus_generate)
     set_target_properties(${ARG_TARGET} PROPERTIES HORUS_PYTHON_DIR "${out}/python")
     set(${ARG_TARGET}_PYTHON_DIR "${out}/python" PARENT_SCOPE)
   endif()
+  if("jsonschema" IN_LIST ARG_LANGUAGES)
+    set_target_properties(${ARG_TARGET} PROPERTIES HORUS_JSONSCHEMA_DIR "${out}/jsonschema")
+  endif()
 
   set(install ${HORUS_GENERATE_INSTALL})
   if(ARG_INSTALL)
@@ -293,6 +298,8 @@ function(horus_generate)
       elseif(subdir MATCHES "^python(/|$)")
         string(REGEX REPLACE "^python/?" "" subdir "${subdir}")
         install(FILES "${output}" DESTINATION "${HORUS_PYTHON_INSTALL_DIR}/${subdir}")
+      elseif(subdir MATCHES "^jsonschema(/|$)")
+        install(FILES "${output}" DESTINATION "${CMAKE_INSTALL_DATADIR}/horus/${subdir}")
       endif()
     endforeach()
   endif()

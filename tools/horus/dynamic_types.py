@@ -31,7 +31,7 @@ import tempfile
 import threading
 
 __all__ = ["SchemaError", "load_type", "to_plain", "from_plain", "parse_schema", "cache_root",
-           "run_generator"]
+           "run_generator", "write_schema_files"]
 
 # Bump when the way classes are produced changes, so stale cache entries are not reused.
 _CACHE_FORMAT = "v1"
@@ -106,19 +106,26 @@ def run_generator(arguments: list[str], failure: str) -> str:
     return result.stdout
 
 
+def write_schema_files(declarations, folder: str) -> list[str]:
+    """Writes the schema files of `declarations` (parse_schema) under `folder`, for horus-gen
+    with `-I folder`; their paths."""
+    files = []
+    for relative, text in _schema_files(declarations).items():
+        path = os.path.join(folder, relative)
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        with open(path, "w", encoding="utf-8") as handle:
+            handle.write(text)
+        files.append(path)
+    return files
+
+
 def _compile(type_name: str, declarations, destination: str) -> None:
     """Writes the Python of `declarations` to destination/python, atomically (a concurrent run
     compiling the same type leaves one complete copy)."""
     parent = os.path.dirname(destination)
     with tempfile.TemporaryDirectory(dir=parent, prefix=".build-") as work:
         sources = os.path.join(work, "schemas")
-        files = []
-        for relative, text in _schema_files(declarations).items():
-            path = os.path.join(sources, relative)
-            os.makedirs(os.path.dirname(path), exist_ok=True)
-            with open(path, "w", encoding="utf-8") as handle:
-                handle.write(text)
-            files.append(path)
+        files = write_schema_files(declarations, sources)
         output = os.path.join(work, "out")
         run_generator(["generate", "--lang", "python", "--out", output, "-I", sources, *files],
                       f"the stored schema of {type_name} does not compile")

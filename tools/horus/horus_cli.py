@@ -993,6 +993,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("blackbox_args", nargs=argparse.REMAINDER)
     sub.set_defaults(handler=blackbox)
 
+    commands.add_parser("record", add_help=False, help="record, inspect, repair, replay, compare "
+                        "and export sessions (MCAP): horus record --help")  # horus_record_cli.py
+
     sub = commands.add_parser("completion", help="print the bash completion script",
                               description="Print the bash completion script: "
                                           "source <(horus completion)")
@@ -1001,8 +1004,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from horus_record_cli import parse_record  # `record` parses its own arguments
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parse_record(sys.argv[1:] if argv is None else argv) or parser.parse_args(argv)
     if getattr(args, "handler", None) is None:
         parser.parse_args([*(argv if argv is not None else sys.argv[1:]), "--help"])
     args.root_parser = parser

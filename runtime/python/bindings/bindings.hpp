@@ -15,5 +15,7 @@ void bind_pod_fast_path(pybind11::module_& m);
 void bind_services(pybind11::module_& m);
 /// horus._core: services, log ring, presence and cleaning, for the `horus` command.
 void bind_introspection(pybind11::module_& m);
+/// Session recording on horus._core.Scheduler (after bind_scheduler).
+void bind_recording(pybind11::module_& m);
 
 }  // namespace horus::python

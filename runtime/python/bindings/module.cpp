@@ -17,4 +17,5 @@ PYBIND11_MODULE(_core, m) {
   horus::python::bind_pod_fast_path(m);
   horus::python::bind_services(m);
   horus::python::bind_introspection(m);
+  horus::python::bind_recording(m);
 }

@@ -176,7 +176,7 @@ void bind_scheduler(py::module_& m) {
                        std::size_t blackbox_mb, std::optional<std::string> name,
                        std::vector<int> cores, std::optional<std::uint64_t> max_deadline_misses,
                        bool verbose, std::optional<std::string> telemetry,
-                       std::optional<std::uint64_t> seed) {
+                       std::optional<std::uint64_t> seed, bool recording) {
              SchedulerConfig config;
              config.tick_rate(Rate::hz(tick_rate))
                  .rt(rt)
@@ -184,7 +184,8 @@ void bind_scheduler(py::module_& m) {
                  .watchdog(from_seconds(watchdog_ms * 1e-3))
                  .blackbox_mb(blackbox_mb)
                  .cores(std::move(cores))
-                 .verbose(verbose);
+                 .verbose(verbose)
+                 .recording(recording);
              if (name) config.name(*name);
              if (max_deadline_misses) config.max_deadline_misses(max_deadline_misses);
              if (telemetry) config.telemetry(*telemetry);
@@ -194,7 +195,7 @@ void bind_scheduler(py::module_& m) {
            py::arg("tick_rate"), py::arg("rt"), py::arg("deterministic"), py::arg("watchdog_ms"),
            py::arg("blackbox_mb"), py::arg("name"), py::arg("cores"),
            py::arg("max_deadline_misses"), py::arg("verbose"), py::arg("telemetry"),
-           py::arg("seed"))
+           py::arg("seed"), py::arg("recording") = false)
       .def(
           "add",
           [](Scheduler& sched, std::shared_ptr<Node> node, std::int32_t order,

@@ -24,6 +24,7 @@
 
 #include "../scheduler/telemetry.hpp"
 #include "horus/detail/errno_text.hpp"
+#include "horus/detail/json_string.hpp"
 #include "horus/detail/process.hpp"
 #include "horus/detail/shm_access.hpp"
 #include "horus/detail/shm_segment.hpp"
