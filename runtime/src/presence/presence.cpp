@@ -22,8 +22,8 @@
 #include <thread>
 #include <tuple>
 
-#include "../scheduler/telemetry.hpp"
 #include "horus/detail/errno_text.hpp"
+#include "horus/detail/json_string.hpp"
 #include "horus/detail/process.hpp"
 #include "horus/detail/shm_access.hpp"
 #include "horus/detail/shm_segment.hpp"
