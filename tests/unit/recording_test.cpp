@@ -311,6 +311,25 @@ TEST(Recording, SchedulerRecordsItsNodesTopicsAndTicksIntoOneSession) {
   EXPECT_THROW(other.delete_recording("../escape"), horus::Error);
 }
 
+TEST(Recording, ADeterministicRunFasterThanRealTimeLosesNothing) {
+  topic_test::PrivateNamespace ns;
+  RecordingsFolder folder;
+  horus::Scheduler sched(quiet_config().deterministic(true).recording(true));
+  sched.add(std::make_shared<Producer>("fast_sim")).order(0).build();
+  sched.add(std::make_shared<Summer>("fast_sim", "fast_sum")).order(1).build();
+  sched.run_for(std::chrono::seconds(5));  // 5000 simulated ticks, as fast as the CPU goes
+  const std::filesystem::path file = sched.stop_recording().at(0);
+  const horus::RecordingReader reader(file);
+  const auto inputs = messages_of(reader, "fast_sim");
+  ASSERT_EQ(inputs.size(),
+            5000U);  // 64-slot rings, nothing lost: each pass waited for the recorder
+  EXPECT_EQ(messages_of(reader, "fast_sum").size(), 5000U);
+  EXPECT_EQ(messages_of(reader, "/horus/ticks").size(), 10000U);
+  const auto* end = metadata_named(reader, "horus.recorder");
+  ASSERT_NE(end, nullptr);
+  EXPECT_EQ(end->entries.at("lost_total"), "0");
+}
+
 /// Records producer -> summer live (real time), then replays the producer's topic into a fresh
 /// summer twice under a deterministic scheduler: both runs give the same outputs.
 TEST(Recording, DeterministicReplayGivesIdenticalOutputsRunAfterRun) {

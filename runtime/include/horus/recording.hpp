@@ -72,6 +72,11 @@ class Recorder {
   /// Records the ticks a node's scheduler logs into `log` on the "/horus/ticks" channel.
   void add_tick_log(std::string node, std::shared_ptr<detail::TickLog> log);
 
+  /// Takes what the rings hold now, on the calling thread (the recording thread waits
+  /// meanwhile). A deterministic scheduler calls it after each pass, so that a simulation that
+  /// runs faster than real time loses nothing.
+  void drain();
+
   const std::filesystem::path& path() const noexcept;
   bool recording() const noexcept;
   /// Counts so far.

@@ -22,7 +22,6 @@
 #include <thread>
 #include <tuple>
 
-#include "../scheduler/telemetry.hpp"
 #include "horus/detail/errno_text.hpp"
 #include "horus/detail/json_string.hpp"
 #include "horus/detail/process.hpp"

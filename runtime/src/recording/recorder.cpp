@@ -34,7 +34,7 @@ constexpr std::int64_t kDiscoverIntervalNs = 200'000'000;
 /// A chunk open longer than this is written anyway: a recorder killed with kill -9 loses at
 /// most this much of a slow session.
 constexpr std::int64_t kChunkMaxAgeNs = 1'000'000'000;
-/// How long stop() keeps taking what the rings still hold.
+/// How long stop() or drain() keeps taking what the rings still hold.
 constexpr std::int64_t kFinalDrainNs = 1'000'000'000;
 /// Messages taken from one topic per round before the others get their turn.
 constexpr int kRoundLimit = 256;
@@ -108,6 +108,17 @@ class RecorderImpl {
   void add_tick_log(std::string node, std::shared_ptr<TickLog> log) {
     std::lock_guard lock(mutex_);
     tick_logs_.push_back(NodeTicks{std::move(node), std::move(log)});
+  }
+
+  void drain() {
+    std::lock_guard lock(mutex_);
+    if (stopped_.load(std::memory_order_acquire) || !error_.empty()) return;
+    try {
+      take_all();
+    } catch (const std::exception& e) {
+      error_ = e.what();
+      log::error("recorder: recording %s stopped: %s", summary_.path.c_str(), e.what());
+    }
   }
 
   const std::filesystem::path& path() const noexcept { return summary_.path; }
@@ -211,6 +222,7 @@ class RecorderImpl {
         std::size_t taken = 0;
         {
           std::lock_guard lock(mutex_);
+          if (!error_.empty()) return;
           const std::int64_t now = clock_ns(CLOCK_MONOTONIC);
           if (now - last_discovery >= kDiscoverIntervalNs) {
             discover();
@@ -225,15 +237,19 @@ class RecorderImpl {
         }
         if (taken == 0) std::this_thread::sleep_for(kIdleSleep);
       }
-      // What was sent before the stop; bounded, as a publisher may never pause.
       std::lock_guard lock(mutex_);
-      const std::int64_t give_up = clock_ns(CLOCK_MONOTONIC) + kFinalDrainNs;
-      while (take_round(kRoundLimit) > 0 && clock_ns(CLOCK_MONOTONIC) < give_up) {
-      }
+      take_all();
     } catch (const std::exception& e) {
       std::lock_guard lock(mutex_);
       error_ = e.what();
       log::error("recorder: recording %s stopped: %s", summary_.path.c_str(), e.what());
+    }
+  }
+
+  /// Takes rounds until one finds nothing (mutex_ held); bounded, as a publisher may never pause.
+  void take_all() {
+    const std::int64_t give_up = clock_ns(CLOCK_MONOTONIC) + kFinalDrainNs;
+    while (take_round(kRoundLimit) > 0 && clock_ns(CLOCK_MONOTONIC) < give_up) {
     }
   }
 
@@ -379,6 +395,7 @@ void Recorder::add_tick_log(std::string node, std::shared_ptr<detail::TickLog> l
 const std::filesystem::path& Recorder::path() const noexcept { return impl_->path(); }
 bool Recorder::recording() const noexcept { return impl_->recording(); }
 RecordingSummary Recorder::summary() const { return impl_->summary(); }
+void Recorder::drain() { impl_->drain(); }
 RecordingSummary Recorder::stop() { return impl_->stop(); }
 
 }  // namespace horus

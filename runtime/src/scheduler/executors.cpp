@@ -145,7 +145,16 @@ void SchedulerImpl::pass_once(const std::vector<std::string>* names) {
     if (stop_requested_.load(std::memory_order_relaxed)) break;
   }
   cycle_.fetch_add(1, std::memory_order_relaxed);
-  if (deterministic) sim_now_ns_ += tick_period_ns_;
+  if (deterministic) {
+    sim_now_ns_ += tick_period_ns_;
+    // Simulated time outruns the recording thread: the pass waits for the recording instead.
+    std::shared_ptr<Recorder> recorder;
+    {
+      std::lock_guard lock(mutex_);
+      recorder = recorder_;
+    }
+    if (recorder) recorder->drain();
+  }
 }
 
 void SchedulerImpl::real_loop(std::optional<std::int64_t> duration_ns,

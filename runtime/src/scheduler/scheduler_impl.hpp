@@ -217,7 +217,7 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   std::atomic<std::uint64_t> total_watchdog_{0};
   std::int64_t start_mono_ns_ = 0;
   /// Guarded by mutex_; the recorder's own thread does the work.
-  std::unique_ptr<Recorder> recorder_;
+  std::shared_ptr<Recorder> recorder_;
   std::unique_ptr<Replayer> replayer_;
   bool recording_done_ = false;
   std::int64_t sim_now_ns_ = 0;

@@ -366,7 +366,12 @@ void SchedulerImpl::prepare() {
     s->init_attempted = true;
     init_node(*s);
   }
-  if (recorder_ && !fresh.empty()) {
+  std::shared_ptr<Recorder> recorder;
+  {
+    std::lock_guard lock(mutex_);
+    recorder = recorder_;
+  }
+  if (recorder && !fresh.empty()) {
     // Topics a node names once initialised (publishers()/subscribers() are asked after init()).
     std::vector<std::string> topics;
     {
@@ -380,7 +385,7 @@ void SchedulerImpl::prepare() {
     for (const TopicInfo& info : list_topics()) {
       if (info.open_here && !info.type_name.empty()) topics.push_back(info.name);
     }
-    for (const std::string& topic : topics) recorder_->add_topic(topic);
+    for (const std::string& topic : topics) recorder->add_topic(topic);
   }
   if (!config_.replay().empty() && !replayer_) start_replay();
 }
@@ -389,7 +394,7 @@ void SchedulerImpl::start_recording(const std::vector<SlotPtr>& fresh) {
   std::lock_guard lock(mutex_);
   if (recording_done_) return;  // stop_recording() ended this scheduler's session
   if (!recorder_) {
-    recorder_ = std::make_unique<Recorder>(RecorderOptions{});
+    recorder_ = std::make_shared<Recorder>(RecorderOptions{});
     log(LogLevel::Info, "recording the session to %s", recorder_->path().c_str());
   }
   for (const SlotPtr& s : fresh) {
@@ -418,7 +423,7 @@ bool SchedulerImpl::is_recording() const noexcept {
 }
 
 std::vector<std::filesystem::path> SchedulerImpl::stop_recording() {
-  std::unique_ptr<Recorder> recorder;
+  std::shared_ptr<Recorder> recorder;
   {
     std::lock_guard lock(mutex_);
     recording_done_ = true;
