@@ -13,5 +13,7 @@ void bind_topics(pybind11::module_& m);
 void bind_services(pybind11::module_& m);
 /// horus._core: services, log ring, presence and cleaning, for the `horus` command.
 void bind_introspection(pybind11::module_& m);
+/// horus._core: the tensor pool, Image, DepthImage, PointCloud, Tensor and their topics.
+void bind_pool(pybind11::module_& m);
 
 }  // namespace horus::python

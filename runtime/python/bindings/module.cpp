@@ -16,4 +16,5 @@ PYBIND11_MODULE(_core, m) {
   horus::python::bind_topics(m);
   horus::python::bind_services(m);
   horus::python::bind_introspection(m);
+  horus::python::bind_pool(m);
 }
