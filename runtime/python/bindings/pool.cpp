@@ -579,6 +579,9 @@ void bind_pool(py::module_& m) {
       .def_property_readonly("ndim", &Tensor::ndim);
   bind_pool_backed<Tensor>(tensor);
 
+  m.def("remove_pools", &remove_pools, py::arg("namespace") = "",
+        "Removes every pool file of a namespace (empty: the current one); for tests and tools.");
+
   bind_pool_topic<Image>(m, "ImageTopic");
   bind_pool_topic<DepthImage>(m, "DepthImageTopic");
   bind_pool_topic<PointCloud>(m, "PointCloudTopic");
