@@ -393,9 +393,11 @@ TEST(PoolProcess, FreedForeignAndMalformedDescriptorsAreRefused) {
   EXPECT_FALSE(receiver.try_recv());
   EXPECT_EQ(receiver.refused(), 5U);
 
-  // Freed: the image is gone, its block free; then reused by another image (new generation).
+  // Freed: the image is gone, its block free (a release leaves freeing to the next allocation
+  // that needs a block, or to reclaim()); then reused by another image (new generation).
   image = Image();
   EXPECT_EQ(pool.references(good.block), 0U);
+  EXPECT_GE(pool.reclaim(), 1U);
   ASSERT_TRUE(raw.send(good));
   EXPECT_FALSE(receiver.try_recv());
   Image reuse = Image::make(480, 640, ImageEncoding::Rgb8);

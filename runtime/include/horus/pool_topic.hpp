@@ -83,8 +83,12 @@ class Topic<T> {
     InFlight& slot = in_flight_[next_in_flight_];
     next_in_flight_ = next_in_flight_ + 1 == in_flight_.size() ? 0 : next_in_flight_ + 1;
     slot.end();
-    slot.pool = value.shared_pool_mapping();
+    // Usually the same pool as the frame this slot held before: no reference count to touch.
+    if (slot.pool != value.shared_pool_mapping()) {
+      slot.pool = value.shared_pool_mapping();
+    }
     slot.block = value.block();
+    slot.live = true;
     return true;
   }
 
@@ -136,10 +140,11 @@ class Topic<T> {
   struct InFlight {
     std::shared_ptr<detail::PoolMapping> pool;
     msg::PoolBlock block{};
+    bool live = false;
     void end() noexcept {
-      if (pool) {
+      if (live) {
         pool->end_in_flight(block);
-        pool.reset();
+        live = false;
       }
     }
   };

@@ -48,7 +48,7 @@ struct TensorPoolOptions {
 struct TensorPoolStats {
   std::size_t block_size = 0;
   std::size_t block_count = 0;
-  /// Blocks held by somebody now.
+  /// Blocks somebody holds now.
   std::size_t blocks_in_use = 0;
   std::uint64_t allocations = 0;
   /// Allocations that failed because every block was taken.
@@ -84,9 +84,10 @@ class TensorPool {
   std::uint64_t references(const msg::PoolBlock& block) const noexcept;
   /// Whether `address` lies inside this process's mapping of the pool's blocks.
   bool contains(const void* address) const noexcept;
-  /// Gives back what dead processes held (a slow path: a syscall per process using the pool).
-  /// Allocations do it themselves before failing; returns the blocks freed by it.
-  std::size_t reclaim_dead() noexcept;
+  /// Frees the blocks nobody holds any more and takes back what dead processes held (a slow
+  /// path: a syscall per process using the pool). Allocations do both themselves when they find
+  /// no free block; returns the blocks free afterwards that were not before.
+  std::size_t reclaim() noexcept;
 
   /// The mapping behind the handle (for the pool-backed types).
   const std::shared_ptr<detail::PoolMapping>& mapping() const noexcept { return mapping_; }

@@ -437,7 +437,7 @@ void bind_pool(py::module_& m) {
              return pool.contains(reinterpret_cast<const void*>(address));
            },
            py::arg("address"))
-      .def("reclaim_dead", &TensorPool::reclaim_dead);
+      .def("reclaim", &TensorPool::reclaim);
 
   py::enum_<ImageEncoding>(m, "ImageEncoding")
       .value("Mono8", ImageEncoding::Mono8)

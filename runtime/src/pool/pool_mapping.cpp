@@ -117,9 +117,9 @@ std::optional<msg::PoolBlock> PoolMapping::try_allocate(std::size_t size) noexce
   if (row == kNoRow) {
     return std::nullopt;
   }
-  // Each pass that finds no free block first takes back what dead processes held (a syscall
-  // per process: only when exhausted), then applies the policy; a pass after that which still
-  // finds nothing fails.
+  // Each pass that finds no free block first frees the blocks nobody holds any more, then takes
+  // back what dead processes held (a syscall per process: only when exhausted), then applies the
+  // policy; a pass after that which still finds nothing fails.
   bool reclaimed = false;
   for (std::size_t pass = 0; pass <= block_count_ + 1; ++pass) {
     const std::uint64_t start = header_->next_block.fetch_add(1, std::memory_order_relaxed);
@@ -143,6 +143,9 @@ std::optional<msg::PoolBlock> PoolMapping::try_allocate(std::size_t size) noexce
         return msg::PoolBlock{id_, index, generation};
       }
       drop_reference(row, index, 1);
+    }
+    if (sweep_unheld() > 0) {
+      continue;
     }
     if (!reclaimed) {
       reclaimed = true;
@@ -238,9 +241,23 @@ void PoolMapping::drop_reference(std::size_t row, std::uint32_t index,
     }
     left = current - std::min(current, count);
   } while (!held.compare_exchange_weak(current, left, std::memory_order_seq_cst));
-  if (left == 0) {
-    try_free(index);
+  // A block nobody holds any more is not freed here but by the next allocation that finds no
+  // free block (sweep_unheld): deciding that nobody holds it reads every process's row, lines
+  // the sender writes on each send, and a receiver doing that per frame doubled a frame's
+  // latency (bench/pool/RESULTS.md). Until then the block keeps its generation and its bytes,
+  // so a late descriptor of it still reads the frame it names.
+}
+
+std::size_t PoolMapping::sweep_unheld() noexcept {
+  std::size_t freed = 0;
+  for (std::uint32_t index = 0; index < block_count_; ++index) {
+    if (block_status(state(index).word.load(std::memory_order_acquire)) == kBlockAllocated &&
+        !anybody_holds(index)) {
+      try_free(index);
+      freed += block_status(state(index).word.load(std::memory_order_acquire)) == kBlockFree;
+    }
   }
+  return freed;
 }
 
 bool PoolMapping::anybody_holds(std::uint32_t index) const noexcept {
@@ -295,8 +312,10 @@ void PoolMapping::begin_in_flight(const msg::PoolBlock& block) noexcept {
                ? current + 1
                : in_flight_word(block.generation, 1);
   } while (!mine.in_flight.compare_exchange_weak(current, next, std::memory_order_acq_rel));
-  sent_at_[block.index].store(send_clock_.fetch_add(1, std::memory_order_relaxed) + 1,
-                              std::memory_order_relaxed);
+  // Only an order for DropOldest: a plain increment (threads racing may share a value).
+  const std::uint64_t now = send_clock_.load(std::memory_order_relaxed) + 1;
+  send_clock_.store(now, std::memory_order_relaxed);
+  sent_at_[block.index].store(now, std::memory_order_relaxed);
 }
 
 void PoolMapping::end_in_flight(const msg::PoolBlock& block) noexcept {
@@ -352,16 +371,13 @@ void PoolMapping::give_back(std::size_t row) noexcept {
     held.in_flight.store(0, std::memory_order_relaxed);
     std::atomic<std::uint64_t>& word = state(index).word;
     std::uint64_t current = word.load(std::memory_order_seq_cst);
-    // Died between marking a block and deciding: un-mark it, and decide again below.
+    // Died between marking a block and deciding: un-mark it; the next sweep decides again.
     if (block_status(current) == kBlockFreeing && block_freer(current) == row) {
       word.compare_exchange_strong(
           current, block_word(block_generation(current), kBlockAllocated, 0),
           std::memory_order_seq_cst);
-      held.count.exchange(0, std::memory_order_seq_cst);
-      try_free(index);
-    } else if (held.count.exchange(0, std::memory_order_seq_cst) != 0) {
-      try_free(index);
     }
+    held.count.store(0, std::memory_order_seq_cst);
   }
 }
 
@@ -395,7 +411,8 @@ TensorPoolStats PoolMapping::stats() const noexcept {
   stats.block_size = block_size_;
   stats.block_count = block_count_;
   for (std::uint32_t index = 0; index < block_count_; ++index) {
-    if (block_status(state(index).word.load(std::memory_order_acquire)) != kBlockFree) {
+    if (block_status(state(index).word.load(std::memory_order_acquire)) != kBlockFree &&
+        anybody_holds(index)) {
       ++stats.blocks_in_use;
     }
   }

@@ -328,7 +328,10 @@ std::uint64_t TensorPool::references(const msg::PoolBlock& block) const noexcept
 bool TensorPool::contains(const void* address) const noexcept {
   return mapping_->contains(address);
 }
-std::size_t TensorPool::reclaim_dead() noexcept { return mapping_->reclaim_dead(); }
+std::size_t TensorPool::reclaim() noexcept {
+  mapping_->reclaim_dead();
+  return mapping_->sweep_unheld();
+}
 
 TensorPool default_pool() {
   // Kept open for the life of the process, one per namespace it used: the pool a camera loop

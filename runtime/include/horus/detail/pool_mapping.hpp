@@ -6,7 +6,9 @@
 //  - a block is used under a generation, bumped at each allocation; a descriptor of an older
 //    generation, or of another pool, is refused and never dereferenced;
 //  - allocation, acquisition and release are a few atomic operations on shared memory: no
-//    syscall, lock or heap allocation unless the pool is exhausted.
+//    syscall, lock or heap allocation unless the pool is exhausted;
+//  - a release only counts down its own row: the block is freed by the next allocation that
+//    finds no free block (sweep_unheld), which keeps a receiver off the rows its sender writes.
 #pragma once
 
 #include <atomic>
@@ -76,7 +78,7 @@ class PoolMapping : public std::enable_shared_from_this<PoolMapping> {
   bool acquire(const msg::PoolBlock& block) noexcept;
   /// Takes one more reference on a block this process already holds (copying a handle).
   void add_reference(std::uint32_t index) noexcept;
-  /// Gives back one reference; frees the block when it was the last anywhere.
+  /// Gives back one reference (the block is freed later, by an allocation that needs it).
   void release(std::uint32_t index) noexcept;
 
   /// A frame of a block this process holds enters a topic's ring: one more reference, which
@@ -88,7 +90,10 @@ class PoolMapping : public std::enable_shared_from_this<PoolMapping> {
 
   TensorPoolStats stats() const noexcept;
   std::uint64_t references(const msg::PoolBlock& block) const noexcept;
+  /// Takes back what dead processes held; returns how many processes' rows it emptied.
   std::size_t reclaim_dead() noexcept;
+  /// Frees the blocks nobody holds any more (see drop_reference); returns how many.
+  std::size_t sweep_unheld() noexcept;
 
  private:
   PoolProcess& process(std::size_t row) const noexcept;
