@@ -69,9 +69,8 @@ struct Size {
   std::uint32_t width;
   std::uint32_t height;
 };
-constexpr std::array<Size, 3> kSizes{{{"640x480", 640, 480},
-                                      {"1920x1080", 1920, 1080},
-                                      {"3840x2160", 3840, 2160}}};
+constexpr std::array<Size, 3> kSizes{
+    {{"640x480", 640, 480}, {"1920x1080", 1920, 1080}, {"3840x2160", 3840, 2160}}};
 
 horus::TensorPool bench_pool() {
   horus::TensorPoolOptions options;
@@ -147,7 +146,8 @@ void latency_table() {
     // Eight frames in turn, each painted once (a camera writes every frame anyway).
     std::vector<horus::Image> frames;
     for (int i = 0; i < 8; ++i) {
-      frames.push_back(horus::Image::make(size.height, size.width, horus::ImageEncoding::Rgb8, pool));
+      frames.push_back(
+          horus::Image::make(size.height, size.width, horus::ImageEncoding::Rgb8, pool));
       frames.back().fill(static_cast<std::uint8_t>(i + 1));
     }
     const std::size_t bytes = frames[0].size();
@@ -161,9 +161,10 @@ void latency_table() {
     std::vector<double> descriptor_p50;
     for (int round = 0; round < kRounds; ++round) {
       const std::string tag = std::string(size.name) + "." + std::to_string(round);
-      const std::vector<std::int64_t> small = ping_pong<Pong>(
-          "small." + tag, kIterations,
-          [](horus::Topic<Pong>& ping, int i) { ping.send(Pong{static_cast<std::uint64_t>(i), 1}); });
+      const std::vector<std::int64_t> small =
+          ping_pong<Pong>("small." + tag, kIterations, [](horus::Topic<Pong>& ping, int i) {
+            ping.send(Pong{static_cast<std::uint64_t>(i), 1});
+          });
       const std::vector<std::int64_t> frame = ping_pong<horus::Image>(
           "frame." + tag, kIterations,
           [&](horus::Topic<horus::Image>& ping, int i) { ping.send(frames[i % frames.size()]); });
@@ -196,8 +197,9 @@ void latency_table() {
                 median(memcpy_p50), median(descriptor_p50));
     std::fflush(stdout);
   }
-  std::printf("\n(ratios: median over %d rounds of each round's ratio; %d pings per row and round)\n\n",
-              kRounds, kIterations);
+  std::printf(
+      "\n(ratios: median over %d rounds of each round's ratio; %d pings per row and round)\n\n",
+      kRounds, kIterations);
 }
 
 /// A subscriber of the throughput run: checks order and pixels, acknowledges each frame.

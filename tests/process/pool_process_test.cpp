@@ -332,10 +332,9 @@ TEST(PoolProcess, ExhaustionUnderAStalledSubscriberFailsTheAllocation) {
 
 TEST(PoolProcess, ExhaustionUnderAStalledSubscriberDropsTheOldestUnreadFrames) {
   PoolNamespace ns;
-  TensorPool pool =
-      TensorPool::open("small", {.block_size = 8 << 20,
-                                 .block_count = 4,
-                                 .on_exhaustion = PoolExhaustion::DropOldest});
+  TensorPool pool = TensorPool::open(
+      "small",
+      {.block_size = 8 << 20, .block_count = 4, .on_exhaustion = PoolExhaustion::DropOldest});
   horus::Topic<std::uint64_t> ack("ack");
   horus::Topic<std::uint64_t> go("go");
   horus::TopicOptions options;

@@ -66,8 +66,8 @@ class DepthImage : public detail::PoolBacked<msg::DepthImageDescriptor> {
  private:
   DepthImage(detail::BlockRef ref, const Descriptor& descriptor, bool writable) noexcept
       : PoolBacked(std::move(ref), descriptor, writable) {}
-  static DepthImage make(std::uint32_t height, std::uint32_t width, TensorDtype dtype,
-                         float scale, const TensorPool& pool);
+  static DepthImage make(std::uint32_t height, std::uint32_t width, TensorDtype dtype, float scale,
+                         const TensorPool& pool);
   std::size_t offset(std::uint32_t x, std::uint32_t y) const noexcept;
 };
 

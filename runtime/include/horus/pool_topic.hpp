@@ -45,9 +45,7 @@ class Topic<T> {
   /// Opens (or creates) the topic; see Topic<T> of topic.hpp. The ring's capacity is also how
   /// many frames sent by this handle stay alive for subscribers that have not taken them yet.
   explicit Topic(std::string_view name, const TopicOptions& options = pool_topic_options())
-      : inner_(name, options),
-        namespace_(options.namespace_name),
-        in_flight_(inner_.capacity()) {}
+      : inner_(name, options), namespace_(options.namespace_name), in_flight_(inner_.capacity()) {}
 
   Topic(Topic&&) noexcept = default;
   Topic& operator=(Topic&& other) noexcept {

@@ -230,8 +230,7 @@ py::array contiguous(const py::object& object) {
 }
 
 std::span<const std::uint8_t> bytes_of(const py::array& array) {
-  return {static_cast<const std::uint8_t*>(array.data()),
-          static_cast<std::size_t>(array.nbytes())};
+  return {static_cast<const std::uint8_t*>(array.data()), static_cast<std::size_t>(array.nbytes())};
 }
 
 ImageEncoding encoding_for(const py::array& array) {
@@ -245,11 +244,11 @@ ImageEncoding encoding_for(const py::array& array) {
     if (dtype == msg::TensorDtype::F32 && channels == 1) return ImageEncoding::Mono32F;
     if (dtype == msg::TensorDtype::F32 && channels == 3) return ImageEncoding::Rgb32F;
   }
-  throw Error("Image.from_numpy: no encoding for an array of shape " +
-              text_of(py::cast(std::vector<py::ssize_t>(array.shape(),
-                                                        array.shape() + array.ndim()))) +
-              " and dtype " + text_of(array.dtype()) +
-              " (pass encoding=, or use (h, w) / (h, w, 3|4) uint8, uint16 or float32)");
+  throw Error(
+      "Image.from_numpy: no encoding for an array of shape " +
+      text_of(py::cast(std::vector<py::ssize_t>(array.shape(), array.shape() + array.ndim()))) +
+      " and dtype " + text_of(array.dtype()) +
+      " (pass encoding=, or use (h, w) / (h, w, 3|4) uint8, uint16 or float32)");
 }
 
 Image image_from_numpy(const py::object& object, std::optional<ImageEncoding> encoding,
@@ -290,9 +289,9 @@ PointCloud cloud_from_numpy(const py::object& object, std::optional<TensorPool> 
   if (array.ndim() != 2) {
     throw Error("PointCloud.from_numpy: a cloud array has shape (points, fields)");
   }
-  PointCloud cloud = PointCloud::make(
-      static_cast<std::uint64_t>(array.shape(0)), static_cast<std::uint32_t>(array.shape(1)),
-      dtype_of(array.dtype()), pool ? *pool : default_pool());
+  PointCloud cloud = PointCloud::make(static_cast<std::uint64_t>(array.shape(0)),
+                                      static_cast<std::uint32_t>(array.shape(1)),
+                                      dtype_of(array.dtype()), pool ? *pool : default_pool());
   cloud.copy_from(bytes_of(array));
   return cloud;
 }
@@ -313,8 +312,9 @@ void bind_pool_backed(Class& cls) {
   cls.def_property_readonly(
          "writable", [](const T& value) { return value.writable(); },
          "True for a value this process made, False for a received one.")
-      .def_property("frame_id", [](const T& value) { return std::string(value.frame_id()); },
-                    [](T& value, const std::string& frame) { value.set_frame_id(frame); })
+      .def_property(
+          "frame_id", [](const T& value) { return std::string(value.frame_id()); },
+          [](T& value, const std::string& frame) { value.set_frame_id(frame); })
       .def_property(
           "timestamp_ns", [](const T& value) { return value.timestamp_ns(); },
           [](T& value, std::uint64_t timestamp) { value.set_timestamp_ns(timestamp); })
@@ -327,31 +327,38 @@ void bind_pool_backed(Class& cls) {
       .def_property_readonly("block",
                              [](const T& value) {
                                const msg::PoolBlock& block = value.block();
-                               return py::make_tuple(block.pool_id, block.index,
-                                                     block.generation);
+                               return py::make_tuple(block.pool_id, block.index, block.generation);
                              })
-      .def("data", [](const T& value) {
-        return py::bytes(reinterpret_cast<const char*>(value.data().data()), value.data().size());
-      }, "A copy of the bytes (numpy.asarray(value) is the zero-copy view).")
-      .def("copy_from",
-           [](T& value, const py::buffer& source) {
-             const py::buffer_info info = source.request();
-             value.copy_from(std::span<const std::uint8_t>(
-                 static_cast<const std::uint8_t*>(info.ptr),
-                 static_cast<std::size_t>(info.size * info.itemsize)));
-             return &value;
-           },
-           py::return_value_policy::reference)
+      .def(
+          "data",
+          [](const T& value) {
+            return py::bytes(reinterpret_cast<const char*>(value.data().data()),
+                             value.data().size());
+          },
+          "A copy of the bytes (numpy.asarray(value) is the zero-copy view).")
+      .def(
+          "copy_from",
+          [](T& value, const py::buffer& source) {
+            const py::buffer_info info = source.request();
+            value.copy_from(
+                std::span<const std::uint8_t>(static_cast<const std::uint8_t*>(info.ptr),
+                                              static_cast<std::size_t>(info.size * info.itemsize)));
+            return &value;
+          },
+          py::return_value_policy::reference)
       .def("log_summary", &T::log_summary)
       .def("__repr__", &T::log_summary)
-      .def("__dlpack__", [](const T& value, const py::object& /*stream*/) { return to_dlpack(value); },
-           py::arg("stream") = py::none())
+      .def(
+          "__dlpack__",
+          [](const T& value, const py::object& /*stream*/) { return to_dlpack(value); },
+          py::arg("stream") = py::none())
       .def("__dlpack_device__", [](const T&) { return py::make_tuple(kDlCpu, 0); });
 }
 
 template <class T>
 void bind_pool_topic(py::module_& m, const char* name) {
-  py::class_<Topic<T>>(m, name, "A topic of a pool-backed type: the descriptor goes, the data stays.")
+  py::class_<Topic<T>>(m, name,
+                       "A topic of a pool-backed type: the descriptor goes, the data stays.")
       .def(py::init([](const std::string& topic, std::size_t capacity, const std::string& space) {
              TopicOptions options = pool_topic_options();
              options.capacity = capacity;
@@ -363,18 +370,19 @@ void bind_pool_topic(py::module_& m, const char* name) {
       .def_property_readonly("capacity", &Topic<T>::capacity)
       .def("send", &Topic<T>::send, py::arg("value"))
       .def("try_recv", &Topic<T>::try_recv)
-      .def("recv",
-           [](Topic<T>& topic, double timeout) {
-             const auto wait = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                 std::chrono::duration<double>(timeout));
-             std::optional<T> value;
-             {
-               py::gil_scoped_release release;
-               value = topic.recv(wait);
-             }
-             return value;
-           },
-           py::arg("timeout"))
+      .def(
+          "recv",
+          [](Topic<T>& topic, double timeout) {
+            const auto wait = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                std::chrono::duration<double>(timeout));
+            std::optional<T> value;
+            {
+              py::gil_scoped_release release;
+              value = topic.recv(wait);
+            }
+            return value;
+          },
+          py::arg("timeout"))
       .def("read_latest", &Topic<T>::read_latest)
       .def("has_msg", &Topic<T>::has_msg)
       .def("lost", &Topic<T>::lost)
@@ -425,18 +433,20 @@ void bind_pool(py::module_& m) {
              out["reclaimed"] = stats.reclaimed;
              return out;
            })
-      .def("references",
-           [](const TensorPool& pool, const py::tuple& block) {
-             return pool.references(msg::PoolBlock{block[0].cast<std::uint64_t>(),
-                                                   block[1].cast<std::uint32_t>(),
-                                                   block[2].cast<std::uint32_t>()});
-           },
-           py::arg("block"), "References on a block given as a value's .block tuple.")
-      .def("contains",
-           [](const TensorPool& pool, std::uintptr_t address) {
-             return pool.contains(reinterpret_cast<const void*>(address));
-           },
-           py::arg("address"))
+      .def(
+          "references",
+          [](const TensorPool& pool, const py::tuple& block) {
+            return pool.references(msg::PoolBlock{block[0].cast<std::uint64_t>(),
+                                                  block[1].cast<std::uint32_t>(),
+                                                  block[2].cast<std::uint32_t>()});
+          },
+          py::arg("block"), "References on a block given as a value's .block tuple.")
+      .def(
+          "contains",
+          [](const TensorPool& pool, std::uintptr_t address) {
+            return pool.contains(reinterpret_cast<const void*>(address));
+          },
+          py::arg("address"))
       .def("reclaim", &TensorPool::reclaim);
 
   py::enum_<ImageEncoding>(m, "ImageEncoding")
@@ -485,21 +495,23 @@ void bind_pool(py::module_& m) {
              if (!pixel) return py::none();
              return py::bytes(reinterpret_cast<const char*>(pixel->data()), pixel->size());
            })
-      .def("set_pixel",
-           [](Image& value, std::uint32_t x, std::uint32_t y, const py::bytes& pixel) {
-             const std::string bytes = pixel;
-             value.set_pixel(x, y,
-                             std::span<const std::uint8_t>(
-                                 reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size()));
-             return &value;
-           },
-           py::return_value_policy::reference)
-      .def("fill",
-           [](Image& value, int byte) {
-             value.fill(static_cast<std::uint8_t>(byte));
-             return &value;
-           },
-           py::return_value_policy::reference)
+      .def(
+          "set_pixel",
+          [](Image& value, std::uint32_t x, std::uint32_t y, const py::bytes& pixel) {
+            const std::string bytes = pixel;
+            value.set_pixel(x, y,
+                            std::span<const std::uint8_t>(
+                                reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size()));
+            return &value;
+          },
+          py::return_value_policy::reference)
+      .def(
+          "fill",
+          [](Image& value, int byte) {
+            value.fill(static_cast<std::uint8_t>(byte));
+            return &value;
+          },
+          py::return_value_policy::reference)
       .def("roi",
            [](const Image& value, std::uint32_t x, std::uint32_t y, std::uint32_t w,
               std::uint32_t h) -> py::object {

@@ -29,9 +29,9 @@ DepthImage DepthImage::make(std::uint32_t height, std::uint32_t width, TensorDty
   const std::uint64_t size =
       std::uint64_t{width} * height * (dtype == TensorDtype::F32 ? sizeof(float) : 2);
   if (size > pool.block_size()) {
-    throw Error("DepthImage: " + std::to_string(width) + "x" + std::to_string(height) +
-                " needs " + std::to_string(size) + " bytes, a block of pool " + pool.name() +
-                " holds " + std::to_string(pool.block_size()));
+    throw Error("DepthImage: " + std::to_string(width) + "x" + std::to_string(height) + " needs " +
+                std::to_string(size) + " bytes, a block of pool " + pool.name() + " holds " +
+                std::to_string(pool.block_size()));
   }
   Descriptor descriptor{};
   descriptor.width = width;

@@ -41,16 +41,13 @@ EncodingShape shape_of(ImageEncoding encoding) noexcept {
 }  // namespace
 
 std::uint32_t bytes_per_pixel(ImageEncoding encoding) noexcept { return shape_of(encoding).bytes; }
-std::uint32_t channel_count(ImageEncoding encoding) noexcept {
-  return shape_of(encoding).channels;
-}
+std::uint32_t channel_count(ImageEncoding encoding) noexcept { return shape_of(encoding).channels; }
 
 Image Image::make(std::uint32_t height, std::uint32_t width, ImageEncoding encoding,
                   const TensorPool& pool) {
   const EncodingShape shape = shape_of(encoding);
   if (shape.bytes == 0) {
-    throw Error("Image::make: unknown encoding " +
-                std::to_string(static_cast<unsigned>(encoding)));
+    throw Error("Image::make: unknown encoding " + std::to_string(static_cast<unsigned>(encoding)));
   }
   if (width == 0 || height == 0) {
     throw Error("Image::make: an image needs at least one pixel (got " + std::to_string(width) +

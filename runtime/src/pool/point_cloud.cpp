@@ -18,8 +18,8 @@ PointCloud PointCloud::make(std::uint64_t point_count, std::uint32_t fields_per_
   const std::uint64_t point_size = std::uint64_t{fields_per_point} * unit;
   if (point_count > pool.block_size() / point_size) {
     throw Error("PointCloud::make: " + std::to_string(point_count) + " points of " +
-                std::to_string(point_size) + " bytes do not fit in a block of pool " +
-                pool.name() + " (" + std::to_string(pool.block_size()) + " bytes)");
+                std::to_string(point_size) + " bytes do not fit in a block of pool " + pool.name() +
+                " (" + std::to_string(pool.block_size()) + " bytes)");
   }
   Descriptor descriptor{};
   descriptor.point_count = point_count;

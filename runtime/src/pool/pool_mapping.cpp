@@ -89,11 +89,11 @@ std::size_t PoolMapping::register_process() noexcept {
   for (int pass = 0; pass < 2; ++pass) {
     for (std::size_t row = 0; row < kMaxPoolProcesses; ++row) {
       std::uint64_t current = process(row).identity.load(std::memory_order_acquire);
-      const bool free = pass == 0 ? current == 0
-                                  : current != 0 && current != kReclaimingRow &&
-                                        !identity_alive(current);
-      if (free && process(row).identity.compare_exchange_strong(current, me,
-                                                                std::memory_order_acq_rel)) {
+      const bool free = pass == 0
+                            ? current == 0
+                            : current != 0 && current != kReclaimingRow && !identity_alive(current);
+      if (free &&
+          process(row).identity.compare_exchange_strong(current, me, std::memory_order_acq_rel)) {
         // A dead process's row: what it held goes back before this process counts in it.
         give_back(row);
         std::uint64_t used = header_->rows_used.load(std::memory_order_acquire);
@@ -185,7 +185,7 @@ msg::PoolBlock PoolMapping::allocate(std::size_t size) {
 bool PoolMapping::acquire(const msg::PoolBlock& block) noexcept {
   const std::size_t row =
       block.pool_id == id_ && block.index < block_count_ && block.generation != 0 ? process_row()
-                                                                                   : kNoRow;
+                                                                                  : kNoRow;
   if (row == kNoRow) {
     header_->refused.fetch_add(1, std::memory_order_relaxed);
     return false;
@@ -261,9 +261,8 @@ std::size_t PoolMapping::sweep_unheld() noexcept {
 }
 
 bool PoolMapping::anybody_holds(std::uint32_t index) const noexcept {
-  const std::uint64_t rows =
-      std::min<std::uint64_t>(header_->rows_used.load(std::memory_order_seq_cst),
-                              kMaxPoolProcesses);
+  const std::uint64_t rows = std::min<std::uint64_t>(
+      header_->rows_used.load(std::memory_order_seq_cst), kMaxPoolProcesses);
   for (std::size_t row = 0; row < rows; ++row) {
     if (hold(row, index).count.load(std::memory_order_seq_cst) != 0) {
       return true;
@@ -308,9 +307,8 @@ void PoolMapping::begin_in_flight(const msg::PoolBlock& block) noexcept {
   std::uint64_t current = mine.in_flight.load(std::memory_order_relaxed);
   std::uint64_t next = 0;
   do {
-    next = in_flight_generation(current) == block.generation
-               ? current + 1
-               : in_flight_word(block.generation, 1);
+    next = in_flight_generation(current) == block.generation ? current + 1
+                                                             : in_flight_word(block.generation, 1);
   } while (!mine.in_flight.compare_exchange_weak(current, next, std::memory_order_acq_rel));
   // Only an order for DropOldest: a plain increment (threads racing may share a value).
   const std::uint64_t now = send_clock_.load(std::memory_order_relaxed) + 1;
@@ -373,9 +371,9 @@ void PoolMapping::give_back(std::size_t row) noexcept {
     std::uint64_t current = word.load(std::memory_order_seq_cst);
     // Died between marking a block and deciding: un-mark it; the next sweep decides again.
     if (block_status(current) == kBlockFreeing && block_freer(current) == row) {
-      word.compare_exchange_strong(
-          current, block_word(block_generation(current), kBlockAllocated, 0),
-          std::memory_order_seq_cst);
+      word.compare_exchange_strong(current,
+                                   block_word(block_generation(current), kBlockAllocated, 0),
+                                   std::memory_order_seq_cst);
     }
     held.count.store(0, std::memory_order_seq_cst);
   }
@@ -387,9 +385,8 @@ std::size_t PoolMapping::reclaim_dead() noexcept {
   }
   std::size_t reclaimed = 0;
   const std::uint64_t me = this_process_identity();
-  const std::uint64_t rows =
-      std::min<std::uint64_t>(header_->rows_used.load(std::memory_order_acquire),
-                              kMaxPoolProcesses);
+  const std::uint64_t rows = std::min<std::uint64_t>(
+      header_->rows_used.load(std::memory_order_acquire), kMaxPoolProcesses);
   for (std::size_t row = 0; row < rows; ++row) {
     std::uint64_t current = process(row).identity.load(std::memory_order_acquire);
     if (current == 0 || current == kReclaimingRow || current == me || identity_alive(current)) {
@@ -433,9 +430,8 @@ std::uint64_t PoolMapping::references(const msg::PoolBlock& block) const noexcep
     return 0;
   }
   std::uint64_t total = 0;
-  const std::uint64_t rows =
-      std::min<std::uint64_t>(header_->rows_used.load(std::memory_order_acquire),
-                              kMaxPoolProcesses);
+  const std::uint64_t rows = std::min<std::uint64_t>(
+      header_->rows_used.load(std::memory_order_acquire), kMaxPoolProcesses);
   for (std::size_t row = 0; row < rows; ++row) {
     total += hold(row, block.index).count.load(std::memory_order_acquire);
   }

@@ -24,8 +24,8 @@ Tensor Tensor::make(std::span<const std::uint64_t> shape, msg::TensorDtype dtype
     descriptor.shape[i] = shape[i];
     descriptor.strides[i] = size;
     if (shape[i] != 0 && size > pool.block_size() / shape[i]) {
-      throw Error("Tensor::make: the tensor does not fit in a block of pool " + pool.name() +
-                  " (" + std::to_string(pool.block_size()) + " bytes)");
+      throw Error("Tensor::make: the tensor does not fit in a block of pool " + pool.name() + " (" +
+                  std::to_string(pool.block_size()) + " bytes)");
     }
     size *= shape[i];
   }

@@ -137,8 +137,8 @@ Registry& registry() {
 /// Opens (creating when `create`) the pool file `name` of the namespace; the registry's lock is
 /// held by the caller. Returns nullptr when it does not exist and not `create`.
 std::shared_ptr<PoolMapping> open_mapping(Registry& pools, const std::string& namespace_name,
-                                          const std::string& name,
-                                          const TensorPoolOptions& options, bool create) {
+                                          const std::string& name, const TensorPoolOptions& options,
+                                          bool create) {
   std::string folder_path;
   const FileDescriptor folder = open_pool_folder(namespace_name, options.mode, create, folder_path);
   if (folder.get() < 0) return nullptr;
@@ -154,9 +154,9 @@ std::shared_ptr<PoolMapping> open_mapping(Registry& pools, const std::string& na
     if (!create && ::fstatat(folder.get(), name.c_str(), &existing, AT_SYMLINK_NOFOLLOW) != 0) {
       return nullptr;
     }
-    FileDescriptor file = open_trusted_file(folder.get(), name, path,
-                                            O_RDWR | (create ? O_CREAT : 0), options.mode,
-                                            group_sharing(options.mode));
+    FileDescriptor file =
+        open_trusted_file(folder.get(), name, path, O_RDWR | (create ? O_CREAT : 0), options.mode,
+                          group_sharing(options.mode));
     while (::flock(file.get(), LOCK_EX) != 0) {
       if (errno != EINTR) {
         throw Error("cannot lock tensor pool " + path + ": " + errno_text(errno));
@@ -318,9 +318,7 @@ std::uint64_t TensorPool::id() const noexcept { return mapping_->id(); }
 std::size_t TensorPool::block_size() const noexcept { return mapping_->block_size(); }
 std::size_t TensorPool::block_count() const noexcept { return mapping_->block_count(); }
 PoolExhaustion TensorPool::on_exhaustion() const noexcept { return mapping_->policy(); }
-void TensorPool::set_on_exhaustion(PoolExhaustion policy) noexcept {
-  mapping_->set_policy(policy);
-}
+void TensorPool::set_on_exhaustion(PoolExhaustion policy) noexcept { mapping_->set_policy(policy); }
 TensorPoolStats TensorPool::stats() const noexcept { return mapping_->stats(); }
 std::uint64_t TensorPool::references(const msg::PoolBlock& block) const noexcept {
   return mapping_->references(block);

@@ -140,8 +140,7 @@ class BlockRef {
       pool_->add_reference(block_.index);
     }
   }
-  BlockRef(BlockRef&& other) noexcept
-      : pool_(std::move(other.pool_)), block_(other.block_) {}
+  BlockRef(BlockRef&& other) noexcept : pool_(std::move(other.pool_)), block_(other.block_) {}
   BlockRef& operator=(BlockRef other) noexcept {
     std::swap(pool_, other.pool_);
     std::swap(block_, other.block_);
