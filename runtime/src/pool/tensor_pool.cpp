@@ -184,7 +184,7 @@ MappedPool map_pool_file(int file, const std::string& path, const TensorPoolOpti
   if (::fstat(file, &info) != 0) {
     throw Error("cannot stat tensor pool " + path + ": " + errno_text(errno));
   }
-  auto file_size = static_cast<std::uint64_t>(info.st_size);
+  const auto file_size = static_cast<std::uint64_t>(info.st_size);
   PoolGeometry geometry;
   bool fresh = file_size < kPoolHeaderSize;
   if (!fresh) {
@@ -237,7 +237,6 @@ MappedPool map_pool_file(int file, const std::string& path, const TensorPoolOpti
       ::ftruncate(file, 0);
       throw Error("cannot allocate tensor pool " + path + ": " + errno_text(error));
     }
-    file_size = geometry.total_size;
   }
   void* base = ::mmap(nullptr, geometry.total_size, PROT_READ | PROT_WRITE, MAP_SHARED, file, 0);
   if (base == MAP_FAILED) {
