@@ -301,57 +301,53 @@ TEST(PoolProcess, ReceiverKilledWhileHoldingAFrameGivesItBack) {
   EXPECT_EQ(pool.stats().reclaimed, 1U);
 }
 
-TEST(PoolProcess, ExhaustionUnderAStalledSubscriberFailsTheAllocation) {
-  PoolNamespace ns;
-  TensorPool pool = TensorPool::open(
-      "small", {.block_size = 8 << 20, .block_count = 4, .on_exhaustion = PoolExhaustion::Fail});
+/// A 4-block pool and a 16-slot ring whose subscriber reads nothing until told: sends `frames`
+/// painted 1080p frames (as many as the pool lets `policy` make), then lets the subscriber read,
+/// expecting it to refuse the first `refused` and get the rest intact. Returns the pool's stats.
+horus::TensorPoolStats stalled_subscriber(PoolExhaustion policy, std::uint64_t frames,
+                                          std::uint64_t refused) {
+  TensorPool pool =
+      TensorPool::open("small", {.block_size = 8 << 20, .block_count = 4, .on_exhaustion = policy});
   horus::Topic<std::uint64_t> ack("ack");
   horus::Topic<std::uint64_t> go("go");
   horus::TopicOptions options;
   options.capacity = 16;
   horus::Topic<Image> topic("camera", options);
-  Child child("stalled", {"4", "0"});
-  ASSERT_TRUE(hear(ack));
-  for (std::uint64_t seq = 0; seq < 4; ++seq) {
+  Child child("stalled", {std::to_string(frames), std::to_string(refused)});
+  EXPECT_TRUE(hear(ack));
+  for (std::uint64_t seq = 0; seq < frames; ++seq) {
     Image image = Image::make(1080, 1920, ImageEncoding::Rgb8, pool);
     paint(image, seq);
-    ASSERT_TRUE(topic.send(image));
+    EXPECT_TRUE(topic.send(image));
   }
-  // The four frames in the ring hold every block: the fifth allocation says so.
-  try {
-    (void)Image::make(1080, 1920, ImageEncoding::Rgb8, pool);
-    ADD_FAILURE() << "the allocation should have failed";
-  } catch (const horus::Error& e) {
-    EXPECT_NE(std::string(e.what()).find("exhausted"), std::string::npos) << e.what();
+  if (policy == PoolExhaustion::Fail) {
+    // The frames in the ring hold every block: the next allocation says so.
+    try {
+      (void)Image::make(1080, 1920, ImageEncoding::Rgb8, pool);
+      ADD_FAILURE() << "the allocation should have failed";
+    } catch (const horus::Error& e) {
+      EXPECT_NE(std::string(e.what()).find("exhausted"), std::string::npos) << e.what();
+    }
   }
-  EXPECT_EQ(pool.stats().exhausted, 1U);
-  EXPECT_EQ(pool.stats().dropped, 0U);
-  ASSERT_TRUE(go.send(1));
+  EXPECT_TRUE(go.send(1));
   EXPECT_EQ(child.wait(), 0);
+  return pool.stats();
+}
+
+TEST(PoolProcess, ExhaustionUnderAStalledSubscriberFailsTheAllocation) {
+  PoolNamespace ns;
+  const horus::TensorPoolStats stats = stalled_subscriber(PoolExhaustion::Fail, 4, 0);
+  EXPECT_EQ(stats.exhausted, 1U);
+  EXPECT_EQ(stats.dropped, 0U);
 }
 
 TEST(PoolProcess, ExhaustionUnderAStalledSubscriberDropsTheOldestUnreadFrames) {
   PoolNamespace ns;
-  TensorPool pool = TensorPool::open(
-      "small",
-      {.block_size = 8 << 20, .block_count = 4, .on_exhaustion = PoolExhaustion::DropOldest});
-  horus::Topic<std::uint64_t> ack("ack");
-  horus::Topic<std::uint64_t> go("go");
-  horus::TopicOptions options;
-  options.capacity = 16;
-  horus::Topic<Image> topic("camera", options);
-  Child child("stalled", {"10", "6"});
-  ASSERT_TRUE(hear(ack));
-  for (std::uint64_t seq = 0; seq < 10; ++seq) {
-    Image image = Image::make(1080, 1920, ImageEncoding::Rgb8, pool);
-    paint(image, seq);
-    ASSERT_TRUE(topic.send(image));
-  }
-  EXPECT_EQ(pool.stats().exhausted, 0U);
-  EXPECT_EQ(pool.stats().dropped, 6U);
-  ASSERT_TRUE(go.send(1));
-  // The subscriber refuses the six dropped frames and reads the last four intact.
-  EXPECT_EQ(child.wait(), 0);
+  // Ten frames through four blocks: the six oldest unread ones are given up, and the subscriber
+  // refuses them and reads the last four intact.
+  const horus::TensorPoolStats stats = stalled_subscriber(PoolExhaustion::DropOldest, 10, 6);
+  EXPECT_EQ(stats.exhausted, 0U);
+  EXPECT_EQ(stats.dropped, 6U);
 }
 
 TEST(PoolProcess, FreedForeignAndMalformedDescriptorsAreRefused) {

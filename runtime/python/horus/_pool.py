@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 from . import _core
+from ._topic import _FOREVER_SLICE
 
 Image = _core.Image
 DepthImage = _core.DepthImage
@@ -19,8 +20,6 @@ TensorPool = _core.TensorPool
 PoolExhaustion = _core.PoolExhaustion
 ImageEncoding = _core.ImageEncoding
 TensorDtype = _core.TensorDtype
-
-_FOREVER_SLICE = 0.1  # a wait without timeout wakes this often to let Ctrl+C through
 
 _CORE_TOPICS = {
     Image: _core.ImageTopic,
