@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <memory>
@@ -251,6 +252,45 @@ TEST_F(PoolTypes, EventNodeTicksOnAnImage) {
   scheduler.tick_once();
   EXPECT_EQ(handler->frames, 1);
   EXPECT_EQ(handler->last_width, 640U);
+}
+
+}  // namespace
+
+namespace {
+
+TEST_F(PoolTypes, ThreadsExchangeFramesWithoutTearingOrLeaks) {
+  TensorPool pool = TensorPool::open("threads", {.block_size = 4096, .block_count = 8});
+  constexpr int kFrames = 2000;
+  std::atomic<bool> done{false};
+  std::atomic<int> torn{0};
+  std::atomic<int> received{0};
+  horus::Topic<Image> subscriber("frames");
+  std::thread reader([&] {
+    while (!done.load() || subscriber.has_msg()) {
+      if (std::optional<Image> image = subscriber.recv(10ms)) {
+        const std::span<const std::uint8_t> bytes = image->data();
+        for (const std::uint8_t byte : bytes) {
+          torn += byte != bytes[0] ? 1 : 0;
+        }
+        ++received;
+      }
+    }
+  });
+  {
+    horus::Topic<Image> publisher("frames");
+    for (int i = 0; i < kFrames; ++i) {
+      // The reader may hold a frame and four are in flight: a block is always free.
+      Image image = Image::make(64, 64, ImageEncoding::Mono8, pool);
+      image.fill(static_cast<std::uint8_t>(i));
+      EXPECT_TRUE(publisher.send(image));
+    }
+    done = true;
+    reader.join();
+  }
+  EXPECT_EQ(torn.load(), 0);
+  EXPECT_GT(received.load(), 0);
+  EXPECT_EQ(pool.stats().blocks_in_use, 0U);
+  EXPECT_EQ(pool.stats().exhausted, 0U);
 }
 
 }  // namespace

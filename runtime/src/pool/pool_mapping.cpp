@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <mutex>
 #include <string>
 #include <thread>
 
@@ -85,6 +86,10 @@ std::size_t PoolMapping::process_row() noexcept {
 }
 
 std::size_t PoolMapping::register_process() noexcept {
+  const std::lock_guard<std::mutex> guard(register_mutex_);
+  if (registered_pid_.load(std::memory_order_acquire) == this_pid()) {
+    return row_.load(std::memory_order_relaxed);
+  }
   const std::uint64_t me = this_process_identity();
   for (int pass = 0; pass < 2; ++pass) {
     for (std::size_t row = 0; row < kMaxPoolProcesses; ++row) {

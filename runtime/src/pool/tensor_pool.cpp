@@ -197,7 +197,7 @@ MappedPool map_pool_file(int file, const std::string& path, const TensorPoolOpti
     if (!fresh) {
       if (std::string reason = validate_header(header, file_size, geometry); !reason.empty()) {
         throw Error("refusing tensor pool " + path + ": " + reason +
-                    " (remove it with `horus shm clean` once no process uses it)");
+                    " (remove the file once no process uses it)");
       }
     }
   }

@@ -15,6 +15,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -122,6 +123,8 @@ class PoolMapping : public std::enable_shared_from_this<PoolMapping> {
   /// This process's row (meaningful while registered_pid_ is this process's pid).
   std::atomic<std::size_t> row_{0};
   std::atomic<std::uint32_t> registered_pid_{0};
+  /// Two threads using the pool first at once must not take two rows (slow path, once).
+  std::mutex register_mutex_;
   /// When this process last sent each block, for DropOldest (in this process's memory: only it
   /// drops its own frames).
   std::unique_ptr<std::atomic<std::uint64_t>[]> sent_at_;
