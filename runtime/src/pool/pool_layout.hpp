@@ -76,7 +76,9 @@ inline constexpr std::uint32_t kBlockFreeing = 2;
 struct BlockState {
   /// generation << 32 | freer row << 8 | status.
   std::atomic<std::uint64_t> word;
-  std::uint64_t reserved[7];
+  /// Written and read only under ThreadSanitizer (see sanitizer_published in pool_mapping.cpp).
+  std::atomic<std::uint64_t> sends;
+  std::uint64_t reserved[6];
 };
 static_assert(sizeof(BlockState) == 64);
 
