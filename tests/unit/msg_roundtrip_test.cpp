@@ -191,11 +191,11 @@ TEST_F(Roundtrip, GeometrySensorControl) {
 
 // Vision, detection, perception, navigation.
 TEST_F(Roundtrip, VisionDetectionPerceptionNavigation) {
-  check_all(
-      TypeList<CompressedImage, CameraInfo, RegionOfInterest, StereoInfo, ImageDescriptor,
-               DepthImageDescriptor, PointCloudDescriptor, BoundingBox2D, BoundingBox3D, Detection,
-               Detection3D, PointXYZ, PointXYZRGB, PointXYZI, Goal, GoalResult, Waypoint, Path,
-               PathPlan, OccupancyGrid, CostMap, VelocityObstacle, VelocityObstacles>{});
+  check_all(TypeList<CompressedImage, CameraInfo, RegionOfInterest, StereoInfo, ImageDescriptor,
+                     DepthImageDescriptor, PointCloudDescriptor, PoolBlock, TensorDescriptor,
+                     BoundingBox2D, BoundingBox3D, Detection, Detection3D, PointXYZ, PointXYZRGB,
+                     PointXYZI, Goal, GoalResult, Waypoint, Path, PathPlan, OccupancyGrid, CostMap,
+                     VelocityObstacle, VelocityObstacles>{});
 }
 
 // Diagnostics, force, input, tracking, time, audio, generic.

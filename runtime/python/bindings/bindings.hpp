@@ -17,5 +17,7 @@ void bind_services(pybind11::module_& m);
 void bind_introspection(pybind11::module_& m);
 /// Session recording on horus._core.Scheduler (after bind_scheduler).
 void bind_recording(pybind11::module_& m);
+/// horus._core: the tensor pool, Image, DepthImage, PointCloud, Tensor and their topics.
+void bind_pool(pybind11::module_& m);
 
 }  // namespace horus::python

@@ -18,4 +18,5 @@ PYBIND11_MODULE(_core, m) {
   horus::python::bind_services(m);
   horus::python::bind_introspection(m);
   horus::python::bind_recording(m);
+  horus::python::bind_pool(m);
 }

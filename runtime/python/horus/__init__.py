@@ -15,6 +15,9 @@ from ._service import (  # noqa: E402
     NoServerError, ServiceClient, ServiceError, ServiceFailed, ServiceServer, ServiceTimeout,
     TransportError)
 from ._topic import Topic  # noqa: E402
+from ._pool import (  # noqa: E402
+    DepthImage, Image, ImageEncoding, PointCloud, PoolExhaustion, PoolTopic, Tensor, TensorDtype,
+    TensorPool)
 
 us = 1e-6  # microseconds -> seconds: budget=300 * us
 ms = 1e-3  # milliseconds -> seconds: deadline=5 * ms
@@ -23,4 +26,6 @@ __all__ = [
     "HorusError", "Node", "NoServerError", "Scheduler", "ServiceClient", "ServiceError",
     "ServiceFailed", "ServiceServer", "ServiceTimeout", "Topic", "TransportError",
     "budget_remaining", "dt", "elapsed", "ms", "now", "rng_float", "run", "tick", "us",
+    "DepthImage", "Image", "ImageEncoding", "PointCloud", "PoolExhaustion", "PoolTopic", "Tensor",
+    "TensorDtype", "TensorPool",
 ]

@@ -56,6 +56,14 @@ class Topic:
     carries another type raises `horus.HorusError` naming both types and fingerprints.
     """
 
+    def __new__(cls, msg_type=None, *args, **options):
+        # Image, DepthImage, PointCloud and Tensor send a descriptor of pool memory instead.
+        from ._pool import PoolTopic, is_pool_type
+
+        if is_pool_type(msg_type):
+            return PoolTopic(msg_type, *args, **options)
+        return super().__new__(cls)
+
     def __init__(self, msg_type, name: str, *, capacity: int = 64,
                  max_message_size: int = 16 * 1024, single_publisher: bool = False) -> None:
         self._values = msg_type is dict

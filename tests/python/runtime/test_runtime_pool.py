@@ -1,0 +1,150 @@
+"""The tensor pool from Python: Image, DepthImage and PointCloud exchanged with a C++ process both
+ways (1080p RGB, 720p depth, a million points), values equal and the receiver's array inside the
+pool; numpy and DLPack views without copies, read-only when received; references back to zero."""
+from __future__ import annotations
+
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+import horus
+
+POOL_PEER = os.environ.get("HORUS_PY_POOL_PEER", "")
+
+
+@pytest.fixture(autouse=True)
+def pools(namespace):
+    yield
+    horus._core.remove_pools(namespace)
+
+
+def image_bytes() -> np.ndarray:
+    index = np.arange(1080 * 1920 * 3, dtype=np.uint64)
+    return ((index * 7 + index // 4099) & 0xFF).astype(np.uint8).reshape(1080, 1920, 3)
+
+
+def depth_meters() -> np.ndarray:
+    y, x = np.mgrid[0:720, 0:1280]
+    return (np.float32(0.25) + x.astype(np.float32) * np.float32(0.001)
+            + y.astype(np.float32) * np.float32(0.0001))
+
+
+def cloud_points() -> np.ndarray:
+    index = np.arange(1_000_000)
+    return np.stack([index.astype(np.float32), index.astype(np.float32) * np.float32(0.5),
+                     -(index % 1000).astype(np.float32)], axis=1)
+
+
+def pool_peer(*args: str) -> subprocess.Popen:
+    assert POOL_PEER, "HORUS_PY_POOL_PEER names the C++ peer; run this suite through ctest"
+    return subprocess.Popen([POOL_PEER, *args], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def tell(proc: subprocess.Popen, line: str) -> None:
+    proc.stdin.write(line + "\n")
+    proc.stdin.flush()
+
+
+KINDS = {
+    "image": (horus.Image, image_bytes, lambda a: horus.Image.from_numpy(a)),
+    "depth": (horus.DepthImage, depth_meters, lambda a: horus.DepthImage.from_numpy(a)),
+    "cloud": (horus.PointCloud, cloud_points, lambda a: horus.PointCloud.from_numpy(a)),
+}
+
+
+@pytest.mark.parametrize("kind", sorted(KINDS))
+def test_cpp_sends_python_reads_in_place(kind):
+    value_type, expected, _ = KINDS[kind]
+    proc = pool_peer("send", kind, "xpool")
+    try:
+        assert proc.stdout.readline().strip() == "open"
+        topic = horus.Topic(value_type, "xpool")
+        tell(proc, "ready")
+        value = topic.recv(30.0)
+        assert value is not None
+        assert not value.writable
+        array = np.asarray(value)
+        assert not array.flags.writeable
+        assert value.pool.contains(array.ctypes.data)
+        assert array.ctypes.data == value.data_address
+        np.testing.assert_array_equal(array, expected())
+        if kind == "image":
+            assert value.frame_id == "cpp"
+        with pytest.raises(ValueError):
+            array.flat[0] = 1
+        tell(proc, "done")
+        assert proc.wait(timeout=30) == 0, proc.stderr.read()
+    finally:
+        proc.kill()
+        proc.wait()
+
+
+@pytest.mark.parametrize("kind", sorted(KINDS))
+def test_python_sends_cpp_reads_in_place(kind):
+    value_type, values, make = KINDS[kind]
+    topic = horus.Topic(value_type, "xpool")
+    value = make(values())
+    if kind == "image":
+        value.frame_id = "python"
+    proc = pool_peer("recv", kind, "xpool")
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        assert topic.send(value)
+        assert proc.wait(timeout=60) == 0, proc.stderr.read()
+    finally:
+        proc.kill()
+        proc.wait()
+    block = value.block
+    pool = value.pool
+    del value
+    del topic
+    assert pool.references(block) == 0
+    assert pool.stats()["blocks_in_use"] == 0
+
+
+def test_numpy_and_dlpack_views_share_the_pool_memory():
+    image = horus.Image(480, 640, horus.ImageEncoding.Rgb8)
+    array = np.asarray(image)
+    assert array.shape == (480, 640, 3) and array.dtype == np.uint8
+    assert array.flags.writeable
+    array[10, 20] = (1, 2, 3)
+    assert image.pixel(20, 10) == bytes([1, 2, 3])
+    dl = np.from_dlpack(image)
+    assert dl.ctypes.data == array.ctypes.data
+    pool = image.pool
+    assert pool.references(image.block) == 2  # the image and the DLPack export
+    del dl
+    assert pool.references(image.block) == 1
+
+    depth = horus.DepthImage.millimeters(4, 5)
+    assert np.asarray(depth).dtype == np.uint16 and np.asarray(depth).shape == (4, 5)
+    tensor = horus.Tensor.from_numpy(np.arange(24, dtype=np.int64).reshape(2, 3, 4))
+    assert tensor.shape == [2, 3, 4] and tensor.strides == [96, 32, 8]
+    np.testing.assert_array_equal(np.asarray(tensor), np.arange(24).reshape(2, 3, 4))
+    assert "Tensor([2, 3, 4] I64" in repr(tensor)
+
+
+def test_from_numpy_refuses_what_has_no_encoding():
+    with pytest.raises(horus.HorusError, match="no encoding"):
+        horus.Image.from_numpy(np.zeros((4, 4, 2), dtype=np.float64))
+    with pytest.raises(horus.HorusError, match="float32"):
+        horus.DepthImage.from_numpy(np.zeros((4, 4), dtype=np.uint8))
+
+
+def test_a_received_value_is_read_only_and_the_tensor_topic_works_in_process():
+    publisher = horus.Topic(horus.Tensor, "tensors")
+    subscriber = horus.Topic(horus.Tensor, "tensors")
+    sent = horus.Tensor.from_numpy(np.ones((3, 3), dtype=np.float32))
+    assert publisher.send(sent)
+    got = subscriber.recv(1.0)
+    assert got is not None and not got.writable
+    assert got.data_address == sent.data_address
+    with pytest.raises(horus.HorusError, match="read-only"):
+        got.copy_from(bytes(36))
+    assert subscriber.try_recv() is None
+    assert subscriber.recv(0.001) is None
+    with pytest.raises(TypeError):
+        publisher.send(horus.Image(2, 2, horus.ImageEncoding.Mono8))
