@@ -60,7 +60,7 @@ def test_tick_findings_name_node_and_call_chain():
         assert finding["node"] == "Worker"
         by_check.setdefault(finding["check"], []).append(finding)
     sleep = by_check["horus-rt-sleep"][0]
-    assert sleep["chain"][:2] == ["(anonymous namespace)::Worker::tick", "(anonymous namespace)::settle"]
+    assert sleep["chain"][:2] == ["Worker::tick", "settle"]
     assert sleep["chain"][-1] == "std::this_thread::sleep_for"
     # remember() is reached from tick() directly and through settle(): the lock is one finding
     # per call site, whatever the path.
@@ -105,7 +105,7 @@ def test_nodes_inventory():
     assert worker["realtime"] == "rate"
     assert {t["name"] for t in worker["topics"]} == {"fixture.wheels", "fixture.odom"}
     assert [p["name"] for p in worker["publishers"]] == ["fixture.odom"]
-    rogue = nodes["(anonymous namespace)::Rogue"]
+    rogue = nodes["Rogue"]
     assert rogue["realtime"] == ""
     assert {t["name"] for t in rogue["topics"]} == {"fixture.odom", "fixture.debug"}
 

@@ -136,12 +136,13 @@ const CXXRecordDecl* record_of(QualType type) {
   return type.isNull() ? nullptr : type.getNonReferenceType()->getAsCXXRecordDecl();
 }
 
-bool derives_from_node(const CXXRecordDecl* record) {
-  if (record == nullptr || !record->hasDefinition()) return false;
-  record = record->getDefinition();
-  if (is_horus_class(record, "Node")) return false;
-  return record->forallBases([](const CXXRecordDecl* base) { return !is_horus_class(base, "Node"); }) ==
-         false;
+bool derives_from_node(const CXXRecordDecl* record, int depth = 0) {
+  if (record == nullptr || !record->hasDefinition() || depth > 64) return false;
+  for (const auto& base : record->getDefinition()->bases()) {
+    const CXXRecordDecl* base_record = record_of(base.getType());  // null when dependent
+    if (is_horus_class(base_record, "Node") || derives_from_node(base_record, depth + 1)) return true;
+  }
+  return false;
 }
 
 std::string canonical(QualType type) {
@@ -202,7 +203,9 @@ std::vector<DeclaredTopic> declared_topics(const Stmt* body, const SourceManager
     const SourceManager* sources = nullptr;
     std::vector<DeclaredTopic> topics;
     bool VisitInitListExpr(InitListExpr* list) {
-      if (!list->isSemanticForm() || !is_horus_class(record_of(list->getType()), "TopicMetadata") ||
+      // The visitor shows the list as written (its syntactic form): a semantic form that has one is
+      // the same list again.
+      if ((list->isSemanticForm() && list->getSyntacticForm() != nullptr) || !is_horus_class(record_of(list->getType()), "TopicMetadata") ||
           list->getNumInits() < 1)
         return true;
       if (auto name = constant_string(list->getInit(0))) {
@@ -248,7 +251,14 @@ const CXXRecordDecl* node_class_of_argument(const Expr* expr) {
   return found;
 }
 
-std::string qualified(const NamedDecl* decl) { return decl->getQualifiedNameAsString(); }
+// The qualified name as a reader would write it (without "(anonymous namespace)::").
+std::string qualified(const NamedDecl* decl) {
+  std::string name = decl->getQualifiedNameAsString();
+  const std::string anonymous = "(anonymous namespace)::";
+  for (auto at = name.find(anonymous); at != std::string::npos; at = name.find(anonymous))
+    name.erase(at, anonymous.size());
+  return name;
+}
 
 // Names a callee for a call chain: `fill_buffer`, `Worker::step`, `std::vector::push_back`.
 std::string callee_name(const FunctionDecl* function) {
@@ -315,6 +325,12 @@ std::optional<std::pair<std::string, std::string>> classify_call(const FunctionD
   if (stream_operator && call != nullptr && call->getNumArgs() > 0 &&
       in_namespace(function, "std")) {
     const Expr* stream = call->getArg(0)->IgnoreParenImpCasts();
+    // `std::cout << a << b`: the stream is the innermost left operand.
+    while (const auto* inner = dyn_cast<CXXOperatorCallExpr>(stream)) {
+      if (inner->getNumArgs() == 0 || (inner->getOperator() != OO_LessLess && inner->getOperator() != OO_GreaterGreater))
+        break;
+      stream = inner->getArg(0)->IgnoreParenImpCasts();
+    }
     if (const auto* ref = dyn_cast<DeclRefExpr>(stream)) {
       const std::string stream_name = ref->getDecl()->getNameAsString();
       if (in_namespace(ref->getDecl(), "std") &&
@@ -408,6 +424,14 @@ class TickLinter {
     std::string path;
     for (const auto& step : finding.chain) path += (path.empty() ? "" : " -> ") + step;
     finding.message = "tick() of node '" + node_name_ + "' " + what + " on its real-time path; call chain: " + path;
+    // One finding per call site, through the shortest chain that reaches it.
+    const auto same_site = std::find_if(node_.tick_findings.begin(), node_.tick_findings.end(), [&](const Finding& other) {
+      return other.where.key() == finding.where.key() && other.check == finding.check;
+    });
+    if (same_site != node_.tick_findings.end()) {
+      if (same_site->chain.size() <= finding.chain.size()) return;
+      node_.tick_findings.erase(same_site);
+    }
     node_.tick_findings.insert(std::move(finding));
   }
 
