@@ -91,11 +91,11 @@ struct DeclaredTopic {
 // What a TU shows of one class derived from horus::Node, merged over all TUs by qualified name.
 struct NodeFacts {
   Location where;
-  std::vector<std::string> bases;              // direct bases that are nodes
-  std::map<std::string, OpenedTopic> topics;   // by member name
+  std::vector<std::string> bases;               // direct bases that are nodes
+  std::map<std::string, OpenedTopic> topics;    // by member name
   std::map<std::string, OpenedTopic> services;  // ServiceClient / ServiceServer members
-  std::map<std::string, Location> sent;        // member -> first send()/loan()/publish()
-  std::map<std::string, Location> received;    // member -> first try_recv()/recv()/read_latest()
+  std::map<std::string, Location> sent;         // member -> first send()/loan()/publish()
+  std::map<std::string, Location> received;     // member -> first try_recv()/recv()/read_latest()
   bool overrides_publishers = false, overrides_subscribers = false;
   std::optional<std::vector<DeclaredTopic>> publishers, subscribers;  // once a body is seen
   std::string realtime_reason;  // "rate", "budget", "deadline" when declared or configured
@@ -140,7 +140,8 @@ bool derives_from_node(const CXXRecordDecl* record, int depth = 0) {
   if (record == nullptr || !record->hasDefinition() || depth > 64) return false;
   for (const auto& base : record->getDefinition()->bases()) {
     const CXXRecordDecl* base_record = record_of(base.getType());  // null when dependent
-    if (is_horus_class(base_record, "Node") || derives_from_node(base_record, depth + 1)) return true;
+    if (is_horus_class(base_record, "Node") || derives_from_node(base_record, depth + 1))
+      return true;
   }
   return false;
 }
@@ -188,7 +189,8 @@ std::string typeinfo_type(const Expr* expr) {
   struct Finder : RecursiveASTVisitor<Finder> {
     std::string type;
     bool VisitDeclRefExpr(DeclRefExpr* ref) {
-      const auto* info = dyn_cast<ClassTemplateSpecializationDecl>(ref->getDecl()->getDeclContext());
+      const auto* info =
+          dyn_cast<ClassTemplateSpecializationDecl>(ref->getDecl()->getDeclContext());
       if (info != nullptr && is_horus_class(info, "TypeInfo") && info->getTemplateArgs().size() > 0)
         type = canonical(info->getTemplateArgs()[0].getAsType());
       return type.empty();
@@ -205,8 +207,8 @@ std::vector<DeclaredTopic> declared_topics(const Stmt* body, const SourceManager
     bool VisitInitListExpr(InitListExpr* list) {
       // The visitor shows the list as written (its syntactic form): a semantic form that has one is
       // the same list again.
-      if ((list->isSemanticForm() && list->getSyntacticForm() != nullptr) || !is_horus_class(record_of(list->getType()), "TopicMetadata") ||
-          list->getNumInits() < 1)
+      if ((list->isSemanticForm() && list->getSyntacticForm() != nullptr) ||
+          !is_horus_class(record_of(list->getType()), "TopicMetadata") || list->getNumInits() < 1)
         return true;
       if (auto name = constant_string(list->getInit(0))) {
         topics.push_back({*name, list->getNumInits() > 1 ? typeinfo_type(list->getInit(1)) : "",
@@ -225,9 +227,10 @@ std::vector<DeclaredTopic> declared_topics(const Stmt* body, const SourceManager
 const CXXRecordDecl* node_class_of_argument(const Expr* expr) {
   const CXXRecordDecl* found = nullptr;
   for (int depth = 0; expr != nullptr && depth < 32; ++depth) {
-    if (const auto* pointer = dyn_cast_or_null<ClassTemplateSpecializationDecl>(
-            record_of(expr->getType()))) {
-      if (is_std_class(pointer, {"shared_ptr", "unique_ptr"}) && pointer->getTemplateArgs().size() > 0) {
+    if (const auto* pointer =
+            dyn_cast_or_null<ClassTemplateSpecializationDecl>(record_of(expr->getType()))) {
+      if (is_std_class(pointer, {"shared_ptr", "unique_ptr"}) &&
+          pointer->getTemplateArgs().size() > 0) {
         const auto* pointee = record_of(pointer->getTemplateArgs()[0].getAsType());
         if (derives_from_node(pointee)) found = pointee;
       }
@@ -278,27 +281,28 @@ std::optional<std::pair<std::string, std::string>> classify_call(const FunctionD
   const bool global_c = function->getDeclContext()->getRedeclContext()->isTranslationUnit() ||
                         (in_namespace(function, "std") && owner == nullptr);
   static const std::set<std::string> sleeps{"sleep", "usleep", "nanosleep", "clock_nanosleep"};
-  static const std::set<std::string> allocations{"malloc", "calloc", "realloc", "aligned_alloc",
-                                                 "posix_memalign", "strdup", "make_shared",
-                                                 "make_unique", "allocate_shared"};
+  static const std::set<std::string> allocations{
+      "malloc", "calloc",      "realloc",     "aligned_alloc",  "posix_memalign",
+      "strdup", "make_shared", "make_unique", "allocate_shared"};
   static const std::set<std::string> c_io{
-      "printf", "fprintf", "vprintf", "vfprintf", "puts", "fputs", "putchar", "fputc", "putc",
-      "fwrite", "fread", "fopen", "fclose", "fflush", "fgets", "fgetc", "getc", "getchar",
-      "scanf", "fscanf", "perror", "open", "read", "write", "fsync", "getline"};
+      "printf", "fprintf", "vprintf", "vfprintf", "puts",   "fputs", "putchar", "fputc",  "putc",
+      "fwrite", "fread",   "fopen",   "fclose",   "fflush", "fgets", "fgetc",   "getc",   "getchar",
+      "scanf",  "fscanf",  "perror",  "open",     "read",   "write", "fsync",   "getline"};
   static const std::set<std::string> growing{
-      "push_back", "emplace_back", "push_front", "emplace_front", "insert", "emplace",
-      "emplace_hint", "try_emplace", "insert_or_assign", "resize", "reserve", "append",
-      "operator+=", "assign", "push"};
+      "push_back", "emplace_back", "push_front",  "emplace_front",    "insert",
+      "emplace",   "emplace_hint", "try_emplace", "insert_or_assign", "resize",
+      "reserve",   "append",       "operator+=",  "assign",           "push"};
 
   if (name == "sleep_for" || name == "sleep_until") {
-    if (in_namespace(function, "std")) return {{"horus-rt-sleep", "sleeps (std::this_thread::" + name + ")"}};
+    if (in_namespace(function, "std"))
+      return {{"horus-rt-sleep", "sleeps (std::this_thread::" + name + ")"}};
   }
   if (global_c && sleeps.count(name) != 0) return {{"horus-rt-sleep", "sleeps (" + name + ")"}};
   if (global_c && (name == "pthread_mutex_lock" || name == "pthread_cond_wait"))
     return {{"horus-rt-lock", "locks (" + name + ")"}};
-  if (owner != nullptr && is_std_class(owner, {"mutex", "timed_mutex", "recursive_mutex",
-                                               "recursive_timed_mutex", "shared_mutex",
-                                               "shared_timed_mutex", "unique_lock", "shared_lock"}) &&
+  if (owner != nullptr &&
+      is_std_class(owner, {"mutex", "timed_mutex", "recursive_mutex", "recursive_timed_mutex",
+                           "shared_mutex", "shared_timed_mutex", "unique_lock", "shared_lock"}) &&
       (name == "lock" || name == "lock_shared" || name.rfind("try_lock_", 0) == 0))
     return {{"horus-rt-lock", "locks a mutex (" + callee_name(function) + ")"}};
   if (owner != nullptr && is_std_class(owner, {"condition_variable", "condition_variable_any"}) &&
@@ -308,18 +312,19 @@ std::optional<std::pair<std::string, std::string>> classify_call(const FunctionD
     return {{"horus-rt-block", "blocks in Topic::recv(timeout) (use try_recv())"}};
   if (owner != nullptr && is_horus_class(owner, "ServiceClient") && name.rfind("call", 0) == 0)
     return {{"horus-rt-block", "blocks waiting for a service reply (ServiceClient::" + name + ")"}};
-  if ((global_c || in_namespace(function, "std")) && owner == nullptr && allocations.count(name) != 0)
+  if ((global_c || in_namespace(function, "std")) && owner == nullptr &&
+      allocations.count(name) != 0)
     return {{"horus-rt-alloc", "allocates (" + callee_name(function) + ")"}};
   if (owner != nullptr && in_namespace(owner, "std") && growing.count(name) != 0 &&
-      is_std_class(owner, {"vector", "basic_string", "deque", "list", "forward_list", "map",
-                           "multimap", "set", "multiset", "unordered_map", "unordered_multimap",
-                           "unordered_set", "unordered_multiset", "queue", "stack",
-                           "priority_queue"}))
-    return {{"horus-rt-alloc", "allocates: grows a std::" + owner->getNameAsString() + " (" + name + ")"}};
-  if (owner != nullptr && name == "operator[]" &&
-      is_std_class(owner, {"map", "unordered_map"}))
-    return {{"horus-rt-alloc", "allocates: std::" + owner->getNameAsString() +
-                                   "::operator[] inserts missing keys"}};
+      is_std_class(owner,
+                   {"vector", "basic_string", "deque", "list", "forward_list", "map", "multimap",
+                    "set", "multiset", "unordered_map", "unordered_multimap", "unordered_set",
+                    "unordered_multiset", "queue", "stack", "priority_queue"}))
+    return {{"horus-rt-alloc",
+             "allocates: grows a std::" + owner->getNameAsString() + " (" + name + ")"}};
+  if (owner != nullptr && name == "operator[]" && is_std_class(owner, {"map", "unordered_map"}))
+    return {{"horus-rt-alloc",
+             "allocates: std::" + owner->getNameAsString() + "::operator[] inserts missing keys"}};
   if (global_c && c_io.count(name) != 0) return {{"horus-rt-io", "does I/O (" + name + ")"}};
   const bool stream_operator = name == "operator<<" || name == "operator>>";
   if (stream_operator && call != nullptr && call->getNumArgs() > 0 &&
@@ -327,7 +332,8 @@ std::optional<std::pair<std::string, std::string>> classify_call(const FunctionD
     const Expr* stream = call->getArg(0)->IgnoreParenImpCasts();
     // `std::cout << a << b`: the stream is the innermost left operand.
     while (const auto* inner = dyn_cast<CXXOperatorCallExpr>(stream)) {
-      if (inner->getNumArgs() == 0 || (inner->getOperator() != OO_LessLess && inner->getOperator() != OO_GreaterGreater))
+      if (inner->getNumArgs() == 0 ||
+          (inner->getOperator() != OO_LessLess && inner->getOperator() != OO_GreaterGreater))
         break;
       stream = inner->getArg(0)->IgnoreParenImpCasts();
     }
@@ -337,8 +343,9 @@ std::optional<std::pair<std::string, std::string>> classify_call(const FunctionD
           (stream_name == "cout" || stream_name == "cerr" || stream_name == "clog"))
         return {{"horus-rt-io", "writes to std::" + stream_name}};
     }
-    if (is_std_class(record_of(stream->getType()), {"basic_ostream", "basic_istream", "basic_ofstream",
-                                                    "basic_ifstream", "basic_fstream", "basic_iostream"}))
+    if (is_std_class(record_of(stream->getType()),
+                     {"basic_ostream", "basic_istream", "basic_ofstream", "basic_ifstream",
+                      "basic_fstream", "basic_iostream"}))
       return {{"horus-rt-io", "does stream I/O (" + name + ")"}};
   }
   if (owner != nullptr && is_std_class(owner, {"basic_ostream", "basic_istream", "basic_ofstream",
@@ -423,11 +430,13 @@ class TickLinter {
     finding.chain.push_back(callee);
     std::string path;
     for (const auto& step : finding.chain) path += (path.empty() ? "" : " -> ") + step;
-    finding.message = "tick() of node '" + node_name_ + "' " + what + " on its real-time path; call chain: " + path;
+    finding.message = "tick() of node '" + node_name_ + "' " + what +
+                      " on its real-time path; call chain: " + path;
     // One finding per call site, through the shortest chain that reaches it.
-    const auto same_site = std::find_if(node_.tick_findings.begin(), node_.tick_findings.end(), [&](const Finding& other) {
-      return other.where.key() == finding.where.key() && other.check == finding.check;
-    });
+    const auto same_site = std::find_if(
+        node_.tick_findings.begin(), node_.tick_findings.end(), [&](const Finding& other) {
+          return other.where.key() == finding.where.key() && other.check == finding.check;
+        });
     if (same_site != node_.tick_findings.end()) {
       if (same_site->chain.size() <= finding.chain.size()) return;
       node_.tick_findings.erase(same_site);
@@ -473,8 +482,10 @@ class LayoutMirror {
     }
     std::string name = "R" + std::to_string(names_.size());
     std::string align;
-    if (record->hasAttr<AlignedAttr>()) align = "alignas(" + std::to_string(record->getMaxAlignment() / 8) + ") ";
-    code_ += (record->isUnion() ? "union " : "struct ") + align + name + bases + " {\n" + fields + "};\n";
+    if (record->hasAttr<AlignedAttr>())
+      align = "alignas(" + std::to_string(record->getMaxAlignment() / 8) + ") ";
+    code_ += (record->isUnion() ? "union " : "struct ") + align + name + bases + " {\n" + fields +
+             "};\n";
     names_[record] = name;
     return name;
   }
@@ -488,7 +499,8 @@ class LayoutMirror {
       auto element = spell(array->getElementType());
       if (!element) return std::nullopt;
       std::string alias = "A" + std::to_string(aliases_++);
-      code_ += "using " + alias + " = " + *element + "[" + std::to_string(array->getSize().getZExtValue()) + "];\n";
+      code_ += "using " + alias + " = " + *element + "[" +
+               std::to_string(array->getSize().getZExtValue()) + "];\n";
       return alias;
     }
     if (const auto* enumeration = type->getAs<EnumType>())
@@ -504,11 +516,16 @@ class LayoutMirror {
     if (!builtin->isInteger()) return std::nullopt;
     const std::string sign = builtin->isSignedInteger() ? "signed " : "unsigned ";
     switch (context_.getTypeSize(type)) {
-      case 8: return sign + "char";
-      case 16: return sign + "short";
-      case 32: return sign + "int";
-      case 64: return sign + "long long";
-      default: return std::nullopt;
+      case 8:
+        return sign + "char";
+      case 16:
+        return sign + "short";
+      case 32:
+        return sign + "int";
+      case 64:
+        return sign + "long long";
+      default:
+        return std::nullopt;
     }
   }
 
@@ -526,19 +543,24 @@ void check_layouts(ASTContext& context,
   const SourceManager& sources = context.getSourceManager();
   for (const std::string& triple : layout_targets) {
     LayoutMirror mirror(context);
-    std::vector<std::tuple<const RecordDecl*, std::string, std::string>> checked;  // record, schema, mirror
+    std::vector<std::tuple<const RecordDecl*, std::string, std::string>>
+        checked;  // record, schema, mirror
     for (const auto& [record, schema] : pods) {
       if (!layouts_checked.insert({qualified(record), triple}).second) continue;
       if (auto name = mirror.mirror(record)) {
         checked.emplace_back(record, schema, *name);
       } else {
-        findings.insert({location_of(sources, record->getLocation()), "horus-layout",
-                         "cannot mirror the layout of schema '" + schema + "' for " + triple, "", {}});
+        findings.insert({location_of(sources, record->getLocation()),
+                         "horus-layout",
+                         "cannot mirror the layout of schema '" + schema + "' for " + triple,
+                         "",
+                         {}});
       }
     }
     if (checked.empty()) continue;
     std::unique_ptr<ASTUnit> unit = tooling::buildASTFromCodeWithArgs(
-        mirror.code(), {"-std=c++20", "-nostdinc", "-target", triple, "-w"}, "horus_check_layout.cpp");
+        mirror.code(), {"-std=c++20", "-nostdinc", "-target", triple, "-w"},
+        "horus_check_layout.cpp");
     if (unit == nullptr || unit->getDiagnostics().hasErrorOccurred()) {
       llvm::errs() << "horus-check: cannot lay out the generated messages for " << triple << "\n";
       std::exit(2);
@@ -546,7 +568,8 @@ void check_layouts(ASTContext& context,
     ASTContext& target = unit->getASTContext();
     std::map<std::string, const RecordDecl*> mirrored;
     for (const Decl* decl : target.getTranslationUnitDecl()->decls())
-      if (const auto* record = dyn_cast<RecordDecl>(decl); record && record->isThisDeclarationADefinition())
+      if (const auto* record = dyn_cast<RecordDecl>(decl);
+          record && record->isThisDeclarationADefinition())
         mirrored[record->getNameAsString()] = record;
     for (const auto& [record, schema, name] : checked) {
       const ASTRecordLayout& here = context.getASTRecordLayout(record);
@@ -559,32 +582,37 @@ void check_layouts(ASTContext& context,
         const auto host_offset = here.getFieldOffset(index) / 8;
         const auto target_offset = there.getFieldOffset(index) / 8;
         if (host_offset == target_offset) continue;
-        differences += (differences.empty() ? "" : ", ") + ("field '" + field->getNameAsString() +
-                       "' at offset " + std::to_string(target_offset) + " instead of " +
-                       std::to_string(host_offset));
+        differences +=
+            (differences.empty() ? "" : ", ") +
+            ("field '" + field->getNameAsString() + "' at offset " + std::to_string(target_offset) +
+             " instead of " + std::to_string(host_offset));
         if (!located) first = field->getLocation();
         located = true;
       }
       auto compare = [&](const char* what, std::int64_t host_value, std::int64_t target_value) {
         if (host_value == target_value) return;
-        differences += (differences.empty() ? "" : ", ") + (std::string(what) + " " +
-                       std::to_string(target_value) + " instead of " + std::to_string(host_value));
+        differences += (differences.empty() ? "" : ", ") +
+                       (std::string(what) + " " + std::to_string(target_value) + " instead of " +
+                        std::to_string(host_value));
       };
       compare("size", here.getSize().getQuantity(), there.getSize().getQuantity());
       compare("alignment", here.getAlignment().getQuantity(), there.getAlignment().getQuantity());
       if (differences.empty()) continue;
-      findings.insert({location_of(sources, first), "horus-layout",
+      findings.insert({location_of(sources, first),
+                       "horus-layout",
                        "the POD layout of schema '" + schema + "' differs on " + triple + " (" +
                            triple_arch(host) + " is the reference): " + differences +
                            "; reorder the fields or pad them explicitly",
-                       "", {}});
+                       "",
+                       {}});
     }
   }
 }
 
 class FactCollector : public RecursiveASTVisitor<FactCollector> {
  public:
-  explicit FactCollector(ASTContext& context) : context_(context), sources_(context.getSourceManager()) {}
+  explicit FactCollector(ASTContext& context)
+      : context_(context), sources_(context.getSourceManager()) {}
 
   bool shouldVisitTemplateInstantiations() const { return true; }
 
@@ -599,12 +627,17 @@ class FactCollector : public RecursiveASTVisitor<FactCollector> {
       if (const auto* base_record = record_of(base.getType()); derives_from_node(base_record))
         node.bases.push_back(qualified(base_record));
     for (const FieldDecl* field : record->fields()) {
-      const auto* type = dyn_cast_or_null<ClassTemplateSpecializationDecl>(record_of(field->getType()));
+      const auto* type =
+          dyn_cast_or_null<ClassTemplateSpecializationDecl>(record_of(field->getType()));
       if (type == nullptr) continue;
       const bool topic = is_horus_class(type, "Topic");
-      if (!topic && !is_horus_class(type, "ServiceClient") && !is_horus_class(type, "ServiceServer")) continue;
+      if (!topic && !is_horus_class(type, "ServiceClient") &&
+          !is_horus_class(type, "ServiceServer"))
+        continue;
       OpenedTopic opened{field->getNameAsString(), std::nullopt,
-                         type->getTemplateArgs().size() > 0 ? canonical(type->getTemplateArgs()[0].getAsType()) : "",
+                         type->getTemplateArgs().size() > 0
+                             ? canonical(type->getTemplateArgs()[0].getAsType())
+                             : "",
                          location_of(sources_, field->getLocation())};
       if (const Expr* init = field->getInClassInitializer()) opened_with(opened, init);
       auto& members = topic ? node.topics : node.services;
@@ -612,7 +645,8 @@ class FactCollector : public RecursiveASTVisitor<FactCollector> {
       if (!added && opened.name) slot->second = opened;
     }
     for (const CXXConstructorDecl* constructor : record->ctors()) {
-      const CXXConstructorDecl* definition = dyn_cast_or_null<CXXConstructorDecl>(constructor->getDefinition());
+      const CXXConstructorDecl* definition =
+          dyn_cast_or_null<CXXConstructorDecl>(constructor->getDefinition());
       if (definition == nullptr) continue;
       for (const CXXCtorInitializer* init : definition->inits()) {
         const FieldDecl* field = init->getMember();
@@ -663,12 +697,16 @@ class FactCollector : public RecursiveASTVisitor<FactCollector> {
     if (method == nullptr) return true;
     const std::string name = method->getNameAsString();
     if (is_horus_class(method->getParent(), "Topic")) {
-      const auto* member = dyn_cast<MemberExpr>(call->getImplicitObjectArgument()->IgnoreParenImpCasts());
-      const auto* field = member != nullptr ? dyn_cast<FieldDecl>(member->getMemberDecl()) : nullptr;
-      if (field == nullptr || !derives_from_node(dyn_cast<CXXRecordDecl>(field->getParent()))) return true;
+      const auto* member =
+          dyn_cast<MemberExpr>(call->getImplicitObjectArgument()->IgnoreParenImpCasts());
+      const auto* field =
+          member != nullptr ? dyn_cast<FieldDecl>(member->getMemberDecl()) : nullptr;
+      if (field == nullptr || !derives_from_node(dyn_cast<CXXRecordDecl>(field->getParent())))
+        return true;
       NodeFacts& node = nodes[qualified(field->getParent())];
       const Location where = location_of(sources_, call->getExprLoc());
-      if (name == "send" || name == "loan" || name == "publish") node.sent.emplace(field->getNameAsString(), where);
+      if (name == "send" || name == "loan" || name == "publish")
+        node.sent.emplace(field->getNameAsString(), where);
       if (name == "try_recv" || name == "recv" || name == "read_latest")
         node.received.emplace(field->getNameAsString(), where);
       return true;
@@ -757,7 +795,8 @@ class FactCollector : public RecursiveASTVisitor<FactCollector> {
     const Expr* stripped = init->IgnoreImplicit();
     if (const auto* list = dyn_cast<ParenListExpr>(stripped); list && list->getNumExprs() > 0)
       stripped = list->getExpr(0);
-    if (const auto* construct = dyn_cast<CXXConstructExpr>(stripped); construct && construct->getNumArgs() > 0) {
+    if (const auto* construct = dyn_cast<CXXConstructExpr>(stripped);
+        construct && construct->getNumArgs() > 0) {
       opened.name = constant_string(construct->getArg(0));
       opened.where = location_of(sources_, construct->getArg(0)->getBeginLoc());
     }
@@ -768,7 +807,8 @@ class FactCollector : public RecursiveASTVisitor<FactCollector> {
       std::string reason;
       bool VisitMemberExpr(MemberExpr* member) {
         const auto* field = dyn_cast<FieldDecl>(member->getMemberDecl());
-        if (field != nullptr && is_horus_class(dyn_cast<CXXRecordDecl>(field->getParent()), "NodeConfig")) {
+        if (field != nullptr &&
+            is_horus_class(dyn_cast<CXXRecordDecl>(field->getParent()), "NodeConfig")) {
           const std::string name = field->getNameAsString();
           if (name == "rate" || name == "budget" || name == "deadline") reason = name;
         }
@@ -846,7 +886,8 @@ void judge_nodes() {
     gather(name, topics, sent, received, seen);
     const NodeFacts* pub_owner = declaring(name, true);
     const NodeFacts* sub_owner = declaring(name, false);
-    if ((pub_owner != nullptr && !pub_owner->publishers) || (sub_owner != nullptr && !sub_owner->subscribers))
+    if ((pub_owner != nullptr && !pub_owner->publishers) ||
+        (sub_owner != nullptr && !sub_owner->subscribers))
       continue;  // a declaration whose body no translation unit showed: nothing to compare
     const std::vector<DeclaredTopic> none;
     const auto& pubs = pub_owner != nullptr ? *pub_owner->publishers : none;
@@ -854,7 +895,8 @@ void judge_nodes() {
     auto find = [](const std::vector<DeclaredTopic>& list, const std::string& topic) {
       return std::find_if(list.begin(), list.end(), [&](const auto& d) { return d.name == topic; });
     };
-    const std::string short_name = name.substr(name.rfind("::") == std::string::npos ? 0 : name.rfind("::") + 2);
+    const std::string short_name =
+        name.substr(name.rfind("::") == std::string::npos ? 0 : name.rfind("::") + 2);
     std::set<std::string> opened_names;
     for (const auto& [member, topic] : topics) {
       if (!topic.name) continue;
@@ -862,39 +904,49 @@ void judge_nodes() {
       const auto pub = find(pubs, *topic.name);
       const auto sub = find(subs, *topic.name);
       if (pub == pubs.end() && sub == subs.end()) {
-        findings.insert({topic.where, "horus-node-undeclared-topic",
-                         "node '" + short_name + "' opens topic \"" + *topic.name + "\" (member " + member +
-                             ") that its publishers()/subscribers() do not declare",
-                         short_name, {}});
+        findings.insert({topic.where,
+                         "horus-node-undeclared-topic",
+                         "node '" + short_name + "' opens topic \"" + *topic.name + "\" (member " +
+                             member + ") that its publishers()/subscribers() do not declare",
+                         short_name,
+                         {}});
         continue;
       }
       for (const auto& declared : {pub, sub}) {
         if (declared == pubs.end() || declared == subs.end()) continue;
         if (!declared->type.empty() && declared->type != topic.type)
-          findings.insert({topic.where, "horus-node-topic-type",
-                           "node '" + short_name + "' opens topic \"" + *topic.name + "\" as " + topic.type +
-                               " but declares it as " + declared->type,
-                           short_name, {}});
+          findings.insert({topic.where,
+                           "horus-node-topic-type",
+                           "node '" + short_name + "' opens topic \"" + *topic.name + "\" as " +
+                               topic.type + " but declares it as " + declared->type,
+                           short_name,
+                           {}});
       }
       if (auto use = sent.find(member); use != sent.end() && pub == pubs.end())
-        findings.insert({use->second, "horus-node-direction",
+        findings.insert({use->second,
+                         "horus-node-direction",
                          "node '" + short_name + "' sends on topic \"" + *topic.name +
                              "\" but declares it only in subscribers()",
-                         short_name, {}});
+                         short_name,
+                         {}});
       if (auto use = received.find(member); use != received.end() && sub == subs.end())
-        findings.insert({use->second, "horus-node-direction",
+        findings.insert({use->second,
+                         "horus-node-direction",
                          "node '" + short_name + "' receives from topic \"" + *topic.name +
                              "\" but declares it only in publishers()",
-                         short_name, {}});
+                         short_name,
+                         {}});
     }
     for (const auto* list : {&pubs, &subs}) {
       for (const DeclaredTopic& declared : *list) {
         if (opened_names.count(declared.name) != 0) continue;
-        findings.insert({declared.where, "horus-node-unopened-topic",
+        findings.insert({declared.where,
+                         "horus-node-unopened-topic",
                          "node '" + short_name + "' declares topic \"" + declared.name + "\" in " +
                              (list == &pubs ? "publishers()" : "subscribers()") +
                              " but opens no topic with that name",
-                         short_name, {}});
+                         short_name,
+                         {}});
       }
     }
   }
@@ -907,9 +959,9 @@ llvm::json::Value location_json(const Location& where) {
 void print_json() {
   llvm::json::Array finding_list;
   for (const Finding& finding : findings) {
-    llvm::json::Object item{{"file", finding.where.file},       {"line", finding.where.line},
-                            {"column", finding.where.column},   {"severity", "warning"},
-                            {"check", finding.check},           {"message", finding.message}};
+    llvm::json::Object item{{"file", finding.where.file},     {"line", finding.where.line},
+                            {"column", finding.where.column}, {"severity", "warning"},
+                            {"check", finding.check},         {"message", finding.message}};
     if (!finding.node.empty()) item["node"] = finding.node;
     if (!finding.chain.empty()) item["chain"] = llvm::json::Array(finding.chain);
     finding_list.push_back(std::move(item));
@@ -919,15 +971,17 @@ void print_json() {
     auto topics = [](const std::map<std::string, OpenedTopic>& members) {
       llvm::json::Array list;
       for (const auto& [member, topic] : members)
-        list.push_back(llvm::json::Object{{"member", member},
-                                          {"name", topic.name ? llvm::json::Value(*topic.name) : nullptr},
-                                          {"type", topic.type}});
+        list.push_back(
+            llvm::json::Object{{"member", member},
+                               {"name", topic.name ? llvm::json::Value(*topic.name) : nullptr},
+                               {"type", topic.type}});
       return list;
     };
     auto declared = [](const std::optional<std::vector<DeclaredTopic>>& list) -> llvm::json::Value {
       if (!list) return nullptr;
       llvm::json::Array out;
-      for (const auto& topic : *list) out.push_back(llvm::json::Object{{"name", topic.name}, {"type", topic.type}});
+      for (const auto& topic : *list)
+        out.push_back(llvm::json::Object{{"name", topic.name}, {"type", topic.type}});
       return out;
     };
     node_list.push_back(llvm::json::Object{{"name", name},
@@ -965,13 +1019,12 @@ int main(int argc, const char** argv) {
   // The database may come from g++: keep its errors, drop its warnings and -Werror, find Clang's
   // own headers (stddef.h, ...) wherever this binary was installed.
   tool.appendArgumentsAdjuster(tooling::getClangStripOutputAdjuster());
-  tool.appendArgumentsAdjuster(
-      [](const tooling::CommandLineArguments& arguments, llvm::StringRef) {
-        tooling::CommandLineArguments adjusted;
-        for (const auto& argument : arguments)
-          if (llvm::StringRef(argument).startswith("-Werror") == false) adjusted.push_back(argument);
-        return adjusted;
-      });
+  tool.appendArgumentsAdjuster([](const tooling::CommandLineArguments& arguments, llvm::StringRef) {
+    tooling::CommandLineArguments adjusted;
+    for (const auto& argument : arguments)
+      if (llvm::StringRef(argument).startswith("-Werror") == false) adjusted.push_back(argument);
+    return adjusted;
+  });
   tool.appendArgumentsAdjuster(tooling::getInsertArgumentAdjuster(
       {"-w", "-resource-dir=" HORUS_CHECK_RESOURCE_DIR}, tooling::ArgumentInsertPosition::END));
   if (tool.run(tooling::newFrontendActionFactory<CheckAction>().get()) != 0) {
