@@ -153,24 +153,26 @@ std::string canonical(QualType type) {
   return type.getCanonicalType().getUnqualifiedType().getAsString(policy);
 }
 
+// What a conversion, temporary or constructor call (its first argument) is made from, or null.
+const Expr* converted_from(const Expr* expr) {
+  if (const auto* construct = dyn_cast<CXXConstructExpr>(expr))
+    return construct->getNumArgs() > 0 ? construct->getArg(0) : nullptr;
+  if (const auto* temporary = dyn_cast<MaterializeTemporaryExpr>(expr))
+    return temporary->getSubExpr();
+  if (const auto* bind = dyn_cast<CXXBindTemporaryExpr>(expr)) return bind->getSubExpr();
+  if (const auto* cleanups = dyn_cast<ExprWithCleanups>(expr)) return cleanups->getSubExpr();
+  if (const auto* cast = dyn_cast<CastExpr>(expr)) return cast->getSubExpr();
+  if (const auto* paren = dyn_cast<ParenExpr>(expr)) return paren->getSubExpr();
+  return nullptr;
+}
+
 // The string an expression spells when it is a literal or a constant initialised by one,
 // through the conversions to std::string / std::string_view.
-std::optional<std::string> constant_string(const Expr* expr, int depth = 0) {
-  while (expr != nullptr && depth++ < 32) {
+std::optional<std::string> constant_string(const Expr* expr) {
+  for (int depth = 0; expr != nullptr && depth < 32; ++depth) {
     expr = expr->IgnoreParenImpCasts();
     if (const auto* literal = dyn_cast<StringLiteral>(expr)) return literal->getString().str();
-    if (const auto* construct = dyn_cast<CXXConstructExpr>(expr)) {
-      if (construct->getNumArgs() == 0) return std::nullopt;
-      expr = construct->getArg(0);
-    } else if (const auto* temporary = dyn_cast<MaterializeTemporaryExpr>(expr)) {
-      expr = temporary->getSubExpr();
-    } else if (const auto* bind = dyn_cast<CXXBindTemporaryExpr>(expr)) {
-      expr = bind->getSubExpr();
-    } else if (const auto* cleanups = dyn_cast<ExprWithCleanups>(expr)) {
-      expr = cleanups->getSubExpr();
-    } else if (const auto* cast = dyn_cast<CastExpr>(expr)) {
-      expr = cast->getSubExpr();
-    } else if (const auto* list = dyn_cast<InitListExpr>(expr); list && list->getNumInits() == 1) {
+    if (const auto* list = dyn_cast<InitListExpr>(expr); list && list->getNumInits() == 1) {
       expr = list->getInit(0);
     } else if (const auto* ref = dyn_cast<DeclRefExpr>(expr)) {
       const auto* var = dyn_cast<VarDecl>(ref->getDecl());
@@ -178,7 +180,7 @@ std::optional<std::string> constant_string(const Expr* expr, int depth = 0) {
       if (init == nullptr || !var->getType().isConstQualified()) return std::nullopt;
       expr = init;
     } else {
-      return std::nullopt;
+      expr = converted_from(expr);
     }
   }
   return std::nullopt;
@@ -226,29 +228,13 @@ std::vector<DeclaredTopic> declared_topics(const Stmt* body, const SourceManager
 // (`add(std::make_unique<Lidar>(...))` adds a Lidar through a shared_ptr<Node>).
 const CXXRecordDecl* node_class_of_argument(const Expr* expr) {
   const CXXRecordDecl* found = nullptr;
-  for (int depth = 0; expr != nullptr && depth < 32; ++depth) {
-    if (const auto* pointer =
-            dyn_cast_or_null<ClassTemplateSpecializationDecl>(record_of(expr->getType()))) {
-      if (is_std_class(pointer, {"shared_ptr", "unique_ptr"}) &&
-          pointer->getTemplateArgs().size() > 0) {
-        const auto* pointee = record_of(pointer->getTemplateArgs()[0].getAsType());
-        if (derives_from_node(pointee)) found = pointee;
-      }
-    }
-    if (const auto* construct = dyn_cast<CXXConstructExpr>(expr)) {
-      expr = construct->getNumArgs() > 0 ? construct->getArg(0) : nullptr;
-    } else if (const auto* temporary = dyn_cast<MaterializeTemporaryExpr>(expr)) {
-      expr = temporary->getSubExpr();
-    } else if (const auto* bind = dyn_cast<CXXBindTemporaryExpr>(expr)) {
-      expr = bind->getSubExpr();
-    } else if (const auto* cast = dyn_cast<CastExpr>(expr)) {
-      expr = cast->getSubExpr();
-    } else if (const auto* cleanups = dyn_cast<ExprWithCleanups>(expr)) {
-      expr = cleanups->getSubExpr();
-    } else if (const auto* paren = dyn_cast<ParenExpr>(expr)) {
-      expr = paren->getSubExpr();
-    } else {
-      break;
+  for (int depth = 0; expr != nullptr && depth < 32; ++depth, expr = converted_from(expr)) {
+    const auto* pointer =
+        dyn_cast_or_null<ClassTemplateSpecializationDecl>(record_of(expr->getType()));
+    if (pointer != nullptr && is_std_class(pointer, {"shared_ptr", "unique_ptr"}) &&
+        pointer->getTemplateArgs().size() > 0) {
+      const auto* pointee = record_of(pointer->getTemplateArgs()[0].getAsType());
+      if (derives_from_node(pointee)) found = pointee;
     }
   }
   return found;
@@ -714,35 +700,29 @@ class FactCollector : public RecursiveASTVisitor<FactCollector> {
     // scheduler.add(node).rate(...) / RunNode(node).budget(...): a rate or budget set at the call.
     if ((name == "rate" || name == "budget" || name == "deadline") &&
         in_namespace(method->getParent(), "horus")) {
+      // Down the chain of settings to the call or constructor that was given the node.
       const Expr* object = call->getImplicitObjectArgument();
       for (int depth = 0; object != nullptr && depth < 64; ++depth) {
         object = object->IgnoreParenImpCasts();
         const CXXRecordDecl* added = nullptr;
+        auto consider = [&](const Expr* argument) {
+          if (const auto* found = node_class_of_argument(argument)) added = found;
+        };
+        const Expr* next = nullptr;
         if (const auto* inner = dyn_cast<CallExpr>(object)) {
-          for (const Expr* argument : inner->arguments())
-            if (const auto* found = node_class_of_argument(argument)) added = found;
-          if (added == nullptr) {
-            if (const auto* member_call = dyn_cast<CXXMemberCallExpr>(inner)) {
-              object = member_call->getImplicitObjectArgument();
-              continue;
-            }
-          }
-        } else if (const auto* construct = dyn_cast<CXXConstructExpr>(object)) {
-          for (const Expr* argument : construct->arguments())
-            if (const auto* found = node_class_of_argument(argument)) added = found;
-          if (added == nullptr && construct->getNumArgs() == 1) {
-            object = construct->getArg(0);
-            continue;
-          }
-        } else if (const auto* temporary = dyn_cast<MaterializeTemporaryExpr>(object)) {
-          object = temporary->getSubExpr();
-          continue;
-        } else if (const auto* bind = dyn_cast<CXXBindTemporaryExpr>(object)) {
-          object = bind->getSubExpr();
-          continue;
+          for (const Expr* argument : inner->arguments()) consider(argument);
+          if (const auto* member_call = dyn_cast<CXXMemberCallExpr>(inner))
+            next = member_call->getImplicitObjectArgument();
+        } else {
+          if (const auto* construct = dyn_cast<CXXConstructExpr>(object))
+            for (const Expr* argument : construct->arguments()) consider(argument);
+          next = converted_from(object);
         }
-        if (added != nullptr) nodes[qualified(added)].realtime_reason = name;
-        break;
+        if (added != nullptr) {
+          nodes[qualified(added)].realtime_reason = name;
+          break;
+        }
+        object = next;
       }
     }
     return true;
