@@ -75,10 +75,12 @@ def test_compiler_style_text_and_exit_status():
     result = run(fixture_files("rogue.cpp"))
     assert result.returncode == 1
     lines = result.stdout.splitlines()
-    assert len(lines) == 2
+    assert len(lines) == 4
     for line in lines:
         assert re.match(r"^/.*/rogue\.cpp:\d+:\d+: warning: .* \[horus-node-[a-z-]+\]$", line), line
     assert any('opens topic "fixture.debug" (member debug_)' in line for line in lines)
+    assert any('opens topic "fixture.command" as struct check_fixture::Wheels but declares it as '
+               'struct check_fixture::Odometry' in line for line in lines)
 
 
 def test_clean_node_is_silent():
@@ -111,7 +113,7 @@ def test_nodes_inventory():
     assert nodes["Logger"]["realtime"] == "rate"  # .rate() where it is added
     rogue = nodes["Rogue"]
     assert rogue["realtime"] == ""
-    assert {t["name"] for t in rogue["topics"]} == {"fixture.odom", "fixture.debug"}
+    assert {t["name"] for t in rogue["topics"]} == {"fixture.odom", "fixture.debug", "fixture.command"}
 
 
 def test_demo_is_clean():

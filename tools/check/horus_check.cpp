@@ -892,30 +892,20 @@ void judge_nodes() {
                          {}});
         continue;
       }
-      for (const auto& declared : {pub, sub}) {
-        if (declared == pubs.end() || declared == subs.end()) continue;
-        if (!declared->type.empty() && declared->type != topic.type)
-          findings.insert({topic.where,
-                           "horus-node-topic-type",
-                           "node '" + short_name + "' opens topic \"" + *topic.name + "\" as " +
-                               topic.type + " but declares it as " + declared->type,
-                           short_name,
-                           {}});
-      }
+      const std::string quoted = "topic \"" + *topic.name + "\"";
+      auto report = [&](const Location& where, const char* check, const std::string& what) {
+        findings.insert({where, check, "node '" + short_name + "' " + what, short_name, {}});
+      };
+      const DeclaredTopic* declared = pub != pubs.end() ? &*pub : &*sub;
+      if (!declared->type.empty() && declared->type != topic.type)
+        report(topic.where, "horus-node-topic-type",
+               "opens " + quoted + " as " + topic.type + " but declares it as " + declared->type);
       if (auto use = sent.find(member); use != sent.end() && pub == pubs.end())
-        findings.insert({use->second,
-                         "horus-node-direction",
-                         "node '" + short_name + "' sends on topic \"" + *topic.name +
-                             "\" but declares it only in subscribers()",
-                         short_name,
-                         {}});
+        report(use->second, "horus-node-direction",
+               "sends on " + quoted + " but declares it only in subscribers()");
       if (auto use = received.find(member); use != received.end() && sub == subs.end())
-        findings.insert({use->second,
-                         "horus-node-direction",
-                         "node '" + short_name + "' receives from topic \"" + *topic.name +
-                             "\" but declares it only in publishers()",
-                         short_name,
-                         {}});
+        report(use->second, "horus-node-direction",
+               "receives from " + quoted + " but declares it only in publishers()");
     }
     for (const auto* list : {&pubs, &subs}) {
       for (const DeclaredTopic& declared : *list) {
