@@ -77,6 +77,11 @@ class NodeResolver:
             if f.default is not None:
                 default = convert_value(self.reporter, self.model.types, f.default, t, f"data field '{f.name}'")
             data.append(Field(f.name, t, identity.spelling(t), default, "", f.docs, f.span))
+        for server in blocks["server"]:
+            starter = f"serve_{server.member}"
+            if starter in members:
+                self.reporter.error(members[starter], f"member name '{starter}' is taken by the method that starts "
+                                    f"server '{server.member}'", "rename it")
         on = values.get("on")
         if on is not None and on[0] not in {t.topic for t in blocks["sub"]}:
             self.reporter.error(on[1], f"node '{item.name}' ticks on topic '{on[0]}', which it does not subscribe to",
@@ -258,6 +263,9 @@ class NodeResolver:
         clash = keyword_clash(name)
         if clash:
             self.reporter.error(span, f"member name '{name}' is {clash}", "rename it")
+        elif name.startswith("_"):
+            self.reporter.error(span, f"member name '{name}' starts with '_'",
+                                "horus.Node keeps its own state in such attributes; rename it")
         elif name in NODE_RESERVED_MEMBERS:
             self.reporter.error(span, f"member name '{name}' is taken by the generated node class "
                                 "(a horus::Node / horus.Node member)", "rename it")

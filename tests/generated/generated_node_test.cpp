@@ -10,6 +10,7 @@
 
 #include "horus/literals.hpp"
 #include "horus/scheduler.hpp"
+#include "pair_nodes.hpp"
 #include "test_nodes.hpp"
 #include "topic_test_support.hpp"
 
@@ -18,31 +19,8 @@ using horus::TopicMetadata;
 
 namespace {
 
-// The user's side of each node: tick() only, the rest is generated.
-class Talker : public test_nodes::TalkerBase {
- public:
-  void tick() override {
-    test_msgs::Pose2 pose{};
-    pose.position.x = step_ * static_cast<double>(++sent_);
-    pose_.send(pose);
-  }
-  std::uint64_t sent() const { return sent_; }
-  double step() const { return step_; }
-};
-
-class Listener : public test_nodes::ListenerBase {
- public:
-  void tick() override {
-    while (auto pose = pose_.try_recv()) {
-      ++received_;
-      last_x = pose->position.x;
-      echo_.send(pose->position);
-    }
-  }
-  std::uint64_t received() const { return received_; }
-  std::size_t pose_capacity() const { return pose_.capacity(); }
-  double last_x = 0.0;
-};
+using test_nodes_user::Listener;
+using test_nodes_user::Talker;
 
 class Tracker : public test_nodes::TrackerBase {
  public:
@@ -170,7 +148,7 @@ TEST(GeneratedNode, AddToRegistersTheDeclaredSettingsAndTheDataFlows) {
 
   EXPECT_EQ(talker->sent(), 5U);
   EXPECT_EQ(listener->received(), 5U);
-  EXPECT_EQ(listener->last_x, 1.25);
+  EXPECT_EQ(listener->last_x(), 1.25);
   const auto talker_info = sched.node_info("talker");
   ASSERT_TRUE(talker_info.has_value());
   EXPECT_EQ(talker_info->order, 10);

@@ -11,30 +11,27 @@
 #include <thread>
 
 #include "horus/scheduler.hpp"
+#include "pair_nodes.hpp"
 #include "test_nodes.hpp"
 
 namespace {
 
-class Talker : public test_nodes::TalkerBase {
- public:
-  void tick() override {
-    test_msgs::Pose2 pose{};
-    pose.position.x = step_ * static_cast<double>(++sent_);
-    pose_.send(pose);
-  }
-};
+using test_nodes_user::Talker;
 
-class Listener : public test_nodes::ListenerBase {
+// Says "ready" once the first pose went through.
+class Listener : public test_nodes_user::Listener {
  public:
   void tick() override {
-    while (auto pose = pose_.try_recv()) {
-      echo_.send(pose->position);
-      if (++received_ == 1) {
-        std::printf("ready\n");
-        std::fflush(stdout);
-      }
+    test_nodes_user::Listener::tick();
+    if (!ready_ && received() > 0) {
+      ready_ = true;
+      std::printf("ready\n");
+      std::fflush(stdout);
     }
   }
+
+ private:
+  bool ready_ = false;
 };
 
 }  // namespace

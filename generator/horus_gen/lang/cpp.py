@@ -190,8 +190,8 @@ def constant_literal(value, t: Type, package: str) -> str:
     return value_literal(value, t, package)
 
 
-def std_headers(message: Message) -> list[str]:
-    """The standard headers a message's fields need beyond horus/message.hpp."""
+def field_headers(types: list[Type]) -> set[str]:
+    """Every header that declares what fields of these types spell (standard ones in <>)."""
     needed: set[str] = set()
 
     def visit(t: Type) -> None:
@@ -199,11 +199,25 @@ def std_headers(message: Message) -> list[str]:
             needed.add("<vector>")
         if isinstance(t, Optional):
             needed.add("<optional>")
+        if isinstance(t, FixedArray):
+            needed.add("<array>")
+        if isinstance(t, DynString):
+            needed.add("<string>")
+        if isinstance(t, FixedString):
+            needed.add('"horus/fixed_string.hpp"')
+        if isinstance(t, Primitive) and t.is_integer:
+            needed.add("<cstdint>")
         if isinstance(t, (FixedArray, Vec, Optional)):
             visit(t.element)
 
-    for f in message.fields:
-        visit(f.type)
+    for t in types:
+        visit(t)
+    return needed
+
+
+def std_headers(message: Message) -> list[str]:
+    """The standard headers a message's fields need beyond horus/message.hpp (which has the rest)."""
+    needed = field_headers([f.type for f in message.fields]) & {"<vector>", "<optional>"}
     return sorted(needed | set(message.cpp_includes))
 
 
@@ -233,29 +247,19 @@ def contract_check(header: str) -> str:
             f"with this runtime's horus-gen\");")
 
 
+# What every node header includes from the standard library: its declarations need them.
+NODE_STD_HEADERS = frozenset({"<cstddef>", "<memory>", "<string_view>", "<utility>", "<vector>"})
+
+
 def node_std_headers(node: Node) -> list[str]:
-    """The headers a node's data fields need beyond those every node header includes."""
-    needed: set[str] = set()
+    """The standard headers a node header includes: its own and what its data and servers need."""
+    needed = {h for h in field_headers([f.type for f in node.data]) if h.startswith("<")}
+    return sorted(NODE_STD_HEADERS | needed | ({"<optional>"} if node.servers else set()))
 
-    def visit(t: Type) -> None:
-        if isinstance(t, FixedArray):
-            needed.add("<array>")
-        if isinstance(t, Optional):
-            needed.add("<optional>")
-        if isinstance(t, DynString):
-            needed.add("<string>")
-        if isinstance(t, FixedString):
-            needed.add('"horus/fixed_string.hpp"')
-        if isinstance(t, (FixedArray, Vec, Optional)):
-            visit(t.element)
 
-    for f in node.data:
-        visit(f.type)
-    if node.servers:
-        needed.add("<optional>")
-    if any(isinstance(f.type, Primitive) and not f.type.is_bool and not f.type.is_float for f in node.data):
-        needed.add("<cstdint>")
-    return sorted(needed)
+def node_horus_headers(node: Node) -> list[str]:
+    """The runtime headers a node's data fields need beyond the node, topic and scheduler ones."""
+    return sorted(h.strip('"') for h in field_headers([f.type for f in node.data]) if not h.startswith("<"))
 
 
 def node_headers(node: Node) -> list[str]:
@@ -292,6 +296,7 @@ FILTERS = {
     "header_path": header_path, "std_headers": std_headers, "type_headers": type_headers,
     "lighter_header": lighter_header, "mixin_path": mixin_path,
     "doc_lines": doc_lines, "contract_check": contract_check, "node_std_headers": node_std_headers,
+    "node_horus_headers": node_horus_headers,
     "node_headers": node_headers, "nanoseconds": nanoseconds, "cpp_ref": cpp_ref,
     "basename": os.path.basename, "failure_policy": failure_policy,
     "float_literal": float_literal,

@@ -199,25 +199,27 @@ def parameter(f: Field, model: Model, names: Names) -> str:
         else:
             accepted = hint(t, names).replace("list[", "Sequence[", 1)
         return f"{f.name}: {accepted} | None = None"
-    if f.default is not None:
-        default = value_literal(f.default, t, model, names)
-    elif isinstance(t, Primitive):
-        default = "False" if t.is_bool else ("0.0" if t.is_float else "0")
-    elif isinstance(t, (FixedString, DynString)):
-        default = '""'
-    elif _is_bytes(t):
-        default = 'b""'
-    elif isinstance(t, EnumRef):
+    default = value_literal(f.default, t, model, names) if f.default is not None else zero_literal(t, model, names)
+    accepted = hint(t, names) + (" | int" if isinstance(t, EnumRef) else "")
+    return f"{f.name}: {accepted} = {default}"
+
+
+def zero_literal(t: Type, model: Model, names: Names) -> str:
+    """The value of a field of a type that needs no factory (see needs_factory) when none is given."""
+    if isinstance(t, Primitive):
+        return "False" if t.is_bool else ("0.0" if t.is_float else "0")
+    if isinstance(t, (FixedString, DynString)):
+        return '""'
+    if _is_bytes(t):
+        return 'b""'
+    if isinstance(t, EnumRef):
         found = model.types[t.qualified]
         assert isinstance(found, Enum)
         zero = next((v.name for v in found.variants if v.value == 0), None)
-        default = f"{names[t.qualified]}.{zero}" if zero else "0"
-    elif isinstance(t, Optional):
-        default = "None"
-    else:
-        raise ValueError(t)
-    accepted = hint(t, names) + (" | int" if isinstance(t, EnumRef) else "")
-    return f"{f.name}: {accepted} = {default}"
+        return f"{names[t.qualified]}.{zero}" if zero else "0"
+    if isinstance(t, Optional):
+        return "None"
+    raise ValueError(t)
 
 
 def initializer(f: Field, names: Names) -> str:
@@ -360,24 +362,11 @@ def _initial(t: Type, default, model: Model, names: Names) -> str:
         return f"[{_initial(t.element, None, model, names)} for _ in range({t.length})]"
     if default is not None:
         return value_literal(default, t, model, names)
-    if isinstance(t, Primitive):
-        return "False" if t.is_bool else ("0.0" if t.is_float else "0")
-    if isinstance(t, (FixedString, DynString)):
-        return '""'
-    if _is_bytes(t):
-        return 'b""'
-    if isinstance(t, EnumRef):
-        found = model.types[t.qualified]
-        assert isinstance(found, Enum)
-        zero = next((v.name for v in found.variants if v.value == 0), None)
-        return f"{names[t.qualified]}.{zero}" if zero else f"{names[t.qualified]}(0)"
     if isinstance(t, MessageRef):
         return f"{names[t.qualified]}()"
-    if isinstance(t, Vec):
+    if isinstance(t, Vec) and not _is_bytes(t):
         return "[]"
-    if isinstance(t, Optional):
-        return "None"
-    raise ValueError(t)
+    return zero_literal(t, model, names)
 
 
 def node_doc(node: Node) -> list[str]:
