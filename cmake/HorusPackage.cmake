@@ -65,6 +65,7 @@ install(FILES
   "${PROJECT_BINARY_DIR}/package/horusConfig.cmake"
   "${PROJECT_BINARY_DIR}/package/horusConfigVersion.cmake"
   cmake/HorusGenerate.cmake
+  cmake/HorusCheck.cmake
   DESTINATION "${HORUS_INSTALL_CMAKEDIR}")
 
 # Inside this build, find_package(horus) (as the examples, written as user projects, call it)
