@@ -12,8 +12,10 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <optional>
 
 #include "horus/detail/errno_text.hpp"
+#include "horus/detail/namespace_objects.hpp"
 #include "horus/detail/shm_access.hpp"
 #include "horus/detail/shm_segment.hpp"
 #include "horus/error.hpp"
@@ -131,35 +133,84 @@ std::string shared_log_ring_path(std::string_view namespace_name) {
 }
 
 LogRing open_shared_log_ring(std::string_view namespace_name) {
+  const std::string name = ring_name(namespace_name);
   const std::string path = shared_log_ring_path(namespace_name);
   const FileDescriptor folder = open_logs_folder(true);
-  const FileDescriptor fd = open_trusted_file(folder.get(), ring_name(namespace_name), path,
-                                              O_RDWR | O_CREAT, 0600, false);
-  // Whoever finds the file empty formats it; the lock keeps the others from reading it half done.
-  if (::flock(fd.get(), LOCK_EX) != 0) {
-    throw Error("cannot lock the log ring " + path + ": " + errno_text(errno));
-  }
-  const FlockRelease unlock(fd.get());
-  struct stat info {};
-  if (::fstat(fd.get(), &info) != 0) {
-    throw Error("cannot stat the log ring " + path + ": " + errno_text(errno));
-  }
-  const bool fresh = info.st_size == 0;
-  const std::size_t size =
-      fresh ? LogRing::bytes_for(kSharedCapacity) : static_cast<std::size_t>(info.st_size);
-  if (fresh && ::ftruncate(fd.get(), static_cast<off_t>(size)) != 0) {
-    throw Error("cannot size the log ring " + path + ": " + errno_text(errno));
-  }
-  void* memory = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, fd.get(), 0);
-  if (memory == MAP_FAILED) {
-    throw Error("cannot map the log ring " + path + ": " + errno_text(errno));
-  }
-  if (fresh) LogRing::format(memory, kSharedCapacity);
-  if (const std::string why = LogRing::validate(memory, size); !why.empty()) {
+  for (;;) {
+    const FileDescriptor fd =
+        open_trusted_file(folder.get(), name, path, O_RDWR | O_CREAT, 0600, false);
+    // Whoever finds the file empty formats it; the lock keeps the others from reading it half
+    // done, and cleaners from removing it.
+    if (::flock(fd.get(), LOCK_EX) != 0) {
+      throw Error("cannot lock the log ring " + path + ": " + errno_text(errno));
+    }
+    if (!still_linked(fd.get())) continue;  // a cleaner removed it before we locked: start over
+    struct stat info {};
+    if (::fstat(fd.get(), &info) != 0) {
+      throw Error("cannot stat the log ring " + path + ": " + errno_text(errno));
+    }
+    const bool fresh = info.st_size == 0;
+    const std::size_t size =
+        fresh ? LogRing::bytes_for(kSharedCapacity) : static_cast<std::size_t>(info.st_size);
+    if (fresh && ::ftruncate(fd.get(), static_cast<off_t>(size)) != 0) {
+      throw Error("cannot size the log ring " + path + ": " + errno_text(errno));
+    }
+    void* memory = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, fd.get(), 0);
+    if (memory == MAP_FAILED) {
+      throw Error("cannot map the log ring " + path + ": " + errno_text(errno));
+    }
+    if (fresh) LogRing::format(memory, kSharedCapacity);
+    if (const std::string why = LogRing::validate(memory, size); !why.empty()) {
+      ::munmap(memory, size);
+      throw Error("log ring " + path + ": " + why);
+    }
+    // Down to the shared lock every writer keeps while its mapping lives (the mapping holds the
+    // open file description, and so the lock, past close and until the process exits): cleaners
+    // leave the ring alone meanwhile (detail/namespace_objects.hpp).
+    if (::flock(fd.get(), LOCK_SH) != 0) {
+      const int error = errno;
+      ::munmap(memory, size);
+      throw Error("cannot lock the log ring " + path + ": " + errno_text(error));
+    }
+    // The change of lock is not atomic: a cleaner may have removed the ring in between.
+    if (still_linked(fd.get())) return LogRing(memory);
     ::munmap(memory, size);
-    throw Error("log ring " + path + ": " + why);
   }
-  return LogRing(memory);
+}
+
+std::optional<NamespaceObjectInfo> log_ring_object(std::string_view namespace_name) {
+  const std::string name = ring_name(namespace_name);
+  const FileDescriptor folder = open_logs_folder(false);
+  struct stat present {};
+  if (folder.get() < 0 ||
+      ::fstatat(folder.get(), name.c_str(), &present, AT_SYMLINK_NOFOLLOW) != 0) {
+    return std::nullopt;
+  }
+  NamespaceObjectInfo info;
+  info.kind = kLogsFolder;
+  info.path = shared_log_ring_path(namespace_name);
+  info.size = static_cast<std::size_t>(present.st_size);
+  const FileDescriptor fd = open_trusted_file(folder.get(), name, info.path, O_RDONLY, 0, false);
+  info.in_use = ::flock(fd.get(), LOCK_EX | LOCK_NB) != 0;
+  return info;
+}
+
+bool remove_log_ring(std::string_view namespace_name, bool force) {
+  const std::string name = ring_name(namespace_name);
+  const FileDescriptor folder = open_logs_folder(false);
+  if (folder.get() < 0) return false;
+  if (force) return ::unlinkat(folder.get(), name.c_str(), 0) == 0;
+  std::optional<FileDescriptor> fd;
+  try {
+    fd.emplace(open_trusted_file(folder.get(), name, shared_log_ring_path(namespace_name), O_RDONLY,
+                                 0, false));
+  } catch (const Error&) {
+    return false;  // none, or not this user's to judge
+  }
+  // Held until the descriptor closes: a writer opening the ring meanwhile waits, then sees it
+  // unlinked and makes a new one.
+  return ::flock(fd->get(), LOCK_EX | LOCK_NB) == 0 && still_linked(fd->get()) &&
+         ::unlinkat(folder.get(), name.c_str(), 0) == 0;
 }
 
 std::size_t format_log_entry(const LogEntry& entry, char* out, std::size_t size) noexcept {
