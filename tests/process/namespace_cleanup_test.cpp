@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <thread>
@@ -140,6 +141,33 @@ TEST(NamespaceCleanup, AWriterWhoseRingWasRemovedMakesANewOne) {
   ASSERT_TRUE(eventually([&] { return !horus::read_log(ns.name()).records.empty(); }))
       << "the second writer never made a new ring";
   EXPECT_EQ(objects(ns.name()).front(), (std::pair<std::string, bool>{"@logs", true}));
+}
+
+TEST(NamespaceCleanup, LiveWritersShareTheRingWhileCleaningKeepsIt) {
+  PrivateNamespace ns;
+  Child first("log_and_run", {});
+  Child second("log_and_run", {});
+  // Each writer holds its lock for life: a second opener must neither wait for the first nor
+  // make a ring of its own.
+  const auto both_logged = [&] {
+    horus::clean_namespace(ns.name());
+    bool from_first = false;
+    bool from_second = false;
+    for (const horus::LogRecord& record : horus::read_log(ns.name()).records) {
+      from_first = from_first || record.pid == static_cast<std::uint32_t>(first.pid());
+      from_second = from_second || record.pid == static_cast<std::uint32_t>(second.pid());
+    }
+    return from_first && from_second;
+  };
+  EXPECT_TRUE(eventually(both_logged)) << "both writers' lines in one ring";
+  first.kill();
+  horus::clean_namespace(ns.name());
+  EXPECT_EQ(objects(ns.name()).front(), (std::pair<std::string, bool>{"@logs", true}))
+      << "the second writer still uses the ring";
+  second.kill();
+  horus::clean_namespace(ns.name());
+  horus::clean_presence(ns.name());
+  EXPECT_TRUE(objects(ns.name()).empty());
 }
 
 TEST(NamespaceCleanup, RemoveNamespaceRemovesEvenWhatALiveProcessUses) {

@@ -25,19 +25,6 @@ namespace {
 
 constexpr std::size_t kSharedCapacity = 4096;  // 2 MiB per namespace
 
-/// Drops a flock on scope exit: the mapping keeps the open file description, and so the lock,
-/// alive past close.
-class FlockRelease {
- public:
-  explicit FlockRelease(int fd) noexcept : fd_(fd) {}
-  FlockRelease(const FlockRelease&) = delete;
-  FlockRelease& operator=(const FlockRelease&) = delete;
-  ~FlockRelease() { ::flock(fd_, LOCK_UN); }
-
- private:
-  int fd_;
-};
-
 constexpr const char* kLogsFolder = "@logs";
 
 std::string logs_directory() { return shm_root() + "/" + kLogsFolder; }
@@ -132,49 +119,88 @@ std::string shared_log_ring_path(std::string_view namespace_name) {
   return logs_directory() + "/" + ring_name(namespace_name);
 }
 
+namespace {
+
+/// A new ring made unnamed (O_TMPFILE), formatted and locked shared before it gets its name, so
+/// that nobody ever sees it half done and no cleaner can take it; nothing when another process
+/// named its own first.
+std::optional<LogRing> create_shared_log_ring(int folder, const std::string& name,
+                                              const std::string& path) {
+  const FileDescriptor fd(::openat(folder, ".", O_TMPFILE | O_RDWR | O_CLOEXEC, 0600));
+  if (fd.get() < 0) {
+    throw Error("cannot create the log ring " + path + ": " + errno_text(errno));
+  }
+  const std::size_t size = LogRing::bytes_for(kSharedCapacity);
+  if (::ftruncate(fd.get(), static_cast<off_t>(size)) != 0) {
+    throw Error("cannot size the log ring " + path + ": " + errno_text(errno));
+  }
+  void* memory = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, fd.get(), 0);
+  if (memory == MAP_FAILED) {
+    throw Error("cannot map the log ring " + path + ": " + errno_text(errno));
+  }
+  LogRing::format(memory, kSharedCapacity);
+  // Nobody else can reach an unnamed file: neither lock nor link can be raced here.
+  ::flock(fd.get(), LOCK_SH);
+  const std::string self = "/proc/self/fd/" + std::to_string(fd.get());
+  if (::linkat(AT_FDCWD, self.c_str(), folder, name.c_str(), AT_SYMLINK_FOLLOW) != 0) {
+    const int error = errno;
+    ::munmap(memory, size);
+    if (error == EEXIST) return std::nullopt;
+    throw Error("cannot name the log ring " + path + ": " + errno_text(error));
+  }
+  return LogRing(memory);
+}
+
+}  // namespace
+
 LogRing open_shared_log_ring(std::string_view namespace_name) {
   const std::string name = ring_name(namespace_name);
   const std::string path = shared_log_ring_path(namespace_name);
   const FileDescriptor folder = open_logs_folder(true);
+  // Every writer keeps a shared lock on the ring while its mapping lives (the mapping holds the
+  // open file description, and so the lock, past close and until the process exits): cleaners
+  // leave the ring alone meanwhile (detail/namespace_objects.hpp). Nobody holds the exclusive
+  // lock but a cleaner, and only for as long as it takes to unlink.
   for (;;) {
-    const FileDescriptor fd =
-        open_trusted_file(folder.get(), name, path, O_RDWR | O_CREAT, 0600, false);
-    // Whoever finds the file empty formats it; the lock keeps the others from reading it half
-    // done, and cleaners from removing it.
-    if (::flock(fd.get(), LOCK_EX) != 0) {
+    struct stat named {};
+    if (::fstatat(folder.get(), name.c_str(), &named, AT_SYMLINK_NOFOLLOW) != 0 &&
+        errno == ENOENT) {
+      if (std::optional<LogRing> ring = create_shared_log_ring(folder.get(), name, path)) {
+        return *ring;
+      }
+      continue;  // another process named its ring first: use that one
+    }
+    std::optional<FileDescriptor> fd;
+    try {
+      fd.emplace(open_trusted_file(folder.get(), name, path, O_RDWR, 0, false));
+    } catch (const Error&) {
+      if (::fstatat(folder.get(), name.c_str(), &named, AT_SYMLINK_NOFOLLOW) != 0 &&
+          errno == ENOENT) {
+        continue;  // a cleaner removed it between the look and the open
+      }
+      throw;
+    }
+    if (::flock(fd->get(), LOCK_SH) != 0) {
       throw Error("cannot lock the log ring " + path + ": " + errno_text(errno));
     }
-    if (!still_linked(fd.get())) continue;  // a cleaner removed it before we locked: start over
+    if (!still_linked(fd->get())) continue;  // a cleaner removed it before we locked
     struct stat info {};
-    if (::fstat(fd.get(), &info) != 0) {
+    if (::fstat(fd->get(), &info) != 0) {
       throw Error("cannot stat the log ring " + path + ": " + errno_text(errno));
     }
-    const bool fresh = info.st_size == 0;
-    const std::size_t size =
-        fresh ? LogRing::bytes_for(kSharedCapacity) : static_cast<std::size_t>(info.st_size);
-    if (fresh && ::ftruncate(fd.get(), static_cast<off_t>(size)) != 0) {
-      throw Error("cannot size the log ring " + path + ": " + errno_text(errno));
-    }
-    void* memory = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, fd.get(), 0);
+    const auto size = static_cast<std::size_t>(info.st_size);
+    void* memory = size == 0
+                       ? MAP_FAILED
+                       : ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, fd->get(), 0);
     if (memory == MAP_FAILED) {
-      throw Error("cannot map the log ring " + path + ": " + errno_text(errno));
+      throw Error("cannot map the log ring " + path + ": " +
+                  (size == 0 ? std::string("it is empty") : errno_text(errno)));
     }
-    if (fresh) LogRing::format(memory, kSharedCapacity);
     if (const std::string why = LogRing::validate(memory, size); !why.empty()) {
       ::munmap(memory, size);
       throw Error("log ring " + path + ": " + why);
     }
-    // Down to the shared lock every writer keeps while its mapping lives (the mapping holds the
-    // open file description, and so the lock, past close and until the process exits): cleaners
-    // leave the ring alone meanwhile (detail/namespace_objects.hpp).
-    if (::flock(fd.get(), LOCK_SH) != 0) {
-      const int error = errno;
-      ::munmap(memory, size);
-      throw Error("cannot lock the log ring " + path + ": " + errno_text(error));
-    }
-    // The change of lock is not atomic: a cleaner may have removed the ring in between.
-    if (still_linked(fd.get())) return LogRing(memory);
-    ::munmap(memory, size);
+    return LogRing(memory);
   }
 }
 
@@ -264,8 +290,6 @@ LogSnapshot read_log(std::string_view namespace_name) {
   }
   const detail::FileDescriptor fd =
       detail::open_trusted_file(folder.get(), name, path, O_RDONLY, 0600, false);
-  ::flock(fd.get(), LOCK_SH);  // a ring still being formatted is not read half done
-  const detail::FlockRelease unlock(fd.get());
   struct stat info {};
   if (::fstat(fd.get(), &info) != 0) {
     throw Error("cannot stat the log ring " + path + ": " + detail::errno_text(errno));
