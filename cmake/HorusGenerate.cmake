@@ -1,10 +1,10 @@
-# horus_generate(): turn .hmsg/.hsrv schema files into a library target of generated code.
+# horus_generate(): turn .hmsg/.hsrv/.hnode schema files into a library target of generated code.
 #
 #   horus_generate(TARGET my_msgs
 #                  [PACKAGE my_robot.msg]          # package of files that declare none
-#                  FILES motor.hmsg pose.hmsg ...
+#                  FILES motor.hmsg pose.hmsg ...   # also .hsrv services and .hnode nodes
 #                  [INCLUDE_DIRS dir...]           # extra import roots (-I)
-#                  [LANGUAGES cpp python]          # default: cpp
+#                  [LANGUAGES cpp python jsonschema] # default: cpp
 #                  [DEPENDS other_msgs...]         # targets made by horus_generate()
 #                  [INSTALL | NO_INSTALL]
 #                  [EXPORT export_set])            # install(TARGETS ... EXPORT export_set)
@@ -16,9 +16,13 @@
 # (log_summary(), the layout checks), so a program that uses the types links the target. Helpers
 # too big to be inline: declare them in the #[cpp_mixin] fragment and add the .cpp that defines
 # them with target_sources(my_msgs PRIVATE ...). Python only: an INTERFACE library.
+# With .hnode files among FILES, the node base classes derive from horus::Node and hold topics:
+# the library then links horus::runtime too (and its Python classes need the `horus` package).
 # With `python` in LANGUAGES the Python package folder (put it on sys.path) is the target property
 # HORUS_PYTHON_DIR and the variable <TARGET>_PYTHON_DIR; with `cpp`, the generated C++ folder is
-# the target property HORUS_CPP_DIR. HORUS_SCHEMA_DIRS holds the folders that horus-gen searches
+# the target property HORUS_CPP_DIR; with `jsonschema` (a JSON Schema per message, as the recording
+# export to Foxglove writes messages), the folder of `<package path>/<Name>.schema.json` is the
+# target property HORUS_JSONSCHEMA_DIR (installed under share/horus/jsonschema). HORUS_SCHEMA_DIRS holds the folders that horus-gen searches
 # for imports and qualified names (-I), here and in every target that DEPENDS on this one: the
 # folders of FILES, the root above them when they sit in their package's folder
 # (schemas/ for schemas/my_robot/msg/motor.hmsg in my_robot.msg), INCLUDE_DIRS, and the folders
@@ -119,8 +123,8 @@ function(horus_generate)
     set(ARG_LANGUAGES cpp)
   endif()
   foreach(lang IN LISTS ARG_LANGUAGES)
-    if(NOT lang MATCHES "^(cpp|python)$")
-      message(FATAL_ERROR "${where}: unknown language '${lang}' (expected cpp or python)")
+    if(NOT lang MATCHES "^(cpp|python|jsonschema)$")
+      message(FATAL_ERROR "${where}: unknown language '${lang}' (expected cpp, python or jsonschema)")
     endif()
   endforeach()
   list(REMOVE_DUPLICATES ARG_LANGUAGES)
@@ -138,6 +142,7 @@ function(horus_generate)
   # precedence; see HORUS_SCHEMA_DIRS above).
   set(files "")
   set(own_dirs "")
+  set(has_nodes FALSE)
   string(REPLACE "." "/" package_path "${ARG_PACKAGE}")
   foreach(file IN LISTS ARG_FILES)
     get_filename_component(path "${file}" ABSOLUTE BASE_DIR "${CMAKE_CURRENT_SOURCE_DIR}")
@@ -149,6 +154,9 @@ function(horus_generate)
       message(FATAL_ERROR "${where}: schema file '${file}' not found (looked for ${path})${hint}")
     endif()
     list(APPEND files "${path}")
+    if(path MATCHES "\\.hnode$")
+      set(has_nodes TRUE)
+    endif()
     get_filename_component(dir "${path}" DIRECTORY)
     list(APPEND own_dirs "${dir}")
     if(package_path AND dir MATCHES "^(.+)/${package_path}$")
@@ -242,6 +250,9 @@ function(horus_generate)
       target_compile_options(${ARG_TARGET} PRIVATE ${HORUS_WARNINGS})
     endif()
     target_link_libraries(${ARG_TARGET} PUBLIC horus::headers ${ARG_DEPENDS})
+    if(has_nodes)
+      target_link_libraries(${ARG_TARGET} PUBLIC horus::runtime)
+    endif()
     target_include_directories(${ARG_TARGET} PUBLIC
       "$<BUILD_INTERFACE:${out}/cpp>"
       "$<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>")
@@ -255,6 +266,9 @@ function(horus_generate)
   if("python" IN_LIST ARG_LANGUAGES)
     set_target_properties(${ARG_TARGET} PROPERTIES HORUS_PYTHON_DIR "${out}/python")
     set(${ARG_TARGET}_PYTHON_DIR "${out}/python" PARENT_SCOPE)
+  endif()
+  if("jsonschema" IN_LIST ARG_LANGUAGES)
+    set_target_properties(${ARG_TARGET} PROPERTIES HORUS_JSONSCHEMA_DIR "${out}/jsonschema")
   endif()
 
   set(install ${HORUS_GENERATE_INSTALL})
@@ -284,6 +298,8 @@ function(horus_generate)
       elseif(subdir MATCHES "^python(/|$)")
         string(REGEX REPLACE "^python/?" "" subdir "${subdir}")
         install(FILES "${output}" DESTINATION "${HORUS_PYTHON_INSTALL_DIR}/${subdir}")
+      elseif(subdir MATCHES "^jsonschema(/|$)")
+        install(FILES "${output}" DESTINATION "${CMAKE_INSTALL_DATADIR}/horus/${subdir}")
       endif()
     endforeach()
   endif()

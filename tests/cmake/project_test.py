@@ -18,6 +18,7 @@ Every check prints what it expected and what came; the exit status is 1 on the f
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import re
 import shutil
@@ -327,6 +328,24 @@ def usage(args: argparse.Namespace) -> None:
             unwrapped = " ".join(proc.stdout.split())  # CMake wraps its messages
             expect(proc.returncode != 0 and error in unwrapped,
                    f"horus_generate({arguments}) to fail with {error!r}", proc.stdout)
+
+    # LANGUAGES jsonschema: the build writes each message's JSON Schema into the folder that the
+    # target property HORUS_JSONSCHEMA_DIR names.
+    shutil.rmtree(args.work / "build", ignore_errors=True)
+    (source / "CMakeLists.txt").write_text(
+        "cmake_minimum_required(VERSION 3.22)\nproject(usage LANGUAGES CXX)\n"
+        "find_package(horus CONFIG REQUIRED)\n"
+        "horus_generate(TARGET my_msgs PACKAGE my_robot.msg FILES msg/good.hmsg "
+        "LANGUAGES jsonschema)\n"
+        "get_target_property(property my_msgs HORUS_JSONSCHEMA_DIR)\n"
+        'message(STATUS "jsonschema: ${property}")\n')
+    configured = configure(source, args.work / "build", prefix, args.generator)
+    build(args.work / "build")
+    found = re.search(r"jsonschema: (\S+)", configured)
+    expect(found is not None, "HORUS_JSONSCHEMA_DIR to be set", configured)
+    schema = Path(found.group(1)) / "my_robot" / "msg" / "Good.schema.json"
+    expect(schema.is_file() and json.loads(schema.read_text())["title"] == "my_robot.msg.Good",
+           f"{schema} to hold the JSON Schema of my_robot.msg.Good")
 
 
 def main() -> int:

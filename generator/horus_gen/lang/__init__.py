@@ -13,9 +13,9 @@ from typing import Callable
 
 from ..data import DataPaths
 from ..model import Model
-from . import cpp, python
+from . import cpp, jsonschema, python
 
-LANGUAGES: dict[str, ModuleType] = {"cpp": cpp, "python": python}
+LANGUAGES: dict[str, ModuleType] = {"cpp": cpp, "python": python, "jsonschema": jsonschema}
 
 Emitter = Callable[[Model, DataPaths], dict[str, str]]
 

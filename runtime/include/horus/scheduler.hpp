@@ -143,6 +143,23 @@ class SchedulerConfig {
     keep_topics_ = on;
     return *this;
   }
+  /// Record a session (docs/recording.md): every topic the nodes publish or subscribe (as their
+  /// publishers()/subscribers() name them, and every topic this process has open once they are
+  /// initialised) and every node's ticks go to one MCAP file in
+  /// recordings_directory() ($HORUS_RECORDINGS), from the first run()/tick_once() until
+  /// stop_recording() or the scheduler's end. Recording runs on a thread of its own.
+  SchedulerConfig& recording(bool on) {
+    recording_ = on;
+    return *this;
+  }
+  /// Deterministic mode only: feeds the recording at `path` into its topics (all but those the
+  /// nodes publish and "/horus/ticks"), each message before the cycle in which the recording
+  /// received it, so the nodes' outputs are the same run after run. A topic whose type changed
+  /// since the recording (another fingerprint) is refused with an error naming it.
+  SchedulerConfig& replay(std::filesystem::path path) {
+    replay_ = std::move(path);
+    return *this;
+  }
   /// Whether run()/run_for()/tick_for() turn SIGINT and SIGTERM into a clean stop (default on).
   SchedulerConfig& handle_signals(bool on) {
     handle_signals_ = on;
@@ -166,6 +183,8 @@ class SchedulerConfig {
   std::chrono::nanoseconds telemetry_interval() const { return telemetry_interval_; }
   bool keep_topics() const { return keep_topics_; }
   bool handle_signals() const { return handle_signals_; }
+  bool recording() const { return recording_; }
+  const std::filesystem::path& replay() const { return replay_; }
 
  private:
   Rate tick_rate_ = Rate::hz(1000.0);
@@ -185,6 +204,8 @@ class SchedulerConfig {
   std::chrono::nanoseconds telemetry_interval_ = std::chrono::seconds(1);
   bool keep_topics_ = false;
   bool handle_signals_ = true;
+  bool recording_ = false;
+  std::filesystem::path replay_;
 };
 
 /// A node's scheduling settings as given to the builder (unset optionals are derived at start-up).
@@ -387,6 +408,16 @@ class Scheduler {
   const Blackbox* blackbox() const noexcept;
   /// Writes the flight recorder to `path`; throws horus::Error when it is disabled or unwritable.
   void dump_blackbox(const std::filesystem::path& path) const;
+
+  /// Whether a session is being recorded (SchedulerConfig::recording): from the first
+  /// run()/tick_once() until stop_recording().
+  bool is_recording() const noexcept;
+  /// Finishes the session file(s) and returns their paths (empty when nothing was recording).
+  std::vector<std::filesystem::path> stop_recording();
+  /// The sessions in recordings_directory() (horus::list_recordings()).
+  std::vector<std::string> list_recordings() const;
+  /// Removes a session file by name (horus::delete_recording()); whether it existed.
+  bool delete_recording(std::string_view name);
 
  private:
   friend class NodeBuilder;

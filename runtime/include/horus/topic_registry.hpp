@@ -28,6 +28,9 @@ struct TopicInfo {
   /// Open handles in live processes that have sent / received at least once.
   std::size_t publishers = 0;
   std::size_t subscribers = 0;
+  /// Whether the calling process has a Topic handle on it (a notifier does not count): how a
+  /// session recording finds the topics its nodes opened without naming them.
+  bool open_here = false;
   /// Messages sent since the segment was created.
   std::uint64_t message_count = 0;
   /// When the newest message still in the ring was sent, to the whole second of time() (a finer

@@ -1,6 +1,6 @@
 # Type stubs of the horus package (the runtime); generated message packages ship their own.
 import concurrent.futures
-from typing import Any, Awaitable, Callable, Generic, Literal, Mapping, Sequence, TypeVar, overload
+from typing import Any, Awaitable, Callable, ClassVar, Generic, Literal, Mapping, Sequence, TypeVar, overload
 
 M = TypeVar("M")
 Req = TypeVar("Req")
@@ -61,6 +61,7 @@ class Node:
     subs: dict[str, type]
     pubs: dict[str, type]
     is_async: bool
+    topic_capacities: ClassVar[dict[str, int]]
     def __init__(self, name: str | None = ...,
                  tick: Callable[["Node"], None] | Callable[["Node"], Awaitable[None]] | None = ...,
                  init: Callable[["Node"], None] | None = ...,
@@ -120,7 +121,7 @@ class Scheduler:
     def is_recording(self) -> bool: ...
     def stop_recording(self) -> list[str]: ...
     def list_recordings(self) -> list[str]: ...
-    def delete_recording(self, session: str) -> None: ...
+    def delete_recording(self, session: str) -> bool: ...
 
 def run(*nodes: Node | Any, duration: float | None = ..., tick_rate: float = ...,
         rt: bool = ..., deterministic: bool = ..., blackbox_mb: int = ...,

@@ -4,14 +4,13 @@ from __future__ import annotations
 from . import _core
 from ._node import Node
 
-_RECORDING = ("session recording is not implemented yet (the recording issue); "
-              "use blackbox_mb for a flight recorder")
-
 
 class Scheduler:
     """Runs nodes in order at their rates; a context manager that stops on exit.
 
-    Every keyword of seed 001; `seed` sets the deterministic random sequence.
+    Every keyword of seed 001; `seed` sets the deterministic random sequence. `telemetry`
+    ("udp://HOST:PORT" or "file:///PATH") exports every node's metrics as JSON each second while
+    it runs and once when run() ends.
     """
 
     def __init__(self, tick_rate: float = 1000.0, rt: bool = False, deterministic: bool = False,
@@ -19,10 +18,6 @@ class Scheduler:
                  name: str | None = None, cores: list[int] | None = None,
                  max_deadline_misses: int | None = None, verbose: bool = False,
                  telemetry: str | None = None, seed: int | None = None) -> None:
-        if recording:
-            raise NotImplementedError(_RECORDING)
-        if telemetry is not None:
-            raise NotImplementedError("telemetry export is not implemented")
         if not float(tick_rate) > 0.0:
             raise ValueError(f"tick_rate must be > 0 Hz, got {tick_rate!r}")
         if watchdog_ms is None or not float(watchdog_ms) >= 0.0:
@@ -32,7 +27,7 @@ class Scheduler:
             tick_rate=float(tick_rate), rt=bool(rt), deterministic=bool(deterministic),
             watchdog_ms=float(watchdog_ms), blackbox_mb=int(blackbox_mb), name=name,
             cores=list(cores or []), max_deadline_misses=max_deadline_misses,
-            verbose=bool(verbose), seed=seed)
+            verbose=bool(verbose), telemetry=telemetry, seed=seed, recording=bool(recording))
         self._nodes: dict[str, object] = {}
 
     # -- building ---------------------------------------------------------------------------
@@ -163,19 +158,25 @@ class Scheduler:
     def dump_blackbox(self, path: str) -> None:
         self._core.dump_blackbox(str(path))
 
-    # -- recording (not implemented yet: never silently ignored) ----------------------------
+    # -- recording (docs/recording.md) -------------------------------------------------------
 
     def is_recording(self) -> bool:
-        raise NotImplementedError(_RECORDING)
+        """Whether a session is being recorded: from the first run()/tick_once() of a
+        Scheduler(recording=True) until stop_recording()."""
+        return self._core.is_recording()
 
     def stop_recording(self) -> list[str]:
-        raise NotImplementedError(_RECORDING)
+        """Finishes the session file and returns its path (an empty list when nothing was
+        recording)."""
+        return self._core.stop_recording()
 
     def list_recordings(self) -> list[str]:
-        raise NotImplementedError(_RECORDING)
+        """The session names in $HORUS_RECORDINGS (default ~/.local/share/horus/recordings)."""
+        return self._core.list_recordings()
 
-    def delete_recording(self, session: str) -> None:
-        raise NotImplementedError(_RECORDING)
+    def delete_recording(self, session: str) -> bool:
+        """Removes a session file by name; whether it existed."""
+        return self._core.delete_recording(session)
 
 
 _CPP_DEFAULTS = dict(order=100, rate=None, budget=None, deadline=None, on_miss=None,

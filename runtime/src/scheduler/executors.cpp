@@ -128,6 +128,8 @@ void SchedulerImpl::pass_once(const std::vector<std::string>* names) {
   refresh_loop_slots();
   const std::vector<SlotPtr>& slots = loop_slots_;
   if (names != nullptr) check_names(slots, *names, "tick_once");
+  // What the recording received before this cycle began reaches its topics first.
+  if (replayer_) replayer_->deliver_before_cycle(cycle_.load(std::memory_order_relaxed));
   std::int64_t mono = monotonic_ns();
   const std::int64_t pass_start = mono;
   for (const SlotPtr& slot : slots) {

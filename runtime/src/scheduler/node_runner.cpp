@@ -175,8 +175,10 @@ void SchedulerImpl::service(NodeSlot& slot, std::int64_t release, std::int64_t& 
     slot.consecutive_failures = 0;
     slot.restart_attempts = 0;
   }
+  const std::uint64_t cycle = cycle_.load(std::memory_order_relaxed);
+  const TickOutcome outcome = error ? TickOutcome::Error : TickOutcome::Ok;
   // Wall-clock enforcement would make a deterministic run depend on the machine's load.
-  if (deterministic) return;
+  if (deterministic) return log_tick(slot, cycle, start, duration, outcome);
 
   if (ctx.budget_ns > 0 && duration > ctx.budget_ns) {
     slot.budget_overruns.fetch_add(1, std::memory_order_relaxed);
@@ -197,7 +199,11 @@ void SchedulerImpl::service(NodeSlot& slot, std::int64_t release, std::int64_t& 
     if (slot.pending_safe_state.exchange(false, std::memory_order_acq_rel)) enter_safe(slot);
   }
   const std::int64_t deadline = slot.deadline_ns.load(std::memory_order_relaxed);
-  if (deadline > 0 && end - release > deadline) deadline_missed(slot, end - release - deadline);
+  if (deadline > 0 && end - release > deadline) {
+    deadline_missed(slot, end - release - deadline);
+    return log_tick(slot, cycle, start, duration, TickOutcome::DeadlineMiss);
+  }
+  log_tick(slot, cycle, start, duration, outcome);
 }
 
 void SchedulerImpl::handle_failure(NodeSlot& slot, Phase phase, const std::string& what,

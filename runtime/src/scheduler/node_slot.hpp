@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "horus/blackbox.hpp"
+#include "horus/detail/tick_log.hpp"
 #include "horus/detail/topic_notifier.hpp"
 #include "horus/scheduler.hpp"
 #include "tick_context.hpp"
@@ -41,6 +42,9 @@ struct NodeSlot : std::enable_shared_from_this<NodeSlot> {
   std::atomic<std::int64_t> deadline_ns{0};  // 0: none
   std::int64_t watchdog_ns = 0;              // 0: none
   std::unique_ptr<TopicNotifier> notifier;
+  /// The node's ticks on their way to the session recording; null while nothing records. Set
+  /// before the node first runs and never reset, so the running thread reads it unguarded.
+  std::shared_ptr<TickLog> tick_log;
 
   // Lifecycle.
   std::atomic<NodeState> state{NodeState::Uninitialized};

@@ -123,4 +123,9 @@ void Scheduler::dump_blackbox(const std::filesystem::path& path) const {
   box->write_to(path);
 }
 
+bool Scheduler::is_recording() const noexcept { return impl_->is_recording(); }
+std::vector<std::filesystem::path> Scheduler::stop_recording() { return impl_->stop_recording(); }
+std::vector<std::string> Scheduler::list_recordings() const { return horus::list_recordings(); }
+bool Scheduler::delete_recording(std::string_view name) { return horus::delete_recording(name); }
+
 }  // namespace horus

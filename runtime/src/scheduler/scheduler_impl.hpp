@@ -9,13 +9,16 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "horus/blackbox.hpp"
+#include "horus/detail/replayer.hpp"
 #include "horus/log.hpp"
 #include "horus/presence.hpp"
+#include "horus/recording.hpp"
 #include "horus/scheduler.hpp"
 #include "node_slot.hpp"
 
@@ -98,6 +101,10 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   const Blackbox* blackbox() const noexcept { return blackbox_.get(); }
   std::string timing_report() const;
 
+  // Recording and replay (docs/recording.md).
+  bool is_recording() const noexcept;
+  std::vector<std::filesystem::path> stop_recording();
+
  private:
   class Activity;
 
@@ -155,6 +162,16 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
     return config_.deterministic() ? sim_now_ns_ : mono;
   }
 
+  /// Starts the session recording (first call) and subscribes it to the nodes' topics and ticks.
+  void start_recording(const std::vector<SlotPtr>& fresh);
+  /// Opens the replayed recording once the nodes' topics exist (deterministic mode).
+  void start_replay();
+  /// Hands a finished tick to the recording, if one runs (the tick path: no lock, no allocation).
+  static void log_tick(NodeSlot& slot, std::uint64_t cycle, std::int64_t start,
+                       std::int64_t duration, TickOutcome outcome) noexcept {
+    if (slot.tick_log) slot.tick_log->push(TickEntry{cycle, start, duration, outcome});
+  }
+
   void record(BlackboxEventKind kind, const NodeSlot& slot, std::int64_t value = 0,
               std::string_view detail = {}) noexcept;
   void record_scheduler(BlackboxEventKind kind, std::string_view detail = {}) noexcept;
@@ -199,6 +216,10 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   std::atomic<std::uint64_t> total_overruns_{0};
   std::atomic<std::uint64_t> total_watchdog_{0};
   std::int64_t start_mono_ns_ = 0;
+  /// Guarded by mutex_; the recorder's own thread does the work.
+  std::unique_ptr<Recorder> recorder_;
+  std::unique_ptr<Replayer> replayer_;
+  bool recording_done_ = false;
   std::int64_t sim_now_ns_ = 0;
 };
 

@@ -14,6 +14,7 @@
 #include "horus/detail/created_segments.hpp"
 #include "horus/detail/errno_text.hpp"
 #include "horus/error.hpp"
+#include "horus/topic_registry.hpp"
 #include "logger.hpp"
 #include "scheduler_impl.hpp"
 #include "telemetry.hpp"
@@ -79,6 +80,10 @@ SchedulerImpl::SchedulerImpl(SchedulerConfig config)
   }
   tick_period_ns_ = config_.tick_rate().period().count();
   if (config_.watchdog().count() < 0) throw Error(where + "watchdog timeout must not be negative");
+  if (!config_.replay().empty() && !config_.deterministic()) {
+    throw Error(where + "replay(" + config_.replay().string() +
+                ") needs deterministic(true): only simulated time lines messages up with ticks");
+  }
   if (config_.shutdown_timeout().count() <= 0)
     throw Error(where + "shutdown_timeout must be positive");
   if (config_.max_deadline_misses() && *config_.max_deadline_misses() == 0) {
@@ -114,6 +119,13 @@ SchedulerImpl::SchedulerImpl(SchedulerConfig config)
 
 SchedulerImpl::~SchedulerImpl() {
   if (locked_memory_) munlockall();
+  // The session file is finished, and its subscriptions closed, before topics are cleaned.
+  try {
+    stop_recording();
+  } catch (const std::exception& e) {
+    log(LogLevel::Error, "could not finish the session recording: %s", e.what());
+  }
+  replayer_.reset();
   if (config_.keep_topics()) return;
   // The nodes go first: their topics close, so a segment only they used has no live user left.
   loop_slots_.clear();
@@ -348,11 +360,73 @@ void SchedulerImpl::prepare() {
     s->context.messages = &s->messages;
     s->next_release_ns = sim_now_ns_;
   }
+  if (config_.recording()) start_recording(fresh);
   for (const SlotPtr& s : fresh) {
     if (stop_requested_.load()) break;
     s->init_attempted = true;
     init_node(*s);
   }
+  if (recorder_ && !fresh.empty()) {
+    // Topics a node names once initialised (publishers()/subscribers() are asked after init()).
+    std::vector<std::string> topics;
+    {
+      std::lock_guard lock(mutex_);
+      for (const SlotPtr& s : fresh) {
+        for (const TopicMetadata& t : s->publishers) topics.push_back(t.topic_name);
+        for (const TopicMetadata& t : s->subscribers) topics.push_back(t.topic_name);
+      }
+    }
+    // And the topics this process has open, for nodes that open topics without naming them.
+    for (const TopicInfo& info : list_topics()) {
+      if (info.open_here && !info.type_name.empty()) topics.push_back(info.name);
+    }
+    for (const std::string& topic : topics) recorder_->add_topic(topic);
+  }
+  if (!config_.replay().empty() && !replayer_) start_replay();
+}
+
+void SchedulerImpl::start_recording(const std::vector<SlotPtr>& fresh) {
+  std::lock_guard lock(mutex_);
+  if (recording_done_) return;  // stop_recording() ended this scheduler's session
+  if (!recorder_) {
+    recorder_ = std::make_unique<Recorder>(RecorderOptions{});
+    log(LogLevel::Info, "recording the session to %s", recorder_->path().c_str());
+  }
+  for (const SlotPtr& s : fresh) {
+    if (s->tick_log) continue;
+    s->tick_log = std::make_shared<TickLog>();
+    recorder_->add_tick_log(s->name, s->tick_log);
+  }
+}
+
+void SchedulerImpl::start_replay() {
+  std::set<std::string> produced;
+  {
+    std::lock_guard lock(mutex_);
+    for (const SlotPtr& s : slots_) {
+      for (const TopicMetadata& t : s->publishers) produced.insert(t.topic_name);
+    }
+  }
+  replayer_ = std::make_unique<Replayer>(config_.replay(), std::string{}, produced);
+  log(LogLevel::Info, "replaying %s into %zu topics", config_.replay().c_str(),
+      replayer_->topic_count());
+}
+
+bool SchedulerImpl::is_recording() const noexcept {
+  std::lock_guard lock(mutex_);
+  return recorder_ != nullptr && recorder_->recording();
+}
+
+std::vector<std::filesystem::path> SchedulerImpl::stop_recording() {
+  std::unique_ptr<Recorder> recorder;
+  {
+    std::lock_guard lock(mutex_);
+    recording_done_ = true;
+    recorder = std::move(recorder_);
+  }
+  if (!recorder) return {};
+  const RecordingSummary summary = recorder->stop();
+  return {summary.path};
 }
 
 void SchedulerImpl::refresh_loop_slots() {

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fstream>
 
+#include "horus/detail/json_string.hpp"
 #include "horus/error.hpp"
 #include "scheduler_impl.hpp"
 
@@ -66,23 +67,6 @@ bool TelemetrySink::publish(const std::string& json) noexcept {
   } catch (...) {
     return false;
   }
-}
-
-std::string json_string(const std::string& text) {
-  std::string out = "\"";
-  for (const char c : text) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char escaped[8];
-      std::snprintf(escaped, sizeof(escaped), "\\u%04x", static_cast<unsigned>(c));
-      out += escaped;
-    } else {
-      out += c;
-    }
-  }
-  return out + "\"";
 }
 
 std::string SchedulerImpl::telemetry_snapshot() const {

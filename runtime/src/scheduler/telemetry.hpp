@@ -28,7 +28,4 @@ class TelemetrySink {
   socklen_t address_size_ = 0;
 };
 
-/// `text` as a JSON string literal, quotes included.
-std::string json_string(const std::string& text);
-
 }  // namespace horus::detail

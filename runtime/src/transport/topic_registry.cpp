@@ -127,9 +127,12 @@ void inspect(const detail::NamespaceFolder& folder, TopicInfo& info,
   if (info.error.empty()) {
     info.single_publisher = control.ring.single_publisher.load(std::memory_order_acquire) == 1;
     info.message_count = detail::ring_written(control.ring);
+    const std::uint64_t here = detail::this_process_identity();
     for (const detail::UserEntry& user : control.users) {
       const std::uint32_t roles = user.roles.load(std::memory_order_relaxed);
-      if (detail::identity_alive(user.process.load(std::memory_order_acquire))) {
+      const std::uint64_t process = user.process.load(std::memory_order_acquire);
+      if (process == here && (roles & detail::kRoleNotifier) == 0) info.open_here = true;
+      if (detail::identity_alive(process)) {
         info.publishers += (roles & detail::kRolePublisher) != 0 ? 1 : 0;
         info.subscribers += (roles & detail::kRoleSubscriber) != 0 ? 1 : 0;
       }

@@ -1,6 +1,7 @@
 """Every code example of seed 001 (the Scheduler deep-dive), as written there, topic names aside."""
 from __future__ import annotations
 
+import os
 import textwrap
 import time
 
@@ -52,19 +53,20 @@ def test_horus_run_takes_every_scheduler_keyword():
     assert ticks == [0, 1, 2, 3, 4]
 
 
-def test_recording_and_telemetry_are_not_silently_ignored():
-    with pytest.raises(NotImplementedError, match="recording"):
-        Scheduler(tick_rate=100, recording=True, blackbox_mb=16)
-    with pytest.raises(NotImplementedError, match="recording"):
-        horus.run(Node(name="n", tick=lambda n: None), recording=True, duration=0.01)
-    with pytest.raises(NotImplementedError, match="telemetry"):
-        Scheduler(telemetry="http://localhost:1")
-    sched = Scheduler()
-    for call in (sched.is_recording, sched.stop_recording, sched.list_recordings):
-        with pytest.raises(NotImplementedError):
-            call()
-    with pytest.raises(NotImplementedError):
-        sched.delete_recording("session_2026_03_20_143000")
+def test_recording_keywords_record_a_session(monkeypatch, tmp_path):
+    # The seed's calls; the file itself is checked by test_runtime_recording.py.
+    monkeypatch.setenv("HORUS_RECORDINGS", str(tmp_path))
+    sched = Scheduler(tick_rate=100, recording=True, blackbox_mb=16)
+    sched.add(Node(name="sensor", tick=lambda n: None, rate=100, order=0))
+    sched.run(duration=0.05)
+    assert sched.is_recording()
+    files = sched.stop_recording()
+    assert len(files) == 1 and os.path.exists(files[0])
+    session = os.path.basename(files[0])[:-len(".mcap")]
+    assert sched.list_recordings() == [session]
+    sched.delete_recording(session)
+    assert sched.list_recordings() == []
+    assert horus.run(Node(name="n", tick=lambda n: None), recording=True, duration=0.01) == 0
 
 
 def test_creating_a_scheduler_adding_and_chaining():

@@ -54,6 +54,9 @@ class TopicEndpoint {
   const RingView& ring() const noexcept { return ring_; }
   bool has_msg() const noexcept { return ring_ready(ring_, cursor_); }
   std::uint64_t lost() const noexcept { return cursor_.lost; }
+  /// The ticket this handle reads next: the one just received is next_ticket() - 1 (recorders
+  /// store it as the message's sequence number).
+  std::uint64_t next_ticket() const noexcept { return cursor_.next; }
   TopicStats stats() const noexcept {
     TopicStats stats = stats_;
     stats.lost = cursor_.lost;

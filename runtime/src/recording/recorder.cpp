@@ -1,0 +1,384 @@
+// horus::Recorder: one thread that subscribes to topics, copies each message's bytes straight
+// from its slot into the open chunk, and writes the session file (docs/recording.md).
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <thread>
+
+#include "horus/detail/json_string.hpp"
+#include "horus/detail/ring.hpp"
+#include "horus/detail/send_clock.hpp"
+#include "horus/detail/shm_segment.hpp"
+#include "horus/detail/tick_log.hpp"
+#include "horus/detail/topic_endpoint.hpp"
+#include "horus/error.hpp"
+#include "horus/log.hpp"
+#include "horus/recording.hpp"
+#include "horus/topic_registry.hpp"
+#include "mcap_writer.hpp"
+
+namespace horus::detail {
+namespace {
+
+/// How long the thread sleeps when a round found nothing: far below the time a 64-slot ring
+/// at 1 kHz takes to lap it.
+constexpr auto kIdleSleep = std::chrono::microseconds(500);
+/// How often topics that do not exist yet (or every topic, for all_topics) are looked for.
+constexpr std::int64_t kDiscoverIntervalNs = 200'000'000;
+/// A chunk open longer than this is written anyway: a recorder killed with kill -9 loses at
+/// most this much of a slow session.
+constexpr std::int64_t kChunkMaxAgeNs = 1'000'000'000;
+/// How long stop() keeps taking what the rings still hold.
+constexpr std::int64_t kFinalDrainNs = 1'000'000'000;
+/// Messages taken from one topic per round before the others get their turn.
+constexpr int kRoundLimit = 256;
+
+constexpr std::string_view kTickSchema =
+    R"({"title":"horus.recording.Tick","type":"object",)"
+    R"("properties":{"node":{"type":"string"},"tick":{"type":"integer"},)"
+    R"("start_ns":{"type":"integer"},"duration_ns":{"type":"integer"},)"
+    R"("outcome":{"type":"string","enum":["ok","error","deadline_miss"]}},)"
+    R"("required":["node","tick","start_ns","duration_ns","outcome"]})";
+
+std::string hex16(std::uint64_t value) {
+  char text[24];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(value));
+  return text;
+}
+
+std::uint64_t realtime_ns() { return static_cast<std::uint64_t>(clock_ns(CLOCK_REALTIME)); }
+
+std::string_view outcome_name(TickOutcome outcome) {
+  switch (outcome) {
+    case TickOutcome::Ok:
+      return "ok";
+    case TickOutcome::Error:
+      return "error";
+    case TickOutcome::DeadlineMiss:
+      return "deadline_miss";
+  }
+  return "ok";
+}
+
+}  // namespace
+
+class RecorderImpl {
+ public:
+  explicit RecorderImpl(RecorderOptions options)
+      : options_(std::move(options)),
+        namespace_(options_.namespace_name.empty() ? current_namespace() : options_.namespace_name),
+        writer_(options_.path.empty() ? new_recording_path() : options_.path),
+        clock_offset_ns_(clock_ns(CLOCK_REALTIME) - clock_ns(CLOCK_MONOTONIC)) {
+    validate_segment_name("namespace", namespace_);
+    for (const std::string& topic : options_.topics) validate_segment_name("topic name", topic);
+    summary_.path = writer_.path();
+    char host[256] = {};
+    ::gethostname(host, sizeof host - 1);
+    writer_.add_metadata("horus.session", {{"session", writer_.path().stem().string()},
+                                           {"namespace", namespace_},
+                                           {"hostname", host},
+                                           {"pid", std::to_string(::getpid())},
+                                           {"start_ns", std::to_string(realtime_ns())}});
+    {
+      std::lock_guard lock(mutex_);
+      for (const std::string& topic : options_.topics) pending_.push_back(topic);
+      open_pending();
+    }
+    thread_ = std::thread([this] { run(); });
+  }
+
+  ~RecorderImpl() { stop(); }
+  RecorderImpl(const RecorderImpl&) = delete;
+  RecorderImpl& operator=(const RecorderImpl&) = delete;
+
+  void add_topic(const std::string& topic) {
+    validate_segment_name("topic name", topic);
+    std::lock_guard lock(mutex_);
+    if (known(topic)) return;
+    pending_.push_back(topic);
+    open_pending();
+  }
+
+  void add_tick_log(std::string node, std::shared_ptr<TickLog> log) {
+    std::lock_guard lock(mutex_);
+    tick_logs_.push_back(NodeTicks{std::move(node), std::move(log)});
+  }
+
+  const std::filesystem::path& path() const noexcept { return summary_.path; }
+  bool recording() const noexcept { return !stopped_.load(std::memory_order_acquire); }
+
+  RecordingSummary summary() const {
+    std::lock_guard lock(mutex_);
+    return final_summary_ ? *final_summary_ : current_summary();
+  }
+
+  RecordingSummary stop() {
+    std::lock_guard stopping(stop_mutex_);
+    if (!stopped_.exchange(true)) {
+      if (thread_.joinable()) thread_.join();
+      finish_file();
+    }
+    std::lock_guard lock(mutex_);
+    return final_summary_ ? *final_summary_ : current_summary();
+  }
+
+ private:
+  struct Recorded {
+    std::string name;
+    TopicEndpoint endpoint;
+    std::uint16_t channel;
+  };
+  struct NodeTicks {
+    std::string node;
+    std::shared_ptr<TickLog> log;
+  };
+
+  bool known(const std::string& topic) const {
+    return std::find(pending_.begin(), pending_.end(), topic) != pending_.end() ||
+           std::any_of(topics_.begin(), topics_.end(),
+                       [&](const Recorded& r) { return r.name == topic; });
+  }
+
+  /// Opens the pending topics that exist with a type by now (mutex_ held).
+  void open_pending() {
+    if (pending_.empty()) return;
+    const std::vector<TopicInfo> infos = list_topics(namespace_);
+    for (auto it = pending_.begin(); it != pending_.end();) {
+      const auto info = std::find_if(infos.begin(), infos.end(),
+                                     [&](const TopicInfo& t) { return t.name == *it; });
+      if (info == infos.end() || info->type_name.empty() || !info->error.empty()) {
+        ++it;
+        continue;
+      }
+      try {
+        open(*info);
+      } catch (const Error& e) {
+        // Re-typed under us or removed meanwhile: the next look tries again (said once).
+        if (unopenable_.insert(*it).second) {
+          log::warn("recorder: cannot record topic '%s' yet: %s", it->c_str(), e.what());
+        }
+        ++it;
+        continue;
+      }
+      it = pending_.erase(it);
+    }
+  }
+
+  void open(const TopicInfo& info) {
+    const TypeDescriptor type{info.type_name,
+                              info.fingerprint,
+                              info.schema,
+                              info.is_pod,
+                              info.is_pod ? info.max_message_size : 0,
+                              1};
+    ShmSegment segment = ShmSegment::open_topic(
+        info.name, type,
+        SegmentOptions{info.capacity, info.max_message_size, 0600, namespace_, false});
+    std::uint16_t& schema = schema_ids_[info.type_name + "#" + hex16(info.fingerprint)];
+    if (schema == 0) schema = writer_.add_schema(info.type_name, "horus.hmsg", info.schema);
+    McapMap metadata{{"horus.fingerprint", hex16(info.fingerprint)},
+                     {"horus.type", info.type_name}};
+    if (info.is_pod)
+      metadata.emplace_back("horus.payload_size", std::to_string(info.max_message_size));
+    const std::uint16_t channel = writer_.add_channel(
+        info.name, schema, info.is_pod ? "horus.pod" : "horus.msgpack", metadata);
+    topics_.push_back(Recorded{info.name, TopicEndpoint(std::move(segment)), channel});
+  }
+
+  /// Looks for the topics to record that appeared since the last look (mutex_ held).
+  void discover() {
+    if (options_.all_topics) {
+      for (const TopicInfo& info : list_topics(namespace_)) {
+        if (!info.type_name.empty() && info.error.empty() && !known(info.name)) {
+          pending_.push_back(info.name);
+        }
+      }
+    }
+    open_pending();
+  }
+
+  void run() noexcept {
+    std::int64_t last_discovery = clock_ns(CLOCK_MONOTONIC);
+    std::int64_t chunk_opened = 0;
+    try {
+      while (!stopped_.load(std::memory_order_acquire)) {
+        std::size_t taken = 0;
+        {
+          std::lock_guard lock(mutex_);
+          const std::int64_t now = clock_ns(CLOCK_MONOTONIC);
+          if (now - last_discovery >= kDiscoverIntervalNs) {
+            discover();
+            last_discovery = now;
+          }
+          taken = take_round(kRoundLimit);
+          if (taken > 0 && chunk_opened == 0) chunk_opened = now;
+          if (chunk_opened != 0 && now - chunk_opened >= kChunkMaxAgeNs) {
+            writer_.flush();
+            chunk_opened = 0;
+          }
+        }
+        if (taken == 0) std::this_thread::sleep_for(kIdleSleep);
+      }
+      // What was sent before the stop; bounded, as a publisher may never pause.
+      std::lock_guard lock(mutex_);
+      const std::int64_t give_up = clock_ns(CLOCK_MONOTONIC) + kFinalDrainNs;
+      while (take_round(kRoundLimit) > 0 && clock_ns(CLOCK_MONOTONIC) < give_up) {
+      }
+    } catch (const std::exception& e) {
+      std::lock_guard lock(mutex_);
+      error_ = e.what();
+      log::error("recorder: recording %s stopped: %s", summary_.path.c_str(), e.what());
+    }
+  }
+
+  /// Takes up to `limit` messages from each topic and every waiting tick (mutex_ held).
+  std::size_t take_round(int limit) {
+    std::size_t taken = 0;
+    for (Recorded& topic : topics_) {
+      for (int i = 0; i < limit && take_one(topic); ++i) ++taken;
+    }
+    for (NodeTicks& ticks : tick_logs_) {
+      taken += ticks.log->drain([&](const TickEntry& entry) { write_tick(ticks.node, entry); });
+    }
+    return taken;
+  }
+
+  bool take_one(Recorded& topic) {
+    const RingView& ring = topic.endpoint.ring();
+    std::uint32_t size = 0;
+    std::uint32_t sent_s = 0;
+    const bool got = topic.endpoint.receive(
+        false,
+        [&](const std::byte* payload, std::uint32_t bytes) {
+          if (bytes > ring.payload_capacity) return false;
+          std::uint8_t* out = writer_.reserve_message(bytes);
+          std::memcpy(out, payload, bytes);
+          const auto* slot = reinterpret_cast<const SlotHeader*>(payload - ring.payload_offset);
+          sent_s = slot->send_time_s.load(std::memory_order_relaxed);
+          size = bytes;
+          return true;
+        },
+        [] { return true; });
+    if (!got) return false;
+    writer_.commit_message(topic.channel,
+                           static_cast<std::uint32_t>(topic.endpoint.next_ticket() - 1),
+                           realtime_ns(), std::uint64_t{sent_s} * 1'000'000'000U, size);
+    return true;
+  }
+
+  void write_tick(const std::string& node, const TickEntry& entry) {
+    if (ticks_channel_ == 0) {
+      const std::uint16_t schema =
+          writer_.add_schema("horus.recording.Tick", "jsonschema", kTickSchema);
+      ticks_channel_ = writer_.add_channel("/horus/ticks", schema, "json", {});
+    }
+    const auto start = static_cast<std::uint64_t>(entry.start_ns + clock_offset_ns_);
+    tick_text_.clear();
+    tick_text_ += "{\"node\":";
+    tick_text_ += json_string(node);
+    tick_text_ += ",\"tick\":" + std::to_string(entry.tick) +
+                  ",\"start_ns\":" + std::to_string(start) +
+                  ",\"duration_ns\":" + std::to_string(entry.duration_ns) + ",\"outcome\":\"";
+    tick_text_ += outcome_name(entry.outcome);
+    tick_text_ += "\"}";
+    writer_.add_message(
+        ticks_channel_, tick_sequence_++, start, start,
+        {reinterpret_cast<const std::uint8_t*>(tick_text_.data()), tick_text_.size()});
+  }
+
+  /// Counts as they stand (mutex_ held).
+  RecordingSummary current_summary() const {
+    RecordingSummary summary = summary_;
+    summary.messages = writer_.message_count();
+    summary.bytes = writer_.file_size();
+    for (const Recorded& topic : topics_) {
+      const TopicStats stats = topic.endpoint.stats();
+      const std::uint64_t lost = stats.lost + stats.invalid;
+      if (lost > 0) summary.lost[topic.name] = lost;
+      summary.lost_total += lost;
+    }
+    std::uint64_t dropped = 0;
+    for (const NodeTicks& ticks : tick_logs_) dropped += ticks.log->dropped();
+    if (dropped > 0) summary.lost["/horus/ticks"] = dropped;
+    summary.lost_total += dropped;
+    return summary;
+  }
+
+  void finish_file() {
+    std::lock_guard lock(mutex_);
+    for (NodeTicks& ticks : tick_logs_) ticks.log->close();
+    RecordingSummary& summary = final_summary_.emplace(current_summary());
+    McapMap entries{{"lost_total", std::to_string(summary.lost_total)}};
+    for (const auto& [topic, lost] : summary.lost)
+      entries.emplace_back("lost." + topic, std::to_string(lost));
+    entries.emplace_back("end_ns", std::to_string(realtime_ns()));
+    if (!error_.empty()) entries.emplace_back("error", error_);
+    try {
+      writer_.add_metadata("horus.recorder", entries);
+      writer_.finish();
+      summary.bytes = writer_.file_size();
+    } catch (const std::exception& e) {
+      log::error("recorder: cannot finish recording %s: %s", summary_.path.c_str(), e.what());
+      return;
+    }
+    if (summary.lost_total > 0) {
+      std::string topics;
+      for (const auto& [topic, lost] : summary.lost) {
+        topics += (topics.empty() ? "" : ", ") + topic + ": " + std::to_string(lost);
+      }
+      log::warn("recorder: %s lost %llu messages it could not keep up with (%s)",
+                summary_.path.c_str(), static_cast<unsigned long long>(summary.lost_total),
+                topics.c_str());
+    } else {
+      log::info("recorder: %s: %llu messages, nothing lost", summary_.path.c_str(),
+                static_cast<unsigned long long>(summary.messages));
+    }
+    topics_.clear();  // the subscriptions end with the recording
+  }
+
+  RecorderOptions options_;
+  std::string namespace_;
+  McapWriter writer_;
+  std::int64_t clock_offset_ns_;  // CLOCK_REALTIME - CLOCK_MONOTONIC when recording started
+
+  mutable std::mutex mutex_;  // everything below, and the writer
+  std::vector<std::string> pending_;
+  std::set<std::string> unopenable_;  // warned about once
+  std::vector<Recorded> topics_;
+  std::vector<NodeTicks> tick_logs_;
+  std::map<std::string, std::uint16_t> schema_ids_;
+  std::uint16_t ticks_channel_ = 0;
+  std::uint32_t tick_sequence_ = 0;
+  std::string tick_text_;
+  std::string error_;
+  RecordingSummary summary_;
+  std::optional<RecordingSummary> final_summary_;  // once stopped
+
+  std::mutex stop_mutex_;
+  std::atomic<bool> stopped_{false};
+  std::thread thread_;
+};
+
+}  // namespace horus::detail
+
+namespace horus {
+
+Recorder::Recorder(RecorderOptions options)
+    : impl_(std::make_unique<detail::RecorderImpl>(std::move(options))) {}
+Recorder::~Recorder() = default;
+void Recorder::add_topic(const std::string& topic) { impl_->add_topic(topic); }
+void Recorder::add_tick_log(std::string node, std::shared_ptr<detail::TickLog> log) {
+  impl_->add_tick_log(std::move(node), std::move(log));
+}
+const std::filesystem::path& Recorder::path() const noexcept { return impl_->path(); }
+bool Recorder::recording() const noexcept { return impl_->recording(); }
+RecordingSummary Recorder::summary() const { return impl_->summary(); }
+RecordingSummary Recorder::stop() { return impl_->stop(); }
+
+}  // namespace horus

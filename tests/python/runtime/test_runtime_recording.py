@@ -1,0 +1,247 @@
+"""Session recordings (issue 19) read by a reader that is not ours: PyPI `mcap`, from the test-only
+venv of scripts/dev-venv (ctest entry pytest_runtime_recording). A Python session recorded by
+Scheduler(recording=True), a C++ one by horus-record, and a horus-record killed with kill -9."""
+from __future__ import annotations
+
+import io
+import os
+import signal
+import struct
+import subprocess
+import time
+import zlib
+
+import pytest
+import zstandard
+from mcap.exceptions import EndOfFile
+from mcap.reader import make_reader
+from mcap.records import Chunk, DataEnd, Footer, Message, MessageIndex, Metadata
+from mcap.stream_reader import StreamReader
+
+import horus
+from horus import Node, Scheduler
+from horus.msg import CmdVel, CompressedImage
+
+RECORD = os.environ.get("HORUS_RECORD_PROGRAM", "")
+FOOTER_SIZE = 1 + 8 + 8 + 8 + 4 + 8  # opcode, length, summary start, offsets start, crc, magic
+
+
+@pytest.fixture(autouse=True)
+def recordings(monkeypatch, tmp_path):
+    folder = tmp_path / "recordings"
+    monkeypatch.setenv("HORUS_RECORDINGS", str(folder))
+    return folder
+
+
+def check_file(path) -> dict:
+    """Reads `path` with PyPI mcap, checking every CRC (chunks, data section, and the summary's,
+    which the library does not check), that each chunk index points at its chunk and message
+    indexes, and that each message index entry points at a message of that time. Returns
+    {topic: [(sequence, log_time, bytes)]}."""
+    with open(path, "rb") as f:
+        data = f.read()
+    records = list(StreamReader(io.BytesIO(data), validate_crcs=True).records)
+    assert isinstance(records[-1], Footer) and any(isinstance(r, DataEnd) for r in records)
+    footer = records[-1]
+    summary_crc = zlib.crc32(data[footer.summary_start:len(data) - 8 - 4])
+    assert footer.summary_crc == summary_crc
+
+    reader = make_reader(io.BytesIO(data), validate_crcs=True)
+    header = reader.get_header()
+    assert header.profile == "horus" and header.library.startswith("horus ")
+    summary = reader.get_summary()
+    assert summary is not None and summary.chunk_indexes
+    for index in summary.chunk_indexes:
+        piece = data[index.chunk_start_offset:index.chunk_start_offset + index.chunk_length
+                     + index.message_index_length]
+        chunk_records = records_until_end(io.BytesIO(piece), skip_magic=True, emit_chunks=True)
+        assert isinstance(chunk_records[0], Chunk)
+        chunk = chunk_records[0]
+        assert chunk.compression == "zstd"
+        assert (chunk.message_start_time, chunk.message_end_time) == (index.message_start_time,
+                                                                      index.message_end_time)
+        indexes = {r.channel_id: r for r in chunk_records[1:] if isinstance(r, MessageIndex)}
+        assert set(indexes) == set(index.message_index_offsets)
+        for channel_id, offset in index.message_index_offsets.items():
+            assert data[offset] == 0x07  # a MessageIndex record at the offset the index names
+        plain = zstandard.ZstdDecompressor().decompress(chunk.data, max_output_size=chunk.uncompressed_size)
+        for channel_id, entries in indexes.items():
+            for log_time, offset in entries.records:
+                assert plain[offset] == 0x05
+                channel, _, time_at = struct.unpack_from("<HIQ", plain, offset + 9)
+                assert (channel, time_at) == (channel_id, log_time)
+
+    stats = summary.statistics
+    messages: dict[str, list] = {}
+    for schema, channel, message in reader.iter_messages(log_time_order=False):
+        messages.setdefault(channel.topic, []).append(
+            (message.sequence, message.log_time, message.data, schema, channel))
+    assert stats.message_count == sum(len(v) for v in messages.values())
+    assert stats.chunk_count == len(summary.chunk_indexes)
+    return messages
+
+
+def records_until_end(source, **options) -> list:
+    """The records of a stream that has no footer (a piece of a file, a cut file), up to its
+    end or to the record that was cut short."""
+    out = []
+    try:
+        for record in StreamReader(source, **options).records:
+            out.append(record)
+    except EndOfFile:
+        pass
+    return out
+
+
+def metadata(path) -> dict:
+    with open(path, "rb") as f:
+        return {m.name: m.metadata for m in make_reader(f).iter_metadata()}
+
+
+def test_python_session_is_recorded_listed_and_read_by_an_independent_reader():
+    sent = []
+
+    def drive(node):
+        msg = CmdVel(linear=float(len(sent)), angular=-0.5)
+        sent.append(msg)
+        node.send("cmd", msg)
+
+    received = []
+    sched = Scheduler(tick_rate=100, recording=True)
+    sched.add(Node(name="driver", tick=drive, order=0, pubs={"cmd": CmdVel}))
+    sched.add(Node(name="motor", tick=lambda n: received.extend(iter(lambda: n.recv("cmd"), None)),
+                   order=1, subs={"cmd": CmdVel}))
+    assert not sched.is_recording()
+    for _ in range(40):
+        sched.tick_once()
+    assert sched.is_recording()
+    files = sched.stop_recording()
+    assert len(files) == 1 and not sched.is_recording()
+    name = os.path.basename(files[0])[:-len(".mcap")]
+    assert name.startswith("session_") and name in sched.list_recordings()
+
+    topics = check_file(files[0])
+    cmd = topics["cmd"]
+    assert [CmdVel.from_bytes(data) for _, _, data, _, _ in cmd] == sent
+    schema, channel = cmd[0][3], cmd[0][4]
+    assert schema.name == CmdVel.__horus__.name and schema.encoding == "horus.hmsg"
+    assert channel.message_encoding == "horus.pod"
+    assert channel.metadata["horus.fingerprint"] == f"{CmdVel.__horus__.fingerprint:016x}"
+    assert [seq for seq, *_ in cmd] == list(range(cmd[0][0], cmd[0][0] + len(sent)))
+    ticks = [data for _, _, data, _, _ in topics["/horus/ticks"]]
+    assert len(ticks) == 80 and b'"node":"driver"' in ticks[0] and b'"outcome":"ok"' in ticks[0]
+    meta = metadata(files[0])
+    assert meta["horus.session"]["session"] == name
+    assert meta["horus.recorder"]["lost_total"] == "0"
+
+    assert sched.delete_recording(name) is True
+    assert name not in sched.list_recordings() and not os.path.exists(files[0])
+
+
+def _start_recorder(*args):
+    assert RECORD, "HORUS_RECORD_PROGRAM names horus-record; run this suite through ctest"
+    return subprocess.Popen([RECORD, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+
+
+def _wait_recording(topic, probe, limit=10.0):
+    """Sends probes until the recorder has opened the topic (its handle is one more user)."""
+    deadline = time.monotonic() + limit
+    while time.monotonic() < deadline:
+        info = {t["name"]: t for t in horus._core.list_topics("")}.get(topic)
+        if info and info.get("subscribers", 0) >= 1:
+            return
+        probe()
+        time.sleep(0.01)
+    raise AssertionError(f"horus-record never subscribed to {topic}")
+
+
+def test_horus_record_finishes_the_file_on_sigint_with_every_message(tmp_path):
+    out = tmp_path / "cpp.mcap"
+    pub = horus.Topic(CmdVel, "vel", capacity=1024)
+    recorder = _start_recorder("vel", "-o", str(out))
+    _wait_recording("vel", lambda: pub.send(CmdVel(linear=-1.0, angular=0.0)))
+    sent = [CmdVel(linear=float(i), angular=1.0) for i in range(500)]
+    for msg in sent:
+        assert pub.send(msg)
+    time.sleep(0.2)
+    recorder.send_signal(signal.SIGINT)
+    stdout, stderr = recorder.communicate(timeout=30)
+    assert recorder.returncode == 0, stderr
+    assert "0 lost" in stdout
+    topics = check_file(out)
+    recorded = [CmdVel.from_bytes(data) for _, _, data, _, _ in topics["vel"]]
+    assert recorded[-len(sent):] == sent
+    assert all(m == CmdVel(linear=-1.0, angular=0.0) for m in recorded[:-len(sent)])
+
+
+def test_horus_record_killed_with_kill_9_leaves_its_complete_chunks_readable(tmp_path):
+    out = tmp_path / "cut.mcap"
+    big = horus.Topic(CompressedImage, "frames", capacity=256, max_message_size=64 * 1024)
+    recorder = _start_recorder("frames", "-o", str(out))
+    _wait_recording("frames", lambda: big.send(CompressedImage(format="probe")))
+    i = 0
+    deadline = time.monotonic() + 30
+    while (not out.exists() or out.stat().st_size < 3 * 1024 * 1024) and time.monotonic() < deadline:
+        big.send(CompressedImage(format="jpeg", width=i, data=os.urandom(32 * 1024)))
+        i += 1
+        if i % 16 == 0:
+            time.sleep(0.002)
+    recorder.kill()
+    recorder.wait(timeout=30)
+    assert out.stat().st_size >= 3 * 1024 * 1024
+
+    whole = complete_records(out.read_bytes())
+    assert not out.read_bytes().endswith(b"\x89MCAP0\r\n")  # no summary, no footer
+    chunks = sum(isinstance(r, Chunk) for r in
+                 records_until_end(io.BytesIO(whole), validate_crcs=True, emit_chunks=True))
+    got = [r for r in records_until_end(io.BytesIO(whole), validate_crcs=True)
+           if isinstance(r, Message)]
+    assert chunks >= 2
+    frames = [CompressedImage.from_bytes(m.data) for m in got]
+    indexes = [f.width for f in frames if f.format == "jpeg"]
+    assert indexes and indexes == list(range(indexes[0], indexes[0] + len(indexes)))
+    assert "horus.recorder" not in metadata_linear(out)
+
+
+def complete_records(data: bytes) -> bytes:
+    """The file up to the end of its last complete record (a kill -9 may cut the last one)."""
+    at = 8
+    while at + 9 <= len(data):
+        length = struct.unpack_from("<Q", data, at + 1)[0]
+        if at + 9 + length > len(data):
+            break
+        at += 9 + length
+    return data[:at]
+
+
+def metadata_linear(path) -> dict:
+    whole = complete_records(path.read_bytes())
+    return {r.name: r.metadata for r in records_until_end(io.BytesIO(whole))
+            if isinstance(r, Metadata)}
+
+
+def test_horus_record_duration_and_sigterm_finish_the_file_and_usage_errors_say_why(tmp_path):
+    timed = subprocess.run([RECORD, "-a", "-o", str(tmp_path / "timed.mcap"), "--duration", "0.3"],
+                           capture_output=True, text=True, timeout=30)
+    assert timed.returncode == 0, timed.stderr
+    assert "horus.recorder" in metadata(tmp_path / "timed.mcap")
+
+    terminated = _start_recorder("-a", "-o", str(tmp_path / "term.mcap"))
+    deadline = time.monotonic() + 10
+    while not (tmp_path / "term.mcap").exists() and time.monotonic() < deadline:
+        time.sleep(0.01)  # the file exists once the signals are blocked for sigwait
+    terminated.send_signal(signal.SIGTERM)
+    _, stderr = terminated.communicate(timeout=30)
+    assert terminated.returncode == 0, stderr
+    assert "horus.recorder" in metadata(tmp_path / "term.mcap")
+
+    for args, reason in ((["-o", "x.mcap"], "name topics to record"),
+                         (["t", "--duration", "soon"], "--duration needs a positive number"),
+                         (["t", "--bogus"], "unknown option --bogus")):
+        bad = subprocess.run([RECORD, *args], capture_output=True, text=True, timeout=30)
+        assert bad.returncode == 2 and reason in bad.stderr
+    existing = tmp_path / "timed.mcap"
+    refused = subprocess.run([RECORD, "t", "-o", str(existing)], capture_output=True, text=True,
+                             timeout=30)
+    assert refused.returncode == 1 and str(existing) in refused.stderr

@@ -1,0 +1,318 @@
+"""`horus record export F --foxglove OUT`: a recording rewritten as an MCAP that Foxglove displays
+with no plugin, every message JSON with a JSON Schema schema.
+
+Each recorded message is decoded with its type's class built from the schema text the file stores
+(dynamic_types.py, so types the command was never built with decode too). Types Foxglove draws
+become its well-known schemas: a laser scan (horus.msg.LaserScan) foxglove.LaserScan, a pose in a
+frame (horus.msg.PoseStamped) foxglove.PoseInFrame, a transform (horus.msg.TransformStamped)
+foxglove.FrameTransform, horus.msg.CompressedImage foxglove.CompressedImage, and by shape any
+message carrying its pixels (width, height, step, encoding, data) foxglove.RawImage and any
+carrying its points (point_count, fields_per_point, dtype, data) foxglove.PointCloud. Every other
+type is its plain values under the JSON Schema `horus-gen --lang jsonschema` writes for it. The
+node-tick channel is copied as it is (already JSON). HORUS types without a frame name take the
+topic's name as frame (a transform: parent "world", child the topic).
+"""
+from __future__ import annotations
+
+import base64
+import json
+import math
+import os
+import tempfile
+
+import horus_mcap as mcap
+from horus_mcap import MSGPACK_ENCODING, POD_ENCODING
+
+
+# ImageEncoding names -> Foxglove's RawImage encodings (those it draws).
+IMAGE_ENCODINGS = {"Mono8": "mono8", "Mono16": "mono16", "Rgb8": "rgb8", "Bgr8": "bgr8",
+                   "Rgba8": "rgba8", "Bgra8": "bgra8", "Yuv422": "yuv422", "Mono32F": "32FC1",
+                   "BayerRggb8": "bayer_rggb8", "Depth16": "16UC1"}
+# TensorDtype names -> (Foxglove NumericType, bytes) for point cloud fields.
+POINT_TYPES = {"F32": (7, 4), "F64": (8, 8), "U8": (1, 1), "U16": (3, 2), "I16": (4, 2),
+               "I32": (6, 4)}
+POINT_FIELDS = {3: ("x", "y", "z"), 4: ("x", "y", "z", "intensity"),
+                6: ("x", "y", "z", "red", "green", "blue")}
+
+
+class ExportError(Exception):
+    """A recording that cannot be exported (one line, naming the type or topic)."""
+
+
+# -- Foxglove's well-known schemas, written from the field lists its documentation gives -------
+
+def _number() -> dict:
+    return {"type": "number"}
+
+
+def _object(title: str, properties: dict, description: str = "") -> dict:
+    schema = {"title": title, "type": "object", "properties": properties,
+              "required": sorted(properties)}
+    if description:
+        schema["description"] = description
+    return schema
+
+
+def _time() -> dict:
+    return _object("time", {"sec": {"type": "integer", "minimum": 0},
+                            "nsec": {"type": "integer", "minimum": 0, "maximum": 999_999_999}})
+
+
+def _vector3(title: str = "foxglove.Vector3") -> dict:
+    return _object(title, {axis: _number() for axis in "xyz"})
+
+
+def _quaternion() -> dict:
+    return _object("foxglove.Quaternion", {axis: _number() for axis in "xyzw"})
+
+
+def _pose() -> dict:
+    return _object("foxglove.Pose", {"position": _vector3(), "orientation": _quaternion()})
+
+
+def _base64() -> dict:
+    return {"type": "string", "contentEncoding": "base64"}
+
+
+def _string() -> dict:
+    return {"type": "string"}
+
+
+def _count() -> dict:
+    return {"type": "integer", "minimum": 0}
+
+
+FOXGLOVE_SCHEMAS = {
+    "foxglove.LaserScan": _object("foxglove.LaserScan", {
+        "timestamp": _time(), "frame_id": _string(), "pose": _pose(), "start_angle": _number(),
+        "end_angle": _number(), "ranges": {"type": "array", "items": _number()},
+        "intensities": {"type": "array", "items": _number()}},
+        "A single scan from a planar laser range-finder"),
+    "foxglove.PoseInFrame": _object("foxglove.PoseInFrame", {
+        "timestamp": _time(), "frame_id": _string(), "pose": _pose()},
+        "A timestamped pose for an object or reference frame in 3D space"),
+    "foxglove.FrameTransform": _object("foxglove.FrameTransform", {
+        "timestamp": _time(), "parent_frame_id": _string(), "child_frame_id": _string(),
+        "translation": _vector3(), "rotation": _quaternion()},
+        "A transform between two reference frames in 3D space"),
+    "foxglove.RawImage": _object("foxglove.RawImage", {
+        "timestamp": _time(), "frame_id": _string(), "width": _count(), "height": _count(),
+        "encoding": _string(), "step": _count(), "data": _base64()}, "A raw image"),
+    "foxglove.CompressedImage": _object("foxglove.CompressedImage", {
+        "timestamp": _time(), "frame_id": _string(), "data": _base64(), "format": _string()},
+        "A compressed image"),
+    "foxglove.PointCloud": _object("foxglove.PointCloud", {
+        "timestamp": _time(), "frame_id": _string(), "pose": _pose(), "point_stride": _count(),
+        "fields": {"type": "array", "items": _object("foxglove.PackedElementField", {
+            "name": _string(), "offset": _count(),
+            "type": {"type": "integer", "minimum": 0, "maximum": 8}})},
+        "data": _base64()},
+        "A collection of N-dimensional points"),
+}
+
+
+# -- conversions ---------------------------------------------------------------------------------
+
+def _stamp(plain: dict, log_time: int) -> dict:
+    ns = plain.get("timestamp_ns") or log_time
+    return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
+
+
+def _finite(value: float) -> float:
+    """A laser range or coordinate Foxglove can read: HORUS marks an invalid range with 0, and
+    JSON has no NaN or infinity."""
+    return value if math.isfinite(value) else 0.0
+
+
+def _identity_pose() -> dict:
+    return {"position": {"x": 0.0, "y": 0.0, "z": 0.0},
+            "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}
+
+
+def _bytes_of(value) -> bytes:
+    return value if isinstance(value, (bytes, bytearray)) else bytes(value)
+
+
+def _laser_scan(plain, topic, log_time):
+    return {"timestamp": _stamp(plain, log_time), "frame_id": plain.get("frame_id") or topic,
+            "pose": _identity_pose(), "start_angle": _finite(plain["angle_min"]),
+            "end_angle": _finite(plain["angle_max"]),
+            "ranges": [_finite(r) for r in plain["ranges"]], "intensities": []}
+
+
+def _pose_in_frame(plain, topic, log_time):
+    pose = plain["pose"]
+    return {"timestamp": _stamp(plain, log_time), "frame_id": plain.get("frame_id") or topic,
+            "pose": {"position": {k: _finite(pose["position"][k]) for k in "xyz"},
+                     "orientation": {k: _finite(pose["orientation"][k]) for k in "xyzw"}}}
+
+
+def _frame_transform(plain, topic, log_time):
+    translation, rotation = plain["translation"], plain["rotation"]
+    return {"timestamp": _stamp(plain, log_time),
+            "parent_frame_id": plain.get("parent_frame_id") or "world",
+            "child_frame_id": plain.get("child_frame_id") or topic,
+            "translation": {k: _finite(v) for k, v in zip("xyz", translation)},
+            "rotation": {k: _finite(v) for k, v in zip("xyzw", rotation)}}
+
+
+def _compressed_image(plain, topic, log_time):
+    return {"timestamp": _stamp(plain, log_time), "frame_id": plain.get("frame_id") or topic,
+            "data": base64.b64encode(_bytes_of(plain["data"])).decode("ascii"),
+            "format": plain["format"]}
+
+
+def _raw_image(plain, topic, log_time):
+    encoding = plain["encoding"]
+    return {"timestamp": _stamp(plain, log_time), "frame_id": plain.get("frame_id") or topic,
+            "width": plain["width"], "height": plain["height"],
+            "encoding": IMAGE_ENCODINGS.get(encoding, str(encoding).lower()), "step": plain["step"],
+            "data": base64.b64encode(_bytes_of(plain["data"])).decode("ascii")}
+
+
+def _point_cloud(plain, topic, log_time):
+    numeric, size = POINT_TYPES.get(plain["dtype"], (7, 4))
+    names = POINT_FIELDS.get(plain["fields_per_point"],
+                             tuple(f"f{i}" for i in range(plain["fields_per_point"])))
+    return {"timestamp": _stamp(plain, log_time), "frame_id": plain.get("frame_id") or topic,
+            "pose": _identity_pose(), "point_stride": size * plain["fields_per_point"],
+            "fields": [{"name": name, "offset": i * size, "type": numeric}
+                       for i, name in enumerate(names)],
+            "data": base64.b64encode(_bytes_of(plain["data"])).decode("ascii")}
+
+
+BY_TYPE = {"horus.msg.LaserScan": ("foxglove.LaserScan", _laser_scan),
+           "horus.msg.PoseStamped": ("foxglove.PoseInFrame", _pose_in_frame),
+           "horus.msg.TransformStamped": ("foxglove.FrameTransform", _frame_transform),
+           "horus.msg.CompressedImage": ("foxglove.CompressedImage", _compressed_image)}
+BY_SHAPE = ((frozenset({"width", "height", "step", "encoding", "data"}),
+             ("foxglove.RawImage", _raw_image)),
+            (frozenset({"point_count", "fields_per_point", "dtype", "data"}),
+             ("foxglove.PointCloud", _point_cloud)))
+
+
+def foxglove_mapping(type_name: str, fields: list[str]):
+    """(Foxglove schema name, converter) for a type Foxglove draws, else None."""
+    if type_name in BY_TYPE:
+        return BY_TYPE[type_name]
+    for shape, mapping in BY_SHAPE:
+        if shape <= set(fields):
+            return mapping
+    return None
+
+
+def plain_json(value):
+    """Plain values (dynamic_types.to_plain) as JSON values: bytes as base64, NaN and the
+    infinities as null (as the `jsonschema` output language describes them)."""
+    if isinstance(value, dict):
+        return {k: plain_json(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [plain_json(v) for v in value]
+    if isinstance(value, (bytes, bytearray)):
+        return base64.b64encode(value).decode("ascii")
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def generated_json_schema(type_name: str, schema_text: str) -> dict:
+    """The JSON Schema that `horus-gen --lang jsonschema` writes for a recorded type, from the
+    schema text the recording stores."""
+    import dynamic_types
+    with tempfile.TemporaryDirectory(prefix="horus-export-") as work:
+        sources = os.path.join(work, "schemas")
+        files = dynamic_types.write_schema_files(dynamic_types.parse_schema(schema_text), sources)
+        out = os.path.join(work, "out")
+        try:
+            dynamic_types.run_generator(
+                ["generate", "--lang", "jsonschema", "--out", out, "-I", sources, *files],
+                f"horus-gen --lang jsonschema failed for {type_name}")
+        except dynamic_types.SchemaError as error:
+            raise ExportError(str(error)) from None
+        package, name = type_name.rsplit(".", 1)
+        with open(os.path.join(out, "jsonschema", *package.split("."), f"{name}.schema.json"),
+                  encoding="utf-8") as handle:
+            return json.load(handle)
+
+
+class _ExportChannel:
+    """How one recorded channel's messages are written: decoder, converter, output channel."""
+
+    def __init__(self, channel: mcap.Channel, schema: mcap.Schema | None, writer: mcap.Writer,
+                 schema_ids: dict[str, int]) -> None:
+        self.topic = channel.topic
+        self.decode = None
+        self.convert = None
+        if channel.message_encoding not in (POD_ENCODING, MSGPACK_ENCODING):
+            # Already readable (the node ticks): copied with its own schema.
+            key = f"{schema.name}:{schema.encoding}" if schema else ""
+            if schema is not None and key not in schema_ids:
+                schema_ids[key] = writer.add_schema(schema.name, schema.encoding, schema.data)
+            self.id = writer.add_channel(channel.topic, channel.message_encoding,
+                                         schema_ids.get(key, 0), channel.metadata)
+            return
+        import dynamic_types
+        type_name = channel.metadata.get("horus.type") or (schema.name if schema else "")
+        if schema is None:
+            raise ExportError(f"topic '{channel.topic}' has no schema record")
+        try:
+            cls = dynamic_types.load_type(type_name, schema.data.decode("utf-8"),
+                                          int(channel.metadata.get("horus.fingerprint", "0"), 16))
+        except (dynamic_types.SchemaError, ValueError) as error:
+            raise ExportError(f"topic '{channel.topic}': cannot decode {type_name}: {error}") from None
+        self.decode = lambda data: dynamic_types.to_plain(cls.from_bytes(data))
+        mapping = foxglove_mapping(type_name, list(cls.__horus__.fields))
+        if mapping is not None:
+            schema_name, convert = mapping
+            topic = channel.topic
+            self.convert = lambda plain, log_time: convert(plain, topic, log_time)
+            schema_json = FOXGLOVE_SCHEMAS[schema_name]
+        else:
+            schema_name = type_name
+            self.convert = lambda plain, log_time: plain_json(plain)
+            schema_json = generated_json_schema(type_name, schema.data.decode("utf-8"))
+        if schema_name not in schema_ids:
+            schema_ids[schema_name] = writer.add_schema(
+                schema_name, "jsonschema", json.dumps(schema_json, sort_keys=True).encode())
+        self.schema = schema_json
+        metadata = {k: v for k, v in channel.metadata.items() if k in ("horus.type", "horus.fingerprint")}
+        self.id = writer.add_channel(channel.topic, "json", schema_ids[schema_name], metadata)
+
+    def payload(self, message: mcap.Message) -> bytes:
+        if self.decode is None:
+            return message.data
+        value = self.convert(self.decode(message.data), message.log_time)
+        return json.dumps(value, separators=(",", ":"), allow_nan=False).encode()
+
+
+def export(path: str, output: str) -> tuple[dict[str, int], dict[str, str]]:
+    """Writes the Foxglove form of the recording `path` to `output`. Returns the messages written
+    per topic, and the topics left out with the reason (a type that cannot be decoded: its
+    schema text does not compile, as for a plain value that is not a message)."""
+    reader = mcap.Reader(path)
+    counts: dict[str, int] = {}
+    skipped: dict[str, str] = {}
+    channels: dict[int, _ExportChannel | None] = {}
+    schema_ids: dict[str, int] = {}
+    with open(output, "wb") as stream:
+        writer = mcap.Writer(stream, library="horus record export")
+        for record in reader:
+            if isinstance(record, mcap.Message):
+                if record.channel_id not in channels:
+                    channel = reader.channels[record.channel_id]
+                    try:
+                        channels[record.channel_id] = _ExportChannel(
+                            channel, reader.schemas.get(channel.schema_id), writer, schema_ids)
+                    except ExportError as error:
+                        channels[record.channel_id] = None
+                        skipped[channel.topic] = str(error)
+                exported = channels[record.channel_id]
+                if exported is None:
+                    continue
+                writer.add_message(exported.id, record.log_time, exported.payload(record),
+                                   publish_time=record.publish_time, sequence=record.sequence)
+                counts[exported.topic] = counts.get(exported.topic, 0) + 1
+            elif isinstance(record, mcap.Metadata):
+                writer.add_metadata(record.name, record.metadata)
+        writer.finish()
+    return counts, skipped
