@@ -11,12 +11,14 @@
 #include <chrono>
 #include <cstdint>
 #include <cstdlib>
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include <horus/detail/shm_segment.hpp>
 #include <horus/topic_registry.hpp>
 
 extern char** environ;
@@ -76,6 +78,14 @@ class PrivateNamespace {
   ~PrivateNamespace() {
     horus::remove_namespace(name_);
     ::unsetenv("HORUS_NAMESPACE");
+    // Nothing of the namespace may outlive the test (issue 23: no /dev/shm growth).
+    std::error_code ignored;
+    if (std::filesystem::exists(horus::detail::namespace_directory(name_), ignored)) {
+      ADD_FAILURE() << "namespace folder " << horus::detail::namespace_directory(name_) << " left";
+    }
+    for (const horus::NamespaceObjectInfo& object : horus::list_namespace_objects(name_)) {
+      ADD_FAILURE() << object.path << " left";
+    }
   }
   const std::string& name() const { return name_; }
 

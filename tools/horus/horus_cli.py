@@ -650,12 +650,17 @@ def shm_list(args) -> int:
             size = None
         users = topic["publishers"] + topic["subscribers"]
         rows.append({"name": topic["name"], "path": path, "size": size,
-                     "live_users": users, "error": topic["error"]})
+                     "live_users": users, "in_use": users > 0, "error": topic["error"]})
+    # The log ring and the presence folder: their users are told by a lock, not counted.
+    rows += [{"name": o["kind"], "path": o["path"], "size": o["size"], "live_users": None,
+              "in_use": o["in_use"], "error": ""}
+             for o in core.list_namespace_objects(args.namespace)]
 
     def render(items):
         _table(["SEGMENT", "BYTES", "LIVE_USERS", "PATH"],
-               [[r["name"], "-" if r["size"] is None else r["size"], r["live_users"], r["path"]]
-                for r in items])
+               [[r["name"], "-" if r["size"] is None else r["size"],
+                 r["live_users"] if r["live_users"] is not None else
+                 ("in use" if r["in_use"] else 0), r["path"]] for r in items])
     _emit(rows, args.json, render)
     return EXIT_OK
 
@@ -976,8 +981,10 @@ def build_parser() -> argparse.ArgumentParser:
                      help="keep printing new lines until Ctrl+C")
 
     shm = group("shm", "shared-memory segments: list, clean")
-    action(shm, "list", "the namespace's segments and how many live processes use each", shm_list)
-    action(shm, "clean", "remove the segments whose every user died (never a live one)", shm_clean)
+    action(shm, "list", "the namespace's segments, log ring and presence folder, and who uses them",
+           shm_list)
+    action(shm, "clean", "remove the segments, log ring and presence folder whose every user died "
+           "(never a live one's)", shm_clean)
 
     sub = commands.add_parser("monitor", help="live view of nodes and topics (q quits)",
                               description="A live terminal view of the namespace's nodes (rate, "

@@ -6,8 +6,9 @@
 // Each running Scheduler owns one small file, <root>/@presence/<namespace>/<pid>.<n>, that a
 // thread of its own rewrites (write aside, then rename) twice a second and when run() starts and
 // ends, so a reader never sees half an announcement and no tick ever waits for one. The file goes
-// when the Scheduler is destroyed; a process that dies leaves it behind, and readers see from the
-// recorded identity (pid and start time) that it is dead, even once its pid is reused.
+// when the Scheduler is destroyed (and the folder with the last one); a process that dies leaves it
+// behind, and readers see from the recorded identity (pid and start time) that it is dead, even
+// once its pid is reused.
 #pragma once
 
 #include <cstddef>
@@ -45,7 +46,8 @@ struct PresenceInfo {
 /// included (alive == false).
 std::vector<PresenceInfo> list_presence(std::string_view namespace_name = {});
 
-/// Removes the announcements that dead processes left in a namespace; returns how many.
+/// Removes the announcements that dead processes left in a namespace; returns how many. The
+/// namespace's presence folder goes too once it is empty and no live Scheduler uses it.
 std::size_t clean_presence(std::string_view namespace_name = {});
 
 namespace detail {
@@ -65,6 +67,8 @@ class PresenceAnnouncement {
   bool announce(std::string_view snapshot_json, std::string& error) noexcept;
 
  private:
+  std::string namespace_;
+  /// The folder, under a shared flock while this object lives.
   int folder_ = -1;
   std::string entry_;
 };

@@ -62,12 +62,30 @@ struct TopicTraffic {
 TopicTraffic topic_traffic(std::string_view topic, std::uint64_t since,
                            std::string_view namespace_name = {});
 
+/// A namespace's shared-memory object other than a topic segment: its log ring ("@logs", what
+/// `horus log` reads) or its presence folder ("@presence", what `horus node list` reads).
+struct NamespaceObjectInfo {
+  /// "@logs" or "@presence".
+  std::string kind;
+  std::string path;
+  /// Bytes: the ring's file size, or the total of the folder's announcements.
+  std::size_t size = 0;
+  /// Whether a live process writes the ring, or a live Scheduler announces in the folder.
+  bool in_use = false;
+};
+
+/// The namespace's log ring and presence folder, those that exist, in that order.
+std::vector<NamespaceObjectInfo> list_namespace_objects(std::string_view namespace_name = {});
+
 /// Unlinks the segments of a namespace whose every user process has died (they would otherwise
-/// be re-used by the next opener); returns how many. Segments in use are left alone.
+/// be re-used by the next opener); returns how many. Segments in use are left alone. The
+/// namespace's log ring goes too once no live process writes it (its lines with it), and its
+/// presence folder once it is empty (clean_presence() empties it) and no live Scheduler uses it.
 std::size_t clean_namespace(std::string_view namespace_name = {});
 
-/// Unlinks every segment of a namespace and its folder, in use or not (tests, `horus clean -f`).
-/// Handles still open keep working on the unlinked memory but no longer meet new ones.
+/// Unlinks every segment of a namespace and its folder, its log ring and its presence folder, in
+/// use or not (tests, `horus clean -f`). Handles still open keep working on the unlinked memory
+/// but no longer meet new ones.
 void remove_namespace(std::string_view namespace_name);
 
 }  // namespace horus

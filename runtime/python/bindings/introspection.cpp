@@ -101,7 +101,30 @@ void bind_introspection(py::module_& m) {
       "clean_namespace",
       [](const std::string& namespace_name) { return clean_namespace(namespace_name); },
       py::arg("namespace_name") = "",
-      "Unlinks the topic segments whose every user process died; returns how many.");
+      "Unlinks the topic segments whose every user process died; returns how many. The log "
+      "ring and the presence folder go too once no live process uses them.");
+  m.def(
+      "remove_namespace",
+      [](const std::string& namespace_name) { remove_namespace(namespace_name); },
+      py::arg("namespace_name"),
+      "Unlinks every segment of a namespace, its log ring and its presence folder, in use or not.");
+  m.def(
+      "list_namespace_objects",
+      [](const std::string& namespace_name) {
+        py::list out;
+        for (const NamespaceObjectInfo& info : list_namespace_objects(namespace_name)) {
+          py::dict entry;
+          entry["kind"] = info.kind;
+          entry["path"] = info.path;
+          entry["size"] = info.size;
+          entry["in_use"] = info.in_use;
+          out.append(entry);
+        }
+        return out;
+      },
+      py::arg("namespace_name") = "",
+      "The namespace's log ring (kind \"@logs\") and presence folder (\"@presence\"), those that "
+      "exist: path, size and whether a live process uses it.");
   py::class_<detail::AnnouncedUse>(
       m, "AnnouncedUse",
       "A service server or client in this process's presence announcement, until close().")

@@ -4,6 +4,7 @@
 #include <dirent.h>
 #include <fcntl.h>
 #include <pthread.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -18,12 +19,14 @@
 #include <memory>
 #include <mutex>
 #include <new>
+#include <optional>
 #include <string>
 #include <thread>
 #include <tuple>
 
 #include "horus/detail/errno_text.hpp"
 #include "horus/detail/json_string.hpp"
+#include "horus/detail/namespace_objects.hpp"
 #include "horus/detail/process.hpp"
 #include "horus/detail/shm_access.hpp"
 #include "horus/detail/shm_segment.hpp"
@@ -45,24 +48,33 @@ std::string namespace_of(std::string_view namespace_name) {
   return name;
 }
 
-/// The checked folder <root>/@presence/<namespace> (this user's only), or -1 when missing and
-/// not `create`d.
-detail::FileDescriptor open_presence_folder(const std::string& namespace_name, bool create) {
+/// The checked folder <root>/@presence (this user's only), or -1 when missing and not `create`d.
+detail::FileDescriptor open_presence_root(bool create) {
   const std::string root = detail::shm_root();
   const detail::FileDescriptor root_folder =
       detail::open_trusted_directory(AT_FDCWD, root, root, 0600, true, false, create);
   if (root_folder.get() < 0) return detail::FileDescriptor();
-  const std::string presence = root + "/" + kPresenceFolder;
-  const detail::FileDescriptor presence_folder = detail::open_trusted_directory(
-      root_folder.get(), kPresenceFolder, presence, 0600, false, false, create);
-  if (presence_folder.get() < 0) return detail::FileDescriptor();
-  return detail::open_trusted_directory(presence_folder.get(), namespace_name,
-                                        presence + "/" + namespace_name, 0600, false, false,
-                                        create);
+  return detail::open_trusted_directory(root_folder.get(), kPresenceFolder,
+                                        root + "/" + kPresenceFolder, 0600, false, false, create);
 }
 
-/// Entry names ("<pid>.<n>"; the ".tmp" files being written are skipped), sorted.
-std::vector<std::string> entry_names(int folder, const std::string& path) {
+std::string presence_path(const std::string& namespace_name) {
+  return detail::shm_root() + "/" + kPresenceFolder + "/" + namespace_name;
+}
+
+/// The checked folder <root>/@presence/<namespace> (this user's only), or -1 when missing and
+/// not `create`d.
+detail::FileDescriptor open_presence_folder(const std::string& namespace_name, bool create) {
+  const detail::FileDescriptor presence_folder = open_presence_root(create);
+  if (presence_folder.get() < 0) return detail::FileDescriptor();
+  return detail::open_trusted_directory(presence_folder.get(), namespace_name,
+                                        presence_path(namespace_name), 0600, false, false, create);
+}
+
+/// Entry names ("<pid>.<n>"; the ".tmp" files being written are skipped unless
+/// `with_temporaries`), sorted.
+std::vector<std::string> entry_names(int folder, const std::string& path,
+                                     bool with_temporaries = false) {
   std::vector<std::string> names;
   const int duplicate = ::fcntl(folder, F_DUPFD_CLOEXEC, 0);
   DIR* dir = duplicate >= 0 ? ::fdopendir(duplicate) : nullptr;
@@ -74,7 +86,8 @@ std::vector<std::string> entry_names(int folder, const std::string& path) {
   // This DIR stream is local to the call, which is all readdir needs to be safe.
   while (const dirent* entry = ::readdir(dir)) {  // NOLINT(concurrency-mt-unsafe)
     const std::string name = entry->d_name;
-    if (name != "." && name != ".." && name.find(".tmp") == std::string::npos) {
+    if (name != "." && name != ".." &&
+        (with_temporaries || name.find(".tmp") == std::string::npos)) {
       names.push_back(name);
     }
   }
@@ -138,7 +151,7 @@ std::vector<PresenceInfo> list_presence(std::string_view namespace_name) {
   const detail::FileDescriptor folder = open_presence_folder(name, false);
   std::vector<PresenceInfo> out;
   if (folder.get() < 0) return out;
-  const std::string path = detail::shm_root() + "/" + kPresenceFolder + "/" + name;
+  const std::string path = presence_path(name);
   for (const std::string& entry : entry_names(folder.get(), path)) {
     std::uint64_t identity = 0;
     out.push_back(read_entry(folder.get(), path, entry, identity));
@@ -150,7 +163,7 @@ std::size_t clean_presence(std::string_view namespace_name) {
   const std::string name = namespace_of(namespace_name);
   const detail::FileDescriptor folder = open_presence_folder(name, false);
   if (folder.get() < 0) return 0;
-  const std::string path = detail::shm_root() + "/" + kPresenceFolder + "/" + name;
+  const std::string path = presence_path(name);
   std::size_t removed = 0;
   for (const std::string& entry : entry_names(folder.get(), path)) {
     std::uint64_t identity = 0;
@@ -160,24 +173,79 @@ std::size_t clean_presence(std::string_view namespace_name) {
       ++removed;
     }
   }
+  detail::remove_presence_folder(name, false);
   return removed;
 }
 
 namespace detail {
 
-PresenceAnnouncement::PresenceAnnouncement(std::string_view namespace_name) {
-  FileDescriptor folder = open_presence_folder(namespace_of(namespace_name), true);
+std::optional<NamespaceObjectInfo> presence_folder_object(std::string_view namespace_name) {
+  const std::string name = namespace_of(namespace_name);
+  const FileDescriptor folder = open_presence_folder(name, false);
+  if (folder.get() < 0) return std::nullopt;
+  NamespaceObjectInfo info;
+  info.kind = kPresenceFolder;
+  info.path = presence_path(name);
+  for (const std::string& entry : entry_names(folder.get(), info.path, true)) {
+    struct stat status {};
+    if (::fstatat(folder.get(), entry.c_str(), &status, AT_SYMLINK_NOFOLLOW) == 0) {
+      info.size += static_cast<std::size_t>(status.st_size);
+    }
+  }
+  info.in_use = ::flock(folder.get(), LOCK_EX | LOCK_NB) != 0;
+  return info;
+}
+
+bool remove_presence_folder(std::string_view namespace_name, bool force) {
+  const std::string name = namespace_of(namespace_name);
+  const FileDescriptor presence_root = open_presence_root(false);
+  if (presence_root.get() < 0) return false;
+  const FileDescriptor folder = open_presence_folder(name, false);
+  if (folder.get() < 0) return false;
+  if (force) {
+    for (const std::string& entry : entry_names(folder.get(), presence_path(name), true)) {
+      ::unlinkat(folder.get(), entry.c_str(), 0);
+    }
+  } else if (::flock(folder.get(), LOCK_EX | LOCK_NB) != 0 || !still_linked(folder.get())) {
+    return false;  // a live Scheduler announces here (or another cleaner was first)
+  }
+  // Only an empty folder goes: an announcement that could not be read is left for a person.
+  return ::unlinkat(presence_root.get(), name.c_str(), AT_REMOVEDIR) == 0;
+}
+
+}  // namespace detail
+
+namespace detail {
+
+PresenceAnnouncement::PresenceAnnouncement(std::string_view namespace_name)
+    : namespace_(namespace_of(namespace_name)) {
+  for (;;) {
+    FileDescriptor folder = open_presence_folder(namespace_, true);
+    // Held while this object lives, before the first announcement too: cleaners leave the folder
+    // alone meanwhile (detail/namespace_objects.hpp).
+    if (::flock(folder.get(), LOCK_SH) != 0) {
+      throw Error("cannot lock the presence directory " + presence_path(namespace_) + ": " +
+                  errno_text(errno));
+    }
+    if (!still_linked(folder.get())) continue;  // a cleaner removed it before we locked
+    folder_ = ::fcntl(folder.get(), F_DUPFD_CLOEXEC, 0);
+    if (folder_ < 0) {
+      throw Error("cannot keep the presence directory open: " + errno_text(errno));
+    }
+    break;
+  }
   entry_ = std::to_string(this_pid()) + "." +
            std::to_string(announcements_made.fetch_add(1, std::memory_order_relaxed));
-  folder_ = ::fcntl(folder.get(), F_DUPFD_CLOEXEC, 0);
-  if (folder_ < 0) {
-    throw Error("cannot keep the presence directory open: " + errno_text(errno));
-  }
 }
 
 PresenceAnnouncement::~PresenceAnnouncement() {
   ::unlinkat(folder_, entry_.c_str(), 0);
-  ::close(folder_);
+  ::close(folder_);  // drops the lock: the folder goes if no other Scheduler announces there
+  try {
+    remove_presence_folder(namespace_, false);
+  } catch (const Error&) {
+    // The root became untrusted meanwhile: the folder stays for `horus shm clean` to judge.
+  }
 }
 
 bool PresenceAnnouncement::announce(std::string_view snapshot_json, std::string& error) noexcept {

@@ -12,8 +12,10 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <optional>
 
 #include "horus/detail/errno_text.hpp"
+#include "horus/detail/namespace_objects.hpp"
 #include "horus/detail/shm_access.hpp"
 #include "horus/detail/shm_segment.hpp"
 #include "horus/error.hpp"
@@ -22,19 +24,6 @@ namespace horus::detail {
 namespace {
 
 constexpr std::size_t kSharedCapacity = 4096;  // 2 MiB per namespace
-
-/// Drops a flock on scope exit: the mapping keeps the open file description, and so the lock,
-/// alive past close.
-class FlockRelease {
- public:
-  explicit FlockRelease(int fd) noexcept : fd_(fd) {}
-  FlockRelease(const FlockRelease&) = delete;
-  FlockRelease& operator=(const FlockRelease&) = delete;
-  ~FlockRelease() { ::flock(fd_, LOCK_UN); }
-
- private:
-  int fd_;
-};
 
 constexpr const char* kLogsFolder = "@logs";
 
@@ -130,36 +119,124 @@ std::string shared_log_ring_path(std::string_view namespace_name) {
   return logs_directory() + "/" + ring_name(namespace_name);
 }
 
-LogRing open_shared_log_ring(std::string_view namespace_name) {
-  const std::string path = shared_log_ring_path(namespace_name);
-  const FileDescriptor folder = open_logs_folder(true);
-  const FileDescriptor fd = open_trusted_file(folder.get(), ring_name(namespace_name), path,
-                                              O_RDWR | O_CREAT, 0600, false);
-  // Whoever finds the file empty formats it; the lock keeps the others from reading it half done.
-  if (::flock(fd.get(), LOCK_EX) != 0) {
-    throw Error("cannot lock the log ring " + path + ": " + errno_text(errno));
+namespace {
+
+/// A new ring made unnamed (O_TMPFILE), formatted and locked shared before it gets its name, so
+/// that nobody ever sees it half done and no cleaner can take it; nothing when another process
+/// named its own first.
+std::optional<LogRing> create_shared_log_ring(int folder, const std::string& name,
+                                              const std::string& path) {
+  const FileDescriptor fd(::openat(folder, ".", O_TMPFILE | O_RDWR | O_CLOEXEC, 0600));
+  if (fd.get() < 0) {
+    throw Error("cannot create the log ring " + path + ": " + errno_text(errno));
   }
-  const FlockRelease unlock(fd.get());
-  struct stat info {};
-  if (::fstat(fd.get(), &info) != 0) {
-    throw Error("cannot stat the log ring " + path + ": " + errno_text(errno));
-  }
-  const bool fresh = info.st_size == 0;
-  const std::size_t size =
-      fresh ? LogRing::bytes_for(kSharedCapacity) : static_cast<std::size_t>(info.st_size);
-  if (fresh && ::ftruncate(fd.get(), static_cast<off_t>(size)) != 0) {
+  const std::size_t size = LogRing::bytes_for(kSharedCapacity);
+  if (::ftruncate(fd.get(), static_cast<off_t>(size)) != 0) {
     throw Error("cannot size the log ring " + path + ": " + errno_text(errno));
   }
   void* memory = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, fd.get(), 0);
   if (memory == MAP_FAILED) {
     throw Error("cannot map the log ring " + path + ": " + errno_text(errno));
   }
-  if (fresh) LogRing::format(memory, kSharedCapacity);
-  if (const std::string why = LogRing::validate(memory, size); !why.empty()) {
+  LogRing::format(memory, kSharedCapacity);
+  // Nobody else can reach an unnamed file: neither lock nor link can be raced here.
+  ::flock(fd.get(), LOCK_SH);
+  const std::string self = "/proc/self/fd/" + std::to_string(fd.get());
+  if (::linkat(AT_FDCWD, self.c_str(), folder, name.c_str(), AT_SYMLINK_FOLLOW) != 0) {
+    const int error = errno;
     ::munmap(memory, size);
-    throw Error("log ring " + path + ": " + why);
+    if (error == EEXIST) return std::nullopt;
+    throw Error("cannot name the log ring " + path + ": " + errno_text(error));
   }
   return LogRing(memory);
+}
+
+}  // namespace
+
+LogRing open_shared_log_ring(std::string_view namespace_name) {
+  const std::string name = ring_name(namespace_name);
+  const std::string path = shared_log_ring_path(namespace_name);
+  const FileDescriptor folder = open_logs_folder(true);
+  // Every writer keeps a shared lock on the ring while its mapping lives (the mapping holds the
+  // open file description, and so the lock, past close and until the process exits): cleaners
+  // leave the ring alone meanwhile (detail/namespace_objects.hpp). Nobody holds the exclusive
+  // lock but a cleaner, and only for as long as it takes to unlink.
+  for (;;) {
+    struct stat named {};
+    if (::fstatat(folder.get(), name.c_str(), &named, AT_SYMLINK_NOFOLLOW) != 0 &&
+        errno == ENOENT) {
+      if (std::optional<LogRing> ring = create_shared_log_ring(folder.get(), name, path)) {
+        return *ring;
+      }
+      continue;  // another process named its ring first: use that one
+    }
+    std::optional<FileDescriptor> fd;
+    try {
+      fd.emplace(open_trusted_file(folder.get(), name, path, O_RDWR, 0, false));
+    } catch (const Error&) {
+      if (::fstatat(folder.get(), name.c_str(), &named, AT_SYMLINK_NOFOLLOW) != 0 &&
+          errno == ENOENT) {
+        continue;  // a cleaner removed it between the look and the open
+      }
+      throw;
+    }
+    if (::flock(fd->get(), LOCK_SH) != 0) {
+      throw Error("cannot lock the log ring " + path + ": " + errno_text(errno));
+    }
+    if (!still_linked(fd->get())) continue;  // a cleaner removed it before we locked
+    struct stat info {};
+    if (::fstat(fd->get(), &info) != 0) {
+      throw Error("cannot stat the log ring " + path + ": " + errno_text(errno));
+    }
+    const auto size = static_cast<std::size_t>(info.st_size);
+    void* memory = size == 0
+                       ? MAP_FAILED
+                       : ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, fd->get(), 0);
+    if (memory == MAP_FAILED) {
+      throw Error("cannot map the log ring " + path + ": " +
+                  (size == 0 ? std::string("it is empty") : errno_text(errno)));
+    }
+    if (const std::string why = LogRing::validate(memory, size); !why.empty()) {
+      ::munmap(memory, size);
+      throw Error("log ring " + path + ": " + why);
+    }
+    return LogRing(memory);
+  }
+}
+
+std::optional<NamespaceObjectInfo> log_ring_object(std::string_view namespace_name) {
+  const std::string name = ring_name(namespace_name);
+  const FileDescriptor folder = open_logs_folder(false);
+  struct stat present {};
+  if (folder.get() < 0 ||
+      ::fstatat(folder.get(), name.c_str(), &present, AT_SYMLINK_NOFOLLOW) != 0) {
+    return std::nullopt;
+  }
+  NamespaceObjectInfo info;
+  info.kind = kLogsFolder;
+  info.path = shared_log_ring_path(namespace_name);
+  info.size = static_cast<std::size_t>(present.st_size);
+  const FileDescriptor fd = open_trusted_file(folder.get(), name, info.path, O_RDONLY, 0, false);
+  info.in_use = ::flock(fd.get(), LOCK_EX | LOCK_NB) != 0;
+  return info;
+}
+
+bool remove_log_ring(std::string_view namespace_name, bool force) {
+  const std::string name = ring_name(namespace_name);
+  const FileDescriptor folder = open_logs_folder(false);
+  if (folder.get() < 0) return false;
+  if (force) return ::unlinkat(folder.get(), name.c_str(), 0) == 0;
+  std::optional<FileDescriptor> fd;
+  try {
+    fd.emplace(open_trusted_file(folder.get(), name, shared_log_ring_path(namespace_name), O_RDONLY,
+                                 0, false));
+  } catch (const Error&) {
+    return false;  // none, or not this user's to judge
+  }
+  // Held until the descriptor closes: a writer opening the ring meanwhile waits, then sees it
+  // unlinked and makes a new one.
+  return ::flock(fd->get(), LOCK_EX | LOCK_NB) == 0 && still_linked(fd->get()) &&
+         ::unlinkat(folder.get(), name.c_str(), 0) == 0;
 }
 
 std::size_t format_log_entry(const LogEntry& entry, char* out, std::size_t size) noexcept {
@@ -213,8 +290,6 @@ LogSnapshot read_log(std::string_view namespace_name) {
   }
   const detail::FileDescriptor fd =
       detail::open_trusted_file(folder.get(), name, path, O_RDONLY, 0600, false);
-  ::flock(fd.get(), LOCK_SH);  // a ring still being formatted is not read half done
-  const detail::FlockRelease unlock(fd.get());
   struct stat info {};
   if (::fstat(fd.get(), &info) != 0) {
     throw Error("cannot stat the log ring " + path + ": " + detail::errno_text(errno));

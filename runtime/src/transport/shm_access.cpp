@@ -189,4 +189,9 @@ FileDescriptor open_trusted_file(int directory, const std::string& name, const s
   return file;
 }
 
+bool still_linked(int fd) noexcept {
+  struct stat info {};
+  return ::fstat(fd, &info) == 0 && info.st_nlink > 0;
+}
+
 }  // namespace horus::detail

@@ -15,6 +15,7 @@
 #include <optional>
 
 #include "horus/detail/created_segments.hpp"
+#include "horus/detail/namespace_objects.hpp"
 #include "horus/detail/shm_segment.hpp"
 #include "horus/error.hpp"
 
@@ -262,6 +263,8 @@ std::size_t clean_namespace(std::string_view namespace_name) {
     removed += detail::remove_if_abandoned(folder, name) ? 1 : 0;
   }
   remove_folder_if_empty(folder);
+  detail::remove_log_ring(namespace_name, false);
+  detail::remove_presence_folder(namespace_name, false);
   return removed;
 }
 
@@ -272,6 +275,17 @@ void remove_namespace(std::string_view namespace_name) {
     ::unlinkat(folder.descriptor.get(), name.c_str(), 0);
   }
   remove_folder_if_empty(folder);
+  detail::remove_log_ring(namespace_name, true);
+  detail::remove_presence_folder(namespace_name, true);
+}
+
+std::vector<NamespaceObjectInfo> list_namespace_objects(std::string_view namespace_name) {
+  std::vector<NamespaceObjectInfo> objects;
+  if (auto ring = detail::log_ring_object(namespace_name)) objects.push_back(std::move(*ring));
+  if (auto folder = detail::presence_folder_object(namespace_name)) {
+    objects.push_back(std::move(*folder));
+  }
+  return objects;
 }
 
 }  // namespace horus

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
 import sys
 import uuid
@@ -16,13 +15,18 @@ PEER = os.environ.get("HORUS_PY_PEER", "")
 
 @pytest.fixture(autouse=True)
 def namespace(monkeypatch, tmp_path):
-    """Each test in its own topic namespace, removed afterwards (children inherit it), and in a
-    folder of its own (a fatal stop writes the scheduler's blackbox into the current folder)."""
+    """Each test in its own topic namespace, removed afterwards with its log ring and presence
+    folder (children inherit it), and in a folder of its own (a fatal stop writes the scheduler's
+    blackbox into the current folder). A test that leaves anything of its namespace fails."""
     name = f"pyrt_{uuid.uuid4().hex[:12]}"
     monkeypatch.setenv("HORUS_NAMESPACE", name)
     monkeypatch.chdir(tmp_path)
     yield name
-    shutil.rmtree(horus._core.namespace_directory(name), ignore_errors=True)
+    horus._core.remove_namespace(name)
+    left = [o["path"] for o in horus._core.list_namespace_objects(name)]
+    if os.path.exists(horus._core.namespace_directory(name)):
+        left.append(horus._core.namespace_directory(name))
+    assert not left, f"left in shared memory: {left}"
 
 
 @pytest.fixture

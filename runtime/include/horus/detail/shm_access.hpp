@@ -57,4 +57,8 @@ FileDescriptor open_trusted_directory(int parent, const std::string& name, const
 FileDescriptor open_trusted_file(int directory, const std::string& name, const std::string& path,
                                  int flags, unsigned mode, bool sharing);
 
+/// Whether the file or folder open as `fd` still has a name: an opener that locks an object
+/// checks that no cleaner removed it between the open and the lock.
+bool still_linked(int fd) noexcept;
+
 }  // namespace horus::detail
