@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import os
+import pathlib
 import shutil
 import subprocess
 
@@ -197,10 +198,36 @@ def test_shm_clean_removes_only_the_dead(children, namespace):
     result = run_horus("shm", "clean")
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip() == \
-        "removed 1 segment and 0 announcements left by dead processes"
+        "removed 1 segment, 0 announcements and 0 tensor pools left by dead processes"
     assert run_horus("topic", "list").stdout.split() == ["alive"]
     assert json.loads(run_horus("shm", "clean", "--json").stdout) == \
-        {"removed": 0, "announcements": 0}
+        {"removed": 0, "announcements": 0, "pools": 0}
+
+
+MAP_POOL = """
+import time, horus
+pool = horus.TensorPool.open({name!r}, block_size=1 << 20, block_count=2)
+print("ready", flush=True)
+while True:
+    time.sleep(0.1)
+"""
+
+
+def test_shm_clean_removes_the_tensor_pools_no_live_process_maps(children, namespace):
+    live = children.python(MAP_POOL.format(name="live"))
+    wait_ready(live)
+    killed = children.python(MAP_POOL.format(name="killed"))
+    wait_ready(killed)
+    killed.kill()
+    killed.wait(timeout=30)
+    cleaned = json.loads(run_horus("shm", "clean", "--json").stdout)
+    assert cleaned["pools"] == 1, cleaned
+    pools = pathlib.Path(os.environ["HORUS_SHM_DIR"]) / "@pool" / namespace
+    assert sorted(path.name for path in pools.iterdir()) == ["live"]
+    live.kill()
+    live.wait(timeout=30)
+    assert json.loads(run_horus("shm", "clean", "--json").stdout)["pools"] == 1
+    assert not pools.exists()
 
 
 def test_blackbox_is_folded_in():

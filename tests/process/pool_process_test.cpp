@@ -167,6 +167,14 @@ int role_hold_frame(const std::vector<std::string>& /*args*/) {
   return 11;
 }
 
+/// map_pool <name>: opens the pool `name` (mapping it), says so, and keeps it until killed.
+int role_map_pool(const std::vector<std::string>& args) {
+  const TensorPool pool = TensorPool::open(args.at(0), {.block_size = 1 << 20, .block_count = 2});
+  tell(0);
+  std::this_thread::sleep_for(120s);
+  return pool.block_count() == 2 ? 10 : 11;
+}
+
 /// stalled <frames>: subscribes, then reads nothing until the parent says "go" (on "go"), and
 /// then every frame left: exits 0 when it got exactly the frames [first, frames) intact, where
 /// `first` is the number it expects to be refused (the DropOldest run), and that many refused.
@@ -195,6 +203,7 @@ const bool kRolesRegistered = [] {
   roles["receive_cloud"] = role_receive_cloud;
   roles["hold_frame"] = role_hold_frame;
   roles["stalled"] = role_stalled;
+  roles["map_pool"] = role_map_pool;
   return true;
 }();
 // Runs before main: a re-executed child plays its role and exits here.
@@ -407,6 +416,28 @@ TEST(PoolProcess, FreedForeignAndMalformedDescriptorsAreRefused) {
   ASSERT_TRUE(accepted);
   EXPECT_EQ(accepted->data().data(), reuse.data().data());
   EXPECT_EQ(pool.references(reuse.block()), 2U);
+}
+
+TEST(PoolProcess, CleanRemovesOnlyPoolsNoLiveProcessMaps) {
+  PoolNamespace ns;
+  const std::string folder = horus::detail::shm_root() + "/@pool/" + ns.name() + "/";
+  const TensorPool mine = TensorPool::open("mine", {.block_size = 1 << 20, .block_count = 2});
+  horus::Topic<std::uint64_t> ack("ack");
+  Child child("map_pool", {"theirs"});
+  ASSERT_TRUE(hear(ack));
+  // Mapped by this process and by a live child: both kept.
+  EXPECT_EQ(horus::clean_pools(ns.name()), 0U);
+  EXPECT_EQ(::access((folder + "mine").c_str(), F_OK), 0);
+  EXPECT_EQ(::access((folder + "theirs").c_str(), F_OK), 0);
+  child.kill();
+  // Its only user died: removed; this process's pool stays.
+  EXPECT_EQ(horus::clean_pools(ns.name()), 1U);
+  EXPECT_NE(::access((folder + "theirs").c_str(), F_OK), 0);
+  EXPECT_EQ(::access((folder + "mine").c_str(), F_OK), 0);
+  // Opening it again makes a fresh pool under the same name.
+  const TensorPool again = TensorPool::open("theirs", {.block_size = 1 << 20, .block_count = 2});
+  EXPECT_EQ(again.block_count(), 2U);
+  EXPECT_EQ(horus::clean_pools(ns.name()), 0U);
 }
 
 }  // namespace

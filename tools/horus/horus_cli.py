@@ -669,11 +669,13 @@ def shm_clean(args) -> int:
     core = _core()
     removed = core.clean_namespace(args.namespace)
     announcements = core.clean_presence(args.namespace)
+    pools = core.clean_pools(args.namespace)
     if args.json:
-        print(json.dumps({"removed": removed, "announcements": announcements}))
+        print(json.dumps({"removed": removed, "announcements": announcements, "pools": pools}))
     else:
-        print(f"removed {removed} segment{'s' if removed != 1 else ''} and {announcements} "
-              f"announcement{'s' if announcements != 1 else ''} left by dead processes")
+        print(f"removed {removed} segment{'s' if removed != 1 else ''}, {announcements} "
+              f"announcement{'s' if announcements != 1 else ''} and {pools} "
+              f"tensor pool{'s' if pools != 1 else ''} left by dead processes")
     return EXIT_OK
 
 
@@ -983,8 +985,8 @@ def build_parser() -> argparse.ArgumentParser:
     shm = group("shm", "shared-memory segments: list, clean")
     action(shm, "list", "the namespace's segments, log ring and presence folder, and who uses them",
            shm_list)
-    action(shm, "clean", "remove the segments, log ring and presence folder whose every user died "
-           "(never a live one's)", shm_clean)
+    action(shm, "clean", "remove the segments, log ring, presence folder and tensor pools whose "
+           "every user died (never a live one's)", shm_clean)
 
     sub = commands.add_parser("monitor", help="live view of nodes and topics (q quits)",
                               description="A live terminal view of the namespace's nodes (rate, "

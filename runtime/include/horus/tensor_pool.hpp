@@ -106,4 +106,8 @@ TensorPool default_pool();
 /// still open keep their mapping, but nobody new finds those pools.
 void remove_pools(std::string_view namespace_name = {});
 
+/// Removes the pool files of a namespace (empty: the current one) that no live process maps,
+/// what `horus shm clean` does; returns how many. A pool in use is never touched.
+std::size_t clean_pools(std::string_view namespace_name = {});
+
 }  // namespace horus

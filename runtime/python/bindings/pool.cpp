@@ -593,6 +593,8 @@ void bind_pool(py::module_& m) {
 
   m.def("remove_pools", &remove_pools, py::arg("namespace") = "",
         "Removes every pool file of a namespace (empty: the current one); for tests and tools.");
+  m.def("clean_pools", &clean_pools, py::arg("namespace") = "",
+        "Removes the pool files of a namespace that no live process maps; returns how many.");
 
   bind_pool_topic<Image>(m, "ImageTopic");
   bind_pool_topic<DepthImage>(m, "DepthImageTopic");

@@ -52,10 +52,13 @@ inline void cpu_relax() noexcept {
 
 }  // namespace
 
-PoolMapping::PoolMapping(int file, std::string path, std::string name,
+PoolMapping::PoolMapping(FileDescriptor file, std::string path, std::string name,
                          const TensorPoolOptions& options)
-    : name_(std::move(name)), path_(std::move(path)), policy_(options.on_exhaustion) {
-  const MappedPool mapped = map_pool_file(file, path_, options);
+    : name_(std::move(name)),
+      path_(std::move(path)),
+      file_(std::move(file)),
+      policy_(options.on_exhaustion) {
+  const MappedPool mapped = map_pool_file(file_.get(), path_, options);
   base_ = mapped.base;
   mapped_size_ = mapped.size;
   header_ = static_cast<PoolHeader*>(base_);

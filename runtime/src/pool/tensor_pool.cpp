@@ -111,17 +111,46 @@ std::uint64_t random_id() {
   return id;
 }
 
-/// Holds flock(LOCK_EX) on a pool file while it is set up.
-class PoolFileLock {
- public:
-  explicit PoolFileLock(int fd) : fd_(fd) {}
-  PoolFileLock(const PoolFileLock&) = delete;
-  PoolFileLock& operator=(const PoolFileLock&) = delete;
-  ~PoolFileLock() { ::flock(fd_, LOCK_UN); }
+// Liveness and set-up are two byte-range locks of the pool file (open file description locks:
+// the kernel drops them with the last descriptor, so also when a process dies). kSetupByte is
+// held exclusively while one opener validates or lays out the file; kUsersByte is held shared by
+// every process that maps the pool, for the mapping's life. clean_pools removes a file only when
+// it can take both exclusively: then nobody maps it and nobody is opening it.
+constexpr off_t kSetupByte = 0;
+constexpr off_t kUsersByte = 1;
 
- private:
-  int fd_;
-};
+/// Sets the lock `type` (F_RDLCK, F_WRLCK, F_UNLCK) on `byte`, waiting for it when `wait`.
+/// Returns false when it is held elsewhere and not `wait`. Throws horus::Error.
+bool lock_pool_byte(int file, short type, off_t byte, bool wait, const std::string& path) {
+  struct flock lock {};
+  lock.l_type = type;
+  lock.l_whence = SEEK_SET;
+  lock.l_start = byte;
+  lock.l_len = 1;
+  while (::fcntl(file, wait ? F_OFD_SETLKW : F_OFD_SETLK, &lock) != 0) {
+    if (errno == EINTR) continue;
+    if (!wait && (errno == EAGAIN || errno == EACCES)) return false;
+    throw Error("cannot lock tensor pool " + path + ": " + errno_text(errno));
+  }
+  return true;
+}
+
+/// The names in the pool folder `folder` (without "." and "..").
+std::vector<std::string> pool_file_names(int folder) {
+  std::vector<std::string> names;
+  const int duplicate = ::fcntl(folder, F_DUPFD_CLOEXEC, 0);
+  if (DIR* dir = duplicate >= 0 ? ::fdopendir(duplicate) : nullptr) {
+    // This DIR stream is local to the call, which is all readdir needs to be safe.
+    while (const dirent* entry = ::readdir(dir)) {  // NOLINT(concurrency-mt-unsafe)
+      const std::string name = entry->d_name;
+      if (name != "." && name != "..") names.push_back(name);
+    }
+    ::closedir(dir);
+  } else if (duplicate >= 0) {
+    ::close(duplicate);
+  }
+  return names;
+}
 
 struct Registry {
   std::mutex mutex;
@@ -157,12 +186,7 @@ std::shared_ptr<PoolMapping> open_mapping(Registry& pools, const std::string& na
     FileDescriptor file =
         open_trusted_file(folder.get(), name, path, O_RDWR | (create ? O_CREAT : 0), options.mode,
                           group_sharing(options.mode));
-    while (::flock(file.get(), LOCK_EX) != 0) {
-      if (errno != EINTR) {
-        throw Error("cannot lock tensor pool " + path + ": " + errno_text(errno));
-      }
-    }
-    const PoolFileLock lock(file.get());
+    lock_pool_byte(file.get(), F_WRLCK, kSetupByte, true, path);
     struct stat opened {};
     struct stat current {};
     if (::fstat(file.get(), &opened) != 0 ||
@@ -170,7 +194,9 @@ std::shared_ptr<PoolMapping> open_mapping(Registry& pools, const std::string& na
         opened.st_dev != current.st_dev || opened.st_ino != current.st_ino) {
       continue;  // removed between open and lock: open the live file
     }
-    auto mapping = std::make_shared<PoolMapping>(file.get(), path, name, options);
+    auto mapping = std::make_shared<PoolMapping>(std::move(file), path, name, options);
+    lock_pool_byte(mapping->file(), F_RDLCK, kUsersByte, true, path);
+    lock_pool_byte(mapping->file(), F_UNLCK, kSetupByte, true, path);
     pools.pools[path] = mapping;
     return mapping;
   }
@@ -277,18 +303,7 @@ std::shared_ptr<PoolMapping> find_pool(std::uint64_t id, const std::string& name
       }
     }
   }
-  std::vector<std::string> names;
-  const int duplicate = ::fcntl(folder.get(), F_DUPFD_CLOEXEC, 0);
-  if (DIR* dir = duplicate >= 0 ? ::fdopendir(duplicate) : nullptr) {
-    // This DIR stream is local to the call, which is all readdir needs to be safe.
-    while (const dirent* entry = ::readdir(dir)) {  // NOLINT(concurrency-mt-unsafe)
-      const std::string entry_name = entry->d_name;
-      if (entry_name != "." && entry_name != "..") names.push_back(entry_name);
-    }
-    ::closedir(dir);
-  } else if (duplicate >= 0) {
-    ::close(duplicate);
-  }
+  const std::vector<std::string> names = pool_file_names(folder.get());
   TensorPoolOptions options;
   options.namespace_name = space;
   for (const std::string& name : names) {
@@ -350,22 +365,42 @@ void remove_pools(std::string_view namespace_name) {
   std::string folder_path;
   const detail::FileDescriptor folder = detail::open_pool_folder(space, 0600, false, folder_path);
   if (folder.get() < 0) return;
-  const int duplicate = ::fcntl(folder.get(), F_DUPFD_CLOEXEC, 0);
-  if (DIR* dir = duplicate >= 0 ? ::fdopendir(duplicate) : nullptr) {
-    std::vector<std::string> names;
-    // This DIR stream is local to the call, which is all readdir needs to be safe.
-    while (const dirent* entry = ::readdir(dir)) {  // NOLINT(concurrency-mt-unsafe)
-      const std::string name = entry->d_name;
-      if (name != "." && name != "..") names.push_back(name);
-    }
-    ::closedir(dir);
-    for (const std::string& name : names) {
-      ::unlinkat(folder.get(), name.c_str(), 0);
-    }
-  } else if (duplicate >= 0) {
-    ::close(duplicate);
+  for (const std::string& name : detail::pool_file_names(folder.get())) {
+    ::unlinkat(folder.get(), name.c_str(), 0);
   }
   ::rmdir(folder_path.c_str());
+}
+
+std::size_t clean_pools(std::string_view namespace_name) {
+  const std::string space = detail::namespace_of(namespace_name);
+  std::string folder_path;
+  const detail::FileDescriptor folder = detail::open_pool_folder(space, 0600, false, folder_path);
+  if (folder.get() < 0) return 0;
+  std::size_t removed = 0;
+  for (const std::string& name : detail::pool_file_names(folder.get())) {
+    const std::string path = folder_path + "/" + name;
+    const detail::FileDescriptor file(
+        ::openat(folder.get(), name.c_str(), O_RDWR | O_NOFOLLOW | O_CLOEXEC));
+    if (file.get() < 0) continue;
+    try {
+      if (!detail::lock_pool_byte(file.get(), F_WRLCK, detail::kSetupByte, false, path) ||
+          !detail::lock_pool_byte(file.get(), F_WRLCK, detail::kUsersByte, false, path)) {
+        continue;  // in use, or being opened
+      }
+    } catch (const Error&) {
+      continue;  // not lockable: not ours to judge
+    }
+    struct stat opened {};
+    struct stat current {};
+    if (::fstat(file.get(), &opened) == 0 &&
+        ::fstatat(folder.get(), name.c_str(), &current, AT_SYMLINK_NOFOLLOW) == 0 &&
+        opened.st_dev == current.st_dev && opened.st_ino == current.st_ino &&
+        ::unlinkat(folder.get(), name.c_str(), 0) == 0) {
+      ++removed;
+    }
+  }
+  ::rmdir(folder_path.c_str());  // only once empty
+  return removed;
 }
 
 }  // namespace horus

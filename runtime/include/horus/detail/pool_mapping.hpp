@@ -22,6 +22,7 @@
 
 #include <horus/msg/pool_block.hpp>
 
+#include "horus/detail/shm_access.hpp"
 #include "horus/tensor_pool.hpp"
 
 namespace horus::detail {
@@ -46,15 +47,18 @@ struct PoolGeometry {
 
 class PoolMapping : public std::enable_shared_from_this<PoolMapping> {
  public:
-  /// Maps the pool file (already opened and checked) `file` at `path`, creating its layout when
-  /// it is new. Throws horus::Error.
-  PoolMapping(int file, std::string path, std::string name, const TensorPoolOptions& options);
+  /// Maps the pool file (already opened, checked and locked) `file` at `path`, creating its layout
+  /// when it is new, and keeps the file open: its lock tells cleaners the pool is in use. Throws
+  /// horus::Error.
+  PoolMapping(FileDescriptor file, std::string path, std::string name,
+              const TensorPoolOptions& options);
   PoolMapping(const PoolMapping&) = delete;
   PoolMapping& operator=(const PoolMapping&) = delete;
   ~PoolMapping();
 
   const std::string& name() const noexcept { return name_; }
   const std::string& path() const noexcept { return path_; }
+  int file() const noexcept { return file_.get(); }
   std::uint64_t id() const noexcept { return id_; }
   std::size_t block_size() const noexcept { return block_size_; }
   std::size_t block_count() const noexcept { return block_count_; }
@@ -111,6 +115,8 @@ class PoolMapping : public std::enable_shared_from_this<PoolMapping> {
 
   std::string name_;
   std::string path_;
+  /// Held with a shared flock for the mapping's life (see open_mapping in tensor_pool.cpp).
+  FileDescriptor file_;
   void* base_ = nullptr;
   std::size_t mapped_size_ = 0;
   PoolHeader* header_ = nullptr;
