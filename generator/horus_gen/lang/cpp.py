@@ -5,10 +5,12 @@ import os
 import re
 import struct
 
+from .. import identity
 from ..data import DataPaths
-from ..model import (Bytes, DynString, Enum, EnumRef, EnumValue, Field, FixedArray, FixedString,
-                     Message, MessageRef, Model, Optional, Primitive, Service, Type, Vec)
+from ..model import (PRIMITIVES, Bytes, DynString, Enum, EnumRef, EnumValue, Field, FixedArray, FixedString,
+                     Message, MessageRef, Model, Optional, Primitive, Service, SummaryPart, Type, Vec)
 from ..names import snake_case
+from ..summary import printed_types
 from .common import CONTRACT_VERSION, banner, environment
 
 DISPLAY_NAME = "C++"
@@ -227,6 +229,43 @@ def contract_check(header: str) -> str:
             f"with this runtime's horus-gen\");")
 
 
+SUMMARY_KINDS = {"bool": "kBool", "u8": "kU8", "u16": "kU16", "u32": "kU32", "u64": "kU64", "i8": "kI8",
+                 "i16": "kI16", "i32": "kI32", "i64": "kI64", "f32": "kF32", "f64": "kF64"}
+
+
+def summary_type(t: Type, package: str, ids: dict[Type, str], model: Model) -> str:
+    """The horus::summary::Type by which the one summary formatter reads a value of `t`
+    (horus/summary_table.hpp); `ids` names the other entries of the package's table."""
+    cpp = type_name(t, package)
+    size = f"sizeof({cpp})"
+    ns = "::horus::summary::"  # qualified: the package may have types of any name
+    if isinstance(t, Primitive):
+        return f"{ns}plain_type({ns}Kind::{SUMMARY_KINDS[t.name]}, {size})"
+    if isinstance(t, DynString):
+        return f"{ns}plain_type({ns}Kind::kString, {size})"
+    if isinstance(t, FixedString):
+        return f"{ns}fixed_string_type({t.capacity})"
+    if isinstance(t, FixedArray):
+        return f"{ns}array_type({size}, {t.length}, {ids[t.element]})"
+    if isinstance(t, (Vec, Bytes)):
+        element = t.element if isinstance(t, Vec) else PRIMITIVES["u8"]
+        if element == PRIMITIVES["bool"]:
+            return f"{ns}bool_vector_type({size}, {ids[element]})"
+        return f"{ns}vector_type({size}, {ids[element]}, &{ns}vector_elements<{cpp}>)"
+    if isinstance(t, Optional):
+        return f"{ns}optional_type({size}, {ids[t.element]}, &{ns}optional_value<{cpp}>)"
+    if isinstance(t, EnumRef):
+        return f"{ns}enum_type({size}, {ids[model.types[t.qualified].underlying]}, &{ns}enum_name<{cpp}>)"
+    if isinstance(t, MessageRef):
+        return f"{ns}message_type({size}, &{ns}message_summary<{cpp}>)"
+    raise ValueError(t)
+
+
+def summary_type_id(part: SummaryPart, message: Message, ids: dict[Type, str]) -> str:
+    """The table entry of the type of the field a summary part prints."""
+    return ids[next(f.type for f in message.fields if f.name == part.field)]
+
+
 def doc_lines(docs: tuple[str, ...]) -> list[str]:
     return [f"/// {line}".rstrip() for line in docs]
 
@@ -236,7 +275,8 @@ FILTERS = {
     "value_literal": value_literal, "padding_initializer": padding_initializer, "constant_type": constant_type, "constant_literal": constant_literal, "string_literal": string_literal,
     "header_path": header_path, "std_headers": std_headers, "type_headers": type_headers,
     "lighter_header": lighter_header, "mixin_path": mixin_path,
-    "doc_lines": doc_lines, "contract_check": contract_check,
+    "doc_lines": doc_lines, "contract_check": contract_check, "summary_type": summary_type,
+    "summary_type_id": summary_type_id, "schema_spelling": identity.spelling,
     "hex": lambda n: f"0x{n:016x}ULL",
 }
 
@@ -265,7 +305,9 @@ def emit(model: Model, data: DataPaths) -> dict[str, str]:
             banner=package_banner, package=package, headers=sorted(header_path(i.qualified) for i in items))
         messages = [i for i in items if isinstance(i, Message)]
         if messages:
+            summary_types = printed_types(model, messages)
             files[os.path.join("cpp", package_source_path(package))] = env.get_template("source.cpp.j2").render(
-                banner=package_banner, package=package, messages=messages,
-                headers=sorted(header_path(m.qualified) for m in messages))
+                banner=package_banner, package=package, messages=messages, model=model,
+                headers=sorted(header_path(m.qualified) for m in messages), summary_types=summary_types,
+                summary_ids={t: f"kType{i}" for i, t in enumerate(summary_types)})
     return files

@@ -1,0 +1,228 @@
+// The formatter of table-driven log summaries (horus/summary_table.hpp). It prints by the rules of
+// horus/log_summary.hpp, which the golden and cross-language tests hold both to: generated
+// messages' lines must not change with how they are compiled.
+#include "horus/summary_table.hpp"
+
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "horus/log_summary.hpp"
+
+namespace horus::summary {
+namespace {
+
+template <class T>
+T read(const void* address) {
+  T value;
+  std::memcpy(&value, address, sizeof value);
+  return value;
+}
+
+bool is_number(Kind kind) { return kind >= Kind::kI8 && kind <= Kind::kF64; }
+
+void append_stored_number(std::string& out, Kind kind, const void* address) {
+  switch (kind) {
+    case Kind::kI8:
+      out += std::to_string(read<std::int8_t>(address));
+      break;
+    case Kind::kI16:
+      out += std::to_string(read<std::int16_t>(address));
+      break;
+    case Kind::kI32:
+      out += std::to_string(read<std::int32_t>(address));
+      break;
+    case Kind::kI64:
+      out += std::to_string(read<std::int64_t>(address));
+      break;
+    case Kind::kU8:
+      out += std::to_string(read<std::uint8_t>(address));
+      break;
+    case Kind::kU16:
+      out += std::to_string(read<std::uint16_t>(address));
+      break;
+    case Kind::kU32:
+      out += std::to_string(read<std::uint32_t>(address));
+      break;
+    case Kind::kU64:
+      out += std::to_string(read<std::uint64_t>(address));
+      break;
+    case Kind::kF32:
+      append_number(out, static_cast<double>(read<float>(address)));
+      break;
+    default:
+      append_number(out, read<double>(address));
+      break;
+  }
+}
+
+/// The smallest and largest of `count` numbers of type T at `data`, compared as T (as
+/// log_summary.hpp does: the first of a NaN and a number stays).
+template <class T>
+void append_range(std::string& out, const void* data, std::size_t count) {
+  const auto* bytes = static_cast<const unsigned char*>(data);
+  T lo = read<T>(bytes), hi = lo;
+  for (std::size_t i = 0; i < count; ++i) {
+    const T e = read<T>(bytes + i * sizeof(T));
+    if (e < lo) lo = e;
+    if (hi < e) hi = e;
+  }
+  out += ", min ";
+  append_number(out, static_cast<double>(lo));
+  out += ", max ";
+  append_number(out, static_cast<double>(hi));
+}
+
+void append_range(std::string& out, Kind kind, const void* data, std::size_t count) {
+  switch (kind) {
+    case Kind::kI8:
+      append_range<std::int8_t>(out, data, count);
+      break;
+    case Kind::kI16:
+      append_range<std::int16_t>(out, data, count);
+      break;
+    case Kind::kI32:
+      append_range<std::int32_t>(out, data, count);
+      break;
+    case Kind::kI64:
+      append_range<std::int64_t>(out, data, count);
+      break;
+    case Kind::kU8:
+      append_range<std::uint8_t>(out, data, count);
+      break;
+    case Kind::kU16:
+      append_range<std::uint16_t>(out, data, count);
+      break;
+    case Kind::kU32:
+      append_range<std::uint32_t>(out, data, count);
+      break;
+    case Kind::kU64:
+      append_range<std::uint64_t>(out, data, count);
+      break;
+    case Kind::kF32:
+      append_range<float>(out, data, count);
+      break;
+    default:
+      append_range<double>(out, data, count);
+      break;
+  }
+}
+
+void append_value(std::string& out, const Type& type, const void* address,
+                  std::string_view element_label);
+
+/// "[N x label]" forms for long sequences, else the elements; `element(i)` is the i-th's address.
+template <class ElementAt>
+void append_sequence(std::string& out, const Type& element, std::size_t count,
+                     std::string_view element_label, ElementAt element_at) {
+  if (count == 0) {
+    out += "[]";
+    return;
+  }
+  const bool numbers = is_number(element.kind);
+  if (count > (numbers ? kMaxNumbersShown : kMaxElementsShown)) {
+    out += '[';
+    out += std::to_string(count);
+    out += " x ";
+    out += element_label;
+    if (numbers) append_range(out, element.kind, element_at(0), count);
+    out += ']';
+    return;
+  }
+  out += '[';
+  for (std::size_t i = 0; i < count; ++i) {
+    if (i != 0) out += ", ";
+    append_value(out, element, element_at(i), {});
+  }
+  out += ']';
+}
+
+void append_elements(std::string& out, const Type& element, Elements elements,
+                     std::string_view element_label) {
+  if (element.kind == Kind::kU8) {
+    out += '<';
+    out += std::to_string(elements.count);
+    out += " bytes>";
+    return;
+  }
+  const auto* data = static_cast<const unsigned char*>(elements.data);
+  append_sequence(out, element, elements.count, element_label,
+                  [&](std::size_t i) { return data + i * element.size; });
+}
+
+void append_value(std::string& out, const Type& type, const void* address,
+                  std::string_view element_label) {
+  switch (type.kind) {
+    case Kind::kBool:
+      out += read<bool>(address) ? "true" : "false";
+      break;
+    case Kind::kFixedString: {
+      const auto* text = static_cast<const char*>(address);
+      out += '"';
+      out += std::string_view(text, strnlen(text, type.length));
+      out += '"';
+      break;
+    }
+    case Kind::kString:
+      out += '"';
+      out += *static_cast<const std::string*>(address);
+      out += '"';
+      break;
+    case Kind::kEnum: {
+      const std::string_view name = type.enum_name(address);
+      if (name.empty()) {
+        append_stored_number(out, type.element->kind, address);
+      } else {
+        out += name;
+      }
+      break;
+    }
+    case Kind::kMessage:
+      out += type.message_summary(address);
+      break;
+    case Kind::kArray:
+      append_elements(out, *type.element, {address, type.length}, element_label);
+      break;
+    case Kind::kVector:
+      append_elements(out, *type.element, type.elements(address), element_label);
+      break;
+    case Kind::kBoolVector: {
+      const auto& bits = *static_cast<const std::vector<bool>*>(address);
+      const bool values[2] = {false, true};
+      append_sequence(out, *type.element, bits.size(), element_label,
+                      [&](std::size_t i) { return &values[bits[i] ? 1 : 0]; });
+      break;
+    }
+    case Kind::kOptional:
+      if (const void* value = type.optional_value(address)) {
+        append_value(out, *type.element, value, element_label);
+      } else {
+        out += "none";
+      }
+      break;
+    default:
+      append_stored_number(out, type.kind, address);
+      break;
+  }
+}
+
+}  // namespace
+
+std::string format(const Part* parts, std::size_t count, const void* const* fields) {
+  std::string out;
+  std::size_t field = 0;
+  for (const Part* part = parts; part != parts + count; ++part) {
+    if (part->type == nullptr) {
+      out += part->text;
+      continue;
+    }
+    append_value(out, *part->type, fields[field++], part->label);
+    if (!part->unit.empty()) {
+      out += ' ';
+      out += part->unit;
+    }
+  }
+  return out;
+}
+
+}  // namespace horus::summary
