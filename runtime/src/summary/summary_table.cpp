@@ -5,6 +5,7 @@
 
 #include <cstring>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "horus/log_summary.hpp"
@@ -21,91 +22,62 @@ T read(const void* address) {
 
 bool is_number(Kind kind) { return kind >= Kind::kI8 && kind <= Kind::kF64; }
 
+/// Calls `visit(T{})` with the C++ type T of a number kind.
+template <class Visit>
+void with_number_type(Kind kind, Visit visit) {
+  switch (kind) {
+    case Kind::kI8:
+      return visit(std::int8_t{});
+    case Kind::kI16:
+      return visit(std::int16_t{});
+    case Kind::kI32:
+      return visit(std::int32_t{});
+    case Kind::kI64:
+      return visit(std::int64_t{});
+    case Kind::kU8:
+      return visit(std::uint8_t{});
+    case Kind::kU16:
+      return visit(std::uint16_t{});
+    case Kind::kU32:
+      return visit(std::uint32_t{});
+    case Kind::kU64:
+      return visit(std::uint64_t{});
+    case Kind::kF32:
+      return visit(float{});
+    default:
+      return visit(double{});
+  }
+}
+
+/// Integers in decimal, floats as %g of the value as a double.
 void append_stored_number(std::string& out, Kind kind, const void* address) {
-  switch (kind) {
-    case Kind::kI8:
-      out += std::to_string(read<std::int8_t>(address));
-      break;
-    case Kind::kI16:
-      out += std::to_string(read<std::int16_t>(address));
-      break;
-    case Kind::kI32:
-      out += std::to_string(read<std::int32_t>(address));
-      break;
-    case Kind::kI64:
-      out += std::to_string(read<std::int64_t>(address));
-      break;
-    case Kind::kU8:
-      out += std::to_string(read<std::uint8_t>(address));
-      break;
-    case Kind::kU16:
-      out += std::to_string(read<std::uint16_t>(address));
-      break;
-    case Kind::kU32:
-      out += std::to_string(read<std::uint32_t>(address));
-      break;
-    case Kind::kU64:
-      out += std::to_string(read<std::uint64_t>(address));
-      break;
-    case Kind::kF32:
-      append_number(out, static_cast<double>(read<float>(address)));
-      break;
-    default:
-      append_number(out, read<double>(address));
-      break;
-  }
+  with_number_type(kind, [&](auto zero) {
+    const auto value = read<decltype(zero)>(address);
+    if constexpr (std::is_floating_point_v<decltype(zero)>) {
+      append_number(out, static_cast<double>(value));
+    } else {
+      out += std::to_string(value);
+    }
+  });
 }
 
-/// The smallest and largest of `count` numbers of type T at `data`, compared as T (as
-/// log_summary.hpp does: the first of a NaN and a number stays).
-template <class T>
-void append_range(std::string& out, const void* data, std::size_t count) {
-  const auto* bytes = static_cast<const unsigned char*>(data);
-  T lo = read<T>(bytes), hi = lo;
-  for (std::size_t i = 0; i < count; ++i) {
-    const T e = read<T>(bytes + i * sizeof(T));
-    if (e < lo) lo = e;
-    if (hi < e) hi = e;
-  }
-  out += ", min ";
-  append_number(out, static_cast<double>(lo));
-  out += ", max ";
-  append_number(out, static_cast<double>(hi));
-}
-
+/// ", min a, max b" of `count` numbers at `data`, compared in their own type as log_summary.hpp
+/// does (the first of a NaN and a number stays), printed as doubles.
 void append_range(std::string& out, Kind kind, const void* data, std::size_t count) {
-  switch (kind) {
-    case Kind::kI8:
-      append_range<std::int8_t>(out, data, count);
-      break;
-    case Kind::kI16:
-      append_range<std::int16_t>(out, data, count);
-      break;
-    case Kind::kI32:
-      append_range<std::int32_t>(out, data, count);
-      break;
-    case Kind::kI64:
-      append_range<std::int64_t>(out, data, count);
-      break;
-    case Kind::kU8:
-      append_range<std::uint8_t>(out, data, count);
-      break;
-    case Kind::kU16:
-      append_range<std::uint16_t>(out, data, count);
-      break;
-    case Kind::kU32:
-      append_range<std::uint32_t>(out, data, count);
-      break;
-    case Kind::kU64:
-      append_range<std::uint64_t>(out, data, count);
-      break;
-    case Kind::kF32:
-      append_range<float>(out, data, count);
-      break;
-    default:
-      append_range<double>(out, data, count);
-      break;
-  }
+  with_number_type(kind, [&](auto zero) {
+    using T = decltype(zero);
+    const auto* bytes = static_cast<const unsigned char*>(data);
+    T lo = read<T>(bytes), hi = lo;
+    for (std::size_t i = 0; i < count; ++i) {
+      const T e = read<T>(bytes + i * sizeof(T));
+      if (e < lo) lo = e;
+      if (hi < e) hi = e;
+    }
+    out += ", min ";
+    append_number(out, static_cast<double>(lo));
+    out += ", max ";
+    append_number(out, static_cast<double>(hi));
+  });
 }
 
 void append_value(std::string& out, const Type& type, const void* address,
