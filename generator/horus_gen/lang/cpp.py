@@ -255,10 +255,22 @@ def summary_type(t: Type, package: str, ids: dict[Type, str], model: Model) -> s
     if isinstance(t, Optional):
         return f"{ns}optional_type({size}, {ids[t.element]}, &{ns}optional_value<{cpp}>)"
     if isinstance(t, EnumRef):
-        return f"{ns}enum_type({size}, {ids[model.types[t.qualified].underlying]}, &{ns}enum_name<{cpp}>)"
+        enum = model.types[t.qualified]
+        names = f"{ids[t]}Names" if enum.variants else "nullptr"
+        return f"{ns}enum_type({size}, {ids[enum.underlying]}, {names}, {len(enum.variants)})"
     if isinstance(t, MessageRef):
         return f"{ns}message_type({size}, &{ns}message_summary<{cpp}>)"
     raise ValueError(t)
+
+
+def summary_enumerators(t: Type, package: str, model: Model) -> str | None:
+    """The initializer of the horus::summary::Enumerator array of an enum with variants, else None:
+    what the formatter prints for a value of `t`, without compiling code per enum."""
+    if not isinstance(t, EnumRef) or not model.types[t.qualified].variants:
+        return None
+    cpp = type_name(t, package)
+    return "{" + ", ".join(f"{{static_cast<std::uint64_t>({cpp}::{v.name}), \"{v.name}\"}}"
+                           for v in model.types[t.qualified].variants) + "}"
 
 
 def summary_type_id(part: SummaryPart, message: Message, ids: dict[Type, str]) -> str:
@@ -276,7 +288,7 @@ FILTERS = {
     "header_path": header_path, "std_headers": std_headers, "type_headers": type_headers,
     "lighter_header": lighter_header, "mixin_path": mixin_path,
     "doc_lines": doc_lines, "contract_check": contract_check, "summary_type": summary_type,
-    "summary_type_id": summary_type_id, "schema_spelling": identity.spelling,
+    "summary_type_id": summary_type_id, "summary_enumerators": summary_enumerators, "schema_spelling": identity.spelling,
     "hex": lambda n: f"0x{n:016x}ULL",
 }
 

@@ -12,8 +12,6 @@
 #include <string>
 #include <string_view>
 
-#include "horus/type_info.hpp"
-
 namespace horus::summary {
 
 /// What a value is, as the formatter reads it from its address.
@@ -31,7 +29,7 @@ enum class Kind : std::uint8_t {
   kF64,
   kFixedString,  // horus::FixedString<length>
   kString,       // std::string
-  kEnum,         // element: the underlying integer type; enum_name: the enumerator's name
+  kEnum,         // element: the underlying integer type; enumerators: its names
   kMessage,      // message_summary: its log_summary()
   kArray,        // std::array<element, length>
   kVector,       // std::vector<element> (bytes too); elements: its data and size
@@ -44,14 +42,20 @@ struct Elements {
   std::size_t count;
 };
 
+/// A named value of an enum: the value as its underlying integer converted to 64 bits.
+struct Enumerator {
+  std::uint64_t value;
+  std::string_view name;
+};
+
 /// One type a field (or an element of one) holds. `size` is sizeof the C++ type: the stride of a
 /// sequence of it. Written with the functions below, which set what each kind reads.
 struct Type {
   Kind kind;
   std::size_t size;
-  std::size_t length;  // kArray: elements; kFixedString: capacity
+  std::size_t length;  // kArray: elements; kFixedString: capacity; kEnum: enumerators
   const Type* element;
-  std::string_view (*enum_name)(const void* value);
+  const Enumerator* enumerators;
   std::string (*message_summary)(const void* message);
   Elements (*elements)(const void* vector);
   const void* (*optional_value)(const void* optional);
@@ -95,9 +99,9 @@ constexpr Type optional_type(std::size_t size, const Type& element,
                              const void* (*optional_value)(const void*)) noexcept {
   return {Kind::kOptional, size, 0, &element, nullptr, nullptr, nullptr, optional_value};
 }
-constexpr Type enum_type(std::size_t size, const Type& underlying,
-                         std::string_view (*enum_name)(const void*)) noexcept {
-  return {Kind::kEnum, size, 0, &underlying, enum_name, nullptr, nullptr, nullptr};
+constexpr Type enum_type(std::size_t size, const Type& underlying, const Enumerator* enumerators,
+                         std::size_t count) noexcept {
+  return {Kind::kEnum, size, count, &underlying, enumerators, nullptr, nullptr, nullptr};
 }
 constexpr Type message_type(std::size_t size,
                             std::string (*message_summary)(const void*)) noexcept {
@@ -129,11 +133,6 @@ const void* optional_value(const void* optional) {
 template <class Msg>
 std::string message_summary(const void* message) {
   return static_cast<const Msg*>(message)->log_summary();
-}
-
-template <class Enum>
-std::string_view enum_name(const void* value) {
-  return TypeInfo<Enum>::to_string(*static_cast<const Enum*>(value));
 }
 
 }  // namespace horus::summary

@@ -49,6 +49,14 @@ void with_number_type(Kind kind, Visit visit) {
   }
 }
 
+/// An integer of a number kind, converted to 64 bits as Enumerator::value is.
+std::uint64_t stored_integer(Kind kind, const void* address) {
+  std::uint64_t bits = 0;
+  with_number_type(
+      kind, [&](auto zero) { bits = static_cast<std::uint64_t>(read<decltype(zero)>(address)); });
+  return bits;
+}
+
 /// Integers in decimal, floats as %g of the value as a double.
 void append_stored_number(std::string& out, Kind kind, const void* address) {
   with_number_type(kind, [&](auto zero) {
@@ -141,12 +149,14 @@ void append_value(std::string& out, const Type& type, const void* address,
       out += '"';
       break;
     case Kind::kEnum: {
-      const std::string_view name = type.enum_name(address);
-      if (name.empty()) {
-        append_stored_number(out, type.element->kind, address);
-      } else {
-        out += name;
+      const std::uint64_t value = stored_integer(type.element->kind, address);
+      for (const Enumerator* e = type.enumerators; e != type.enumerators + type.length; ++e) {
+        if (e->value == value) {
+          out += e->name;
+          return;
+        }
       }
+      append_stored_number(out, type.element->kind, address);
       break;
     }
     case Kind::kMessage:
