@@ -52,8 +52,15 @@ void with_number_type(Kind kind, Visit visit) {
 /// An integer of a number kind, converted to 64 bits as Enumerator::value is.
 std::uint64_t stored_integer(Kind kind, const void* address) {
   std::uint64_t bits = 0;
-  with_number_type(
-      kind, [&](auto zero) { bits = static_cast<std::uint64_t>(read<decltype(zero)>(address)); });
+  with_number_type(kind, [&](auto zero) {
+    const auto value = read<decltype(zero)>(address);
+    if constexpr (std::is_signed_v<decltype(zero)>) {
+      // Sign-extended, as the generated table converts a negative enumerator.
+      bits = static_cast<std::uint64_t>(static_cast<std::int64_t>(value));
+    } else {
+      bits = static_cast<std::uint64_t>(value);
+    }
+  });
   return bits;
 }
 
