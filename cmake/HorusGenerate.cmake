@@ -1,8 +1,8 @@
-# horus_generate(): turn .hmsg/.hsrv schema files into a library target of generated code.
+# horus_generate(): turn .hmsg/.hsrv/.hnode schema files into a library target of generated code.
 #
 #   horus_generate(TARGET my_msgs
 #                  [PACKAGE my_robot.msg]          # package of files that declare none
-#                  FILES motor.hmsg pose.hmsg ...
+#                  FILES motor.hmsg pose.hmsg ...   # also .hsrv services and .hnode nodes
 #                  [INCLUDE_DIRS dir...]           # extra import roots (-I)
 #                  [LANGUAGES cpp python]          # default: cpp
 #                  [DEPENDS other_msgs...]         # targets made by horus_generate()
@@ -16,6 +16,8 @@
 # (log_summary(), the layout checks), so a program that uses the types links the target. Helpers
 # too big to be inline: declare them in the #[cpp_mixin] fragment and add the .cpp that defines
 # them with target_sources(my_msgs PRIVATE ...). Python only: an INTERFACE library.
+# With .hnode files among FILES, the node base classes derive from horus::Node and hold topics:
+# the library then links horus::runtime too (and its Python classes need the `horus` package).
 # With `python` in LANGUAGES the Python package folder (put it on sys.path) is the target property
 # HORUS_PYTHON_DIR and the variable <TARGET>_PYTHON_DIR; with `cpp`, the generated C++ folder is
 # the target property HORUS_CPP_DIR. HORUS_SCHEMA_DIRS holds the folders that horus-gen searches
@@ -138,6 +140,7 @@ function(horus_generate)
   # precedence; see HORUS_SCHEMA_DIRS above).
   set(files "")
   set(own_dirs "")
+  set(has_nodes FALSE)
   string(REPLACE "." "/" package_path "${ARG_PACKAGE}")
   foreach(file IN LISTS ARG_FILES)
     get_filename_component(path "${file}" ABSOLUTE BASE_DIR "${CMAKE_CURRENT_SOURCE_DIR}")
@@ -149,6 +152,9 @@ function(horus_generate)
       message(FATAL_ERROR "${where}: schema file '${file}' not found (looked for ${path})${hint}")
     endif()
     list(APPEND files "${path}")
+    if(path MATCHES "\\.hnode$")
+      set(has_nodes TRUE)
+    endif()
     get_filename_component(dir "${path}" DIRECTORY)
     list(APPEND own_dirs "${dir}")
     if(package_path AND dir MATCHES "^(.+)/${package_path}$")
@@ -242,6 +248,9 @@ function(horus_generate)
       target_compile_options(${ARG_TARGET} PRIVATE ${HORUS_WARNINGS})
     endif()
     target_link_libraries(${ARG_TARGET} PUBLIC horus::headers ${ARG_DEPENDS})
+    if(has_nodes)
+      target_link_libraries(${ARG_TARGET} PUBLIC horus::runtime)
+    endif()
     target_include_directories(${ARG_TARGET} PUBLIC
       "$<BUILD_INTERFACE:${out}/cpp>"
       "$<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>")

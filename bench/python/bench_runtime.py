@@ -4,7 +4,9 @@
 One-way latency of a CmdVel (typed, and as a dict) Python<->Python and Python<->C++, as half the
 round trip of a ping-pong between two processes pinned to CPUs 0 and 1, each busy-polling with
 try_recv(); against the floor: two Python processes ping-ponging a sequence number and 16 bytes
-through a raw mmap with struct. And the scheduler's overhead per Python tick: an empty callback
+through a raw mmap with struct. "typed" takes horus.Topic's C path for scalar POD messages,
+"general" the same CmdVel through the path every other type takes (to_bytes / from_bytes and the
+pybind11 calls). And the scheduler's overhead per Python tick: an empty callback
 at 1 kHz (the node's measured tick duration, GIL and call included) against calling the same
 function in a plain Python loop.
 
@@ -13,6 +15,7 @@ function in a plain Python loop.
 from __future__ import annotations
 
 import argparse
+import functools
 import mmap
 import os
 import statistics
@@ -73,41 +76,75 @@ def floor_pong(path: str, rounds: int) -> None:
 
 # -- horus topics ----------------------------------------------------------------------------
 
-def topics(kind: str, first: str, second: str):
+def endpoints(kind: str, outgoing: str, incoming: str):
+    """(send, try_recv) of two topics: send on `outgoing`, receive from `incoming`."""
     import horus
     from horus.msg import CmdVel
-    msg_type = CmdVel if kind == "typed" else dict
-    return horus.Topic(msg_type, first), horus.Topic(msg_type, second)
+    msg_type = dict if kind == "dict" else CmdVel
+    out, into = horus.Topic(msg_type, outgoing), horus.Topic(msg_type, incoming)
+    if kind == "general":  # the class's methods, not the C path's instance attributes
+        return functools.partial(horus.Topic.send, out), functools.partial(horus.Topic.try_recv, into)
+    return out.send, into.try_recv
 
 
 def make_message(kind: str, i: int):
-    if kind == "typed":
-        from horus.msg import CmdVel
-        return CmdVel(stamp_nanos=i, linear=0.5, angular=0.1)
-    return {"stamp_nanos": i, "linear": 0.5, "angular": 0.1}
+    if kind == "dict":
+        return {"stamp_nanos": i, "linear": 0.5, "angular": 0.1}
+    from horus.msg import CmdVel
+    return CmdVel(stamp_nanos=i, linear=0.5, angular=0.1)
 
 
 def topic_ping(kind: str, rounds: int) -> list[int]:
-    ping, pong = topics(kind, "ping", "pong")
+    send, try_recv = endpoints(kind, "ping", "pong")
     clock = time.perf_counter_ns
     messages = [make_message(kind, i) for i in range(rounds)]
     samples = []
     for msg in messages:
         start = clock()
-        ping.send(msg)
-        while pong.try_recv() is None:
+        send(msg)
+        while try_recv() is None:
             pass
         samples.append(clock() - start)
     return samples
 
 
 def topic_pong(kind: str, rounds: int) -> None:
-    ping, pong = topics(kind, "ping", "pong")
+    send, try_recv = endpoints(kind, "pong", "ping")
     print("ready", flush=True)
     for _ in range(rounds):
-        while (msg := ping.try_recv()) is None:
+        while (msg := try_recv()) is None:
             pass
-        pong.send(msg)
+        send(msg)
+
+
+# -- the cost of one call ---------------------------------------------------------------------
+
+def call_costs() -> list[tuple[str, float]]:
+    """Best-of-7 `timeit` of the calls a hop is made of, in one process (ns per call)."""
+    import timeit
+
+    import horus
+    from horus.msg import CmdVel
+    os.environ["HORUS_NAMESPACE"] = f"bench_{uuid.uuid4().hex[:8]}"
+    out, into = horus.Topic(CmdVel, "calls"), horus.Topic(CmdVel, "calls")
+    shm = mmap.mmap(-1, 128)
+    names = {"out": out, "into": into, "msg": CmdVel(linear=0.5), "Topic": horus.Topic,
+             "shm": shm, "pack": FLOOR.pack_into, "unpack": FLOOR.unpack_from}
+    calls = [
+        ("floor: pack_into (one send)", "pack(shm, 64, 1, 2, b'cmd_vel!')"),
+        ("floor: unpack_from (one poll)", "unpack(shm, 0)[0] != 5"),
+        ("typed: try_recv(), nothing there", "into.try_recv()"),
+        ("typed: send(msg) + try_recv()", "out.send(msg); into.try_recv()"),
+        ("general path: try_recv(), nothing there", "Topic.try_recv(into)"),
+        ("general path: send(msg) + try_recv()", "Topic.send(out, msg); Topic.try_recv(into)"),
+    ]
+    number = 100000
+    costs = [(label, min(timeit.repeat(stmt, globals=names, number=number, repeat=7)) / number
+              * 1e9) for label, stmt in calls]
+    import shutil
+    shutil.rmtree(horus._core.namespace_directory(os.environ["HORUS_NAMESPACE"]),
+                  ignore_errors=True)
+    return costs
 
 
 # -- scheduler overhead ----------------------------------------------------------------------
@@ -217,12 +254,13 @@ def main() -> None:
         proc = subprocess.Popen([*me, "floor-pong", f.name, str(rounds)])
         results["floor (raw mmap + struct)"] = summary(floor_ping(f.name, rounds))
         proc.wait(timeout=60)
-    for kind in ("typed", "dict"):
+    for kind in ("typed", "general", "dict"):
         results[f"Python <-> Python, {kind}"] = run_pair(
             "py", kind, rounds, [*me, "pong", kind, str(rounds)])
         if args.echo:
+            echo_kind = "dict" if kind == "dict" else "typed"
             results[f"Python <-> C++, {kind}"] = run_pair(
-                "cpp", kind, rounds, [args.echo, kind, str(rounds)])
+                "cpp", kind, rounds, [args.echo, echo_kind, str(rounds)])
     floor = results["floor (raw mmap + struct)"]["p50"]
     print(f"One-way latency, {rounds} round trips after {WARMUP} warm-up (µs):\n")
     print("| pair | p50 | p99 | mean | p50 / floor |")
@@ -230,6 +268,11 @@ def main() -> None:
     for name, r in results.items():
         print(f"| {name} | {r['p50']:.2f} | {r['p99']:.2f} | {r['mean']:.2f} | "
               f"{r['p50'] / floor:.2f}× |")
+    print("\nCost of one call, `timeit` in one process (ns):\n")
+    print("| call | ns |")
+    print("|---|---:|")
+    for name, value in call_costs():
+        print(f"| {name} | {value:.0f} |")
     overhead = scheduler_overhead(1.0 if args.quick else 5.0)
     print("\nPer-tick cost of an empty Python callback (ns):\n")
     print("| measure | ns | above the plain call (hot loop) |")

@@ -1,12 +1,8 @@
 // The warehouse AGV: seven nodes, standard messages, one scheduler. See README.md.
+// Each node is declared in nodes/<name>.hnode (its topics, data and scheduling settings);
+// horus-gen makes the base classes (warehouse_agv::LidarBase, ...), this file writes their ticks.
 #include <horus/horus.hpp>
-#include <horus/msg/battery_state.hpp>
-#include <horus/msg/cmd_vel.hpp>
-#include <horus/msg/differential_drive_command.hpp>
-#include <horus/msg/emergency_stop.hpp>
-#include <horus/msg/heartbeat.hpp>
-#include <horus/msg/laser_scan.hpp>
-#include <horus/msg/path_plan.hpp>
+#include <warehouse_agv.hpp>
 
 #include <algorithm>
 #include <atomic>
@@ -46,12 +42,10 @@ std::uint64_t stamp() { return static_cast<std::uint64_t>(horus::now().count());
 // lines go to stderr and to the namespace's log ring (read_log(), `horus log`).
 void say(const std::string& line) { HORUS_LOG_INFO("%s", line.c_str()); }
 
-// Order 10, 40 Hz: a 360-beam scan of the corridor (walls 1 m to each side, the nearest obstacle
-// ahead).
-class Lidar : public horus::Node {
+// nodes/lidar.hnode: 40 Hz, publishes "scan".
+class Lidar : public warehouse_agv::LidarBase {
  public:
-  explicit Lidar(const World& world) : world_(world), scan_("scan") {}
-  std::string_view name() const override { return "lidar"; }
+  explicit Lidar(const World& world) : world_(world) {}
   void tick() override {
     msg::LaserScan scan{};
     const double ahead = world_.obstacle_ahead();
@@ -69,16 +63,11 @@ class Lidar : public horus::Node {
 
  private:
   const World& world_;
-  horus::Topic<msg::LaserScan> scan_;
-  std::uint64_t count_ = 0;
 };
 
-// Order 0, every cycle: an obstacle closer than 30 cm fires the emergency stop before the motors
-// tick.
-class Safety : public horus::Node {
+// nodes/safety.hnode: order 0, every cycle, before the motors tick.
+class Safety : public warehouse_agv::SafetyBase {
  public:
-  Safety() : scan_("scan"), estop_("emergency.stop") {}
-  std::string_view name() const override { return "safety"; }
   void tick() override {
     const auto scan = scan_.try_recv();
     if (!scan || engaged_) return;
@@ -94,18 +83,12 @@ class Safety : public horus::Node {
       say("EMERGENCY STOP " + stop.log_summary());
     }
   }
-
- private:
-  horus::Topic<msg::LaserScan> scan_;
-  horus::Topic<msg::EmergencyStop> estop_;
-  bool engaged_ = false;
 };
 
-// Order 50, 10 Hz on the compute pool: a straight-line plan that stops 0.5 m before the pallet.
-class Planner : public horus::Node {
+// nodes/planner.hnode: 10 Hz on the compute pool.
+class Planner : public warehouse_agv::PlannerBase {
  public:
-  explicit Planner(const World& world) : world_(world), scan_("scan"), path_("path") {}
-  std::string_view name() const override { return "planner"; }
+  explicit Planner(const World& world) : world_(world) {}
   void tick() override {
     if (!scan_.try_recv()) return;
     msg::PathPlan plan{};
@@ -125,16 +108,12 @@ class Planner : public horus::Node {
 
  private:
   const World& world_;
-  horus::Topic<msg::LaserScan> scan_;
-  horus::Topic<msg::PathPlan> path_;
-  std::uint64_t count_ = 0;
 };
 
-// Order 60, 100 Hz: pure pursuit along the plan, slowing down near the goal.
-class Tracker : public horus::Node {
+// nodes/tracker.hnode: 100 Hz.
+class Tracker : public warehouse_agv::TrackerBase {
  public:
-  explicit Tracker(const World& world) : world_(world), path_("path"), cmd_("cmd_vel") {}
-  std::string_view name() const override { return "tracker"; }
+  explicit Tracker(const World& world) : world_(world) {}
   void tick() override {
     if (auto plan = path_.try_recv()) goal_ = plan->goal_pose[0];
     const double remaining = goal_ - world_.robot_x.load();
@@ -146,19 +125,12 @@ class Tracker : public horus::Node {
 
  private:
   const World& world_;
-  horus::Topic<msg::PathPlan> path_;
-  horus::Topic<msg::CmdVel> cmd_;
-  float goal_ = 0.0f;
-  std::uint64_t count_ = 0;
 };
 
-// Order 70, 1 kHz, 300 us budget, 900 us deadline: wheel speeds from cmd_vel. A missed deadline
-// (Miss::SafeMode) stops the wheels until the next command; the emergency stop halts them for good.
-class Motor : public horus::Node {
+// nodes/motor.hnode: 1 kHz, 300 us budget, 900 us deadline, Miss::SafeMode.
+class Motor : public warehouse_agv::MotorBase {
  public:
-  explicit Motor(World& world)
-      : world_(world), cmd_("cmd_vel"), estop_("emergency.stop"), wheels_("motor.cmd") {}
-  std::string_view name() const override { return "motor"; }
+  explicit Motor(World& world) : world_(world) {}
   void tick() override {
     if (auto stop = estop_.try_recv(); stop && stop->engaged && !estopped_) {
       estopped_ = true;
@@ -193,20 +165,11 @@ class Motor : public horus::Node {
   static std::string metres(double x) { return std::to_string(x).substr(0, 4) + " m"; }
 
   World& world_;
-  horus::Topic<msg::CmdVel> cmd_;
-  horus::Topic<msg::EmergencyStop> estop_;
-  horus::Topic<msg::DifferentialDriveCommand> wheels_;
-  float target_ = 0.0f;
-  bool estopped_ = false;
-  std::uint64_t safe_entries_ = 0;
-  std::uint64_t count_ = 0;
 };
 
-// Order 100, 2 Hz: a 24 V pack slowly discharging.
-class Battery : public horus::Node {
+// nodes/battery.hnode: 2 Hz.
+class Battery : public warehouse_agv::BatteryBase {
  public:
-  Battery() : battery_("battery") {}
-  std::string_view name() const override { return "battery"; }
   void tick() override {
     msg::BatteryState state{};
     percentage_ -= 0.4f;
@@ -220,17 +183,11 @@ class Battery : public horus::Node {
     battery_.send(state);
     if (state.is_low(20.0f)) say("low battery");
   }
-
- private:
-  horus::Topic<msg::BatteryState> battery_;
-  float percentage_ = 81.0f;
 };
 
-// Order 200, 1 Hz, off the tick loop (blocking I/O in real life); tolerates failures (Skip).
-class Fleet : public horus::Node {
+// nodes/fleet.hnode: 1 Hz on a thread of its own (async_io), FailurePolicy::Skip.
+class Fleet : public warehouse_agv::FleetBase {
  public:
-  Fleet() : battery_("battery"), wheels_("motor.cmd"), telemetry_("fleet.telemetry") {}
-  std::string_view name() const override { return "fleet"; }
   void tick() override {
     const auto battery = battery_.read_latest();
     const auto wheels = wheels_.read_latest();
@@ -249,12 +206,6 @@ class Fleet : public horus::Node {
                   wheels && !wheels->enable ? " (disabled)" : "");
     say(line);
   }
-
- private:
-  horus::Topic<msg::BatteryState> battery_;
-  horus::Topic<msg::DifferentialDriveCommand> wheels_;
-  horus::Topic<msg::Heartbeat> telemetry_;
-  std::uint64_t sequence_ = 0;
 };
 
 }  // namespace
@@ -274,24 +225,14 @@ int main(int argc, char** argv) {
                              .blackbox_mb(1)
                              .keep_topics(true)  // `horus topic` may still read them afterwards
                              .max_deadline_misses(1000)};
-  sched.add(std::make_unique<Safety>()).order(0).rate(1000_hz).build();
-  sched.add(std::make_unique<Lidar>(world)).order(10).rate(40_hz).build();
-  sched.add(std::make_unique<Planner>(world)).order(50).rate(10_hz).compute().build();
-  sched.add(std::make_unique<Tracker>(world)).order(60).rate(100_hz).build();
-  sched.add(std::make_unique<Motor>(world))
-      .order(70)
-      .rate(1000_hz)
-      .budget(300_us)
-      .deadline(900_us)
-      .on_miss(horus::Miss::SafeMode)
-      .build();
-  sched.add(std::make_unique<Battery>()).order(100).rate(2_hz).build();
-  sched.add(std::make_unique<Fleet>())
-      .order(200)
-      .rate(1_hz)
-      .async_io()
-      .failure_policy(horus::FailurePolicy::Skip{})
-      .build();
+  // Each node with the order, rate, budget, ... its .hnode file declares.
+  warehouse_agv::SafetyBase::add_to(sched, std::make_unique<Safety>()).build();
+  warehouse_agv::LidarBase::add_to(sched, std::make_unique<Lidar>(world)).build();
+  warehouse_agv::PlannerBase::add_to(sched, std::make_unique<Planner>(world)).build();
+  warehouse_agv::TrackerBase::add_to(sched, std::make_unique<Tracker>(world)).build();
+  warehouse_agv::MotorBase::add_to(sched, std::make_unique<Motor>(world)).build();
+  warehouse_agv::BatteryBase::add_to(sched, std::make_unique<Battery>()).build();
+  warehouse_agv::FleetBase::add_to(sched, std::make_unique<Fleet>()).build();
   sched.add_critical_node("motor", 200_ms);
 
   std::printf(

@@ -10,12 +10,13 @@ import json
 import os
 import sys
 
+from . import graph
 from .data import DataPaths
 from .diagnostics import Reporter
 from .lang import LANGUAGES, emitter
 from .lang.common import template_files
 from .loader import Options
-from .model import Enum, Message, Model, Service
+from .model import Enum, Message, Model, Node, Service
 from .output import write_depfile, write_outputs, touch
 from .parser import FILE_KINDS
 from .resolve import Resolver
@@ -26,7 +27,7 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", required=True)
 
     def common(sub: argparse.ArgumentParser) -> None:
-        sub.add_argument("files", nargs="+", metavar="FILE", help=".hmsg or .hsrv schema files")
+        sub.add_argument("files", nargs="+", metavar="FILE", help=".hmsg, .hsrv or .hnode schema files")
         sub.add_argument("-I", dest="include_dirs", action="append", default=[], metavar="DIR",
                          help="folder to resolve imports and qualified names in (repeatable)")
         sub.add_argument("--package", help="package of files that declare none (default: their folder's name)")
@@ -40,10 +41,13 @@ def build_parser() -> argparse.ArgumentParser:
     outputs(generate)
     generate.add_argument("--depfile", help="write a Makefile-style list of every file read")
     generate.add_argument("--stamp", help="file to touch on success (the depfile's target)")
-    common(commands.add_parser("check", help="parse and resolve only: report errors, write nothing"))
+    common(commands.add_parser("check", help="parse and resolve only: report errors, write nothing; "
+                                "with .hnode files, also warn about topics nobody publishes or reads"))
     describe = commands.add_parser("describe", help="tier, size, alignment, fingerprint, offsets, padding")
     common(describe)
     describe.add_argument("--json", action="store_true", help="machine-readable output")
+    describe.add_argument("--graph", action="store_true",
+                          help="the graph of the .hnode files' nodes, topics and services (Graphviz dot, or JSON)")
     listing = commands.add_parser("list-outputs", help="print the files generate would write")
     common(listing)
     outputs(listing)
@@ -69,10 +73,8 @@ def main(data: DataPaths, argv: list[str] | None = None) -> int:
 
 def check_usage(args: argparse.Namespace) -> str | None:
     for path in args.files:
-        if os.path.splitext(path)[1] == ".hnode":
-            return f"{path}: node files (.hnode) are not supported by this version of horus-gen"
         if os.path.splitext(path)[1] not in FILE_KINDS:
-            return f"{path}: not a schema file (expected .hmsg or .hsrv)"
+            return f"{path}: not a schema file (expected .hmsg, .hsrv or .hnode)"
         if not os.path.isfile(path):
             return f"{path}: no such file"
     for folder in args.include_dirs:
@@ -90,13 +92,18 @@ def check_usage(args: argparse.Namespace) -> str | None:
 def run(args: argparse.Namespace, data: DataPaths) -> int:
     reporter = Reporter()
     model = Resolver(reporter, Options(args.include_dirs, args.package)).run(args.files)
-    if reporter.has_errors:
+    graph.check(model, reporter, warn=args.command == "check")
+    if reporter.has_errors or reporter.warnings:
         sys.stderr.write(reporter.render())
+    if reporter.has_errors:
         return 1
     if args.command == "check":
         return 0
     if args.command == "describe":
-        print(describe_json(model) if args.json else describe_text(model), end="")
+        if args.graph:
+            print(graph.graph_json(model) if args.json else graph.graph_dot(model), end="")
+        else:
+            print(describe_json(model) if args.json else describe_text(model), end="")
         return 0
     languages = args.lang.split(",")
     files: dict[str, str] = {}
@@ -129,7 +136,9 @@ def generator_sources(data: DataPaths) -> list[str]:
 def describe_text(model: Model) -> str:
     out: list[str] = []
     for item in model.generated_items():
-        if isinstance(item, Service):
+        if isinstance(item, Node):
+            out.append(describe_node(item))
+        elif isinstance(item, Service):
             out.append(f"{item.qualified}  service  request {item.request.qualified}  "
                        f"response {item.response.qualified}  fingerprint 0x{item.fingerprint:016x}\n")
         elif isinstance(item, Enum):
@@ -149,9 +158,31 @@ def describe_text(model: Model) -> str:
     return "".join(out)
 
 
+def describe_node(node: Node) -> str:
+    settings = graph.node_json(node)["settings"]
+    lines = [f"{node.qualified}  node '{node.node_name}'  class {node.base}"
+             + "".join(f"  {k} {_setting_text(v)}" for k, v in settings.items()) + "\n"]
+    lines += [f"    sub {t.member}: {t.message} -> \"{t.topic}\"\n" for t in node.subs]
+    lines += [f"    pub {t.member}: {t.message} -> \"{t.topic}\"\n" for t in node.pubs]
+    lines += [f"    client {s.member}: {s.service}\n" for s in node.clients]
+    lines += [f"    server {s.member}: {s.service}\n" for s in node.servers]
+    lines += [f"    data {f.name}: {f.spelling}\n" for f in node.data]
+    return "".join(lines)
+
+
+def _setting_text(value) -> str:
+    if isinstance(value, dict):
+        return value["kind"] + ("{" + ", ".join(f"{k}: {v}" for k, v in value.items() if k != "kind") + "}"
+                                if len(value) > 1 else "")
+    return str(value).lower() if isinstance(value, bool) else str(value)
+
+
 def describe_json(model: Model) -> str:
     items = []
     for item in model.generated_items():
+        if isinstance(item, Node):
+            items.append({"kind": "node", "package": item.package, **graph.node_json(item)})
+            continue
         entry: dict = {"name": item.qualified, "package": item.package, "fingerprint": f"0x{item.fingerprint:016x}"}
         if isinstance(item, Service):
             entry.update(kind="service", request=item.request.qualified, response=item.response.qualified,

@@ -52,9 +52,10 @@ class Diagnostic:
     message: str
     hint: str | None = None
     notes: tuple[Note, ...] = ()
+    severity: str = "error"  # or "warning": reported, but the run still succeeds
 
     def render(self) -> str:
-        parts = [_render_located(self.span, "error", self.message)]
+        parts = [_render_located(self.span, self.severity, self.message)]
         if self.hint:
             parts.append(f"      = hint: {self.hint}")
         for note in self.notes:
@@ -74,6 +75,7 @@ class Reporter:
     """Collects every error of a run; nothing is printed until the run is over."""
 
     diagnostics: list[Diagnostic] = field(default_factory=list)
+    warnings: list[Diagnostic] = field(default_factory=list)
     seen: set[tuple] = field(default_factory=set)  # the same error reached twice is reported once
 
     def error(self, span: Span, message: str, hint: str | None = None,
@@ -83,18 +85,26 @@ class Reporter:
             self.seen.add(key)
             self.diagnostics.append(Diagnostic(span, message, hint, notes))
 
+    def warning(self, span: Span, message: str, hint: str | None = None) -> None:
+        self.warnings.append(Diagnostic(span, message, hint, severity="warning"))
+
     @property
     def has_errors(self) -> bool:
         return bool(self.diagnostics)
 
     def render(self) -> str:
-        ordered = sorted(self.diagnostics, key=lambda d: (d.span.source.path, d.span.line, d.span.col))
-        count = len(self.diagnostics)
+        """Errors and warnings by position; the last line counts each kind."""
+        everything = self.diagnostics + self.warnings
+        ordered = sorted(everything, key=lambda d: (d.span.source.path, d.span.line, d.span.col))
         shown = ordered[:MAX_SHOWN_ERRORS]
         body = "\n".join(d.render() for d in shown)
-        if count > len(shown):
-            body += f"\n({count - len(shown)} more errors not shown)"
-        return f"{body}\n{count} error{'s' if count != 1 else ''} generated.\n"
+        if len(everything) > len(shown):
+            body += f"\n({len(everything) - len(shown)} more errors not shown)"
+        counts = [f"{n} {kind}{'s' if n != 1 else ''}" for n, kind in
+                  ((len(self.diagnostics), "error"), (len(self.warnings), "warning")) if n or kind == "error"]
+        if not self.diagnostics:
+            counts = counts[1:]
+        return f"{body}\n{' and '.join(counts)} generated.\n"
 
 
 def near_miss(word: str, candidates: list[str] | set[str]) -> str | None:

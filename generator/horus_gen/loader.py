@@ -48,9 +48,11 @@ class Loader:
         if real in self.units:
             return self.units[real]
         kind = FILE_KINDS.get(os.path.splitext(path)[1])
-        if kind is None:
+        if kind is None or (import_span and kind == "node"):
             if import_span:
-                self.reporter.error(import_span, f"cannot import '{path}': not a .hmsg or .hsrv file")
+                self.reporter.error(import_span, f"cannot import '{path}': not a .hmsg or .hsrv file",
+                                    "a node file (.hnode) declares no type to import; list it among the files instead"
+                                    if path.endswith(".hnode") else None)
             return None
         try:
             with open(path, encoding="utf-8") as handle:
@@ -116,5 +118,6 @@ class Loader:
                 continue
             self.scanned_folders.add(real)
             for name in sorted(os.listdir(folder)):
-                if os.path.splitext(name)[1] in FILE_KINDS:
+                # Types only: a node declares nothing another schema can name.
+                if FILE_KINDS.get(os.path.splitext(name)[1]) in ("message", "service"):
                     self.load(os.path.join(folder, name))

@@ -215,11 +215,84 @@ class Service:
         return f"{self.name}.response"
 
 
+@dataclass(frozen=True)
+class NodeTopic:
+    """A topic a node subscribes to or publishes: its member, topic name and message type."""
+    member: str
+    topic: str
+    message: str  # qualified name of the message it carries
+    capacity: int | None  # #[capacity = N]: slots when this node creates the topic
+    docs: tuple[str, ...]
+    span: Span
+
+
+@dataclass(frozen=True)
+class NodeService:
+    """A service a node calls (client) or serves (server)."""
+    member: str
+    service: str  # qualified name
+    docs: tuple[str, ...]
+    span: Span
+
+
+@dataclass(frozen=True)
+class FailurePolicy:
+    kind: str  # Fatal | Restart | Skip | Ignore
+    arguments: tuple[tuple[str, int], ...] = ()  # max_restarts / max_failures: count; *_backoff, cooldown: ns
+
+
+@dataclass(frozen=True)
+class NodeSettings:
+    """How the scheduler runs the node; None (or False) leaves the runtime's default."""
+    order: int | None = None
+    rate_hz: float | None = None
+    budget_ns: int | None = None
+    deadline_ns: int | None = None
+    watchdog_ns: int | None = None
+    on_miss: str | None = None  # Warn | Skip | SafeMode | Stop
+    failure_policy: FailurePolicy | None = None
+    compute: bool = False
+    async_io: bool = False
+    on: str | None = None  # event node: the topic whose messages wake it
+    priority: int | None = None
+    core: int | None = None
+
+
+@dataclass(frozen=True)
+class Node:
+    package: str
+    name: str  # the declaration's name; the generated base class is `base`
+    node_name: str  # the name the node runs under (name(), `horus node list`)
+    subs: tuple[NodeTopic, ...]
+    pubs: tuple[NodeTopic, ...]
+    clients: tuple[NodeService, ...]
+    servers: tuple[NodeService, ...]
+    data: tuple[Field, ...]
+    settings: NodeSettings
+    docs: tuple[str, ...]
+    source: str
+    uses: tuple[str, ...]  # qualified messages, services and enums it names, in first-use order
+
+    @property
+    def qualified(self) -> str:
+        return f"{self.package}.{self.name}"
+
+    @property
+    def base(self) -> str:
+        return base_class_name(self.name)
+
+
+def base_class_name(node: str) -> str:
+    """The generated class a user derives from: MotorController -> MotorControllerBase."""
+    return node + "Base"
+
+
 @dataclass
 class Model:
     """Every type known to the run, and which of them this run generates."""
     types: dict[str, Message | Enum] = field(default_factory=dict)
     services: dict[str, Service] = field(default_factory=dict)
+    nodes: dict[str, Node] = field(default_factory=dict)
     generated: list[str] = field(default_factory=list)  # qualified names, in source order
     inputs: list[str] = field(default_factory=list)  # every file read: schemas, imports, mixins
 
@@ -228,5 +301,8 @@ class Model:
         assert isinstance(found, Message)
         return found
 
-    def generated_items(self) -> list[Message | Enum | Service]:
-        return [self.services.get(q) or self.types[q] for q in self.generated]
+    def generated_items(self) -> list[Message | Enum | Service | Node]:
+        return [self.services.get(q) or self.nodes.get(q) or self.types[q] for q in self.generated]
+
+    def generated_nodes(self) -> list[Node]:
+        return [self.nodes[q] for q in self.generated if q in self.nodes]

@@ -8,9 +8,11 @@ from __future__ import annotations
 from .diagnostics import Reporter, Source, Span, near_miss
 from .lexer import Kind, Token, tokenize
 from .syntax import (Attribute, ConstDecl, EnumDecl, EnumVariant, FieldDecl, FileSyntax, Literal,
-                     MessageDecl, ServiceDecl, TypeExpr)
+                     MessageDecl, NodeDecl, NodeEndpointDecl, NodeSettingDecl, ServiceDecl, TypeExpr)
 
-FILE_KINDS = {".hmsg": "message", ".hsrv": "service"}
+FILE_KINDS = {".hmsg": "message", ".hsrv": "service", ".hnode": "node"}
+# The blocks of a node: topics it subscribes to and publishes, services it calls and serves.
+NODE_BLOCKS = ("sub", "pub", "client", "server")
 
 
 # How deep types (arrays, Vec, Option) and list values may nest (docs/schema-language.md, "Limits"):
@@ -135,13 +137,13 @@ class Parser:
             self.expect_punct(";", "after the import path")
             syntax.imports.append((str(target.value), target.span))
             return
-        if (token.is_word("message") or token.is_word("service")) and self.peek(1).is_punct("!"):
+        if any(token.is_word(w) for w in ("message", "service", "node")) and self.peek(1).is_punct("!"):
             self.parse_macro_block(syntax)
             return
         syntax.items.append(self.parse_item())
 
     def parse_macro_block(self, syntax: FileSyntax) -> None:
-        """`message! { ... }` / `service! { ... }`: the Rust macro form, accepted unchanged."""
+        """`message! { ... }` / `service! { ... }` / `node! { ... }`: the Rust macro form, accepted unchanged."""
         self.advance()
         self.advance()
         open_brace = self.expect_punct("{", "after the macro name")
@@ -181,10 +183,12 @@ class Parser:
         self.expect_punct("]", f"to close attribute '{name.text}'")
         return Attribute(name.text, value, name.span)
 
-    def parse_item(self) -> MessageDecl | EnumDecl | ServiceDecl:
+    def parse_item(self) -> MessageDecl | EnumDecl | ServiceDecl | NodeDecl:
         attributes, docs = self.parse_prefix()
         while self.peek().is_word("pub"):
             self.advance()
+        if self.file_kind == "node":
+            return self.parse_node(attributes, docs)
         if self.peek().is_word("enum"):
             return self.parse_enum(attributes, docs)
         if self.peek().is_word("struct"):
@@ -421,6 +425,99 @@ class Parser:
                                     f"add '{missing} {{ }}' (it may be empty)")
                 parts[missing] = MessageDecl(name.text + missing.capitalize(), name.span, (), (), (), ())
         return ServiceDecl(name.text, name.span, parts["request"], parts["response"], attributes, docs)
+
+
+    # -- nodes ---------------------------------------------------------------------------------
+    def parse_node(self, attributes, docs) -> NodeDecl:
+        name = self.peek()
+        if name.kind is not Kind.IDENT:
+            raise self.fail(name.span, f"expected a node name, found {name.describe()}",
+                            "a node reads: MotorController { name: \"motor\", sub { ... } pub { ... } }")
+        self.advance()
+        open_brace = self.expect_punct("{", f"after '{name.text}'", f"a node reads: {name.text} {{ ... }}")
+        settings: list[NodeSettingDecl] = []
+        blocks: list[tuple[str, Span, tuple[NodeEndpointDecl, ...]]] = []
+        data: list[FieldDecl] = []
+
+        def entry() -> None:
+            word = self.expect_ident(f"a setting or a block (sub, pub, client, server, data) in '{name.text}'")
+            if self.peek().is_punct("{"):
+                block = self.advance()
+                if word.text == "data":
+                    fields, constants = self.parse_members(f"data of '{name.text}'", block)
+                    for constant in constants:
+                        self.reporter.error(constant.span, f"'data' of node '{name.text}' holds fields, not constants",
+                                            "declare constants in a message schema")
+                    data.extend(fields)
+                elif word.text in NODE_BLOCKS:
+                    blocks.append((word.text, word.span, self.parse_endpoints(name.text, word.text, block)))
+                else:
+                    guess = near_miss(word.text, list(NODE_BLOCKS) + ["data"])
+                    self.reporter.error(word.span, f"unknown block '{word.text}' in node '{name.text}'",
+                                        f"did you mean '{guess}'?" if guess else
+                                        "a node's blocks are sub, pub, client, server and data")
+                    self.parse_block(block, f"block '{word.text}'", self.skip_to_member_end)
+                self.accept_punct(",")
+                return
+            self.expect_punct(":", f"after setting '{word.text}'", f"a setting reads: {word.text}: value")
+            settings.append(self.parse_setting(word))
+            self.expect_member_end(word.text)
+
+        self.parse_block(open_brace, f"node '{name.text}'", entry)
+        return NodeDecl(name.text, name.span, tuple(settings), tuple(blocks), tuple(data), attributes, docs)
+
+    def parse_setting(self, word: Token) -> NodeSettingDecl:
+        value = self.parse_literal()
+        unit = None
+        if value.kind in ("int", "float") and self.peek().kind is Kind.IDENT:
+            token = self.advance()
+            unit = (token.text, token.span)
+        arguments = None
+        if value.kind == "path" and self.peek().is_punct("{"):
+            open_brace = self.advance()
+            found: list[NodeSettingDecl] = []
+
+            def argument() -> None:
+                key = self.expect_ident(f"an argument name of '{'::'.join(value.value)}'")
+                self.expect_punct(":", f"after argument '{key.text}'", f"an argument reads: {key.text}: value")
+                found.append(self.parse_setting(key))
+                self.expect_member_end(key.text)
+
+            self.parse_block(open_brace, f"arguments of '{'::'.join(value.value)}'", argument)
+            arguments = tuple(found)
+        return NodeSettingDecl(word.text, word.span, value, unit, arguments)
+
+    def parse_endpoints(self, node: str, kind: str, open_brace: Token) -> tuple[NodeEndpointDecl, ...]:
+        entries: list[NodeEndpointDecl] = []
+        is_topic = kind in ("sub", "pub")
+        shape = "cmd: horus::msg::CmdVel -> \"cmd_vel\"" if is_topic else "pose: my_robot::srv::GetRobotPose"
+
+        def entry() -> None:
+            attributes, docs = self.parse_prefix()
+            member = self.expect_ident(f"a member name in the '{kind}' block of '{node}'")
+            colon = self.peek()
+            if not colon.is_punct(":"):
+                raise self.fail(colon.span, f"expected ':' after '{member.text}', found {colon.describe()}",
+                                f"an entry reads: {shape}")
+            self.advance()
+            type_expr = self.parse_type()
+            topic = None
+            arrow = self.accept_punct("->")
+            if arrow is not None:
+                target = self.peek()
+                if target.kind is not Kind.STRING:
+                    raise self.fail(target.span, f"expected a quoted topic name after '->', found {target.describe()}",
+                                    f"an entry reads: {shape}")
+                self.advance()
+                topic = Literal("string", target.value, target.span)
+                if not is_topic:
+                    self.reporter.error(arrow.span, f"a '{kind}' entry takes no topic name",
+                                        "a service's topics come from its name")
+            entries.append(NodeEndpointDecl(member.text, member.span, type_expr, topic, attributes, docs))
+            self.expect_member_end(member.text)
+
+        self.parse_block(open_brace, f"'{kind}' block of '{node}'", entry)
+        return tuple(entries)
 
 
 def parse(source: Source, reporter: Reporter, file_kind: str) -> FileSyntax:

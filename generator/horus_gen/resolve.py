@@ -21,7 +21,8 @@ from .model import (PRIMITIVES, Bytes, Constant, DynString, Enum, EnumRef, Field
                     Service, Type, Variant, Vec)
 from .names import RESERVED_MEMBERS
 from .summary import summary_parts
-from .syntax import EnumDecl, FieldDecl, Literal, MessageDecl, ServiceDecl, TypeExpr
+from .resolve_node import NodeResolver
+from .syntax import EnumDecl, FieldDecl, Literal, MessageDecl, NodeDecl, ServiceDecl, TypeExpr
 from .values import INTEGER_RANGES, check_attributes, convert_value, is_constant_type
 
 BUILTIN_NAMES = sorted(list(PRIMITIVES) + ["String", "bytes", "string", "Vec", "Option"])
@@ -49,6 +50,7 @@ class Resolver:
         self.loader = Loader(reporter, options, self.model.inputs)
         self.decls: dict[str, Decl] = {}
         self.service_decls: dict[str, tuple[ServiceDecl, Unit]] = {}
+        self.node_decls: dict[str, tuple[NodeDecl, Unit]] = {}
         self.mixin_outputs: dict[str, Mixin] = {}  # output path -> the helper file copied there
         self.broken: set[str] = set()
         self.types: dict[str, dict[str, Type]] = {}  # message -> field name -> resolved type
@@ -66,7 +68,8 @@ class Resolver:
                     generated.append(qualified)
         self.resolve_all()
         self.model.generated = [q for q in dict.fromkeys(generated)
-                                if q in self.model.types or q in self.model.services]
+                                if q in self.model.types or q in self.model.services or q in self.model.nodes]
+        self.check_base_names()
         self.check_file_names()
         return self.model
 
@@ -77,6 +80,11 @@ class Resolver:
 
     def declare(self, unit: Unit) -> None:
         for item in unit.syntax.items:
+            if isinstance(item, NodeDecl):
+                qualified = f"{unit.package}.{item.name}"
+                if self.check_unique(qualified, item.span):
+                    self.node_decls[qualified] = (item, unit)
+                continue
             if isinstance(item, ServiceDecl):
                 qualified = f"{unit.package}.{item.name}"
                 if self.check_unique(qualified, item.span):
@@ -95,6 +103,8 @@ class Resolver:
         previous_span = previous.item.span if previous else None
         if qualified in self.service_decls:
             previous_span = self.service_decls[qualified][0].span
+        if qualified in self.node_decls:
+            previous_span = self.node_decls[qualified][0].span
         if previous_span is None:
             name = qualified.rsplit(".", 1)[-1]
             clash = keyword_clash(name)
@@ -106,6 +116,15 @@ class Resolver:
                             (Note(previous_span, "first declared here"),))
         return False
 
+    def check_base_names(self) -> None:
+        """A node's generated class (<Name>Base) must not take the name of a type of its package."""
+        for node in self.model.generated_nodes():
+            taken = f"{node.package}.{node.base}"
+            if taken in self.decls or taken in self.service_decls or taken in self.node_decls:
+                self.reporter.error(self.node_decls[node.qualified][0].span,
+                                    f"node '{node.name}' generates the class '{node.base}', which is also a type "
+                                    f"of package '{node.package}'", "rename the node or the type")
+
     def check_file_names(self) -> None:
         seen: dict[str, str] = {}
         for qualified in self.model.generated:
@@ -113,7 +132,7 @@ class Resolver:
             header = cpp.header_path(qualified)
             if header in seen:
                 decl = self.decls.get(qualified)
-                span = decl.item.span if decl else self.service_decls[qualified][0].span
+                span = decl.item.span if decl else (self.service_decls.get(qualified) or self.node_decls[qualified])[0].span
                 self.reporter.error(span, f"types '{seen[header]}' and '{name}' would both be written to "
                                     f"'{os.path.basename(header)}'", "rename one of them")
             seen[header] = name
@@ -122,6 +141,11 @@ class Resolver:
     def preload_referenced_packages(self) -> None:
         """Loads, before anything is resolved, the package folders that names refer to, so that
         every declaration the run needs is known when resolution starts."""
+        for item, unit in list(self.node_decls.values()):
+            exprs = [e.type for _, _, entries in item.blocks for e in entries] + [f.type for f in item.data]
+            for expr in exprs:
+                for path in _type_paths(expr):
+                    self.preload_path(path, unit)
         done: set[str] = set()
         while True:
             pending = [d for d in self.decls.values() if d.qualified not in done]
@@ -133,15 +157,19 @@ class Resolver:
                     continue
                 for member in list(decl.item.fields) + list(decl.item.constants):
                     for path in _type_paths(member.type):
-                        if len(path) == 1 and (path[0] in BUILTIN_NAMES or
-                                               f"{decl.unit.package}.{path[0]}" in self.decls):
-                            continue
-                        if len(path) > 1 and ".".join(path) in self.decls:
-                            continue
-                        package = decl.unit.package if len(path) == 1 else ".".join(path[:-1])
-                        own_folder = os.path.dirname(decl.unit.path) if package == decl.unit.package else None
-                        self.loader.scan_package_folders(package, own_folder)
-                        self.declare_loaded()
+                        self.preload_path(path, decl.unit)
+
+    def preload_path(self, path: tuple[str, ...], unit: Unit) -> None:
+        """Loads the package folder that the type name `path`, written in `unit`, refers to."""
+        known = self.decls.keys() | self.service_decls.keys()
+        if len(path) == 1 and (path[0] in BUILTIN_NAMES or f"{unit.package}.{path[0]}" in known):
+            return
+        if len(path) > 1 and ".".join(path) in known:
+            return
+        package = unit.package if len(path) == 1 else ".".join(path[:-1])
+        own_folder = os.path.dirname(unit.path) if package == unit.package else None
+        self.loader.scan_package_folders(package, own_folder)
+        self.declare_loaded()
 
     def resolve_all(self) -> None:
         self.preload_referenced_packages()
@@ -165,6 +193,9 @@ class Resolver:
                 self.model.services[qualified] = Service(
                     package=unit.package, name=item.name, request=request, response=response, docs=item.docs,
                     source=unit.path, fingerprint=identity.fingerprint(text))
+        nodes = NodeResolver(self)
+        for item, unit in self.node_decls.values():
+            nodes.build(item, unit)
 
     def resolve_fields(self, decl: Decl) -> dict[str, Type]:
         item = decl.item

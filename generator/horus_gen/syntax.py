@@ -97,4 +97,38 @@ class FileSyntax:
     source: Source
     package: tuple[str, Span] | None = None
     imports: list[tuple[str, Span]] = field(default_factory=list)
-    items: list[MessageDecl | EnumDecl | ServiceDecl] = field(default_factory=list)
+    items: list["MessageDecl | EnumDecl | ServiceDecl | NodeDecl"] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class NodeEndpointDecl:
+    """One entry of a node's `sub`/`pub` block (`cmd: CmdVel -> "cmd_vel"`) or of its
+    `client`/`server` block (`pose: GetRobotPose`, no topic)."""
+    name: str
+    span: Span
+    type: TypeExpr
+    topic: Literal | None
+    attributes: tuple[Attribute, ...]
+    docs: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class NodeSettingDecl:
+    """`rate: 100 hz`, `budget: 300 us`, `on_miss: SafeMode`, `failure_policy: Restart { ... }`:
+    a value with an optional unit word, or a variant with named arguments."""
+    name: str
+    span: Span
+    value: Literal
+    unit: tuple[str, Span] | None = None
+    arguments: tuple["NodeSettingDecl", ...] | None = None  # set for `Variant { key: value, ... }`
+
+
+@dataclass(frozen=True)
+class NodeDecl:
+    name: str
+    span: Span
+    settings: tuple[NodeSettingDecl, ...]
+    blocks: tuple[tuple[str, Span, tuple[NodeEndpointDecl, ...]], ...]  # ("sub", span, entries)...
+    data: tuple[FieldDecl, ...]
+    attributes: tuple[Attribute, ...]
+    docs: tuple[str, ...]

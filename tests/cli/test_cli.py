@@ -59,7 +59,9 @@ horus.run(horus.Node(name={sensor!r}, tick=sense, rate=100, order=0, pubs=["scan
 
 
 def test_help_at_every_level_exits_zero():
-    for args in ([], ["topic"], ["topic", "list"], ["topic", "info"], ["service"],
+    for args in ([], ["topic"], ["topic", "list"], ["topic", "info"], ["topic", "echo"],
+                 ["topic", "pub"], ["service", "call"], ["process"], ["process", "list"],
+                 ["service"],
                  ["service", "list"], ["service", "info"], ["node"], ["node", "list"],
                  ["node", "info"], ["topic", "hz"], ["topic", "bw"], ["monitor"], ["msg"], ["msg", "show"], ["log"], ["shm"], ["shm", "list"],
                  ["shm", "clean"], ["completion"]):
@@ -211,7 +213,7 @@ def test_completion_script_names_the_subcommands():
     result = run_horus("completion")
     assert result.returncode == 0
     assert "complete -F _horus horus" in result.stdout
-    assert 'topic) words="list info hz bw"' in result.stdout
+    assert 'topic) words="list info hz bw echo pub"' in result.stdout
     assert 'node) words="list info"' in result.stdout
     checked = subprocess.run(["bash", "-n"], input=result.stdout, text=True, capture_output=True)
     assert checked.returncode == 0, checked.stderr
@@ -256,7 +258,8 @@ def test_a_killed_schedulers_nodes_are_never_shown_and_shm_clean_removes_them(ch
     names = [n["name"] for n in json.loads(run_horus("node", "list", "--json").stdout)]
     assert names == ["planner", "survivor"]
     result = run_horus("shm", "clean", "--json")
-    assert json.loads(result.stdout)["announcements"] == 1
+    # The victim's scheduler announcement and its process announcement (its open topics).
+    assert json.loads(result.stdout)["announcements"] == 2
     assert json.loads(run_horus("shm", "clean", "--json").stdout)["announcements"] == 0
     assert run_horus("node", "list").stdout.split() == ["planner", "survivor"]
 
@@ -335,5 +338,81 @@ def test_msg_show_of_a_user_type_given_with_I(tmp_path):
     assert lines[2] == "tier: pod, size 16, alignment 8"
     assert lines[4].split() == ["joint", "u16", "0", "2"]
     assert lines[5].split() == ["angle", "f64", "8", "8"]
+    assert lines[6:] == ["schema:", "  message my_robot.JointGoal {", "    joint: u16,",
+                         "    angle: f64,", "  }"]
     missing = run_horus("msg", "hash", "Nope", "-I", str(tmp_path / "schemas"))
     assert missing.returncode == 1 and "'Nope'" in missing.stderr
+
+
+TOPIC_WITHOUT_SCHEDULER = """
+import time, horus
+from horus.msg import CmdVel
+topic = horus.Topic(CmdVel, "alone")
+print("ready", flush=True)
+while True:
+    time.sleep(1)
+"""
+
+
+def test_processes_without_a_scheduler_announce_their_topics_and_services(children):
+    python = children.python(TOPIC_WITHOUT_SCHEDULER)
+    wait_ready(python)
+    server = children.program(os.environ["HORUS_PY_SERVICE_PEER"], "serve")
+    wait_ready(server, "serving")
+
+    def both_announced():
+        found = {p["pid"]: p for p in json.loads(run_horus("process", "list", "--json").stdout)}
+        # Changes after a process's first are written a moment later (coalesced).
+        return found if len(found.get(server.pid, {}).get("services", [])) == 2 else None
+    processes = wait_until(both_announced, "the server's services in its announcement")
+    assert set(processes) == {python.pid, server.pid}
+    assert processes[python.pid]["topics"] == [
+        {"topic": "alone", "type": "horus.msg.CmdVel", "handles": 1}]
+    assert processes[python.pid]["nodes"] == [] and processes[python.pid]["services"] == []
+    served = {s["service"]: s for s in processes[server.pid]["services"]}
+    assert served["Add"] == {"service": "Add", "role": "server",
+                             "request_type": "pyrt_test.AddRequest",
+                             "response_type": "pyrt_test.AddResponse"}
+    info = run_horus("topic", "info", "alone")
+    assert f"open in: pid {python.pid} (python3)" in info.stdout
+
+    # A client that ran and exited took its announcement with it; a killed process is not shown.
+    client = children.program(os.environ["HORUS_PY_SERVICE_PEER"], "call", "1", "2", "hi")
+    assert client.wait(timeout=30) == 0
+    python.kill()
+    python.wait()
+    assert [p["pid"] for p in json.loads(run_horus("process", "list", "--json").stdout)] == \
+        [server.pid]
+    assert json.loads(run_horus("shm", "clean", "--json").stdout)["announcements"] == 1
+
+
+FORKING = """
+import os, time, horus
+from horus.msg import CmdVel
+parent_topics = [horus.Topic(CmdVel, f"parent_{i}") for i in range(20)]  # the writer is busy
+child = os.fork()
+if child == 0:
+    mine = horus.Topic(CmdVel, "child_only")
+    print("child", os.getpid(), flush=True)
+    time.sleep(60)
+    os._exit(0)
+print("parent", os.getpid(), flush=True)
+time.sleep(60)
+"""
+
+
+def test_a_forked_child_announces_itself_and_leaves_its_parents_announcement_alone(children):
+    process = children.python(FORKING)
+    pids = dict(process.stdout.readline().split() for _ in range(2))
+    parent, child = int(pids["parent"]), int(pids["child"])
+    try:
+        def both():
+            found = {p["pid"]: p for p in json.loads(run_horus("process", "list", "--json").stdout)}
+            if child in found and len(found.get(parent, {}).get("topics", [])) == 20:
+                return found
+            return None
+        found = wait_until(both, "the parent's and the child's announcements")
+        assert [t["topic"] for t in found[child]["topics"]] == ["child_only"]
+        assert "child_only" not in [t["topic"] for t in found[parent]["topics"]]
+    finally:
+        os.kill(child, 9)

@@ -12,12 +12,16 @@ import pytest
 
 from generator_testing import GOLDEN, run_horus_gen
 
-CASES = sorted(p for p in (GOLDEN / "diagnostics").iterdir() if p.suffix in (".hmsg", ".hsrv"))
+CASES = sorted(p for p in (GOLDEN / "diagnostics").iterdir() if p.suffix in (".hmsg", ".hsrv", ".hnode"))
+# Node files name the standard messages (schemas/) and the test schemas (tests/schemas/), as relative paths so
+# that the expected text does not depend on where the checkout is.
+NODE_INCLUDES = ("-I", "../../../schemas", "-I", "../../schemas")
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
 def test_diagnostics_match_golden(case):
-    result = run_horus_gen("check", case.name, cwd=case.parent)
+    includes = NODE_INCLUDES if case.suffix == ".hnode" else ()
+    result = run_horus_gen("check", *includes, case.name, cwd=case.parent)
     expected_path = case.with_suffix(case.suffix + ".stderr")
     if os.environ.get("HORUS_UPDATE_GOLDEN"):
         expected_path.write_text(result.stderr)

@@ -109,9 +109,10 @@ def test_check_reports_errors_and_writes_nothing(tmp_path):
 
 def test_usage_errors_exit_2(tmp_path):
     assert run_horus_gen("generate", "--out", str(tmp_path), str(tmp_path / "missing.hmsg")).returncode == 2
-    node = tmp_path / "n.hnode"
-    node.write_text("N {}")
-    assert run_horus_gen("check", str(node)).returncode == 2
+    other = tmp_path / "n.txt"
+    other.write_text("N {}")
+    result = run_horus_gen("check", str(other))
+    assert result.returncode == 2 and "expected .hmsg, .hsrv or .hnode" in result.stderr
     assert run_horus_gen("frobnicate").returncode == 2
     result = run_horus_gen("generate", "--lang", "rust", "--out", str(tmp_path), TEST_MSGS[0])
     assert result.returncode == 2 and "unknown language 'rust'" in result.stderr

@@ -20,13 +20,21 @@ DATA = DataPaths.for_launcher(str(HORUS_GEN), str(ROOT / "templates"),
                               str(ROOT / "runtime" / "python" / "_horus_gen_support_v1.py"))
 SEEDS = [p.read_text() for p in sorted((ROOT / "schemas" / "horus" / "msg").glob("*.hmsg"))
          + sorted(SCHEMAS.glob("*/*.h*"))]
+NODE_SEEDS = [p.read_text() for p in sorted(SCHEMAS.glob("*/*.hnode"))
+              + sorted((ROOT / "examples" / "warehouse_agv" / "nodes").glob("*.hnode"))]
 # Fragments a careless or hostile edit could bring in: syntax, limits, reserved names, odd characters.
 FRAGMENTS = ["[", "]", "<", ">", "{", "}", ";", ",", ":", "::", "=", "#[", "Vec<", "Option<", "[u8; 99999999999999]",
              "[[[[", "9" * 200, "1e999", "0x", "-", '"\\0"', "NULL", "errno", "assert", "self", "log_summary",
              "é", "ﬁ", "\0", "\r", "\u2028", "string<0>", "string<99999999999>", "f32", "u64", "1.5", "enum",
-             "package", "import", "service", "\n", "///", "//", "_horus", "__x", "²"]
+             "package", "import", "service", "\n", "///", "//", "_horus", "__x", "²",
+             # node files
+             "sub {", "pub {", "client {", "server {", "data {", "->", '-> "t"', "rate: 1 hz,", "budget: 1 us,",
+             "on_miss: Stop,", "failure_policy: Restart { max_restarts: 1 },", "#[capacity = 3]", "node!", 'on: "x",']
+NODE_FUZZ_INPUTS = 300
 FUZZ_INPUTS = 2000
-SECONDS_PER_INPUT = 5  # far above any input's time: this catches hangs, it measures nothing
+# CPU seconds, far above any input's: this catches hangs, it measures nothing. CPU time, not wall
+# time, so that a machine loaded by other work never passes for a hang.
+SECONDS_PER_INPUT = 5
 
 
 class Hang(Exception):
@@ -53,35 +61,37 @@ def mutate(rng: random.Random, text: str) -> str:
     return text
 
 
-def generate_in_process(schema: Path, out: Path) -> tuple[int, str]:
+def generate_in_process(schema: Path, out: Path, includes: tuple[Path, ...] = (ROOT / "schemas",)) -> tuple[int, str]:
     """horus-gen generate of one file in this process (a subprocess each would take minutes)."""
     def hang(*_):
         raise Hang()
 
-    previous = signal.signal(signal.SIGALRM, hang)
+    previous = signal.signal(signal.SIGPROF, hang)
     stderr = io.StringIO()
-    signal.setitimer(signal.ITIMER_REAL, SECONDS_PER_INPUT)
+    signal.setitimer(signal.ITIMER_PROF, SECONDS_PER_INPUT)
     try:
         with contextlib.redirect_stderr(stderr), contextlib.redirect_stdout(io.StringIO()):
-            status = main(DATA, ["generate", "--lang", "cpp,python", "--out", str(out), "-I",
-                                 str(ROOT / "schemas"), str(schema)])
+            status = main(DATA, ["generate", "--lang", "cpp,python", "--out", str(out),
+                                 *(arg for folder in includes for arg in ("-I", str(folder))), str(schema)])
     finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
+        signal.setitimer(signal.ITIMER_PROF, 0)
+        signal.signal(signal.SIGPROF, previous)
     return status, stderr.getvalue()
 
 
-def test_mutated_schemas_end_in_output_or_diagnostics(tmp_path):
+@pytest.mark.parametrize("suffix, seeds, count", [(".hmsg", SEEDS, FUZZ_INPUTS), (".hnode", NODE_SEEDS, NODE_FUZZ_INPUTS)],
+                         ids=["messages", "nodes"])
+def test_mutated_schemas_end_in_output_or_diagnostics(tmp_path, suffix, seeds, count):
     rng = random.Random(23)
-    schema = tmp_path / "fuzzed" / "fuzzed.hmsg"
+    schema = tmp_path / "fuzzed" / f"fuzzed{suffix}"
     schema.parent.mkdir()
     failures = []
-    for index in range(FUZZ_INPUTS):
-        text = mutate(rng, rng.choice(SEEDS))
+    for index in range(count):
+        text = mutate(rng, rng.choice(seeds))
         schema.write_text(text, encoding="utf-8")
         out = tmp_path / f"out{index}"
         try:
-            status, stderr = generate_in_process(schema, out)
+            status, stderr = generate_in_process(schema, out, (ROOT / "schemas", SCHEMAS))
         except Hang:
             failures.append((index, "hung", text))
             continue

@@ -17,8 +17,8 @@ EXIT_OK, EXIT_NOT_FOUND, EXIT_USAGE = 0, 1, 2
 # Filled in by the launcher (bin/horus) with the horus-blackbox beside it.
 BLACKBOX_PROGRAM = os.environ.get("HORUS_BLACKBOX_PROGRAM", "horus-blackbox")
 
-# The schema compiler and the installed schemas `horus msg` describes (set by the launcher).
-GENERATOR_PROGRAM = os.environ.get("HORUS_GEN_PROGRAM", "horus-gen")
+# The installed schemas `horus msg` describes (set by the launcher, as is HORUS_GEN_PROGRAM, the
+# schema compiler dynamic_types runs).
 SCHEMA_DIR = os.environ.get("HORUS_SCHEMA_DIR", "")
 
 LEVELS = ("debug", "info", "warn", "error")
@@ -100,6 +100,8 @@ def topic_list(args) -> int:
 
 def topic_info(args) -> int:
     topic = _find_topic(args, args.topic)
+    topic["processes"] = [{"pid": p["pid"], "program": p["program"]} for p in _processes(args)
+                          if any(t["topic"] == args.topic for t in p["topics"])]
 
     def render(t):
         if t["error"]:
@@ -113,6 +115,8 @@ def topic_info(args) -> int:
         print(f"publishers: {t['publishers']}")
         print(f"subscribers: {t['subscribers']}")
         print(f"messages sent: {t['message_count']}")
+        users = ", ".join(f"pid {p['pid']} ({p['program']})" for p in t["processes"]) or "none"
+        print(f"open in: {users}")
         if t["last_send_s"] is not None:
             print("last send: " + time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(t["last_send_s"])))
         if t["schema"]:
@@ -182,6 +186,208 @@ def topic_bw(args) -> int:
     return EXIT_OK
 
 
+def _typed_topic(args, name: str) -> dict:
+    topic = _find_topic(args, name)
+    if topic["error"]:
+        raise CommandFailed(f"topic '{name}' cannot be read: {topic['error']}")
+    if not topic["type_name"]:
+        raise CommandFailed(f"topic '{name}' has no type yet: no handle has opened it with one")
+    return topic
+
+
+def _message_class(type_name: str, schema: str, fingerprint: int):
+    """The class of a type from its stored schema (dynamic_types), errors as one line."""
+    import dynamic_types
+    try:
+        return dynamic_types.load_type(type_name, schema, fingerprint)
+    except dynamic_types.SchemaError as error:
+        raise CommandFailed(str(error)) from None
+
+
+def _open_topic(topic: dict, cls):
+    """A handle on a live topic with the identity its segment records."""
+    info = cls.__horus__
+    return _core().Topic(topic["name"], topic["type_name"], topic["fingerprint"], topic["schema"],
+                         topic["is_pod"], info.size if topic["is_pod"] else 0,
+                         info.alignment if topic["is_pod"] else 1, topic["capacity"],
+                         topic["max_message_size"], topic["single_publisher"])
+
+
+def _parse_value(text: str, what: str):
+    """A YAML (or JSON, which YAML reads too) mapping given on the command line."""
+    try:
+        import yaml
+    except ImportError:  # python3-yaml missing: JSON still works
+        yaml = None
+    try:
+        value = yaml.safe_load(text) if yaml is not None else json.loads(text)
+    except Exception as error:  # noqa: BLE001 (yaml and json raise their own error types)
+        reason = " ".join(str(error).split()) or type(error).__name__
+        raise CommandFailed(f"cannot parse the {what} {text!r}: {reason}", EXIT_USAGE) from None
+    return {} if value is None else value
+
+
+# The type of the Python runtime's dict topics: any plain value, as MessagePack in `data`.
+# echo shows (and pub takes) that value rather than the bytes.
+PLAIN_VALUES = "horus.msg.GenericMessage"
+
+
+def _build(cls, value):
+    import dynamic_types
+    try:
+        if cls.__horus__.name == PLAIN_VALUES:
+            import msgpack
+            return dynamic_types.from_plain(cls, {"data": msgpack.packb(value, use_bin_type=True)})
+        return dynamic_types.from_plain(cls, value)
+    except (ValueError, TypeError) as error:
+        raise CommandFailed(str(error)) from None
+
+
+def _plain(message):
+    """What echo and call show of a message: its fields, or a plain-values message's value."""
+    import dynamic_types
+    plain = dynamic_types.to_plain(message)
+    if type(message).__horus__.name == PLAIN_VALUES and plain["metadata"] is None:
+        import msgpack
+        try:
+            return msgpack.unpackb(plain["data"], raw=False, strict_map_key=False)
+        except (ValueError, msgpack.UnpackException):
+            pass  # not one MessagePack value: shown as its fields
+    return plain
+
+
+def _plain_field(plain, path: str | None, type_name: str, checking: bool = False):
+    """The field `path` (a.b, list elements by index) of a plain message. `checking` a default
+    message, whose lists are empty and options None, what lies below them is not checked."""
+    if not path:
+        return plain
+    value = plain
+    for part in path.split("."):
+        if checking and (value is None or isinstance(value, list)):
+            return None
+        if isinstance(value, dict) and part in value:
+            value = value[part]
+        elif isinstance(value, list) and part.isdigit() and int(part) < len(value):
+            value = value[int(part)]
+        else:
+            known = ", ".join(value) if isinstance(value, dict) else f"indexes 0..{len(value) - 1}" \
+                if isinstance(value, list) else "nothing (not a message)"
+            raise CommandFailed(f"{type_name} has no field '{path}' ('{part}' is not one of: {known})")
+    return value
+
+
+def _jsonable(value):
+    if isinstance(value, bytes):
+        return list(value)
+    if isinstance(value, dict):
+        return {key: _jsonable(item) for key, item in value.items()}
+    if isinstance(value, list):
+        return [_jsonable(item) for item in value]
+    return value
+
+
+def _show_message(value, as_json: bool) -> None:
+    value = _jsonable(value)
+    if as_json:
+        print(json.dumps(value), flush=True)
+    elif not isinstance(value, (dict, list)):
+        print(value, flush=True)
+    else:
+        print(_yaml_text(value) + "---", flush=True)
+
+
+def _yaml_text(value) -> str:
+    """Block YAML with lists on one line each (as ros2 topic echo prints them, roughly)."""
+    try:
+        import yaml
+    except ImportError:  # python3-yaml missing: JSON is YAML too
+        return json.dumps(value, indent=2) + "\n"
+
+    class Dumper(yaml.SafeDumper):
+        pass
+    Dumper.add_representer(list, lambda dumper, items: dumper.represent_sequence(
+        "tag:yaml.org,2002:seq", items, flow_style=True))
+    return yaml.dump(value, Dumper=Dumper, sort_keys=False, default_flow_style=False, width=100)
+
+
+def topic_echo(args) -> int:
+    topic = _typed_topic(args, args.topic)
+    cls = _message_class(topic["type_name"], topic["schema"], topic["fingerprint"])
+    handle = _open_topic(topic, cls)
+    if cls.__horus__.name != PLAIN_VALUES:  # a plain value has no fields to check beforehand
+        _plain_field(_plain(cls()), args.field, topic["type_name"], checking=True)
+    deadline = None if args.timeout is None else time.monotonic() + args.timeout
+
+    def show(data) -> None:
+        try:
+            message = cls.from_bytes(data)
+        except ValueError as error:
+            raise CommandFailed(f"topic '{args.topic}': a message does not decode: {error}") from None
+        _show_message(_plain_field(_plain(message), args.field, topic["type_name"]), args.json)
+
+    # The newest message already sent comes first (a topic is latched), then each new one.
+    data = handle.read_latest()
+    shown = 0
+    while True:
+        if data is not None:
+            show(data)
+            shown += 1
+            if args.once or (args.count and shown >= args.count):
+                return EXIT_OK
+        wait = 0.1 if deadline is None else deadline - time.monotonic()
+        if wait <= 0:
+            raise CommandFailed(f"no message on topic '{args.topic}' within {args.timeout:g} s")
+        data = handle.recv(min(wait, 0.1))
+
+
+def _new_topic(args) -> dict:
+    """What a topic nobody opened yet is given by `pub --type`: the type from the schemas (-I,
+    else the installed ones), the runtime's default geometry."""
+    described = _described_type(args)
+    if described["kind"] != "message":
+        raise CommandFailed(f"'{described['name']}' is a {described['kind']}, not a message type")
+    pod = described["tier"] == "pod"
+    return {"name": args.topic, "type_name": described["name"], "schema": described["schema"],
+            "fingerprint": int(described["fingerprint"], 16), "is_pod": pod, "capacity": 64,
+            "max_message_size": 16 * 1024, "single_publisher": False, "error": ""}
+
+
+def topic_pub(args) -> int:
+    if args.type is None:
+        if not any(t["name"] == args.topic for t in _topics(args)):
+            raise CommandFailed(f"no topic '{args.topic}' in namespace "
+                                f"'{args.namespace or _core().current_namespace()}' (give --type "
+                                "TYPE to create it)")
+        topic = _typed_topic(args, args.topic)
+    else:
+        existing = [t for t in _topics(args) if t["name"] == args.topic and t["type_name"]]
+        topic = existing[0] if existing else _new_topic(args)
+    cls = _message_class(topic["type_name"], topic["schema"], topic["fingerprint"])
+    message = _build(cls, _parse_value(args.value, f"value for {topic['type_name']}"))
+    payload = message.to_bytes()
+    if not topic["is_pod"] and len(payload) > topic["max_message_size"]:
+        raise CommandFailed(f"the message is {len(payload)} bytes, topic '{args.topic}' holds at "
+                            f"most {topic['max_message_size']}")
+    handle = _open_topic(topic, cls)
+    if args.rate is not None and args.rate <= 0:
+        raise CommandFailed(f"--rate must be above 0, got {args.rate:g}", EXIT_USAGE)
+    period = 1.0 / (args.rate or 1.0)
+    sent = 0
+    next_send = time.monotonic()
+    while True:
+        if not handle.send(payload):
+            stats = {key: value for key, value in handle.stats().items() if value}
+            raise CommandFailed(f"topic '{args.topic}' refused the message ({stats or 'no room'})")
+        sent += 1
+        if args.once or (args.count and sent >= args.count):
+            print(f"published {sent} message{'s' if sent != 1 else ''} on '{args.topic}'", flush=True)
+            return EXIT_OK
+        if sent == 1 and not args.count:
+            print(f"publishing on '{args.topic}' at {1 / period:g} Hz until Ctrl+C", flush=True)
+        next_send += period
+        time.sleep(max(0.0, next_send - time.monotonic()))
+
+
 def service_list(args) -> int:
     services = _core().list_services(args.namespace)
 
@@ -194,34 +400,164 @@ def service_list(args) -> int:
 
 
 def service_info(args) -> int:
+    service = _find_service(args)
+    service["client_processes"] = [
+        {"pid": p["pid"], "program": p["program"]} for p in _processes(args)
+        if any(s["service"] == args.service and s["role"] == "client" for s in p["services"])]
+
+    def render(s):
+        print(f"service: {s['name']}")
+        print(f"request: {s['request_type']}")
+        print(f"response: {s['response_type']}")
+        print(f"fingerprint: {s['fingerprint']:016x}")
+        server = f"pid {s['server_pid']}" if s["servers"] else "none (stopped or died)"
+        print(f"server: {server}")
+        callers = ", ".join(f"pid {p['pid']} ({p['program']})" for p in s["client_processes"])
+        print(f"clients: {s['clients']}" + (f" in {callers}" if callers else ""))
+    _emit(service, args.json, render)
+    return EXIT_OK
+
+
+def _find_service(args) -> dict:
     for service in _core().list_services(args.namespace):
         if service["name"] == args.service:
-            def render(s):
-                print(f"service: {s['name']}")
-                print(f"request: {s['request_type']}")
-                print(f"response: {s['response_type']}")
-                print(f"fingerprint: {s['fingerprint']:016x}")
-                server = f"pid {s['server_pid']}" if s["servers"] else "none (stopped or died)"
-                print(f"server: {server}")
-                print(f"clients: {s['clients']}")
-            _emit(service, args.json, render)
-            return EXIT_OK
+            return service
     raise CommandFailed(f"no service '{args.service}' in namespace "
                         f"'{args.namespace or _core().current_namespace()}'")
 
 
-def _live_nodes(args) -> list[dict]:
-    """Every node of the namespace's live schedulers, with the process that runs it. Dead
-    processes' announcements are never shown: `horus shm clean` removes them."""
-    nodes = []
-    for entry in _core().list_presence(args.namespace):
-        if not entry["alive"] or entry["error"]:
+def _frame_payload(args, topic: dict, payload_type: str, response: bool):
+    """The payload class of a service frame topic, from its stored schema (the frame's own
+    declaration, then the payload's), checked against the frame's fingerprint."""
+    from horus._service import _Frame
+    frame_text = topic["schema"]
+    payload_text = frame_text[frame_text.find("\n}\n") + 3:]
+    cls = _message_class(payload_type, payload_text, None)
+    frame = _Frame(cls, response=response)
+    if frame.fingerprint != topic["fingerprint"] or frame.name != topic["type_name"]:
+        raise CommandFailed(f"topic '{topic['name']}' carries {topic['type_name']}, not the "
+                            f"frame of {payload_type} this command builds")
+    return frame
+
+
+def _reply_topics(args, service: dict) -> tuple[dict | None, int]:
+    """(a typed reply topic of the service, to learn the response type from; the smallest
+    reply index no live client receives on)."""
+    prefix = f"{service['name']}.response."
+    typed, taken = None, set()
+    for topic in _topics(args):
+        suffix = topic["name"][len(prefix):]
+        if not topic["name"].startswith(prefix) or not suffix.isdigit():
             continue
-        snapshot = json.loads(entry["snapshot_json"])
-        for node in snapshot["nodes"]:
-            node["pid"] = entry["pid"]
+        if topic["subscribers"]:
+            taken.add(int(suffix))
+        if topic["type_name"] and not topic["error"] and typed is None:
+            typed = topic
+    return typed, next(index for index in range(len(taken) + 1) if index not in taken)
+
+
+def service_call(args) -> int:
+    from horus._service import _alive, _endpoint_id
+    service = _find_service(args)
+    if not service["servers"]:
+        raise CommandFailed(f"service '{args.service}' has no live server")
+    topics = {t["name"]: t for t in _topics(args)}
+    request_topic = topics.get(f"{args.service}.request")
+    if request_topic is None or not request_topic["type_name"]:
+        raise CommandFailed(f"service '{args.service}' has no request topic to learn its type from")
+    requests = _frame_payload(args, request_topic, service["request_type"], response=False)
+    request = _build(requests.payload_type, _parse_value(
+        args.value, f"request for {service['request_type']}"))
+
+    typed, index = _reply_topics(args, service)
+    reply_name = f"{args.service}.response.{index}"
+    responses = replies = None
+    if typed is not None:  # the response type is known: receive on the reply topic from the start
+        responses = _frame_payload(args, typed, service["response_type"], response=True)
+        replies = responses.open(reply_name)
+        replies.try_recv()  # marks this handle a subscriber: other clients leave the index alone
+    client_id, request_id = _endpoint_id(), 1
+    sender = requests.open(f"{args.service}.request")
+    if not sender.send(requests.pack((client_id, request_id, index), request)):
+        raise CommandFailed(f"service '{args.service}': the request does not fit its topic")
+
+    deadline = time.monotonic() + args.timeout
+    while True:
+        data = None
+        if replies is None:
+            # The first call of this reply index: the server creates the topic with the response
+            # type when it answers, and its answer is then the topic's newest message.
+            created = next((t for t in _topics(args) if t["name"] == reply_name), None)
+            if created is not None and created["type_name"]:
+                responses = _frame_payload(args, created, service["response_type"], response=True)
+                replies = responses.open(reply_name)
+                data = replies.read_latest()
+            else:
+                time.sleep(0.01)
+        else:
+            data = replies.recv(min(0.01, max(0.0, deadline - time.monotonic())))
+        if data is not None:
+            (got_client, got_request, status, error), response = responses.unpack(data, 4)
+            if (got_client, got_request) == (client_id, request_id):
+                if status != 0:
+                    raise CommandFailed(f"service '{args.service}' failed: {error}")
+                _show_message(_plain(response), args.json)
+                return EXIT_OK
+            continue
+        if not _alive(service["server_pid"]):
+            raise CommandFailed(f"the server of service '{args.service}' (pid "
+                                f"{service['server_pid']}) died before answering")
+        if time.monotonic() >= deadline:
+            raise CommandFailed(f"no response from service '{args.service}' within "
+                                f"{args.timeout:g} s")
+
+
+def _announcements(args) -> list[tuple[int, dict]]:
+    """(pid, announcement) of the namespace's live processes: a scheduler's (with "nodes") or a
+    process's (with "process": its topics and services). Dead processes' announcements are never
+    shown: `horus shm clean` removes them."""
+    found = []
+    for entry in _core().list_presence(args.namespace):
+        if entry["alive"] and not entry["error"]:
+            found.append((entry["pid"], json.loads(entry["snapshot_json"])))
+    return found
+
+
+def _processes(args) -> list[dict]:
+    """The namespace's live processes, each with its schedulers' nodes, topics and services."""
+    by_pid: dict[int, dict] = {}
+    for pid, snapshot in _announcements(args):
+        process = by_pid.setdefault(pid, {"pid": pid, "program": "?", "nodes": [], "topics": [],
+                                          "services": []})
+        if "process" in snapshot:
+            process["program"] = snapshot["process"]
+            process["topics"] += snapshot["topics"]
+            process["services"] += snapshot["services"]
+        else:
+            process["nodes"] += [node["name"] for node in snapshot["nodes"]]
+    return sorted(by_pid.values(), key=lambda p: p["pid"])
+
+
+def process_list(args) -> int:
+    processes = _processes(args)
+
+    def render(rows):
+        _table(["PID", "PROGRAM", "NODES", "TOPICS", "SERVICES"],
+               [[p["pid"], p["program"], ",".join(p["nodes"]) or "-",
+                 ",".join(t["topic"] for t in p["topics"]) or "-",
+                 ",".join(f"{s['service']}({s['role']})" for s in p["services"]) or "-"]
+                for p in rows])
+    _emit(processes, args.json, render)
+    return EXIT_OK
+
+
+def _live_nodes(args) -> list[dict]:
+    """Every node of the namespace's live schedulers, with the process that runs it."""
+    nodes = []
+    for pid, snapshot in _announcements(args):
+        for node in snapshot.get("nodes", []):
+            node["pid"] = pid
             node["scheduler"] = snapshot["scheduler"]
-            node["updated_wall_ns"] = entry["updated_wall_ns"]
             nodes.append(node)
     nodes.sort(key=lambda n: (n["name"], n["pid"]))
     return nodes
@@ -338,24 +674,24 @@ def shm_clean(args) -> int:
 
 def _described_types(args) -> list[dict]:
     """Every type of the schema folders (-I, else the installed schemas), as `horus-gen describe
-    --json` lays it out: fingerprint, tier, size, alignment, fields with offsets."""
+    --json` lays it out: fingerprint, tier, size, alignment, fields with offsets. The installed
+    schemas also resolve what the -I folders' types use (horus.msg.Pose2D)."""
     import pathlib
-    import subprocess
+
+    import dynamic_types
     folders = args.include or ([SCHEMA_DIR] if SCHEMA_DIR else [])
     files = sorted(str(path) for folder in folders for pattern in ("*.hmsg", "*.hsrv")
                    for path in pathlib.Path(folder).rglob(pattern))
     if not files:
         raise CommandFailed(f"no schema files (.hmsg, .hsrv) in {', '.join(folders) or '(none)'}")
-    command = [GENERATOR_PROGRAM, "describe", "--json",
-               *[arg for folder in folders for arg in ("-I", folder)], *files]
+    resolving = folders + ([SCHEMA_DIR] if SCHEMA_DIR and SCHEMA_DIR not in folders else [])
     try:
-        described = subprocess.run(command, capture_output=True, text=True)
-    except OSError as error:
-        raise CommandFailed(f"cannot run {GENERATOR_PROGRAM}: {error.strerror}") from None
-    if described.returncode != 0:
-        first = (described.stderr.strip().splitlines() or ["(no message)"])[0]
-        raise CommandFailed(f"horus-gen describe failed: {first}")
-    return json.loads(described.stdout)["types"]
+        described = dynamic_types.run_generator(
+            ["describe", "--json", *[arg for folder in resolving for arg in ("-I", folder)],
+             *files], "horus-gen describe failed")
+    except dynamic_types.SchemaError as error:
+        raise CommandFailed(str(error)) from None
+    return json.loads(described)["types"]
 
 
 def _described_type(args) -> dict:
@@ -382,8 +718,21 @@ def msg_show(args) -> int:
             print(f"tier: {t['tier']}, size {t.get('size', '-')}, alignment {t.get('alignment', '-')}")
         if t.get("fields"):
             _table(["FIELD", "TYPE", "OFFSET", "SIZE"],
-                   [[f["name"], f["type"], f.get("offset", "-"), f.get("size", "-")]
+                   [[f["name"], f["type"], "-" if f.get("offset") is None else f["offset"],
+                     "-" if f.get("size") is None else f["size"]]
                     for f in t["fields"]])
+        if t["kind"] == "enum":
+            print(f"underlying: {t['underlying']}")
+            for name, value in t["values"].items():
+                print(f"  {name} = {value}")
+        if t["kind"] == "service":
+            print(f"request: {t['request']} (topic {t['request_topic']})")
+            print(f"response: {t['response']} (topic {t['response_topic']})")
+        if t.get("schema"):
+            # What a topic's segment stores: the definition, then every type it uses.
+            print("schema:")
+            for line in t["schema"].splitlines():
+                print(f"  {line}")
     _emit(described, args.json, render)
     return EXIT_OK
 
@@ -538,7 +887,7 @@ def build_parser() -> argparse.ArgumentParser:
         sub.set_defaults(handler=handler)
         return sub
 
-    topic = group("topic", "topics: list, inspect, measure")
+    topic = group("topic", "topics: list, inspect, measure, echo, publish")
     sub = action(topic, "list", "the namespace's topics", topic_list)
     sub.add_argument("-v", "--verbose", action="store_true",
                      help="with type, publishers, subscribers and rate")
@@ -546,6 +895,10 @@ def build_parser() -> argparse.ArgumentParser:
                      help="seconds over which -v measures rates (default 0.5)")
     sub = action(topic, "info", "one topic: type, schema, capacity, users, counters", topic_info)
     sub.add_argument("topic")
+
+    process = group("process", "the processes using the namespace")
+    sub = action(process, "list", "live processes with their nodes, open topics and services",
+                 process_list)
 
     node = group("node", "nodes of the running schedulers: list, inspect")
     sub = action(node, "list", "the nodes of the namespace's live schedulers", node_list)
@@ -563,16 +916,46 @@ def build_parser() -> argparse.ArgumentParser:
                          help="seconds per measurement (default 1)")
         sub.add_argument("--once", action="store_true", help="print one window and exit")
 
-    service = group("service", "services: list, inspect")
+    sub = action(topic, "echo", "print a topic's messages, decoded from its stored schema "
+                                "(any type), the newest one sent first", topic_echo)
+    sub.add_argument("topic")
+    sub.add_argument("--once", action="store_true", help="print one message and exit")
+    sub.add_argument("--count", type=int, metavar="N", help="print N messages and exit")
+    sub.add_argument("--field", metavar="A.B", help="print only this field (dotted path; list "
+                                                   "elements by index)")
+    sub.add_argument("--timeout", type=float, metavar="SECONDS",
+                     help="exit 1 when no message came within SECONDS")
+    sub = action(topic, "pub", "publish a message given as YAML or JSON (any type, from the "
+                               "topic's stored schema), every 1/RATE s until Ctrl+C", topic_pub,
+                 json_output=False)
+    sub.add_argument("topic")
+    sub.add_argument("value", help="the fields, e.g. '{linear: 0.5}'; fields left out are zero")
+    sub.add_argument("--rate", type=float, metavar="HZ", help="messages per second (default 1)")
+    sub.add_argument("--once", action="store_true", help="publish one message and exit")
+    sub.add_argument("--count", type=int, metavar="N", help="publish N messages and exit")
+    sub.add_argument("--type", metavar="TYPE", help="the message type (qualified or bare name) "
+                                                    "when nobody has opened the topic yet")
+    sub.add_argument("-I", dest="include", action="append", metavar="DIR",
+                     help="with --type: schema folder to find it in (default: the installed "
+                          "schemas)")
+
+    service = group("service", "services: list, inspect, call")
     sub = action(service, "list", "the namespace's services", service_list)
     sub.add_argument("-v", "--verbose", action="store_true", help="with types, server and clients")
     sub = action(service, "info", "one service: types, server, clients", service_info)
     sub.add_argument("service")
 
+    sub = action(service, "call", "call a service with a request given as YAML or JSON (any "
+                                  "type, from the service's stored schemas)", service_call)
+    sub.add_argument("service")
+    sub.add_argument("value", help="the request's fields, e.g. '{a: 1, b: 2}'; fields left out are zero")
+    sub.add_argument("--timeout", type=float, default=5.0, metavar="SECONDS",
+                     help="how long to wait for the response (default 5)")
+
     message = group("msg", "message types of the installed (or given) schemas: list, show, hash")
     for name, handler, what in (
             ("list", msg_list, "every message type of the schemas"),
-            ("show", msg_show, "a type's fingerprint, tier, size and field layout"),
+            ("show", msg_show, "a type's fingerprint, tier, size, field layout and schema text"),
             ("hash", msg_hash, "a type's fingerprint")):
         sub = action(message, name, what, handler, json_output=name != "hash")
         if name != "list":
@@ -624,6 +1007,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.parse_args([*(argv if argv is not None else sys.argv[1:]), "--help"])
     args.root_parser = parser
     args.namespace = getattr(args, "namespace", None) or ""
+    if args.namespace:
+        # Handles the command opens (echo, pub, call) read the namespace from the environment.
+        os.environ["HORUS_NAMESPACE"] = args.namespace
     try:
         return args.handler(args)
     except CommandFailed as failure:

@@ -7,8 +7,9 @@ import struct
 
 from .. import identity
 from ..data import DataPaths
-from ..model import (PRIMITIVES, Bytes, DynString, Enum, EnumRef, EnumValue, Field, FixedArray, FixedString,
-                     Message, MessageRef, Model, Optional, Primitive, Service, SummaryPart, Type, Vec)
+from ..model import (PRIMITIVES, Bytes, DynString, Enum, EnumRef, EnumValue, FailurePolicy, Field, FixedArray,
+                     FixedString, Message, MessageRef, Model, Node, Optional, Primitive, Service, SummaryPart,
+                     Type, Vec)
 from ..names import snake_case
 from ..summary import printed_types
 from .common import CONTRACT_VERSION, banner, environment
@@ -78,6 +79,12 @@ def package_source_path(package: str) -> str:
     horus.msg -> horus/msg.cpp. One translation unit per package, not one per schema file: each
     costs about as much as <string> to compile, whatever it holds."""
     return "/".join(package.split(".")) + ".cpp"
+
+
+def package_nodes_source_path(package: str) -> str:
+    """The one .cpp holding the out-of-line code of a package's nodes, in the package's folder:
+    my_robot.nodes -> my_robot/nodes/_nodes.cpp (no header is named so: headers end in .hpp)."""
+    return "/".join(package.split(".") + ["_nodes.cpp"])
 
 
 def type_name(t: Type, package: str) -> str:
@@ -186,8 +193,8 @@ def constant_literal(value, t: Type, package: str) -> str:
     return value_literal(value, t, package)
 
 
-def std_headers(message: Message) -> list[str]:
-    """The standard headers a message's fields need beyond horus/message.hpp."""
+def field_headers(types: list[Type]) -> set[str]:
+    """Every header that declares what fields of these types spell (standard ones in <>)."""
     needed: set[str] = set()
 
     def visit(t: Type) -> None:
@@ -195,11 +202,25 @@ def std_headers(message: Message) -> list[str]:
             needed.add("<vector>")
         if isinstance(t, Optional):
             needed.add("<optional>")
+        if isinstance(t, FixedArray):
+            needed.add("<array>")
+        if isinstance(t, DynString):
+            needed.add("<string>")
+        if isinstance(t, FixedString):
+            needed.add('"horus/fixed_string.hpp"')
+        if isinstance(t, Primitive) and t.is_integer:
+            needed.add("<cstdint>")
         if isinstance(t, (FixedArray, Vec, Optional)):
             visit(t.element)
 
-    for f in message.fields:
-        visit(f.type)
+    for t in types:
+        visit(t)
+    return needed
+
+
+def std_headers(message: Message) -> list[str]:
+    """The standard headers a message's fields need beyond horus/message.hpp (which has the rest)."""
+    needed = field_headers([f.type for f in message.fields]) & {"<vector>", "<optional>"}
     return sorted(needed | set(message.cpp_includes))
 
 
@@ -278,6 +299,45 @@ def summary_type_id(part: SummaryPart, message: Message, ids: dict[Type, str]) -
     return ids[next(f.type for f in message.fields if f.name == part.field)]
 
 
+# What every node header includes from the standard library: its declarations need them.
+NODE_STD_HEADERS = frozenset({"<cstddef>", "<memory>", "<string_view>", "<utility>", "<vector>"})
+
+
+def node_std_headers(node: Node) -> list[str]:
+    """The standard headers a node header includes: its own and what its data and servers need."""
+    needed = {h for h in field_headers([f.type for f in node.data]) if h.startswith("<")}
+    return sorted(NODE_STD_HEADERS | needed | ({"<optional>"} if node.servers else set()))
+
+
+def node_horus_headers(node: Node) -> list[str]:
+    """The runtime headers a node's data fields need beyond the node, topic and scheduler ones."""
+    return sorted(h.strip('"') for h in field_headers([f.type for f in node.data]) if not h.startswith("<"))
+
+
+def node_headers(node: Node) -> list[str]:
+    """The generated headers of the messages, enums and services a node names."""
+    return [header_path(q) for q in node.uses]
+
+
+def cpp_ref(qualified: str, package: str) -> str:
+    """A message's or service's C++ name as code in namespace `package` spells it."""
+    owner, name = qualified.rsplit(".", 1)
+    return name if owner == package else f"::{namespace(owner)}::{name}"
+
+
+def nanoseconds(ns: int) -> str:
+    return f"std::chrono::nanoseconds({ns}LL)"
+
+
+def failure_policy(policy: FailurePolicy) -> str:
+    """A horus::FailurePolicy expression; arguments not given keep the runtime's defaults."""
+    if not policy.arguments:
+        return f"horus::FailurePolicy::{policy.kind}{{}}"
+    fields = ", ".join(f".{name} = " + (f"{value}U" if name.startswith("max_") else nanoseconds(value))
+                       for name, value in policy.arguments)
+    return f"horus::FailurePolicy::{policy.kind}{{{fields}}}"
+
+
 def doc_lines(docs: tuple[str, ...]) -> list[str]:
     return [f"/// {line}".rstrip() for line in docs]
 
@@ -287,8 +347,13 @@ FILTERS = {
     "value_literal": value_literal, "padding_initializer": padding_initializer, "constant_type": constant_type, "constant_literal": constant_literal, "string_literal": string_literal,
     "header_path": header_path, "std_headers": std_headers, "type_headers": type_headers,
     "lighter_header": lighter_header, "mixin_path": mixin_path,
-    "doc_lines": doc_lines, "contract_check": contract_check, "summary_type": summary_type,
-    "summary_type_id": summary_type_id, "summary_enumerators": summary_enumerators, "schema_spelling": identity.spelling,
+    "doc_lines": doc_lines, "contract_check": contract_check, "node_std_headers": node_std_headers,
+    "node_horus_headers": node_horus_headers,
+    "node_headers": node_headers, "nanoseconds": nanoseconds, "cpp_ref": cpp_ref,
+    "basename": os.path.basename, "failure_policy": failure_policy,
+    "float_literal": float_literal,
+    "summary_type": summary_type, "summary_type_id": summary_type_id,
+    "summary_enumerators": summary_enumerators, "schema_spelling": identity.spelling,
     "hex": lambda n: f"0x{n:016x}ULL",
 }
 
@@ -296,10 +361,12 @@ FILTERS = {
 def emit(model: Model, data: DataPaths) -> dict[str, str]:
     env = environment(data, "cpp", FILTERS)
     files: dict[str, str] = {}
-    by_package: dict[str, list[Message | Enum | Service]] = {}
+    by_package: dict[str, list[Message | Enum | Service | Node]] = {}
     for item in model.generated_items():
         path = header_path(item.qualified)
-        if isinstance(item, Service):
+        if isinstance(item, Node):
+            template, context = "node.hpp.j2", {"node": item, "model": model}
+        elif isinstance(item, Service):
             template, context = "service.hpp.j2", {"service": item}
         elif isinstance(item, Enum):
             template, context = "enum.hpp.j2", {"enum": item}
@@ -315,6 +382,10 @@ def emit(model: Model, data: DataPaths) -> dict[str, str]:
         package_banner = banner("//", [i.source for i in items])
         files[os.path.join("cpp", package_header_path(package))] = env.get_template("package.hpp.j2").render(
             banner=package_banner, package=package, headers=sorted(header_path(i.qualified) for i in items))
+        nodes = [i for i in items if isinstance(i, Node)]
+        if nodes:
+            files[os.path.join("cpp", package_nodes_source_path(package))] = env.get_template("nodes.cpp.j2").render(
+                banner=banner("//", [n.source for n in nodes]), package=package, nodes=nodes)
         messages = [i for i in items if isinstance(i, Message)]
         if messages:
             summary_types = printed_types(model, messages)

@@ -14,7 +14,7 @@ import struct
 
 from ..data import DataPaths
 from ..model import (Bytes, DynString, Enum, EnumRef, EnumValue, Field, FixedArray, FixedString, Message,
-                     MessageRef, Model, Optional, Primitive, Service, Type, Vec)
+                     MessageRef, Model, Node, Optional, Primitive, Service, Type, Vec)
 from ..names import snake_case
 from .common import CONTRACT_VERSION, banner, environment
 
@@ -199,25 +199,27 @@ def parameter(f: Field, model: Model, names: Names) -> str:
         else:
             accepted = hint(t, names).replace("list[", "Sequence[", 1)
         return f"{f.name}: {accepted} | None = None"
-    if f.default is not None:
-        default = value_literal(f.default, t, model, names)
-    elif isinstance(t, Primitive):
-        default = "False" if t.is_bool else ("0.0" if t.is_float else "0")
-    elif isinstance(t, (FixedString, DynString)):
-        default = '""'
-    elif _is_bytes(t):
-        default = 'b""'
-    elif isinstance(t, EnumRef):
+    default = value_literal(f.default, t, model, names) if f.default is not None else zero_literal(t, model, names)
+    accepted = hint(t, names) + (" | int" if isinstance(t, EnumRef) else "")
+    return f"{f.name}: {accepted} = {default}"
+
+
+def zero_literal(t: Type, model: Model, names: Names) -> str:
+    """The value of a field of a type that needs no factory (see needs_factory) when none is given."""
+    if isinstance(t, Primitive):
+        return "False" if t.is_bool else ("0.0" if t.is_float else "0")
+    if isinstance(t, (FixedString, DynString)):
+        return '""'
+    if _is_bytes(t):
+        return 'b""'
+    if isinstance(t, EnumRef):
         found = model.types[t.qualified]
         assert isinstance(found, Enum)
         zero = next((v.name for v in found.variants if v.value == 0), None)
-        default = f"{names[t.qualified]}.{zero}" if zero else "0"
-    elif isinstance(t, Optional):
-        default = "None"
-    else:
-        raise ValueError(t)
-    accepted = hint(t, names) + (" | int" if isinstance(t, EnumRef) else "")
-    return f"{f.name}: {accepted} = {default}"
+        return f"{names[t.qualified]}.{zero}" if zero else "0"
+    if isinstance(t, Optional):
+        return "None"
+    raise ValueError(t)
 
 
 def initializer(f: Field, names: Names) -> str:
@@ -345,13 +347,69 @@ def string_literal(text: str) -> str:
     return repr(text)
 
 
+MISS_POLICIES = {"Warn": "warn", "Skip": "skip", "SafeMode": "safe_mode", "Stop": "stop"}
+
+
+def data_initial(f: Field, model: Model, names: Names) -> str:
+    """The value a node's data member starts with: its default, else the type's zero."""
+    return _initial(f.type, f.default, model, names)
+
+
+def _initial(t: Type, default, model: Model, names: Names) -> str:
+    if isinstance(t, FixedArray):
+        if default is not None:
+            return "[" + ", ".join(_initial(t.element, v, model, names) for v in default) + "]"
+        return f"[{_initial(t.element, None, model, names)} for _ in range({t.length})]"
+    if default is not None:
+        return value_literal(default, t, model, names)
+    if isinstance(t, MessageRef):
+        return f"{names[t.qualified]}()"
+    if isinstance(t, Vec) and not _is_bytes(t):
+        return "[]"
+    return zero_literal(t, model, names)
+
+
+def node_doc(node: Node) -> list[str]:
+    return list(node.docs) + ([""] if node.docs else []) + [
+        f"The node '{node.node_name}' as declared in {os.path.basename(node.source)}: subclass it and override",
+        "tick() (and init(), shutdown()); keyword arguments override the declared settings.",
+        "Topics are typed handles (self.<member>.send(...), .try_recv()); data members are attributes."]
+
+
+def node_settings(node: Node) -> list[tuple[str, str]]:
+    """horus.Node's keyword arguments for the node's declared settings (seconds, policy names)."""
+    s = node.settings
+    found: list[tuple[str, str]] = [("name", repr(node.node_name))]
+    if s.order is not None:
+        found.append(("order", str(s.order)))
+    if s.rate_hz is not None:
+        found.append(("rate", repr(s.rate_hz)))
+    for key, ns in (("budget", s.budget_ns), ("deadline", s.deadline_ns), ("watchdog", s.watchdog_ns)):
+        if ns is not None:
+            found.append((key, repr(ns / 1e9)))
+    if s.on_miss is not None:
+        found.append(("on_miss", repr(MISS_POLICIES[s.on_miss])))
+    if s.failure_policy is not None:
+        found.append(("failure_policy", repr(s.failure_policy.kind.lower())))
+    if s.compute:
+        found.append(("compute", "True"))
+    if s.on is not None:
+        found.append(("on", repr(s.on)))
+    if s.priority is not None:
+        found.append(("priority", str(s.priority)))
+    if s.core is not None:
+        found.append(("core", str(s.core)))
+    return found
+
+
 FILTERS = {
+    "data_initial": data_initial, "node_settings": node_settings, "node_doc": node_doc,
     "codec": codec, "value_literal": value_literal, "float_literal": float_literal, "hint": hint,
     "parameter": parameter, "initializer": initializer, "needs_factory": needs_factory,
     "raw_format": raw_format, "scalar_fields": scalar_fields, "other_fields": other_fields,
     "raw_store": raw_store, "raw_load": raw_load, "raw_write": raw_write, "raw_read": raw_read,
     "docstring": docstring, "class_doc": class_doc, "summary_table": summary_table,
-    "string_literal": string_literal, "hex": lambda n: f"0x{n:016x}",
+    "string_literal": string_literal, "hex": lambda n: f"0x{n:016x}", "basename": os.path.basename,
 }
 
 
@@ -363,7 +421,10 @@ def emit(model: Model, data: DataPaths) -> dict[str, str]:
         path = os.path.join("python", module_path(item.qualified))
         common = {"banner": banner("#", [item.source]), "support": SUPPORT_MODULE, "model": model,
                   "contract": CONTRACT_VERSION}
-        if isinstance(item, Service):
+        if isinstance(item, Node):
+            names = Names(item.package, item.base, list(item.uses))
+            text = env.get_template("node.py.j2").render(node=item, names=names, **common)
+        elif isinstance(item, Service):
             names = Names(item.package, item.name, [item.request.qualified, item.response.qualified])
             text = env.get_template("service.py.j2").render(service=item, names=names, **common)
         elif isinstance(item, Enum):
@@ -384,7 +445,8 @@ def emit(model: Model, data: DataPaths) -> dict[str, str]:
         if path in files:
             raise ValueError(f"{item.qualified}: module {path} is generated twice (two names with one snake_case)")
         files[path] = text
-        exports.setdefault(item.package, []).append((module_name(item.qualified).rsplit(".", 1)[1], item.name))
+        exported = item.base if isinstance(item, Node) else item.name
+        exports.setdefault(item.package, []).append((module_name(item.qualified).rsplit(".", 1)[1], exported))
     for package, members in exports.items():
         folder = os.path.join("python", *package.split("."))
         sources = [i.source for i in model.generated_items() if i.package == package]

@@ -1,5 +1,7 @@
 // The presence registry, for tools (`horus node list`, `horus monitor`): every process running a
-// Scheduler announces, in its namespace's shared memory, which nodes it runs and how they fare.
+// Scheduler announces, in its namespace's shared memory, which nodes it runs and how they fare;
+// every process with open topic handles, service servers or clients announces those (a process
+// announcement, below), with or without a scheduler.
 //
 // Each running Scheduler owns one small file, <root>/@presence/<namespace>/<pid>.<n>, that a
 // thread of its own rewrites (write aside, then rename) twice a second and when run() starts and
@@ -12,6 +14,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace horus {
@@ -30,6 +33,9 @@ struct PresenceInfo {
   /// "total_ticks", "failed_ticks", "avg_tick_ns", "max_tick_ns", "last_tick_ns",
   /// "deadline_misses", "budget_overruns", "messages_sent", "messages_received",
   /// "achieved_rate_hz", "publishers"/"subscribers": [{"topic", "type"}]}]}.
+  /// A process announcement instead: {"process" (its program name), "topics": [{"topic",
+  /// "type", "handles"}], "services": [{"service", "role" ("server" or "client"),
+  /// "request_type", "response_type"}]}.
   std::string snapshot_json;
   /// Why the entry could not be read; empty when it was.
   std::string error;
@@ -61,6 +67,52 @@ class PresenceAnnouncement {
  private:
   int folder_ = -1;
   std::string entry_;
+};
+
+/// What a process uses, for its process announcement.
+struct ProcessUse {
+  enum class Kind { Topic, ServiceServer, ServiceClient };
+  Kind kind = Kind::Topic;
+  std::string namespace_name;  // empty: the current one
+  std::string name;
+  std::string type;           // a topic's type, a service's request type
+  std::string response_type;  // services only
+};
+
+/// Counts a use into this process's announcement in the use's namespace, which is rewritten
+/// (the file appears with the first use and goes with the last). Never throws: a registry that
+/// cannot be written leaves the process unannounced, never unable to open a topic. A slow path
+/// (file writes): called where handles open and close, never per message.
+void announce_use(const ProcessUse& use) noexcept;
+void withdraw_use(const ProcessUse& use) noexcept;
+
+/// A use announced for the lifetime of the object (a topic handle, a server, a client).
+class AnnouncedUse {
+ public:
+  AnnouncedUse() = default;
+  explicit AnnouncedUse(ProcessUse use) noexcept : use_(std::move(use)), active_(true) {
+    announce_use(use_);
+  }
+  AnnouncedUse(AnnouncedUse&& other) noexcept
+      : use_(std::move(other.use_)), active_(std::exchange(other.active_, false)) {}
+  AnnouncedUse& operator=(AnnouncedUse&& other) noexcept {
+    if (this != &other) {
+      reset();
+      use_ = std::move(other.use_);
+      active_ = std::exchange(other.active_, false);
+    }
+    return *this;
+  }
+  AnnouncedUse(const AnnouncedUse&) = delete;
+  AnnouncedUse& operator=(const AnnouncedUse&) = delete;
+  ~AnnouncedUse() { reset(); }
+
+ private:
+  void reset() noexcept {
+    if (std::exchange(active_, false)) withdraw_use(use_);
+  }
+  ProcessUse use_;
+  bool active_ = false;
 };
 
 }  // namespace detail

@@ -23,6 +23,7 @@
 #include "horus/detail/service_channel.hpp"
 #include "horus/detail/service_frame.hpp"
 #include "horus/error.hpp"
+#include "horus/presence.hpp"
 #include "horus/service_message.hpp"
 #include "horus/service_type.hpp"
 #include "horus/topic.hpp"
@@ -125,7 +126,11 @@ class ServiceServer {
           waker(S::request_topic(), options),
           registration(detail::registration_topic(S::name()),
                        detail::registration_options(options)),
-          instance(detail::new_service_endpoint_id()) {}
+          instance(detail::new_service_endpoint_id()),
+          announced(detail::ProcessUse{detail::ProcessUse::Kind::ServiceServer,
+                                       options.namespace_name, std::string(S::name()),
+                                       std::string(S::request_type_name()),
+                                       std::string(S::response_type_name())}) {}
 
     void serve() noexcept {
       while (!stopping.load(std::memory_order_acquire)) {
@@ -223,6 +228,7 @@ class ServiceServer {
     Topic<RequestFrame> waker;  // stop()'s
     Topic<detail::ServiceRegistration> registration;
     std::uint64_t instance;
+    detail::AnnouncedUse announced;  // the server in this process's presence announcement
     std::atomic<bool> stopping{false};
     std::atomic<std::uint64_t> requests{0};
     std::atomic<std::uint64_t> failures{0};

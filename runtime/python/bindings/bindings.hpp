@@ -9,6 +9,8 @@ namespace horus::python {
 void bind_scheduler(pybind11::module_& m);
 /// horus._core: type-erased topics (bytes in, bytes or zero-copy views out).
 void bind_topics(pybind11::module_& m);
+/// horus._core: send() / try_recv() in C for POD topics whose fields are all scalars.
+void bind_pod_fast_path(pybind11::module_& m);
 /// horus._core: type-erased service clients and servers.
 void bind_services(pybind11::module_& m);
 /// horus._core: services, log ring, presence and cleaning, for the `horus` command.

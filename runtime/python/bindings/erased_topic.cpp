@@ -3,6 +3,8 @@
 #include <cstring>
 #include <utility>
 
+#include "horus/detail/message_count.hpp"
+
 namespace horus::python {
 
 ErasedTopic::ErasedTopic(std::string name, ErasedType type, const TopicOptions& options)
@@ -24,10 +26,14 @@ bool ErasedTopic::send(std::span<const std::byte> bytes) noexcept {
     endpoint_.count_oversized();
     return false;
   }
-  return endpoint_.send([&](std::byte* payload) noexcept {
+  const bool sent = endpoint_.send([&](std::byte* payload) noexcept {
     std::memcpy(payload, bytes.data(), bytes.size());
     return static_cast<std::uint32_t>(bytes.size());
   });
+  if (sent) {
+    detail::count_sent();  // the running node's messages_sent, as Topic<T>::send counts
+  }
+  return sent;
 }
 
 std::byte* ErasedTopic::loan() noexcept {
@@ -44,6 +50,7 @@ bool ErasedTopic::publish() noexcept {
   }
   loaned_ = false;
   if (detail::finish_claim(endpoint_.ring(), loan_, static_cast<std::uint32_t>(type_.size))) {
+    detail::count_sent();
     return true;
   }
   endpoint_.count_send_failure();
@@ -78,7 +85,11 @@ std::ptrdiff_t ErasedTopic::receive(bool check_stall) noexcept {
         return true;
       },
       []() noexcept { return true; });
-  return got ? length : -1;
+  if (!got) {
+    return -1;
+  }
+  detail::count_received();  // the running node's messages_received, as Topic<T> counts
+  return length;
 }
 
 std::ptrdiff_t ErasedTopic::try_recv() noexcept { return receive(false); }

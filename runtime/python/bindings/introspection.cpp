@@ -2,9 +2,12 @@
 // the log ring, the processes' presence, and the cleaning of what dead processes left.
 #include <pybind11/stl.h>
 
+#include <memory>
 #include <string>
+#include <utility>
 
 #include "bindings.hpp"
+#include "horus/error.hpp"
 #include "horus/log.hpp"
 #include "horus/presence.hpp"
 #include "horus/service_registry.hpp"
@@ -99,6 +102,21 @@ void bind_introspection(py::module_& m) {
       [](const std::string& namespace_name) { return clean_namespace(namespace_name); },
       py::arg("namespace_name") = "",
       "Unlinks the topic segments whose every user process died; returns how many.");
+  py::class_<detail::AnnouncedUse>(
+      m, "AnnouncedUse",
+      "A service server or client in this process's presence announcement, until close().")
+      .def(py::init([](const std::string& role, std::string name, std::string request_type,
+                       std::string response_type) {
+             if (role != "server" && role != "client") {
+               throw Error("AnnouncedUse role must be 'server' or 'client', not '" + role + "'");
+             }
+             const auto kind = role == "server" ? detail::ProcessUse::Kind::ServiceServer
+                                                : detail::ProcessUse::Kind::ServiceClient;
+             return std::make_unique<detail::AnnouncedUse>(detail::ProcessUse{
+                 kind, {}, std::move(name), std::move(request_type), std::move(response_type)});
+           }),
+           py::arg("role"), py::arg("name"), py::arg("request_type"), py::arg("response_type"))
+      .def("close", [](detail::AnnouncedUse& use) { use = detail::AnnouncedUse(); });
 }
 
 }  // namespace horus::python

@@ -14,6 +14,7 @@ PYBIND11_MODULE(_core, m) {
   });
   horus::python::bind_scheduler(m);
   horus::python::bind_topics(m);
+  horus::python::bind_pod_fast_path(m);
   horus::python::bind_services(m);
   horus::python::bind_introspection(m);
 }

@@ -145,11 +145,14 @@ void PyNode::call(const py::object& callback) const {
   }
   CallbackScope scope;
   CallbackGil gil;
-  try {
-    callback();
-  } catch (py::error_already_set& error) {
+  // The C API's no-argument call (vectorcall): pybind11's call operator would build an argument
+  // tuple first, on every tick.
+  PyObject* result = PyObject_CallNoArgs(callback.ptr());
+  if (result == nullptr) {
+    py::error_already_set error;
     throw std::runtime_error(python_traceback(error));
   }
+  Py_DECREF(result);
 }
 
 bool PyNode::is_safe_state() const {

@@ -113,6 +113,8 @@ py::dict metrics_dict(const NodeMetrics& m) {
   out["errors_count"] = m.errors_count;
   out["warnings_count"] = m.warnings_count;
   out["restarts"] = m.restarts;
+  out["messages_sent"] = m.messages_sent;
+  out["messages_received"] = m.messages_received;
   out["achieved_rate_hz"] = m.achieved_rate_hz;
   out["uptime"] = seconds(m.uptime);
   return out;
@@ -173,7 +175,8 @@ void bind_scheduler(py::module_& m) {
       .def(py::init([](double tick_rate, bool rt, bool deterministic, double watchdog_ms,
                        std::size_t blackbox_mb, std::optional<std::string> name,
                        std::vector<int> cores, std::optional<std::uint64_t> max_deadline_misses,
-                       bool verbose, std::optional<std::uint64_t> seed) {
+                       bool verbose, std::optional<std::string> telemetry,
+                       std::optional<std::uint64_t> seed) {
              SchedulerConfig config;
              config.tick_rate(Rate::hz(tick_rate))
                  .rt(rt)
@@ -184,12 +187,14 @@ void bind_scheduler(py::module_& m) {
                  .verbose(verbose);
              if (name) config.name(*name);
              if (max_deadline_misses) config.max_deadline_misses(max_deadline_misses);
+             if (telemetry) config.telemetry(*telemetry);
              if (seed) config.seed(*seed);
              return std::unique_ptr<Scheduler, ReleasingDeleter>(new Scheduler(std::move(config)));
            }),
            py::arg("tick_rate"), py::arg("rt"), py::arg("deterministic"), py::arg("watchdog_ms"),
            py::arg("blackbox_mb"), py::arg("name"), py::arg("cores"),
-           py::arg("max_deadline_misses"), py::arg("verbose"), py::arg("seed"))
+           py::arg("max_deadline_misses"), py::arg("verbose"), py::arg("telemetry"),
+           py::arg("seed"))
       .def(
           "add",
           [](Scheduler& sched, std::shared_ptr<Node> node, std::int32_t order,

@@ -1,6 +1,6 @@
 # Type stubs of the horus package (the runtime); generated message packages ship their own.
 import concurrent.futures
-from typing import Any, Awaitable, Callable, Generic, Literal, Mapping, Sequence, TypeVar, overload
+from typing import Any, Awaitable, Callable, ClassVar, Generic, Literal, Mapping, Sequence, TypeVar, overload
 
 M = TypeVar("M")
 Req = TypeVar("Req")
@@ -61,6 +61,7 @@ class Node:
     subs: dict[str, type]
     pubs: dict[str, type]
     is_async: bool
+    topic_capacities: ClassVar[dict[str, int]]
     def __init__(self, name: str | None = ...,
                  tick: Callable[["Node"], None] | Callable[["Node"], Awaitable[None]] | None = ...,
                  init: Callable[["Node"], None] | None = ...,

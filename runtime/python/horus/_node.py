@@ -41,6 +41,10 @@ class Node:
     `tick` and `shutdown` as methods. Budgets, deadlines and watchdogs are seconds (`300 * us`).
     """
 
+    # Slots of the topics this node creates, by topic name (default 64); the classes horus-gen
+    # generates from .hnode files set it from their #[capacity] attributes.
+    topic_capacities: dict[str, int] = {}
+
     def __init__(self, name: str | None = None, tick=None, init=None, shutdown=None,
                  rate: float | None = None, order: int = 100, budget: float | None = None,
                  deadline: float | None = None, on_miss: str | None = None,
@@ -148,7 +152,9 @@ class Node:
         topic = self._topics.get(name)
         if topic is None:
             msg_type = self.subs.get(name, self.pubs.get(name, dict))
-            topic = self._topics[name] = Topic(msg_type, name)
+            capacity = self.topic_capacities.get(name)
+            topic = self._topics[name] = (Topic(msg_type, name) if capacity is None
+                                          else Topic(msg_type, name, capacity=capacity))
         return topic
 
     def open_topics(self) -> None:

@@ -11,7 +11,9 @@ _RECORDING = ("session recording is not implemented yet (the recording issue); "
 class Scheduler:
     """Runs nodes in order at their rates; a context manager that stops on exit.
 
-    Every keyword of seed 001; `seed` sets the deterministic random sequence.
+    Every keyword of seed 001; `seed` sets the deterministic random sequence. `telemetry`
+    ("udp://HOST:PORT" or "file:///PATH") exports every node's metrics as JSON each second while
+    it runs and once when run() ends.
     """
 
     def __init__(self, tick_rate: float = 1000.0, rt: bool = False, deterministic: bool = False,
@@ -21,8 +23,6 @@ class Scheduler:
                  telemetry: str | None = None, seed: int | None = None) -> None:
         if recording:
             raise NotImplementedError(_RECORDING)
-        if telemetry is not None:
-            raise NotImplementedError("telemetry export is not implemented")
         if not float(tick_rate) > 0.0:
             raise ValueError(f"tick_rate must be > 0 Hz, got {tick_rate!r}")
         if watchdog_ms is None or not float(watchdog_ms) >= 0.0:
@@ -32,7 +32,7 @@ class Scheduler:
             tick_rate=float(tick_rate), rt=bool(rt), deterministic=bool(deterministic),
             watchdog_ms=float(watchdog_ms), blackbox_mb=int(blackbox_mb), name=name,
             cores=list(cores or []), max_deadline_misses=max_deadline_misses,
-            verbose=bool(verbose), seed=seed)
+            verbose=bool(verbose), telemetry=telemetry, seed=seed)
         self._nodes: dict[str, object] = {}
 
     # -- building ---------------------------------------------------------------------------

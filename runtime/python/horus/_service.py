@@ -151,6 +151,12 @@ def _registration(topic) -> tuple | None:
     return instance, pid
 
 
+def _announced_use(role: str, service) -> "_core.AnnouncedUse":
+    """The server or client in this process's presence announcement (horus/presence.hpp)."""
+    return _core.AnnouncedUse(role, service.name, service.Request.__horus__.name,
+                              service.Response.__horus__.name)
+
+
 def _alive(pid: int) -> bool:
     if pid == 0:
         return False
@@ -182,6 +188,7 @@ class ServiceClient:
         self._requests = self._request.open(service.request_topic)
         self._reply_index, self._responses = self._open_reply_topic()
         self._registration_topic = _registration_topic(service)
+        self._announced = _announced_use("client", service)
         self.client_id = _endpoint_id()
         self._last_request = 0
         self._executor = None
@@ -285,6 +292,7 @@ class ServiceClient:
         if self._executor is not None:
             self._executor.shutdown(wait=True)
             self._executor = None
+        self._announced.close()
 
     def __enter__(self) -> "ServiceClient":
         return self
@@ -317,6 +325,7 @@ class ServiceServer:
                                    f"{_core.current_namespace()} already has a server "
                                    f"(pid {current[1]})")
         self._publish_registration(self.instance, os.getpid())
+        self._announced = _announced_use("server", service)
         self._stopping = threading.Event()
         self._thread = threading.Thread(target=self._serve, name=f"horus-{service.name}",
                                         daemon=True)
@@ -373,6 +382,7 @@ class ServiceServer:
         current = _registration(self._registration_topic)
         if current is not None and current[0] == self.instance:
             self._publish_registration(0, 0)
+        self._announced.close()
 
     def __enter__(self) -> "ServiceServer":
         return self

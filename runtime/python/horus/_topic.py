@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import sys
 
 from . import _core
 
@@ -12,6 +13,39 @@ def _generic_message():
     from horus.msg import GenericMessage  # generated; imported only when a dict topic is used
 
     return GenericMessage
+
+
+def _typed_encoder(name: str, msg_type):
+    """msg -> the bytes a topic carrying `msg_type` sends (a closure: no reference to the Topic,
+    so the C fast path can hold it without a cycle)."""
+    def encode(msg) -> bytes:
+        if not isinstance(msg, msg_type):
+            raise TypeError(f"topic '{name}' carries {msg_type.__horus__.name}, "
+                            f"not {type(msg).__name__}")
+        return msg.to_bytes()
+    return encode
+
+
+def _values_encoder(generic_message):
+    def encode(value) -> bytes:
+        return generic_message.from_value(value).to_bytes()
+    return encode
+
+
+def _scalar_layout(msg_type):
+    """[(field, struct format, offset)] when every field of the POD class `msg_type` is a plain
+    integer, float or bool (what _core.pod_fast_path handles); None otherwise."""
+    meta = msg_type.__horus__
+    support = sys.modules.get(type(meta).__module__)  # the support module the class was made with
+    scalar = tuple(getattr(support, name, None) for name in ("Int", "Float", "Bool"))
+    if None in scalar or not meta.fields:
+        return None
+    layout = []
+    for name, codec, offset in zip(meta.fields, meta.codecs, meta.offsets):
+        if type(codec) not in scalar:
+            return None
+        layout.append((name, codec.fmt, offset))
+    return layout
 
 
 class Topic:
@@ -34,20 +68,21 @@ class Topic:
                                  meta.size if self._pod else 0, meta.alignment if self._pod else 1, capacity,
                                  max_message_size, single_publisher)
         self._decode = self.type.from_bytes
+        self._encode = _values_encoder(self.type) if self._values else _typed_encoder(name, self.type)
         self._loan_view = None
         self._loan_buffer = None
+        layout = _scalar_layout(self.type) if self._pod else None
+        if layout is not None:
+            # send() and try_recv() in C for the messages most often sent at high rates (CmdVel
+            # and the like): the same bytes, values and errors, a fraction of the cost (see
+            # bench/python/RESULTS.md). Instance attributes, so a call is one C call.
+            fast = _core.pod_fast_path(self._core, self.type, meta.size, layout, self._encode)
+            if fast is not None:  # None: a class (a user's subclass) that keeps fields otherwise
+                self.send, self.try_recv = fast.send, fast.try_recv
 
     @property
     def name(self) -> str:
         return self._core.name
-
-    def _encode(self, msg) -> bytes:
-        if self._values:
-            return self.type.from_value(msg).to_bytes()
-        if not isinstance(msg, self.type):
-            raise TypeError(f"topic '{self.name}' carries {self.type.__horus__.name}, "
-                            f"not {type(msg).__name__}")
-        return msg.to_bytes()
 
     def _message(self, data):
         if data is None:

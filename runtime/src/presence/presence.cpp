@@ -3,6 +3,7 @@
 
 #include <dirent.h>
 #include <fcntl.h>
+#include <pthread.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -11,9 +12,17 @@
 #include <cerrno>
 #include <chrono>
 #include <cinttypes>
+#include <condition_variable>
 #include <cstdio>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <new>
 #include <string>
+#include <thread>
+#include <tuple>
 
+#include "../scheduler/telemetry.hpp"
 #include "horus/detail/errno_text.hpp"
 #include "horus/detail/process.hpp"
 #include "horus/detail/shm_access.hpp"
@@ -203,6 +212,148 @@ bool PresenceAnnouncement::announce(std::string_view snapshot_json, std::string&
   if (!written) ::unlinkat(folder_, temporary.c_str(), 0);
   return written;
 }
+
+namespace {
+
+/// This process's uses in one namespace, and the announcement that lists them.
+/// How long the writer lets changes pile up after a rewrite: a process opening hundreds of
+/// topics rewrites its announcement a few times, not once per topic.
+constexpr auto kRewriteInterval = std::chrono::milliseconds(50);
+
+struct NamespaceUses {
+  std::map<std::tuple<int, std::string, std::string, std::string>, std::size_t> counts;
+  std::unique_ptr<PresenceAnnouncement> announcement;
+  bool dirty = false;  // the counts changed since the announcement was written
+};
+
+struct ProcessUses {
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::map<std::string, NamespaceUses> namespaces;
+  /// The process whose writer thread runs (a forked child starts its own).
+  std::uint32_t writer_pid = 0;
+};
+
+ProcessUses& process_uses() {
+  // Never destroyed: handles in other static objects may close after it would have been.
+  static auto* uses = [] {
+    auto* created = new ProcessUses();  // NOLINT(cppcoreguidelines-owning-memory)
+    // fork() waits until no thread (the writer above all) holds the lock, so that a child never
+    // starts with it held by a thread it does not have; the child's condition variable starts
+    // afresh (the parent's writer waits on it, a thread the child does not have).
+    ::pthread_atfork([] { process_uses().mutex.lock(); }, [] { process_uses().mutex.unlock(); },
+                     [] {
+                       ProcessUses& all = process_uses();
+                       new (&all.changed) std::condition_variable();
+                       all.mutex.unlock();
+                     });
+    return created;
+  }();
+  return *uses;
+}
+
+std::string program_name() {
+  char name[64] = {};
+  const int fd = ::open("/proc/self/comm", O_RDONLY | O_CLOEXEC);
+  ssize_t got = fd >= 0 ? ::read(fd, name, sizeof name - 1) : -1;
+  if (fd >= 0) ::close(fd);
+  while (got > 0 && (name[got - 1] == '\n' || name[got - 1] == '\0')) --got;
+  return got > 0 ? std::string(name, static_cast<std::size_t>(got)) : "?";
+}
+
+std::string uses_json(const NamespaceUses& uses) {
+  std::string topics;
+  std::string services;
+  for (const auto& [key, count] : uses.counts) {
+    const auto& [kind, name, type, response_type] = key;
+    if (kind == static_cast<int>(ProcessUse::Kind::Topic)) {
+      topics += std::string(topics.empty() ? "" : ",") + "{\"topic\":" + json_string(name) +
+                ",\"type\":" + json_string(type) + ",\"handles\":" + std::to_string(count) + "}";
+    } else {
+      const char* role =
+          kind == static_cast<int>(ProcessUse::Kind::ServiceServer) ? "server" : "client";
+      services += std::string(services.empty() ? "" : ",") + "{\"service\":" + json_string(name) +
+                  ",\"role\":\"" + role + "\",\"request_type\":" + json_string(type) +
+                  ",\"response_type\":" + json_string(response_type) + "}";
+    }
+  }
+  return "{\"process\":" + json_string(program_name()) + ",\"topics\":[" + topics +
+         "],\"services\":[" + services + "]}";
+}
+
+void write_announcement(const std::string& namespace_name, NamespaceUses& uses) {
+  uses.dirty = false;
+  if (!uses.announcement) {
+    uses.announcement = std::make_unique<PresenceAnnouncement>(namespace_name);
+  }
+  std::string error;
+  static_cast<void>(uses.announcement->announce(uses_json(uses), error));
+}
+
+/// Rewrites the announcements whose uses changed, at most once per kRewriteInterval.
+[[noreturn]] void rewrite_changed(ProcessUses& all) noexcept {
+  std::unique_lock lock(all.mutex);
+  while (true) {
+    all.changed.wait(lock, [&] {
+      return std::any_of(all.namespaces.begin(), all.namespaces.end(),
+                         [](const auto& entry) { return entry.second.dirty; });
+    });
+    for (auto& [namespace_name, uses] : all.namespaces) {
+      try {
+        if (uses.dirty) write_announcement(namespace_name, uses);
+      } catch (...) {  // NOLINT(bugprone-empty-catch): an unannounced process still works
+      }
+    }
+    lock.unlock();
+    std::this_thread::sleep_for(kRewriteInterval);
+    lock.lock();
+  }
+}
+
+void change_use(const ProcessUse& use, bool add) noexcept {
+  try {
+    const std::string namespace_name = namespace_of(use.namespace_name);
+    ProcessUses& all = process_uses();
+    const std::lock_guard lock(all.mutex);
+    if (all.writer_pid != this_pid()) {
+      // A forked child: the announcements it inherited are its parent's (their destruction
+      // would remove the parent's files), and it needs a writer thread of its own.
+      for (auto& entry : all.namespaces) {
+        static_cast<void>(
+            entry.second.announcement.release());  // NOLINT(bugprone-unused-return-value)
+        entry.second.counts.clear();
+        entry.second.dirty = false;
+      }
+      std::thread(rewrite_changed, std::ref(all)).detach();
+      all.writer_pid = this_pid();
+    }
+    NamespaceUses& uses = all.namespaces[namespace_name];
+    const auto key =
+        std::make_tuple(static_cast<int>(use.kind), use.name, use.type, use.response_type);
+    if (add) {
+      ++uses.counts[key];
+    } else if (auto found = uses.counts.find(key);
+               found != uses.counts.end() && --found->second == 0) {
+      uses.counts.erase(found);
+    }
+    if (uses.counts.empty()) {
+      // The last use went, and so does the announcement, at once: the process may be exiting.
+      uses.announcement.reset();
+      uses.dirty = false;
+    } else if (!uses.announcement) {
+      write_announcement(namespace_name, uses);  // the first use: announced at once
+    } else {
+      uses.dirty = true;
+      all.changed.notify_one();
+    }
+  } catch (...) {  // NOLINT(bugprone-empty-catch): an unannounced process still works
+  }
+}
+
+}  // namespace
+
+void announce_use(const ProcessUse& use) noexcept { change_use(use, true); }
+void withdraw_use(const ProcessUse& use) noexcept { change_use(use, false); }
 
 }  // namespace detail
 }  // namespace horus

@@ -496,6 +496,8 @@ ShmSegment ShmSegment::open_topic(std::string_view topic, const TypeDescriptor& 
   segment.ring_.single_publisher =
       segment.control().ring.single_publisher.load(std::memory_order_acquire) == 1;
   segment.user_index_ = register_user(segment.control(), 0, path);
+  segment.announced_ = AnnouncedUse(ProcessUse{
+      ProcessUse::Kind::Topic, options.namespace_name, name, std::string(type.name), {}});
   return segment;
 }
 
@@ -524,7 +526,8 @@ ShmSegment::ShmSegment(ShmSegment&& other) noexcept
       mapped_size_(std::exchange(other.mapped_size_, 0)),
       user_index_(std::exchange(other.user_index_, -1)),
       ring_(std::exchange(other.ring_, RingView{})),
-      path_(std::move(other.path_)) {}
+      path_(std::move(other.path_)),
+      announced_(std::move(other.announced_)) {}
 
 ShmSegment& ShmSegment::operator=(ShmSegment&& other) noexcept {
   if (this != &other) {
@@ -534,6 +537,7 @@ ShmSegment& ShmSegment::operator=(ShmSegment&& other) noexcept {
     user_index_ = std::exchange(other.user_index_, -1);
     ring_ = std::exchange(other.ring_, RingView{});
     path_ = std::move(other.path_);
+    announced_ = std::move(other.announced_);
   }
   return *this;
 }
@@ -610,6 +614,7 @@ void ShmSegment::release() noexcept {
   }
   ::munmap(base_, mapped_size_);
   base_ = nullptr;
+  announced_ = AnnouncedUse();
 }
 
 }  // namespace horus::detail

@@ -173,3 +173,54 @@ def test_a_dropped_scheduler_releases_its_python_nodes():
     del node, sched
     gc.collect()
     assert alive() is None
+
+
+def test_a_python_nodes_messages_count_in_its_metrics():
+    # As a C++ node's: what its topics send and return inside its callbacks, typed, dict and
+    # loaned alike; nothing outside callbacks.
+    def publish(node):
+        node.send("cmd_vel", CmdVel(linear=0.5))
+        node.send("status", {"ok": True})
+        topic = node._topics["cmd_vel"]
+        topic.publish(topic.loan())
+
+    got = []
+
+    def listen(node):
+        while (msg := node.recv("cmd_vel")) is not None:
+            got.append(msg)
+        while (msg := node.recv("status")) is not None:
+            got.append(msg)
+
+    sched = Scheduler(tick_rate=100, deterministic=True)
+    sched.add(Node(name="pub", tick=publish, order=0, pubs={"cmd_vel": CmdVel, "status": dict}))
+    sched.add(Node(name="sub", tick=listen, order=1, subs={"cmd_vel": CmdVel, "status": dict}))
+    horus.Topic(CmdVel, "cmd_vel").send(CmdVel())  # not in a callback: counted for no node
+    for _ in range(3):
+        sched.tick_once()
+    assert len(got) == 9
+    pub, sub = sched.get_node_stats("pub"), sched.get_node_stats("sub")
+    assert (pub["messages_sent"], pub["messages_received"]) == (9, 0)
+    assert (sub["messages_sent"], sub["messages_received"]) == (0, 9)
+
+
+def test_telemetry_exports_the_python_nodes_metrics_as_json(tmp_path):
+    import json
+
+    path = tmp_path / "telemetry.json"
+    node = Node(name="beacon", tick=lambda n: n.send("beat", {"n": 1}), rate=100, order=3)
+    sched = Scheduler(tick_rate=100, telemetry=f"file://{path}", name="exporter").add(node)
+    assert sched.run(duration=0.2) == 0
+    snapshot = json.loads(path.read_text())
+    assert snapshot["scheduler"] == "exporter"
+    (beacon,) = [n for n in snapshot["nodes"] if n["name"] == "beacon"]
+    stats = sched.get_node_stats("beacon")
+    assert beacon["order"] == 3 and beacon["total_ticks"] == stats["total_ticks"] > 0
+    assert beacon["messages_sent"] == stats["messages_sent"] == stats["total_ticks"]
+
+
+def test_a_bad_telemetry_endpoint_is_refused_with_the_reason():
+    with pytest.raises(horus.HorusError, match="expected udp://HOST:PORT or file:///PATH"):
+        Scheduler(telemetry="http://localhost:1")
+    with pytest.raises(horus.HorusError, match="must be absolute"):
+        Scheduler(telemetry="file://relative.json")

@@ -57,8 +57,6 @@ def test_recording_and_telemetry_are_not_silently_ignored():
         Scheduler(tick_rate=100, recording=True, blackbox_mb=16)
     with pytest.raises(NotImplementedError, match="recording"):
         horus.run(Node(name="n", tick=lambda n: None), recording=True, duration=0.01)
-    with pytest.raises(NotImplementedError, match="telemetry"):
-        Scheduler(telemetry="http://localhost:1")
     sched = Scheduler()
     for call in (sched.is_recording, sched.stop_recording, sched.list_recordings):
         with pytest.raises(NotImplementedError):

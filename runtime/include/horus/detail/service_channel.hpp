@@ -19,6 +19,7 @@
 
 #include "horus/detail/process.hpp"
 #include "horus/detail/service_frame.hpp"
+#include "horus/presence.hpp"
 #include "horus/service_error.hpp"
 #include "horus/service_result.hpp"
 #include "horus/service_type.hpp"
@@ -109,7 +110,10 @@ class ServiceChannel {
         requests_(S::request_topic(), options),
         responses_(open_reply_topic(options, namespace_, reply_index_)),
         registration_(registration_topic(S::name()), registration_options(options)),
-        client_id_(new_service_endpoint_id()) {}
+        client_id_(new_service_endpoint_id()),
+        announced_(ProcessUse{ProcessUse::Kind::ServiceClient, namespace_, std::string(S::name()),
+                              std::string(S::request_type_name()),
+                              std::string(S::response_type_name())}) {}
 
   std::uint64_t client_id() const noexcept { return client_id_; }
 
@@ -301,6 +305,7 @@ class ServiceChannel {
   Topic<ResponseFrame> responses_;
   Topic<ServiceRegistration> registration_;
   std::uint64_t client_id_;
+  AnnouncedUse announced_;  // the client in this process's presence announcement
   std::uint64_t last_request_id_ = 0;
   /// Tracked (async) requests, with their answer once filed.
   std::unordered_map<std::uint64_t, std::optional<ResponseFrame>> pending_;

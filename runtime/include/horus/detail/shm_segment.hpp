@@ -23,6 +23,7 @@
 
 #include "horus/detail/ring.hpp"
 #include "horus/detail/shm_access.hpp"
+#include "horus/presence.hpp"
 
 namespace horus::detail {
 
@@ -173,6 +174,8 @@ class ShmSegment {
   int user_index_ = -1;
   RingView ring_{};
   std::string path_;
+  /// The handle in this process's presence announcement (typed handles only).
+  AnnouncedUse announced_;
 };
 
 }  // namespace horus::detail
