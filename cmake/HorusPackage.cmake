@@ -20,8 +20,9 @@ set(HORUS_INSTALL_SUPPORTDIR "${CMAKE_INSTALL_DATADIR}/horus/python")
 set(HORUS_INSTALL_GEN "${CMAKE_INSTALL_BINDIR}/horus-gen")
 
 set_target_properties(horus_headers PROPERTIES EXPORT_NAME headers)
+set_target_properties(horus_summary PROPERTIES EXPORT_NAME summary)
 set_target_properties(horus_runtime PROPERTIES EXPORT_NAME runtime)
-set(horus_exported horus_headers horus_runtime)
+set(horus_exported horus_headers horus_summary horus_runtime)
 # The standard message library (schemas/), installed by its horus_generate() into the export set
 # horusTargets: exported as horus::msgs, which users link and name in DEPENDS to use its types in
 # their own schemas.

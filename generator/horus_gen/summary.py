@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from . import identity
 from .diagnostics import Reporter, did_you_mean
-from .model import Field, FixedArray, Optional, SummaryPart, Type, Vec
+from .model import (PRIMITIVES, Bytes, EnumRef, Field, FixedArray, Message, Model, Optional, SummaryPart,
+                    Type, Vec)
 from .syntax import MessageDecl
 
 
@@ -70,3 +71,28 @@ def _join_text(parts: list[SummaryPart]) -> tuple[SummaryPart, ...]:
         else:
             joined.append(p)
     return tuple(joined)
+
+
+def printed_types(model: Model, messages: list[Message]) -> list[Type]:
+    """Every type whose values the summaries of `messages` print, once, each after the types it
+    holds (an enum after its underlying integer type, bytes after u8): the table a language's one
+    summary formatter reads, in an order in which each entry can name the ones it holds."""
+    ordered: dict[Type, None] = {}
+
+    def visit(t: Type) -> None:
+        if t in ordered:
+            return
+        if isinstance(t, (FixedArray, Vec, Optional)):
+            visit(t.element)
+        elif isinstance(t, Bytes):
+            visit(PRIMITIVES["u8"])
+        elif isinstance(t, EnumRef):
+            visit(model.types[t.qualified].underlying)
+        ordered[t] = None
+
+    for message in messages:
+        by_name = {f.name: f for f in message.fields}
+        for part in message.summary:
+            if part.field is not None:
+                visit(by_name[part.field].type)
+    return list(ordered)

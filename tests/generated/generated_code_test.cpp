@@ -7,6 +7,7 @@
 #include <horus/msgpack.hpp>
 #include <limits>
 #include <other_pkg/stamp.hpp>
+#include <summary_names/type.hpp>
 #include <test_msgs.hpp>
 
 namespace {
@@ -103,6 +104,18 @@ TEST(GeneratedCode, LogSummaryIsOneReadableLine) {
       "Serialized{text: \"\", data: <1024 bytes>, values: [1, 2.5], counts: [], small: <0 bytes>, "
       "maybe: none, maybe_text: \"hi\", poses: [], tags: [], fixed: [0, 0, 0], mode: Idle, label: "
       "\"\", nested: none}");
+}
+
+TEST(GeneratedCode, LogSummaryTellsMembersAndTypesFromItsOwnNames) {
+  summary_names::Type t{};
+  t.fields = 7;
+  t.text = summary_names::Kind::Text;
+  t.field = {0.5f, -2.0f};
+  t.horus_log_summary.emplace().assign("abc");
+  t.kParts = {summary_names::Kind::Text, static_cast<summary_names::Kind>(9)};
+  EXPECT_EQ(t.log_summary(),
+            "Type{fields: 7, text: Text, field: [0.5, -2], horus_log_summary: \"abc\", kParts: "
+            "[Text, 9]}");
 }
 
 TEST(GeneratedCode, FixedStringsNeverTruncateSilently) {

@@ -5,10 +5,13 @@ import os
 import re
 import struct
 
+from .. import identity
 from ..data import DataPaths
-from ..model import (Bytes, DynString, Enum, EnumRef, EnumValue, FailurePolicy, Field, FixedArray, FixedString,
-                     Message, MessageRef, Model, Node, Optional, Primitive, Service, Type, Vec)
+from ..model import (PRIMITIVES, Bytes, DynString, Enum, EnumRef, EnumValue, FailurePolicy, Field, FixedArray,
+                     FixedString, Message, MessageRef, Model, Node, Optional, Primitive, Service, SummaryPart,
+                     Type, Vec)
 from ..names import snake_case
+from ..summary import printed_types
 from .common import CONTRACT_VERSION, banner, environment
 
 DISPLAY_NAME = "C++"
@@ -247,6 +250,55 @@ def contract_check(header: str) -> str:
             f"with this runtime's horus-gen\");")
 
 
+SUMMARY_KINDS = {"bool": "kBool", "u8": "kU8", "u16": "kU16", "u32": "kU32", "u64": "kU64", "i8": "kI8",
+                 "i16": "kI16", "i32": "kI32", "i64": "kI64", "f32": "kF32", "f64": "kF64"}
+
+
+def summary_type(t: Type, package: str, ids: dict[Type, str], model: Model) -> str:
+    """The horus::summary::Type by which the one summary formatter reads a value of `t`
+    (horus/summary_table.hpp); `ids` names the other entries of the package's table."""
+    cpp = type_name(t, package)
+    size = f"sizeof({cpp})"
+    ns = "::horus::summary::"  # qualified: the package may have types of any name
+    if isinstance(t, Primitive):
+        return f"{ns}plain_type({ns}Kind::{SUMMARY_KINDS[t.name]}, {size})"
+    if isinstance(t, DynString):
+        return f"{ns}plain_type({ns}Kind::kString, {size})"
+    if isinstance(t, FixedString):
+        return f"{ns}fixed_string_type({t.capacity})"
+    if isinstance(t, FixedArray):
+        return f"{ns}array_type({size}, {t.length}, {ids[t.element]})"
+    if isinstance(t, (Vec, Bytes)):
+        element = t.element if isinstance(t, Vec) else PRIMITIVES["u8"]
+        if element == PRIMITIVES["bool"]:
+            return f"{ns}bool_vector_type({size}, {ids[element]})"
+        return f"{ns}vector_type({size}, {ids[element]}, &{ns}vector_elements<{cpp}>)"
+    if isinstance(t, Optional):
+        return f"{ns}optional_type({size}, {ids[t.element]}, &{ns}optional_value<{cpp}>)"
+    if isinstance(t, EnumRef):
+        enum = model.types[t.qualified]
+        names = f"{ids[t]}Names" if enum.variants else "nullptr"
+        return f"{ns}enum_type({size}, {ids[enum.underlying]}, {names}, {len(enum.variants)})"
+    if isinstance(t, MessageRef):
+        return f"{ns}message_type({size}, &{ns}message_summary<{cpp}>)"
+    raise ValueError(t)
+
+
+def summary_enumerators(t: Type, package: str, model: Model) -> str | None:
+    """The initializer of the horus::summary::Enumerator array of an enum with variants, else None:
+    what the formatter prints for a value of `t`, without compiling code per enum."""
+    if not isinstance(t, EnumRef) or not model.types[t.qualified].variants:
+        return None
+    cpp = type_name(t, package)
+    return "{" + ", ".join(f"{{static_cast<std::uint64_t>({cpp}::{v.name}), \"{v.name}\"}}"
+                           for v in model.types[t.qualified].variants) + "}"
+
+
+def summary_type_id(part: SummaryPart, message: Message, ids: dict[Type, str]) -> str:
+    """The table entry of the type of the field a summary part prints."""
+    return ids[next(f.type for f in message.fields if f.name == part.field)]
+
+
 # What every node header includes from the standard library: its declarations need them.
 NODE_STD_HEADERS = frozenset({"<cstddef>", "<memory>", "<string_view>", "<utility>", "<vector>"})
 
@@ -300,6 +352,8 @@ FILTERS = {
     "node_headers": node_headers, "nanoseconds": nanoseconds, "cpp_ref": cpp_ref,
     "basename": os.path.basename, "failure_policy": failure_policy,
     "float_literal": float_literal,
+    "summary_type": summary_type, "summary_type_id": summary_type_id,
+    "summary_enumerators": summary_enumerators, "schema_spelling": identity.spelling,
     "hex": lambda n: f"0x{n:016x}ULL",
 }
 
@@ -334,7 +388,9 @@ def emit(model: Model, data: DataPaths) -> dict[str, str]:
                 banner=banner("//", [n.source for n in nodes]), package=package, nodes=nodes)
         messages = [i for i in items if isinstance(i, Message)]
         if messages:
+            summary_types = printed_types(model, messages)
             files[os.path.join("cpp", package_source_path(package))] = env.get_template("source.cpp.j2").render(
-                banner=package_banner, package=package, messages=messages,
-                headers=sorted(header_path(m.qualified) for m in messages))
+                banner=package_banner, package=package, messages=messages, model=model,
+                headers=sorted(header_path(m.qualified) for m in messages), summary_types=summary_types,
+                summary_ids={t: f"kType{i}" for i, t in enumerate(summary_types)})
     return files
