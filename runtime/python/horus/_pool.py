@@ -7,10 +7,8 @@ copy), read-only for a received value; `Image.from_numpy(a)` copies `a` once int
 """
 from __future__ import annotations
 
-import math
-
 from . import _core
-from ._topic import _FOREVER_SLICE
+from ._topic import _wait_for
 
 Image = _core.Image
 DepthImage = _core.DepthImage
@@ -69,14 +67,7 @@ class PoolTopic:
     def recv(self, timeout: float | None = None):
         """The next value, waiting up to `timeout` seconds (None: until one comes) with the GIL
         released; None on timeout."""
-        if timeout is not None and (not math.isfinite(timeout) or timeout < 0):
-            if timeout != math.inf:
-                raise ValueError(f"timeout must be None or seconds >= 0, got {timeout!r}")
-            timeout = None
-        while True:
-            value = self._core.recv(_FOREVER_SLICE if timeout is None else timeout)
-            if value is not None or timeout is not None:
-                return value
+        return _wait_for(self._core.recv, timeout)
 
     def read_latest(self):
         """The newest value sent on the topic if its block still holds it, or None."""

@@ -9,6 +9,19 @@ from . import _core
 _FOREVER_SLICE = 0.1  # a wait without timeout wakes this often to let Ctrl+C through
 
 
+def _wait_for(receive, timeout: float | None):
+    """What `receive(seconds)` returns within `timeout` seconds (None or inf: however long it
+    takes, asked in slices so Ctrl+C gets through), or None on timeout."""
+    if timeout is not None and (not math.isfinite(timeout) or timeout < 0):
+        if timeout != math.inf:
+            raise ValueError(f"timeout must be None or seconds >= 0, got {timeout!r}")
+        timeout = None
+    while True:
+        value = receive(_FOREVER_SLICE if timeout is None else timeout)
+        if value is not None or timeout is not None:
+            return value
+
+
 def _generic_message():
     from horus.msg import GenericMessage  # generated; imported only when a dict topic is used
 
@@ -112,15 +125,8 @@ class Topic:
     def recv(self, timeout: float | None = None, *, view: bool = False):
         """The next message, waiting up to `timeout` seconds (None: until one comes) with the GIL
         released; None on timeout."""
-        if timeout is not None and (not math.isfinite(timeout) or timeout < 0):
-            if timeout != math.inf:
-                raise ValueError(f"timeout must be None or seconds >= 0, got {timeout!r}")
-            timeout = None
-        while True:
-            step = _FOREVER_SLICE if timeout is None else timeout
-            data = self._core.recv(step, view=view)
-            if data is not None or timeout is not None:
-                return self._view(data) if view else self._message(data)
+        data = _wait_for(lambda seconds: self._core.recv(seconds, view=view), timeout)
+        return self._view(data) if view else self._message(data)
 
     def _view(self, buffer):
         if buffer is None:
