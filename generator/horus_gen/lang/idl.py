@@ -136,9 +136,13 @@ class Struct:
 
 
 def _typedef(typedefs: list[Typedef], prefix: str, spec: str, dims: str) -> str:
-    """Appends `typedef spec name dims;` with a name made from `prefix`; returns the name."""
-    count = sum(1 for t in typedefs if t.name == prefix or t.name.startswith(prefix + "_"))
-    name = prefix if count == 0 else f"{prefix}_{count + 1}"
+    """Appends `typedef spec name dims;` named `prefix`, or `prefix_2`, `_3`... when the struct's
+    typedefs already hold that name (in any case); returns the name."""
+    taken = {t.name.lower() for t in typedefs}
+    name, count = prefix, 1
+    while name.lower() in taken:
+        count += 1
+        name = f"{prefix}_{count}"
     typedefs.append(Typedef(spec, name, dims))
     return name
 
