@@ -4,7 +4,7 @@
 #                  [PACKAGE my_robot.msg]          # package of files that declare none
 #                  FILES motor.hmsg pose.hmsg ...   # also .hsrv services and .hnode nodes
 #                  [INCLUDE_DIRS dir...]           # extra import roots (-I)
-#                  [LANGUAGES cpp python jsonschema] # default: cpp
+#                  [LANGUAGES cpp python jsonschema idl] # default: cpp
 #                  [DEPENDS other_msgs...]         # targets made by horus_generate()
 #                  [INSTALL | NO_INSTALL]
 #                  [EXPORT export_set])            # install(TARGETS ... EXPORT export_set)
@@ -22,7 +22,10 @@
 # HORUS_PYTHON_DIR and the variable <TARGET>_PYTHON_DIR; with `cpp`, the generated C++ folder is
 # the target property HORUS_CPP_DIR; with `jsonschema` (a JSON Schema per message, as the recording
 # export to Foxglove writes messages), the folder of `<package path>/<Name>.schema.json` is the
-# target property HORUS_JSONSCHEMA_DIR (installed under share/horus/jsonschema). HORUS_SCHEMA_DIRS holds the folders that horus-gen searches
+# target property HORUS_JSONSCHEMA_DIR (installed under share/horus/jsonschema); with `idl` (OMG IDL
+# in ROS 2's naming, for DDS: `<package path>/<Name>.idl`), the include root of the IDL files (idlc's
+# -I) is the target property HORUS_IDL_DIR and the variable <TARGET>_IDL_DIR (installed under
+# share/horus/idl). HORUS_SCHEMA_DIRS holds the folders that horus-gen searches
 # for imports and qualified names (-I), here and in every target that DEPENDS on this one: the
 # folders of FILES, the root above them when they sit in their package's folder
 # (schemas/ for schemas/my_robot/msg/motor.hmsg in my_robot.msg), INCLUDE_DIRS, and the folders
@@ -123,8 +126,8 @@ function(horus_generate)
     set(ARG_LANGUAGES cpp)
   endif()
   foreach(lang IN LISTS ARG_LANGUAGES)
-    if(NOT lang MATCHES "^(cpp|python|jsonschema)$")
-      message(FATAL_ERROR "${where}: unknown language '${lang}' (expected cpp, python or jsonschema)")
+    if(NOT lang MATCHES "^(cpp|python|jsonschema|idl)$")
+      message(FATAL_ERROR "${where}: unknown language '${lang}' (expected cpp, python, jsonschema or idl)")
     endif()
   endforeach()
   list(REMOVE_DUPLICATES ARG_LANGUAGES)
@@ -270,6 +273,10 @@ function(horus_generate)
   if("jsonschema" IN_LIST ARG_LANGUAGES)
     set_target_properties(${ARG_TARGET} PROPERTIES HORUS_JSONSCHEMA_DIR "${out}/jsonschema")
   endif()
+  if("idl" IN_LIST ARG_LANGUAGES)
+    set_target_properties(${ARG_TARGET} PROPERTIES HORUS_IDL_DIR "${out}/idl")
+    set(${ARG_TARGET}_IDL_DIR "${out}/idl" PARENT_SCOPE)
+  endif()
 
   set(install ${HORUS_GENERATE_INSTALL})
   if(ARG_INSTALL)
@@ -298,7 +305,7 @@ function(horus_generate)
       elseif(subdir MATCHES "^python(/|$)")
         string(REGEX REPLACE "^python/?" "" subdir "${subdir}")
         install(FILES "${output}" DESTINATION "${HORUS_PYTHON_INSTALL_DIR}/${subdir}")
-      elseif(subdir MATCHES "^jsonschema(/|$)")
+      elseif(subdir MATCHES "^(jsonschema|idl)(/|$)")
         install(FILES "${output}" DESTINATION "${CMAKE_INSTALL_DATADIR}/horus/${subdir}")
       endif()
     endforeach()

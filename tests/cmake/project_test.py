@@ -329,16 +329,19 @@ def usage(args: argparse.Namespace) -> None:
             expect(proc.returncode != 0 and error in unwrapped,
                    f"horus_generate({arguments}) to fail with {error!r}", proc.stdout)
 
-    # LANGUAGES jsonschema: the build writes each message's JSON Schema into the folder that the
-    # target property HORUS_JSONSCHEMA_DIR names.
+    # LANGUAGES jsonschema idl: the build writes each message's JSON Schema into the folder that the
+    # target property HORUS_JSONSCHEMA_DIR names, and its IDL under the include root that the target
+    # property HORUS_IDL_DIR and the variable <TARGET>_IDL_DIR name.
     shutil.rmtree(args.work / "build", ignore_errors=True)
     (source / "CMakeLists.txt").write_text(
         "cmake_minimum_required(VERSION 3.22)\nproject(usage LANGUAGES CXX)\n"
         "find_package(horus CONFIG REQUIRED)\n"
         "horus_generate(TARGET my_msgs PACKAGE my_robot.msg FILES msg/good.hmsg "
-        "LANGUAGES jsonschema)\n"
+        "LANGUAGES jsonschema idl)\n"
         "get_target_property(property my_msgs HORUS_JSONSCHEMA_DIR)\n"
-        'message(STATUS "jsonschema: ${property}")\n')
+        'message(STATUS "jsonschema: ${property}")\n'
+        "get_target_property(property my_msgs HORUS_IDL_DIR)\n"
+        'message(STATUS "idl: ${property} ${my_msgs_IDL_DIR}")\n')
     configured = configure(source, args.work / "build", prefix, args.generator)
     build(args.work / "build")
     found = re.search(r"jsonschema: (\S+)", configured)
@@ -346,6 +349,12 @@ def usage(args: argparse.Namespace) -> None:
     schema = Path(found.group(1)) / "my_robot" / "msg" / "Good.schema.json"
     expect(schema.is_file() and json.loads(schema.read_text())["title"] == "my_robot.msg.Good",
            f"{schema} to hold the JSON Schema of my_robot.msg.Good")
+    found = re.search(r"idl: (\S+) (\S+)", configured)
+    expect(found is not None and found.group(1) == found.group(2),
+           "HORUS_IDL_DIR and my_msgs_IDL_DIR to name the IDL folder", configured)
+    idl = Path(found.group(1)) / "my_robot" / "msg" / "Good.idl"
+    expect(idl.is_file() and "struct Good_ {" in idl.read_text(),
+           f"{idl} to hold the IDL of my_robot.msg.Good (my_robot::msg::dds_::Good_)")
 
 
 def main() -> int:

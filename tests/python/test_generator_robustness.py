@@ -1,7 +1,7 @@
-"""horus-gen on malformed input: every input ends in exit 0 with output that Python compiles, or
-exit 1 with `file:line:col: error:` diagnostics and no output; never an internal error. A
-mutation fuzzer with a fixed seed over the project's own schemas, then one case per class of
-input that once crashed or hung the generator."""
+"""horus-gen on malformed input (emitting C++, Python and IDL): every input ends in exit 0 with
+output that Python compiles, or exit 1 with `file:line:col: error:` diagnostics and no output;
+never an internal error. A mutation fuzzer with a fixed seed over the project's own schemas, then
+one case per class of input that once crashed or hung the generator."""
 from __future__ import annotations
 
 import contextlib
@@ -71,7 +71,7 @@ def generate_in_process(schema: Path, out: Path, includes: tuple[Path, ...] = (R
     signal.setitimer(signal.ITIMER_PROF, SECONDS_PER_INPUT)
     try:
         with contextlib.redirect_stderr(stderr), contextlib.redirect_stdout(io.StringIO()):
-            status = main(DATA, ["generate", "--lang", "cpp,python", "--out", str(out),
+            status = main(DATA, ["generate", "--lang", "cpp,python,idl", "--out", str(out),
                                  *(arg for folder in includes for arg in ("-I", str(folder))), str(schema)])
     finally:
         signal.setitimer(signal.ITIMER_PROF, 0)

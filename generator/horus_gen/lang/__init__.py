@@ -13,9 +13,10 @@ from typing import Callable
 
 from ..data import DataPaths
 from ..model import Model
-from . import cpp, jsonschema, python
+from . import cpp, idl, jsonschema, python
 
-LANGUAGES: dict[str, ModuleType] = {"cpp": cpp, "python": python, "jsonschema": jsonschema}
+LANGUAGES: dict[str, ModuleType] = {"cpp": cpp, "python": python, "jsonschema": jsonschema,
+                                   "idl": idl}
 
 Emitter = Callable[[Model, DataPaths], dict[str, str]]
 
