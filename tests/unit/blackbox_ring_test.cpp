@@ -52,6 +52,13 @@ TEST(Blackbox, TruncatesLongTextSafely) {
   EXPECT_EQ(e.detail_text(), std::string(63, 'd'));
 }
 
+TEST(Blackbox, KeepsTheFirstLineOfAMultiLineDetail) {
+  horus::Blackbox box(1);
+  box.record(BlackboxEventKind::NodeError, "motor", 1, 0,
+             "RuntimeError: encoder lost\nTraceback (most recent call last):\n  File ...");
+  EXPECT_EQ(box.snapshot().at(0).detail_text(), "RuntimeError: encoder lost");
+}
+
 TEST(Blackbox, ConcurrentWritersNeverProduceTornEvents) {
   horus::Blackbox box(64);
   std::vector<std::thread> writers;

@@ -88,11 +88,15 @@ class CallbackGil {
   bool taken_ = false;
 };
 
+/// The exception's own line ("RuntimeError: encoder lost"), then the whole traceback: what
+/// keeps only a headline (the blackbox's 64 bytes, a one-line summary) keeps what went wrong.
 std::string python_traceback(py::error_already_set& error) {
   try {
-    py::object format = py::module_::import("traceback").attr("format_exception");
-    py::list lines = format(error.type(), error.value(), error.trace());
-    std::string text;
+    py::module_ traceback = py::module_::import("traceback");
+    py::list headline = traceback.attr("format_exception_only")(error.type(), error.value());
+    py::list lines = traceback.attr("format_exception")(error.type(), error.value(), error.trace());
+    std::string text =
+        headline.empty() ? std::string() : headline[headline.size() - 1].cast<std::string>();
     for (const auto& line : lines) {
       text += line.cast<std::string>();
     }

@@ -142,7 +142,9 @@ void Blackbox::record(BlackboxEventKind kind, std::string_view node, std::uint64
   event.kind = kind;
   event.value = value;
   copy_text(event.node, sizeof(event.node), node);
-  copy_text(event.detail, sizeof(event.detail), detail);
+  // One line: a multi-line detail (a Python traceback) keeps its headline, and each event stays
+  // one row of horus-blackbox's table.
+  copy_text(event.detail, sizeof(event.detail), detail.substr(0, detail.find('\n')));
   std::array<std::uint64_t, kWords> words;
   std::memcpy(words.data(), &event, sizeof(event));
 

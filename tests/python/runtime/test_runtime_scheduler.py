@@ -115,6 +115,8 @@ def test_exception_goes_to_policy_with_its_traceback_in_the_log(capfd):
     err = capfd.readouterr().err
     assert "Traceback (most recent call last)" in err
     assert "helper_that_fails" in err and "KeyError: 'wheel_left'" in err
+    # The exception's line comes first, so a one-line record (the blackbox) keeps what failed.
+    assert "Node error: KeyError: 'wheel_left'\nTraceback" in err, err
     assert sched.get_node_stats("wheels")["errors_count"] == 1
 
 

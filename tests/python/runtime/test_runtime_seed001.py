@@ -84,6 +84,19 @@ def test_creating_a_scheduler_adding_and_chaining():
     assert classes["a"] == "BestEffort"
 
 
+def test_deadline_miss_escalation_stops_the_scheduler_at_the_threshold():
+    # Seed 001: "After 50 total deadline misses across all nodes, the scheduler stops" (3 here).
+    sched = Scheduler(tick_rate=1000, max_deadline_misses=3)
+    sched.add(Node(name="slow", tick=lambda n: time.sleep(0.002), rate=1000, order=0,
+                   deadline=50 * us))
+    sched.tick_once()
+    sched.tick_once()
+    assert sched.stop_reason() == ""
+    sched.tick_once()
+    assert sched.stop_reason() == "max_deadline_misses (3) reached"
+    assert sched.get_node_stats("slow")["deadline_misses"] == 3
+
+
 def test_context_manager_stops_and_shuts_down():
     log = []
     with Scheduler(tick_rate=100, watchdog_ms=500) as sched:
