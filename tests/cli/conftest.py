@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import pathlib
 import shutil
 import subprocess
 import sys
@@ -89,51 +90,20 @@ def wait_until(predicate, what: str, limit: float = 10.0):
     raise AssertionError(f"timed out waiting for {what}")
 
 
-USER_SCHEMA = """package cli_user;
-
-enum Gear: u8 {
-    Park = 0,
-    Drive = 1,
-}
-
-/// POD: fixed layout, padding between gear and x.
-Pose {
-    gear: Gear,
-    x: f64,
-    label: string<16>,
-    corners: [[f32; 2]; 2],
-}
-
-/// Serialized (String, Vec, Option), with a type of another package inside.
-Route {
-    name: String,
-    poses: Vec<Pose>,
-    speed: Option<f32>,
-    accel: horus.msg.Accel,
-}
-"""
+# The user package `cli_user` (Pose: POD, Route: serialized, Shift: a service), which the command
+# is never built with. Its C++ (route.hmsg) is built for HORUS_CLI_USER_PEER by CMakeLists.txt.
+USER_SCHEMAS = pathlib.Path(__file__).resolve().parent / "schemas" / "cli_user"
 
 
 @pytest.fixture
 def user_types(tmp_path):
-    """The Python folder of the package `cli_user`, generated here from USER_SCHEMA: a type
-    the `horus` command was never built with. Children put it on their PYTHONPATH."""
+    """The Python folder of the package `cli_user`, generated here from USER_SCHEMAS (copied to
+    tmp_path/user_schemas, where tests point `-I`). Children put it on their PYTHONPATH."""
     source = tmp_path / "user_schemas" / "cli_user"
-    source.mkdir(parents=True)
-    (source / "route.hmsg").write_text(USER_SCHEMA)
-    (source / "shift.hsrv").write_text(USER_SERVICE)
+    shutil.copytree(USER_SCHEMAS, source)
     output = tmp_path / "user_generated"
     subprocess.run([os.environ["HORUS_GEN_PROGRAM"], "generate", "--lang", "python", "--out",
                     str(output), "-I", os.environ["HORUS_SCHEMA_DIR"], "-I", str(source.parent),
                     str(source / "route.hmsg"), str(source / "shift.hsrv")], check=True)
     return str(output / "python")
 
-
-USER_SERVICE = """package cli_user;
-
-/// Moves a pose (POD request) and says what it did (serialized response).
-Shift {
-    request { pose: Pose, dx: f64 }
-    response { pose: Pose, note: String }
-}
-"""

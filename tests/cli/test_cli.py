@@ -6,6 +6,7 @@ import os
 import pathlib
 import shutil
 import subprocess
+import sys
 
 from conftest import HORUS, run_horus, wait_ready, wait_until
 
@@ -230,13 +231,57 @@ def test_shm_clean_removes_the_tensor_pools_no_live_process_maps(children, names
     assert not pools.exists()
 
 
-def test_blackbox_is_folded_in():
-    result = run_horus("blackbox", "no_such_file.blackbox")
-    assert result.returncode != 0
-    assert "no_such_file.blackbox" in result.stderr
+FLIGHT_RECORDER = """
+import horus
+def fail(node):
+    raise RuntimeError("encoder lost")
+sched = horus.Scheduler(tick_rate=100, blackbox_mb=1, deterministic=True, name="agv")
+sched.add(horus.Node(name="motor", tick=fail, failure_policy="ignore"))
+sched.add(horus.Node(name="lidar", tick=lambda node: None))
+for _ in range(3):
+    sched.tick_once()
+sched.dump_blackbox({path!r})
+"""
 
 
-def test_completion_script_names_the_subcommands():
+def test_blackbox_is_folded_in(tmp_path):
+    box = tmp_path / "agv.blackbox"
+    subprocess.run([sys.executable, "-c", FLIGHT_RECORDER.format(path=str(box))], check=True,
+                   timeout=60)
+    result = run_horus("blackbox", str(box))
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0] == f"{box}: 6 events (6 shown)", result.stdout
+    assert lines[1].split()[:5] == ["time", "(UTC)", "tick", "event", "node"]
+    # (tick, event, node) of each event: the scheduler's start, each node's init, the motor's
+    # three failures.
+    events = [tuple(line.split()[1:4]) for line in lines[2:] if line[:4].isdigit()]
+    assert events == [("0", "SchedulerStart", "agv"), ("0", "NodeInit", "motor"),
+                      ("0", "NodeInit", "lidar"), ("1", "NodeError", "motor"),
+                      ("2", "NodeError", "motor"), ("3", "NodeError", "motor")], result.stdout
+    lidar = run_horus("blackbox", str(box), "--node", "lidar")
+    assert lidar.returncode == 0, lidar.stderr
+    assert lidar.stdout.splitlines()[0] == f"{box}: 6 events (1 shown)"
+    assert [line.split()[1:4] for line in lidar.stdout.splitlines()[2:]] == \
+        [["0", "NodeInit", "lidar"]]
+    missing = run_horus("blackbox", "no_such_file.blackbox")
+    assert missing.returncode == 1 and "no_such_file.blackbox" in missing.stderr
+
+
+def _complete(script: str, *words: str) -> list[str]:
+    """What bash offers after `horus WORDS...` (the last word being the one typed so far), with
+    bin/horus on the PATH as an installed command is."""
+    line = " ".join(f"'{word}'" for word in ("horus", *words))
+    program = f'{script}\nCOMP_WORDS=({line}); COMP_CWORD={len(words)}; _horus; ' \
+              'printf "%s\\n" "${COMPREPLY[@]}"'
+    environment = dict(os.environ, PATH=f"{os.path.dirname(HORUS)}:{os.environ['PATH']}")
+    result = subprocess.run(["bash", "-c", program], capture_output=True, text=True,
+                            env=environment, timeout=30)
+    assert result.returncode == 0, result.stderr
+    return sorted(result.stdout.split())
+
+
+def test_completion_script_names_the_subcommands(children):
     result = run_horus("completion")
     assert result.returncode == 0
     assert "complete -F _horus horus" in result.stdout
@@ -244,6 +289,12 @@ def test_completion_script_names_the_subcommands():
     assert 'node) words="list info"' in result.stdout
     checked = subprocess.run(["bash", "-n"], input=result.stdout, text=True, capture_output=True)
     assert checked.returncode == 0, checked.stderr
+    assert _complete(result.stdout, "to") == ["topic"]
+    assert _complete(result.stdout, "topic", "e") == ["echo"]
+    # `record` takes an action or the topics to record: both are offered.
+    wait_ready(children.python(PUBLISH_CMDVEL.format(name="rear_lidar")))
+    assert _complete(result.stdout, "record", "re") == ["rear_lidar", "repair", "replay"]
+    assert _complete(result.stdout, "record", "d") == ["delete", "diff"]
 
 
 def test_node_list_shows_a_schedulers_nodes_with_their_topics(children):

@@ -862,6 +862,9 @@ def completion(args) -> int:
         if sub._subparsers is not None:  # noqa: SLF001
             words = " ".join(sub._subparsers._group_actions[0].choices)  # noqa: SLF001
             cases.append(f'      {name}) words="{words}" ;;')
+    # `record` parses its own arguments (an action, or the topics to record): no subparsers.
+    from horus_record_cli import ACTIONS
+    cases.append(f'      record) words="{" ".join(ACTIONS)} $(horus topic list 2>/dev/null)" ;;')
     print(COMPLETION % {"commands": " ".join(commands), "cases": "\n".join(cases)}, end="")
     return EXIT_OK
 

@@ -1,17 +1,26 @@
 // The C++ side of the Python runtime's cross-process tests: publishes or subscribes to a CmdVel
 // (POD), a CompressedImage (serialized) or a GenericMessage holding {"linear": x} (a Python dict).
+// The `horus` command's suite (tests/cli) runs its `node` role as a live C++ scheduler.
 //
 //   horus_py_peer pub  cmdvel|image|dict TOPIC COUNT   sends COUNT messages, value i = 1..COUNT
 //   horus_py_peer sub  cmdvel|image|dict TOPIC COUNT   prints "ready", then one value per message
+//   horus_py_peer node cmdvel|image|dict TOPIC HZ      a scheduler's node "cpp_talker" sends
+//       value i = 1, 2, ... at HZ and logs "sent i" (HORUS_LOG_INFO) every tenth message; prints
+//       "ready" after its first message and runs until its standard input closes
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <iostream>
 #include <map>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <thread>
+#include <vector>
 
+#include <horus/log.hpp>
 #include <horus/msg.hpp>
+#include <horus/scheduler.hpp>
 #include <horus/topic.hpp>
 
 namespace {
@@ -76,7 +85,47 @@ int subscribe(const std::string& topic_name, int count) {
 }
 
 template <class T>
+class Talker : public horus::Node {
+ public:
+  explicit Talker(const std::string& topic_name) : topic_(topic_name) {}
+  std::string_view name() const override { return "cpp_talker"; }
+  void tick() override {
+    ++sent_;
+    if (!topic_.send(make(static_cast<T*>(nullptr), sent_)))
+      HORUS_LOG_WARN("send %d failed", sent_);
+    if (sent_ % 10 == 1) HORUS_LOG_INFO("sent %d", sent_);
+    if (sent_ == 1) {
+      std::printf("ready\n");
+      std::fflush(stdout);
+    }
+  }
+  std::vector<horus::TopicMetadata> publishers() const override {
+    return {{topic_.name(), std::string(horus::TypeInfo<T>::name)}};
+  }
+
+ private:
+  horus::Topic<T> topic_;
+  int sent_ = 0;
+};
+
+template <class T>
+int talk(const std::string& topic_name, int hz) {
+  const horus::Rate rate = horus::Rate::hz(static_cast<double>(hz));
+  horus::Scheduler sched{horus::SchedulerConfig{}.name("cpp_peer").tick_rate(rate)};
+  sched.add(std::make_shared<Talker<T>>(topic_name)).rate(rate).build();
+  // The test holds stdin open while it looks at the running process; end of input stops it.
+  std::thread([&sched] {
+    std::string line;
+    while (std::getline(std::cin, line)) {
+    }
+    sched.stop();
+  }).detach();
+  return sched.run();
+}
+
+template <class T>
 int run(std::string_view role, const std::string& topic, int count) {
+  if (role == "node") return talk<T>(topic, count);
   return role == "pub" ? publish<T>(topic, count) : subscribe<T>(topic, count);
 }
 
@@ -84,14 +133,14 @@ int run(std::string_view role, const std::string& topic, int count) {
 
 int main(int argc, char** argv) {
   if (argc != 5) {
-    std::fprintf(stderr, "usage: %s pub|sub cmdvel|image|dict TOPIC COUNT\n", argv[0]);
+    std::fprintf(stderr, "usage: %s pub|sub|node cmdvel|image|dict TOPIC COUNT|HZ\n", argv[0]);
     return 2;
   }
   const std::string_view role = argv[1];
   const std::string_view kind = argv[2];
   const std::string topic = argv[3];
   const int count = std::atoi(argv[4]);
-  if ((role != "pub" && role != "sub") || count <= 0) {
+  if ((role != "pub" && role != "sub" && role != "node") || count <= 0) {
     std::fprintf(stderr, "bad role or count\n");
     return 2;
   }
