@@ -308,6 +308,8 @@ Tensor tensor_from_numpy(const py::object& object, std::optional<TensorPool> poo
 
 template <class T, class Class>
 void bind_pool_backed(Class& cls) {
+  // The type name a node declares for its topics (publishers() / subscribers()), as C++ does.
+  cls.attr("type_name") = std::string(TypeInfo<T>::name);
   // Lambdas, not member pointers: those members belong to the (unbound) base class.
   cls.def_property_readonly(
          "writable", [](const T& value) { return value.writable(); },

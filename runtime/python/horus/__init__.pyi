@@ -214,6 +214,7 @@ class TensorPool:
 
 class _PoolBacked:
     """Buffer protocol: numpy.asarray(value) is the pool memory (read-only when received)."""
+    type_name: ClassVar[str]  # the descriptor type a topic of it carries
     @property
     def writable(self) -> bool: ...
     frame_id: str

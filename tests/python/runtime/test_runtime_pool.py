@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import subprocess
+import time
 
 import numpy as np
 import pytest
@@ -105,6 +106,75 @@ def test_python_sends_cpp_reads_in_place(kind):
     assert pool.stats()["blocks_in_use"] == 0
 
 
+NODE_FRAMES = 3  # fewer than a pool topic's 4 slots: the sender keeps every frame alive
+
+
+def test_a_cpp_node_sends_images_to_a_python_node_and_its_references_return_to_zero():
+    expected = image_bytes()
+    seen = []
+
+    def view(node):
+        while (image := node.recv("camera")) is not None:
+            array = np.asarray(image)
+            seen.append((image.timestamp_ns, image.frame_id, not image.writable,
+                         image.pool.contains(array.ctypes.data),
+                         bool(np.array_equal(array, expected))))
+
+    viewer = horus.Node(name="py_viewer", tick=view, subs={"camera": horus.Image})
+    scheduler = horus.Scheduler(tick_rate=1000)
+    scheduler.add(viewer)
+    proc = pool_peer("node-send", "image", "camera", str(NODE_FRAMES))
+    try:
+        assert proc.stdout.readline().strip() == "open"
+        scheduler.tick_once()  # opens the subscription before the C++ node starts sending
+        tell(proc, "ready")
+        deadline = time.monotonic() + 30
+        while len(seen) < NODE_FRAMES and time.monotonic() < deadline:
+            scheduler.tick_once()
+            time.sleep(0.001)
+        del scheduler, viewer
+        tell(proc, "done")
+        out, err = proc.communicate(timeout=30)
+        assert proc.returncode == 0, err
+    finally:
+        proc.kill()
+        proc.wait()
+    assert seen == [(i, "cpp", True, True, True) for i in range(1, NODE_FRAMES + 1)]
+    assert out.split() == ["references", "0"]
+
+
+def test_a_python_node_sends_images_to_a_cpp_node():
+    pixels = image_bytes()
+    sent = []
+
+    def film(node):
+        if len(sent) < NODE_FRAMES:
+            image = horus.Image.from_numpy(pixels)
+            image.frame_id = "python"
+            image.timestamp_ns = len(sent) + 1
+            assert node.send("camera", image)
+            sent.append(image.block)
+
+    camera = horus.Node(name="py_camera", tick=film, pubs={"camera": horus.Image})
+    scheduler = horus.Scheduler(tick_rate=1000)
+    scheduler.add(camera)
+    proc = pool_peer("node-recv", "image", "camera", str(NODE_FRAMES))
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        for _ in range(NODE_FRAMES):
+            scheduler.tick_once()
+        out, err = proc.communicate(timeout=60)
+        assert proc.returncode == 0, err
+    finally:
+        proc.kill()
+        proc.wait()
+    assert out.split() == [str(i) for i in range(1, NODE_FRAMES + 1)]
+    pool = horus.TensorPool.default()
+    del scheduler, camera
+    assert [pool.references(block) for block in sent] == [0] * NODE_FRAMES
+    assert pool.stats()["blocks_in_use"] == 0
+
+
 def test_numpy_and_dlpack_views_share_the_pool_memory():
     image = horus.Image(480, 640, horus.ImageEncoding.Rgb8)
     array = np.asarray(image)
@@ -148,3 +218,4 @@ def test_a_received_value_is_read_only_and_the_tensor_topic_works_in_process():
     assert subscriber.recv(0.001) is None
     with pytest.raises(TypeError):
         publisher.send(horus.Image(2, 2, horus.ImageEncoding.Mono8))
+
