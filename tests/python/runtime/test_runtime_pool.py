@@ -219,3 +219,44 @@ def test_a_received_value_is_read_only_and_the_tensor_topic_works_in_process():
     with pytest.raises(TypeError):
         publisher.send(horus.Image(2, 2, horus.ImageEncoding.Mono8))
 
+
+def test_point_cloud_from_xyz_xyzi_xyzrgb_and_extract_xyz():
+    xyz = np.array([[1.0, 2.0, 3.0], [-4.5, 0.25, 1e6]])  # float64: converted to float32
+    cloud = horus.PointCloud.from_xyz(xyz)
+    assert (cloud.point_count, cloud.fields_per_point, cloud.dtype) == (2, 3, horus.TensorDtype.F32)
+    assert cloud.is_xyz() and not cloud.has_intensity() and not cloud.has_color()
+    np.testing.assert_array_equal(np.asarray(cloud), xyz.astype(np.float32))
+    extracted = cloud.extract_xyz()
+    assert extracted.dtype == np.float32 and extracted.shape == (2, 3)
+    assert extracted.ctypes.data != cloud.data_address  # a copy, not a view of the pool
+    np.testing.assert_array_equal(extracted, xyz.astype(np.float32))
+
+    from_tuples = horus.PointCloud.from_xyz([(1, 2, 3), (4, 5, 6), (7, 8, 9)])
+    np.testing.assert_array_equal(from_tuples.extract_xyz(),
+                                  np.arange(1, 10, dtype=np.float32).reshape(3, 3))
+
+    xyzi = np.arange(20, dtype=np.float32).reshape(5, 4)
+    with_intensity = horus.PointCloud.from_xyzi(xyzi)
+    assert with_intensity.has_intensity() and with_intensity.fields_per_point == 4
+    np.testing.assert_array_equal(np.asarray(with_intensity), xyzi)
+    np.testing.assert_array_equal(with_intensity.extract_xyz(), xyzi[:, :3])
+
+    xyzrgb = [(0.5, 1.5, 2.5, 255, 128, 0), (3.0, 4.0, 5.0, 0, 64, 255)]
+    colored = horus.PointCloud.from_xyzrgb(xyzrgb)
+    assert colored.has_color() and colored.point_count == 2
+    assert colored.point_at(1) == np.array(xyzrgb[1], dtype=np.float32).tobytes()
+    np.testing.assert_array_equal(colored.extract_xyz(), np.array(xyzrgb, np.float32)[:, :3])
+
+
+def test_point_cloud_constructors_refuse_the_wrong_shape_and_extract_xyz_needs_float32():
+    with pytest.raises(horus.HorusError, match=r"from_xyz: points have shape \(n, 3\)"):
+        horus.PointCloud.from_xyz(np.zeros((4, 4), dtype=np.float32))
+    with pytest.raises(horus.HorusError, match=r"from_xyzi: points have shape \(n, 4\)"):
+        horus.PointCloud.from_xyzi([(1.0, 2.0, 3.0)])
+    with pytest.raises(horus.HorusError, match=r"from_xyzrgb: points have shape \(n, 6\)"):
+        horus.PointCloud.from_xyzrgb(np.zeros(6, dtype=np.float32))
+    with pytest.raises(ValueError):
+        horus.PointCloud.from_xyz([("a", "b", "c")])
+    assert horus.PointCloud.from_numpy(np.zeros((3, 3), dtype=np.uint8)).extract_xyz() is None
+    assert horus.PointCloud.from_numpy(np.zeros((3, 2), dtype=np.float32)).extract_xyz() is None
+
