@@ -4,6 +4,7 @@ pool; numpy and DLPack views without copies, read-only when received; references
 from __future__ import annotations
 
 import os
+import stat
 import subprocess
 import time
 
@@ -260,3 +261,18 @@ def test_point_cloud_constructors_refuse_the_wrong_shape_and_extract_xyz_needs_f
     assert horus.PointCloud.from_numpy(np.zeros((3, 3), dtype=np.uint8)).extract_xyz() is None
     assert horus.PointCloud.from_numpy(np.zeros((3, 2), dtype=np.float32)).extract_xyz() is None
 
+
+def test_the_pool_file_is_mode_0600_whatever_the_umask(namespace):
+    previous = os.umask(0)
+    try:
+        image = horus.Image(2, 2, horus.ImageEncoding.Mono8)  # creates the namespace's default pool
+        named = horus.TensorPool.open("modes", block_size=4096, block_count=2)
+    finally:
+        os.umask(previous)
+    root = os.path.dirname(horus._core.namespace_directory(namespace))
+    folder = os.path.join(root, "@pool", namespace)
+    for name in ("default", "modes"):
+        status = os.stat(os.path.join(folder, name))
+        assert (oct(stat.S_IMODE(status.st_mode)), status.st_uid) == (oct(0o600), os.geteuid())
+    assert oct(stat.S_IMODE(os.stat(folder).st_mode)) == oct(0o700)
+    del image, named
