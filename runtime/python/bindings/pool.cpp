@@ -4,10 +4,12 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <array>
 #include <chrono>
 #include <cstring>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -296,6 +298,43 @@ PointCloud cloud_from_numpy(const py::object& object, std::optional<TensorPool> 
   return cloud;
 }
 
+/// PointCloud.from_xyz / from_xyzi / from_xyzrgb: `points` is anything numpy reads as
+/// (points, Fields) numbers (an array of any float or integer dtype, a list of tuples); the values
+/// are converted to float32 as the C++ constructors take them.
+template <std::size_t Fields>
+PointCloud cloud_from_points(const py::object& points, std::optional<TensorPool> pool,
+                             const char* name) {
+  // The constructor, not ensure(): it keeps numpy's error (ValueError for non-numbers).
+  const py::array_t<float, py::array::c_style | py::array::forcecast> array(points);
+  const bool no_points = array.size() == 0 && array.ndim() == 1;  // [] from an empty list
+  if (!no_points && (array.ndim() != 2 || array.shape(1) != static_cast<py::ssize_t>(Fields))) {
+    throw Error(
+        std::string("PointCloud.") + name + ": points have shape (n, " + std::to_string(Fields) +
+        "), not " +
+        text_of(py::cast(std::vector<py::ssize_t>(array.shape(), array.shape() + array.ndim()))));
+  }
+  // std::array<float, N> holds exactly N floats, so a C-contiguous (n, N) array is n of them.
+  const std::span<const std::array<float, Fields>> span(
+      reinterpret_cast<const std::array<float, Fields>*>(array.data()),
+      no_points ? 0 : static_cast<std::size_t>(array.shape(0)));
+  const TensorPool& from = pool ? *pool : default_pool();
+  if constexpr (Fields == 3) return PointCloud::from_xyz(span, from);
+  if constexpr (Fields == 4) return PointCloud::from_xyzi(span, from);
+  if constexpr (Fields == 6) return PointCloud::from_xyzrgb(span, from);
+}
+
+/// A new (n, 3) float32 array of the cloud's XYZ, or None when the cloud is not float32 with at
+/// least three fields (C++'s nullopt).
+py::object extract_xyz(const PointCloud& cloud) {
+  const auto xyz = cloud.extract_xyz();
+  if (!xyz) return py::none();
+  py::array_t<float> array({static_cast<py::ssize_t>(xyz->size()), py::ssize_t{3}});
+  if (!xyz->empty()) {
+    std::memcpy(array.mutable_data(), xyz->data(), xyz->size() * sizeof((*xyz)[0]));
+  }
+  return array;
+}
+
 Tensor tensor_from_numpy(const py::object& object, std::optional<TensorPool> pool) {
   const py::array array = contiguous(object);
   std::vector<std::uint64_t> shape(array.shape(), array.shape() + array.ndim());
@@ -308,6 +347,8 @@ Tensor tensor_from_numpy(const py::object& object, std::optional<TensorPool> poo
 
 template <class T, class Class>
 void bind_pool_backed(Class& cls) {
+  // The type name a node declares for its topics (publishers() / subscribers()), as C++ does.
+  cls.attr("type_name") = std::string(TypeInfo<T>::name);
   // Lambdas, not member pointers: those members belong to the (unbound) base class.
   cls.def_property_readonly(
          "writable", [](const T& value) { return value.writable(); },
@@ -554,6 +595,25 @@ void bind_pool(py::module_& m) {
 
   py::class_<PointCloud> cloud(m, "PointCloud", py::buffer_protocol());
   cloud.def_static("from_numpy", &cloud_from_numpy, py::arg("array"), py::arg("pool") = py::none())
+      .def_static(
+          "from_xyz",
+          [](const py::object& points, std::optional<TensorPool> pool) {
+            return cloud_from_points<3>(points, std::move(pool), "from_xyz");
+          },
+          py::arg("points"), py::arg("pool") = py::none())
+      .def_static(
+          "from_xyzi",
+          [](const py::object& points, std::optional<TensorPool> pool) {
+            return cloud_from_points<4>(points, std::move(pool), "from_xyzi");
+          },
+          py::arg("points"), py::arg("pool") = py::none())
+      .def_static(
+          "from_xyzrgb",
+          [](const py::object& points, std::optional<TensorPool> pool) {
+            return cloud_from_points<6>(points, std::move(pool), "from_xyzrgb");
+          },
+          py::arg("points"), py::arg("pool") = py::none())
+      .def("extract_xyz", &extract_xyz)
       .def_buffer([](PointCloud& value) { return buffer_of(value); })
       .def_property_readonly("point_count", &PointCloud::point_count)
       .def_property_readonly("fields_per_point", &PointCloud::fields_per_point)

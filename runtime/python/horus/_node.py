@@ -7,6 +7,7 @@ import inspect
 import weakref
 
 from . import _core
+from ._pool import is_pool_type
 from ._topic import Topic
 
 _MISS_POLICIES = ("warn", "skip", "safe_mode", "stop")
@@ -223,4 +224,6 @@ def _with_topics(node: Node, init):
 def _type_name(cls) -> str:
     if cls is dict:
         return "horus.msg.GenericMessage"
+    if is_pool_type(cls):  # Image & co. travel as their descriptor type
+        return cls.type_name
     return cls.__horus__.name

@@ -7,6 +7,9 @@
 //   horus_py_peer node cmdvel|image|dict TOPIC HZ      a scheduler's node "cpp_talker" sends
 //       value i = 1, 2, ... at HZ and logs "sent i" (HORUS_LOG_INFO) every tenth message; prints
 //       "ready" after its first message and runs until its standard input closes
+//   horus_py_peer session cmdvel|image|dict TOPIC COUNT  a Scheduler with recording(true) whose
+//       C++ nodes publish (value i = 1..COUNT, one a tick, 1 ms apart) and subscribe to TOPIC;
+//       prints the session file stop_recording() returns (tests/recording)
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -20,6 +23,7 @@
 
 #include <horus/log.hpp>
 #include <horus/msg.hpp>
+#include <horus/node.hpp>
 #include <horus/scheduler.hpp>
 #include <horus/topic.hpp>
 
@@ -84,6 +88,60 @@ int subscribe(const std::string& topic_name, int count) {
   return 0;
 }
 
+/// Publishes make(i) on its topic at tick i (1..count), then nothing.
+template <class T>
+class Driver : public horus::Node {
+ public:
+  Driver(std::string topic, int count)
+      : topic_name_(std::move(topic)), out_(topic_name_), count_(count) {}
+  std::string_view name() const override { return "cpp_driver"; }
+  void tick() override {
+    if (next_ <= count_) out_.send(make(static_cast<T*>(nullptr), next_++));
+  }
+  std::vector<horus::TopicMetadata> publishers() const override {
+    return {{topic_name_, std::string(horus::TypeInfo<T>::name)}};
+  }
+
+ private:
+  std::string topic_name_;
+  horus::Topic<T> out_;
+  int count_;
+  int next_ = 1;
+};
+
+/// Takes whatever its topic holds each tick.
+template <class T>
+class Sink : public horus::Node {
+ public:
+  explicit Sink(std::string topic) : topic_name_(std::move(topic)), in_(topic_name_) {}
+  std::string_view name() const override { return "cpp_sink"; }
+  void tick() override {
+    while (in_.try_recv()) {
+    }
+  }
+  std::vector<horus::TopicMetadata> subscribers() const override {
+    return {{topic_name_, std::string(horus::TypeInfo<T>::name)}};
+  }
+
+ private:
+  std::string topic_name_;
+  horus::Topic<T> in_;
+};
+
+template <class T>
+int record_session(const std::string& topic, int count) {
+  horus::Scheduler sched(horus::SchedulerConfig{}.handle_signals(false).recording(true));
+  sched.add(std::make_shared<Driver<T>>(topic, count)).order(0).build();
+  sched.add(std::make_shared<Sink<T>>(topic)).order(1).build();
+  for (int i = 0; i < count; ++i) {
+    sched.tick_once();
+    // The recorder reads the topic on its own thread: ticks at a robot's pace, not a busy loop.
+    std::this_thread::sleep_for(1ms);
+  }
+  for (const auto& file : sched.stop_recording()) std::printf("%s\n", file.c_str());
+  return 0;
+}
+
 template <class T>
 class Talker : public horus::Node {
  public:
@@ -126,6 +184,7 @@ int talk(const std::string& topic_name, int hz) {
 template <class T>
 int run(std::string_view role, const std::string& topic, int count) {
   if (role == "node") return talk<T>(topic, count);
+  if (role == "session") return record_session<T>(topic, count);
   return role == "pub" ? publish<T>(topic, count) : subscribe<T>(topic, count);
 }
 
@@ -133,14 +192,15 @@ int run(std::string_view role, const std::string& topic, int count) {
 
 int main(int argc, char** argv) {
   if (argc != 5) {
-    std::fprintf(stderr, "usage: %s pub|sub|node cmdvel|image|dict TOPIC COUNT|HZ\n", argv[0]);
+    std::fprintf(stderr, "usage: %s pub|sub|node|session cmdvel|image|dict TOPIC COUNT|HZ\n",
+                 argv[0]);
     return 2;
   }
   const std::string_view role = argv[1];
   const std::string_view kind = argv[2];
   const std::string topic = argv[3];
   const int count = std::atoi(argv[4]);
-  if ((role != "pub" && role != "sub" && role != "node") || count <= 0) {
+  if ((role != "pub" && role != "sub" && role != "node" && role != "session") || count <= 0) {
     std::fprintf(stderr, "bad role or count\n");
     return 2;
   }

@@ -5,20 +5,33 @@
 //     and keeps the frame alive until the next line (the receiver is done)
 //   pool_peer recv <image|depth|cloud> <topic>: opens the topic, prints "ready", receives,
 //     checks, exits 0
+//   pool_peer node-send image <topic> <count>: a scheduler whose C++ node publishes one image a
+//     tick (timestamp_ns = 1..count); prints "open", waits for a line, ticks until all are sent,
+//     waits for a line (the receiver is done), drops its scheduler and prints "references N",
+//     the sum of the references its blocks still have
+//   pool_peer node-recv image <topic> <count>: a scheduler whose C++ node subscribes; prints
+//     "ready", ticks until it has checked `count` images, prints their timestamps, exits 0
 // It prints what went wrong on stderr and exits non-zero; every wait is bounded.
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include <horus/depth_image.hpp>
 #include <horus/image.hpp>
+#include <horus/node.hpp>
 #include <horus/point_cloud.hpp>
+#include <horus/scheduler.hpp>
 #include <horus/topic.hpp>
 #include <iostream>
+#include <memory>
+#include <thread>
+#include <vector>
 
 namespace {
 
@@ -45,6 +58,125 @@ int fail(const char* what) {
   return 1;
 }
 
+horus::Image rgb_frame() {
+  horus::Image image = horus::Image::make(1080, 1920, horus::ImageEncoding::Rgb8);
+  auto bytes = image.data_mut();
+  for (std::size_t i = 0; i < bytes.size(); ++i) bytes[i] = image_byte(i);
+  return image;
+}
+
+/// Whether `image` is the 1080p frame of the formula, read in place in the pool.
+bool is_rgb_frame(const horus::Image& image) {
+  if (image.width() != 1920 || image.height() != 1080 ||
+      image.encoding() != horus::ImageEncoding::Rgb8 ||
+      !image.pool().contains(image.data().data())) {
+    return false;
+  }
+  const auto bytes = image.data();
+  for (std::size_t i = 0; i < bytes.size(); ++i) {
+    if (bytes[i] != image_byte(i)) return false;
+  }
+  return true;
+}
+
+/// Publishes one frame a tick until `count` are out, keeping the blocks it sent.
+class CameraNode : public horus::Node {
+ public:
+  CameraNode(std::string topic, int count)
+      : topic_name_(std::move(topic)), out_(topic_name_), count_(count) {}
+  std::string_view name() const override { return "cpp_camera"; }
+  void tick() override {
+    if (done()) return;
+    horus::Image image = rgb_frame();
+    image.set_frame_id("cpp");
+    image.set_timestamp_ns(blocks_.size() + 1);
+    if (!out_.send(image)) failed_ = true;
+    blocks_.push_back(image.block());
+  }
+  std::vector<horus::TopicMetadata> publishers() const override {
+    return {{topic_name_, std::string(horus::TypeInfo<horus::Image>::name)}};
+  }
+  bool done() const { return blocks_.size() >= static_cast<std::size_t>(count_); }
+  bool failed() const { return failed_; }
+  const std::vector<horus::msg::PoolBlock>& blocks() const { return blocks_; }
+
+ private:
+  std::string topic_name_;
+  horus::Topic<horus::Image> out_;
+  int count_;
+  bool failed_ = false;
+  std::vector<horus::msg::PoolBlock> blocks_;
+};
+
+/// Checks every image it receives; keeps their timestamps.
+class ViewerNode : public horus::Node {
+ public:
+  explicit ViewerNode(std::string topic) : topic_name_(std::move(topic)), in_(topic_name_) {}
+  std::string_view name() const override { return "cpp_viewer"; }
+  void tick() override {
+    while (std::optional<horus::Image> image = in_.try_recv()) {
+      if (!is_rgb_frame(*image) || image->frame_id() != "python") bad_ = true;
+      timestamps_.push_back(image->timestamp_ns());
+    }
+  }
+  std::vector<horus::TopicMetadata> subscribers() const override {
+    return {{topic_name_, std::string(horus::TypeInfo<horus::Image>::name)}};
+  }
+  bool bad() const { return bad_; }
+  const std::vector<std::uint64_t>& timestamps() const { return timestamps_; }
+
+ private:
+  std::string topic_name_;
+  horus::Topic<horus::Image> in_;
+  bool bad_ = false;
+  std::vector<std::uint64_t> timestamps_;
+};
+
+horus::SchedulerConfig quiet_config() { return horus::SchedulerConfig{}.handle_signals(false); }
+
+int node_send(const std::string& topic, int count) {
+  auto camera = std::make_shared<CameraNode>(topic, count);
+  std::vector<horus::msg::PoolBlock> blocks;
+  {
+    horus::Scheduler sched(quiet_config());
+    sched.add(camera).order(0).build();
+    std::printf("open\n");
+    std::fflush(stdout);
+    std::string line;
+    if (!std::getline(std::cin, line)) return fail("no ready");
+    while (!camera->done()) sched.tick_once();
+    if (camera->failed()) return fail("send failed");
+    blocks = camera->blocks();
+    // The topic's ring holds the frames until the receiver is done and the node is gone.
+    if (!std::getline(std::cin, line)) return fail("no done");
+  }
+  camera.reset();
+  std::uint64_t references = 0;
+  for (const auto& block : blocks) references += horus::default_pool().references(block);
+  std::printf("references %llu\n", static_cast<unsigned long long>(references));
+  return 0;
+}
+
+int node_recv(const std::string& topic, int count) {
+  auto viewer = std::make_shared<ViewerNode>(topic);
+  horus::Scheduler sched(quiet_config());
+  sched.add(viewer).order(0).build();
+  sched.tick_once();  // opens the subscription before the sender is told to start
+  std::printf("ready\n");
+  std::fflush(stdout);
+  const auto deadline = std::chrono::steady_clock::now() + kWait;
+  while (viewer->timestamps().size() < static_cast<std::size_t>(count) &&
+         std::chrono::steady_clock::now() < deadline) {
+    sched.tick_once();
+    std::this_thread::sleep_for(1ms);
+  }
+  if (viewer->bad()) return fail("a received image differs");
+  for (std::uint64_t timestamp : viewer->timestamps()) {
+    std::printf("%llu\n", static_cast<unsigned long long>(timestamp));
+  }
+  return viewer->timestamps().size() == static_cast<std::size_t>(count) ? 0 : fail("too few");
+}
+
 template <class T>
 int send(const std::string& topic_name, const T& value) {
   horus::Topic<T> topic(topic_name);
@@ -60,9 +192,7 @@ int send(const std::string& topic_name, const T& value) {
 
 int send_kind(const std::string& kind, const std::string& topic) {
   if (kind == "image") {
-    horus::Image image = horus::Image::make(1080, 1920, horus::ImageEncoding::Rgb8);
-    auto bytes = image.data_mut();
-    for (std::size_t i = 0; i < bytes.size(); ++i) bytes[i] = image_byte(i);
+    horus::Image image = rgb_frame();
     image.set_frame_id("cpp");
     return send(topic, image);
   }
@@ -101,14 +231,7 @@ int recv_kind(const std::string& kind, const std::string& topic) {
   if (kind == "image") {
     std::optional<horus::Image> image = receive<horus::Image>(topic);
     if (!image) return fail("no image");
-    if (image->width() != 1920 || image->height() != 1080 ||
-        image->encoding() != horus::ImageEncoding::Rgb8) {
-      return fail("wrong geometry");
-    }
-    const auto bytes = image->data();
-    for (std::size_t i = 0; i < bytes.size(); ++i) {
-      if (bytes[i] != image_byte(i)) return fail("wrong pixel");
-    }
+    if (!is_rgb_frame(*image)) return fail("wrong geometry or pixels");
     return image->frame_id() == "python" ? 0 : fail("wrong frame id");
   }
   if (kind == "depth") {
@@ -140,9 +263,19 @@ int recv_kind(const std::string& kind, const std::string& topic) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 4) return fail("usage: pool_peer send|recv image|depth|cloud <topic>");
-  const std::string mode = argv[1];
+  const std::string mode = argc > 1 ? argv[1] : "";
+  const bool node = mode == "node-send" || mode == "node-recv";
+  if (argc != (node ? 5 : 4)) {
+    return fail(
+        "usage: pool_peer send|recv image|depth|cloud <topic>, or node-send|node-recv "
+        "image <topic> <count>");
+  }
   try {
+    if (node) {
+      const int count = std::atoi(argv[4]);
+      if (std::string_view(argv[2]) != "image" || count <= 0) return fail("bad kind or count");
+      return mode == "node-send" ? node_send(argv[3], count) : node_recv(argv[3], count);
+    }
     return mode == "send" ? send_kind(argv[2], argv[3]) : recv_kind(argv[2], argv[3]);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "pool_peer: %s\n", e.what());

@@ -4,7 +4,9 @@ pool; numpy and DLPack views without copies, read-only when received; references
 from __future__ import annotations
 
 import os
+import stat
 import subprocess
+import time
 
 import numpy as np
 import pytest
@@ -105,6 +107,75 @@ def test_python_sends_cpp_reads_in_place(kind):
     assert pool.stats()["blocks_in_use"] == 0
 
 
+NODE_FRAMES = 3  # fewer than a pool topic's 4 slots: the sender keeps every frame alive
+
+
+def test_a_cpp_node_sends_images_to_a_python_node_and_its_references_return_to_zero():
+    expected = image_bytes()
+    seen = []
+
+    def view(node):
+        while (image := node.recv("camera")) is not None:
+            array = np.asarray(image)
+            seen.append((image.timestamp_ns, image.frame_id, not image.writable,
+                         image.pool.contains(array.ctypes.data),
+                         bool(np.array_equal(array, expected))))
+
+    viewer = horus.Node(name="py_viewer", tick=view, subs={"camera": horus.Image})
+    scheduler = horus.Scheduler(tick_rate=1000)
+    scheduler.add(viewer)
+    proc = pool_peer("node-send", "image", "camera", str(NODE_FRAMES))
+    try:
+        assert proc.stdout.readline().strip() == "open"
+        scheduler.tick_once()  # opens the subscription before the C++ node starts sending
+        tell(proc, "ready")
+        deadline = time.monotonic() + 30
+        while len(seen) < NODE_FRAMES and time.monotonic() < deadline:
+            scheduler.tick_once()
+            time.sleep(0.001)
+        del scheduler, viewer
+        tell(proc, "done")
+        out, err = proc.communicate(timeout=30)
+        assert proc.returncode == 0, err
+    finally:
+        proc.kill()
+        proc.wait()
+    assert seen == [(i, "cpp", True, True, True) for i in range(1, NODE_FRAMES + 1)]
+    assert out.split() == ["references", "0"]
+
+
+def test_a_python_node_sends_images_to_a_cpp_node():
+    pixels = image_bytes()
+    sent = []
+
+    def film(node):
+        if len(sent) < NODE_FRAMES:
+            image = horus.Image.from_numpy(pixels)
+            image.frame_id = "python"
+            image.timestamp_ns = len(sent) + 1
+            assert node.send("camera", image)
+            sent.append(image.block)
+
+    camera = horus.Node(name="py_camera", tick=film, pubs={"camera": horus.Image})
+    scheduler = horus.Scheduler(tick_rate=1000)
+    scheduler.add(camera)
+    proc = pool_peer("node-recv", "image", "camera", str(NODE_FRAMES))
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        for _ in range(NODE_FRAMES):
+            scheduler.tick_once()
+        out, err = proc.communicate(timeout=60)
+        assert proc.returncode == 0, err
+    finally:
+        proc.kill()
+        proc.wait()
+    assert out.split() == [str(i) for i in range(1, NODE_FRAMES + 1)]
+    pool = horus.TensorPool.default()
+    del scheduler, camera
+    assert [pool.references(block) for block in sent] == [0] * NODE_FRAMES
+    assert pool.stats()["blocks_in_use"] == 0
+
+
 def test_numpy_and_dlpack_views_share_the_pool_memory():
     image = horus.Image(480, 640, horus.ImageEncoding.Rgb8)
     array = np.asarray(image)
@@ -148,3 +219,60 @@ def test_a_received_value_is_read_only_and_the_tensor_topic_works_in_process():
     assert subscriber.recv(0.001) is None
     with pytest.raises(TypeError):
         publisher.send(horus.Image(2, 2, horus.ImageEncoding.Mono8))
+
+
+def test_point_cloud_from_xyz_xyzi_xyzrgb_and_extract_xyz():
+    xyz = np.array([[1.0, 2.0, 3.0], [-4.5, 0.25, 1e6]])  # float64: converted to float32
+    cloud = horus.PointCloud.from_xyz(xyz)
+    assert (cloud.point_count, cloud.fields_per_point, cloud.dtype) == (2, 3, horus.TensorDtype.F32)
+    assert cloud.is_xyz() and not cloud.has_intensity() and not cloud.has_color()
+    np.testing.assert_array_equal(np.asarray(cloud), xyz.astype(np.float32))
+    extracted = cloud.extract_xyz()
+    assert extracted.dtype == np.float32 and extracted.shape == (2, 3)
+    assert extracted.ctypes.data != cloud.data_address  # a copy, not a view of the pool
+    np.testing.assert_array_equal(extracted, xyz.astype(np.float32))
+
+    from_tuples = horus.PointCloud.from_xyz([(1, 2, 3), (4, 5, 6), (7, 8, 9)])
+    np.testing.assert_array_equal(from_tuples.extract_xyz(),
+                                  np.arange(1, 10, dtype=np.float32).reshape(3, 3))
+
+    xyzi = np.arange(20, dtype=np.float32).reshape(5, 4)
+    with_intensity = horus.PointCloud.from_xyzi(xyzi)
+    assert with_intensity.has_intensity() and with_intensity.fields_per_point == 4
+    np.testing.assert_array_equal(np.asarray(with_intensity), xyzi)
+    np.testing.assert_array_equal(with_intensity.extract_xyz(), xyzi[:, :3])
+
+    xyzrgb = [(0.5, 1.5, 2.5, 255, 128, 0), (3.0, 4.0, 5.0, 0, 64, 255)]
+    colored = horus.PointCloud.from_xyzrgb(xyzrgb)
+    assert colored.has_color() and colored.point_count == 2
+    assert colored.point_at(1) == np.array(xyzrgb[1], dtype=np.float32).tobytes()
+    np.testing.assert_array_equal(colored.extract_xyz(), np.array(xyzrgb, np.float32)[:, :3])
+
+
+def test_point_cloud_constructors_refuse_the_wrong_shape_and_extract_xyz_needs_float32():
+    with pytest.raises(horus.HorusError, match=r"from_xyz: points have shape \(n, 3\)"):
+        horus.PointCloud.from_xyz(np.zeros((4, 4), dtype=np.float32))
+    with pytest.raises(horus.HorusError, match=r"from_xyzi: points have shape \(n, 4\)"):
+        horus.PointCloud.from_xyzi([(1.0, 2.0, 3.0)])
+    with pytest.raises(horus.HorusError, match=r"from_xyzrgb: points have shape \(n, 6\)"):
+        horus.PointCloud.from_xyzrgb(np.zeros(6, dtype=np.float32))
+    with pytest.raises(ValueError):
+        horus.PointCloud.from_xyz([("a", "b", "c")])
+    assert horus.PointCloud.from_numpy(np.zeros((3, 3), dtype=np.uint8)).extract_xyz() is None
+    assert horus.PointCloud.from_numpy(np.zeros((3, 2), dtype=np.float32)).extract_xyz() is None
+
+
+def test_the_pool_file_is_mode_0600_whatever_the_umask(namespace):
+    previous = os.umask(0)
+    try:
+        image = horus.Image(2, 2, horus.ImageEncoding.Mono8)  # creates the namespace's default pool
+        named = horus.TensorPool.open("modes", block_size=4096, block_count=2)
+    finally:
+        os.umask(previous)
+    root = os.path.dirname(horus._core.namespace_directory(namespace))
+    folder = os.path.join(root, "@pool", namespace)
+    for name in ("default", "modes"):
+        status = os.stat(os.path.join(folder, name))
+        assert (oct(stat.S_IMODE(status.st_mode)), status.st_uid) == (oct(0o600), os.geteuid())
+    assert oct(stat.S_IMODE(os.stat(folder).st_mode)) == oct(0o700)
+    del image, named
