@@ -1,7 +1,8 @@
-"""horus-gen on malformed input: every input ends in exit 0 with output that Python compiles, or
-exit 1 with `file:line:col: error:` diagnostics and no output; never an internal error. A
-mutation fuzzer with a fixed seed over the project's own schemas, then one case per class of
-input that once crashed or hung the generator."""
+"""horus-gen on malformed input: every input ends in exit 0 with output that imports in Python
+and compiles with g++, or exit 1 with `file:line:col: error:` diagnostics and no output; never an
+internal error, never more than a few seconds of CPU. A mutation fuzzer with a fixed seed over
+the project's own schemas (every distinct accepted output imported, an evenly spread sample of
+them compiled), then one case per class of input that once crashed or hung the generator."""
 from __future__ import annotations
 
 import concurrent.futures
@@ -113,18 +114,24 @@ def libraries(tmp_path_factory) -> Path:
 # Imports every generated module of each output folder named on the command line, each folder in
 # a fresh set of modules (mutants share package names), over a copy of the libraries' modules so
 # that a package split between the two stays whole; prints one line per failure. The support
-# module is the copy of runtime/python's that horus-gen writes beside the packages (runtime/python
-# itself is not on the path: its `horus` package would hide the generated horus.msg).
+# module is the copy of runtime/python's that horus-gen writes beside the packages. Generated
+# nodes subclass horus.Node: the built runtime package (given, or "" for none) is imported first,
+# and each folder's horus/ joins its path as `horus/__init__.py`'s extend_path would.
 IMPORT_SCRIPT = """
 import importlib, shutil, sys, tempfile, traceback
 from pathlib import Path
-libraries, outputs = Path(sys.argv[1]), sys.argv[2:]
+libraries, runtime, outputs = Path(sys.argv[1]), sys.argv[2], sys.argv[3:]
+if runtime:
+    sys.path.insert(0, runtime)
+    import horus
 for out in outputs:
     with tempfile.TemporaryDirectory() as merged:
         shutil.copytree(libraries, merged, dirs_exist_ok=True)
         shutil.copytree(Path(out) / "python", merged, dirs_exist_ok=True)
         before = set(sys.modules)
         sys.path.insert(0, merged)
+        if runtime:
+            horus.__path__.append(merged + "/horus")
         for module in sorted((Path(out) / "python").rglob("*.py")):
             name = ".".join(module.relative_to(Path(out) / "python").with_suffix("").parts)
             name = name.removesuffix(".__init__")
@@ -133,16 +140,29 @@ for out in outputs:
             except BaseException:
                 print(f"{out}: {name} does not import: " + traceback.format_exc().replace(chr(10), " | "))
         sys.path.remove(merged)
+        if runtime:
+            horus.__path__.remove(merged + "/horus")
         for name in set(sys.modules) - before:
             del sys.modules[name]
 """
 
 
-def import_failures(outputs: list[Path], libraries: Path) -> list[str]:
+def python_runtime() -> str:
+    """The built `horus` package's folder (HORUS_BUILD_DIR/python, default build/python)."""
+    folder = Path(os.environ.get("HORUS_BUILD_DIR") or ROOT / "build") / "python"
+    if not any((folder / "horus").glob("_core*.so")):
+        raise FileNotFoundError(f"generated nodes import the horus runtime, not built in {folder}: build it with "
+                                f"`cmake --build {folder.parent} --target horus_python` (HORUS_BUILD_PYTHON=ON), "
+                                "or name another build folder in HORUS_BUILD_DIR")
+    return str(folder)
+
+
+def import_failures(outputs: list[Path], libraries: Path, runtime: str) -> list[str]:
     """One Python process imports every output's modules (a process each would take minutes)."""
     if not outputs:
         return []
-    result = subprocess.run(["/usr/bin/python3", "-c", IMPORT_SCRIPT, str(libraries / "python"), *map(str, outputs)],
+    result = subprocess.run(["/usr/bin/python3", "-c", IMPORT_SCRIPT, str(libraries / "python"), runtime,
+                             *map(str, outputs)],
                             capture_output=True, text=True, env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
     return result.stdout.splitlines() + ([f"the import process failed: {result.stderr}"] if result.returncode else [])
 
@@ -191,7 +211,8 @@ def test_mutated_schemas_end_in_output_or_diagnostics(tmp_path, capsys, librarie
     generated, generated_cpu = time.monotonic() - started, time.process_time() - started_cpu
 
     by_out = {str(out): (index, text) for index, text, out in accepted.values()}
-    for line in import_failures([out for _, _, out in accepted.values()], libraries):
+    runtime = python_runtime() if suffix == ".hnode" else ""
+    for line in import_failures([out for _, _, out in accepted.values()], libraries, runtime):
         index, text = by_out.get(line.split(":", 1)[0], (-1, ""))
         failures.append((index, line, text))
     # Every accepted output is imported; a bounded, evenly spread sample is compiled (a compiler
