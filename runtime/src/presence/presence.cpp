@@ -446,10 +446,11 @@ void change_use(const ProcessUse& use, bool add) noexcept {
 }  // namespace
 
 void announce_use(const ProcessUse& use) noexcept { change_use(use, true); }
+void withdraw_use(const ProcessUse& use) noexcept { change_use(use, false); }
+
 std::uint64_t announcement_failures() noexcept {
   return announcement_failures_seen.load(std::memory_order_relaxed);
 }
-void withdraw_use(const ProcessUse& use) noexcept { change_use(use, false); }
 
 }  // namespace detail
 }  // namespace horus
