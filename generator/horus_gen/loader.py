@@ -11,6 +11,7 @@ import os
 from dataclasses import dataclass, field
 
 from .diagnostics import Reporter, Source, Span
+from .lexer import MAX_NAME_LENGTH
 from .lang import keyword_clash
 from .parser import FILE_KINDS, parse
 from .syntax import FileSyntax
@@ -90,11 +91,15 @@ class Loader:
             given = self.options.package if root else None
             name = given or os.path.basename(os.path.dirname(os.path.abspath(path)))
             span = Span(syntax.source, 1, 1)
+        # A folder's or --package's name is checked as a declared one is by the lexer: it becomes
+        # file names and identifiers too.
         for part in name.split("."):
             clash = keyword_clash(part)
-            if not part.isidentifier() or clash:
-                self.reporter.error(span, f"package name '{name}' cannot be a C++ namespace and a Python package"
-                                    + (f": '{part}' is {clash}" if clash else ""),
+            why = (f": '{part}' is {clash}" if clash else
+                   f": '{part}' is not ASCII" if not part.isascii() else
+                   f": '{part[:20]}...' is longer than {MAX_NAME_LENGTH} characters" if len(part) > MAX_NAME_LENGTH else "")
+            if not part.isidentifier() or why:
+                self.reporter.error(span, f"package name '{name}' cannot be a C++ namespace and a Python package" + why,
                                     "use lowercase identifiers separated by '.', such as 'my_robot.msg'")
                 break
         return name

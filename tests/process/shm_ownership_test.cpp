@@ -1,6 +1,7 @@
-// Topics that other local users cannot plant, take over or write, with real users: the test
-// (root, as CI runs it) creates them and runs each side in a forked child that switched to its
-// user. A and B share the group horus_tg; M (horus_tm) is an outsider.
+// Topics, services, tensor pools, presence folders and log rings that other local users cannot
+// plant, take over or write, with real users: the test (root, as CI runs it) creates them and runs
+// each side in a forked child that switched to its user. A and B share the group horus_tg; M
+// (horus_tm) is an outsider.
 #include <fcntl.h>
 #include <grp.h>
 #include <gtest/gtest.h>
@@ -16,10 +17,14 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <horus/detail/shm_segment.hpp>
 #include <horus/error.hpp>
+#include <horus/log.hpp>
+#include <horus/presence.hpp>
 #include <horus/service.hpp>
+#include <horus/tensor_pool.hpp>
 #include <horus/topic.hpp>
 #include <kv_example/key_value_store.hpp>
 
@@ -174,6 +179,123 @@ int refused_as(const char* user, const std::string& root, const char* name, unsi
   });
 }
 
+/// As `user`: opens tensor pool `name` of the test namespace with `mode`; 0 when it opened.
+int open_pool_as(const char* user, const SharedRoot& root, const char* name, unsigned mode) {
+  return as_user(user, root.path(), [&] {
+    horus::TensorPoolOptions options;
+    options.block_size = 4096;
+    options.block_count = 2;
+    options.mode = mode;
+    options.namespace_name = SharedRoot::kNamespace;
+    const horus::TensorPool pool = horus::TensorPool::open(name, options);
+    return pool.stats().block_count == 2 ? 0 : 1;
+  });
+}
+
+/// As `user`: 0 when opening tensor pool `name` with `mode` is refused with all of `expected`.
+int pool_refused_as(const char* user, const SharedRoot& root, const char* name, unsigned mode,
+                    std::initializer_list<std::string> expected) {
+  return as_user(user, root.path(), [&] {
+    horus::TensorPoolOptions options;
+    options.block_size = 4096;
+    options.block_count = 2;
+    options.mode = mode;
+    options.namespace_name = SharedRoot::kNamespace;
+    return refused([&] { horus::TensorPool::open(name, options); }, expected);
+  });
+}
+
+/// Runs `body` with stderr going to a pipe and returns what it wrote there (a few lines: the
+/// pipe's buffer holds 64 KiB).
+std::string stderr_of(const std::function<void()>& body) {
+  int ends[2] = {-1, -1};
+  if (::pipe(ends) != 0) return "<no pipe>";
+  const int saved = ::dup(STDERR_FILENO);
+  ::dup2(ends[1], STDERR_FILENO);
+  ::close(ends[1]);
+  body();
+  ::dup2(saved, STDERR_FILENO);  // the pipe's last write end closes: the reads below see its end
+  ::close(saved);
+  std::string text;
+  char buffer[4096];
+  ssize_t got = 0;
+  while ((got = ::read(ends[0], buffer, sizeof buffer)) > 0) {
+    text.append(buffer, static_cast<std::size_t>(got));
+  }
+  ::close(ends[0]);
+  return text;
+}
+
+std::size_t count_of(const std::string& text, const std::string& part) {
+  std::size_t count = 0;
+  for (std::size_t at = text.find(part); at != std::string::npos; at = text.find(part, at + 1)) {
+    ++count;
+  }
+  return count;
+}
+
+/// The line of `text` that holds `part` (empty if none).
+std::string line_of(const std::string& text, const std::string& part) {
+  const std::size_t at = text.find(part);
+  if (at == std::string::npos) return {};
+  const std::size_t start = text.rfind('\n', at);
+  const std::size_t begin = start == std::string::npos ? 0 : start + 1;
+  return text.substr(begin, text.find('\n', at) - begin);
+}
+
+/// 0 when `text` holds every one of `expected` exactly once, else 1 (printed).
+int said_once(const std::string& text, std::initializer_list<std::string> expected) {
+  for (const std::string& part : expected) {
+    if (count_of(text, part) != 1) {
+      std::fprintf(stdout, "'%s' is not said exactly once in: %s\n", part.c_str(), text.c_str());
+      return 1;
+    }
+  }
+  return 0;
+}
+
+constexpr const char* kPresenceWarning = "[horus] this process is not announced in namespace";
+constexpr const char* kLogWarning = "[horus] logging to stderr only";
+
+/// As `user`: opens two topics of the test namespace with `mode` and sends on them, and logs two
+/// lines; 0 when everything worked and stderr held both lines and, exactly once each, the
+/// presence and log warnings naming `path`s and `owner` (an empty `owner`: no warning expected).
+int works_with_warnings_as(const char* user, const SharedRoot& root, unsigned mode,
+                           const std::string& owner) {
+  return as_user(user, root.path(), [&] {
+    bool sent = false;
+    std::uint64_t failures = 0;
+    const std::string text = stderr_of([&] {
+      horus::Topic<std::uint64_t> cmd("cmd", in_namespace(mode));
+      horus::Topic<std::uint64_t> status("status", in_namespace(mode));
+      sent = cmd.send(1) && status.send(2);
+      horus::log::info("first line");
+      horus::log::info("second line");
+      horus::log::flush();
+      failures = horus::detail::announcement_failures();
+    });
+    if (!sent) {
+      std::fprintf(stdout, "%s could not send\n", user);
+      return 1;
+    }
+    if (owner.empty()) {
+      return failures == 0 && count_of(text, "[horus]") == 0 ? 0 : 1;
+    }
+    if (failures == 0) {
+      std::fprintf(stdout, "no failed announcement counted\n");
+      return 1;
+    }
+    return said_once(text, {"first line", "second line", kPresenceWarning,
+                            root.path() + "/@presence", kLogWarning, root.path() + "/@logs"}) +
+           said_once(line_of(text, kPresenceWarning), {owner}) +
+           said_once(line_of(text, kLogWarning), {owner});
+  });
+}
+
+bool empty_folder(const std::string& path) {
+  return std::filesystem::is_directory(path) && std::filesystem::is_empty(path);
+}
+
 class ShmOwnership : public ::testing::Test {
  protected:
   // Only a run that cannot create users may skip; as root (CI), failing to create them fails.
@@ -209,8 +331,9 @@ TEST_F(ShmOwnership, EachUserHasAPrivateRootByDefault) {
   ASSERT_EQ(::lstat(root_a.c_str(), &info), 0);
   EXPECT_EQ(info.st_uid, uid_of(kUserA));
   EXPECT_EQ(info.st_mode & 07777, 0700U);
-  std::filesystem::remove_all(root_a + "/" + ns);
-  std::filesystem::remove_all("/dev/shm/horus-" + std::to_string(uid_of(kUserM)) + "/" + ns);
+  // The test users' roots go too: nothing else of theirs is in them.
+  std::filesystem::remove_all(root_a);
+  std::filesystem::remove_all("/dev/shm/horus-" + std::to_string(uid_of(kUserM)));
 }
 
 TEST_F(ShmOwnership, ARootCreatedByAnotherUserIsRefusedNamingItsOwner) {
@@ -312,6 +435,79 @@ TEST_F(ShmOwnership, AServiceInASquattedNamespaceIsRefused) {
                            {root.folder(), kUserM});
               }),
       0);
+}
+
+TEST_F(ShmOwnership, ATensorPoolFolderCreatedByAnotherUserIsRefusedNamingItsOwner) {
+  SharedRoot root;
+  ASSERT_EQ(open_pool_as(kUserM, root, "camera", 0600), 0);
+  const std::string pools = root.path() + "/@pool";
+  ::chmod(pools.c_str(), 0777);
+  EXPECT_EQ(pool_refused_as(kUserA, root, "camera", 0600, {pools, kUserM}), 0);
+  EXPECT_EQ(pool_refused_as(kUserA, root, "other", 0600, {pools, kUserM}), 0);
+}
+
+TEST_F(ShmOwnership, ATensorPoolFileCreatedByAnotherUserIsRefusedWithoutGroupSharing) {
+  SharedRoot root;
+  // A shares one pool with its group, so the pool folder is group-writable; B plants the pool
+  // A will open privately.
+  ASSERT_EQ(open_pool_as(kUserA, root, "shared", 0660), 0);
+  ASSERT_EQ(open_pool_as(kUserB, root, "camera", 0660), 0);
+  const std::string file = root.path() + "/@pool/" + SharedRoot::kNamespace + "/camera";
+  EXPECT_EQ(pool_refused_as(kUserA, root, "camera", 0600, {file, kUserB}), 0);
+  EXPECT_EQ(open_pool_as(kUserA, root, "camera", 0660), 0) << "the group-sharing case must work";
+  EXPECT_EQ(pool_refused_as(kUserM, root, "camera", 0660, {root.path() + "/@pool"}), 0)
+      << "a user outside the group reached the group's pool";
+}
+
+TEST_F(ShmOwnership, AWorldWritableTensorPoolIsRefusedAndCannotBeAskedFor) {
+  SharedRoot root;
+  ASSERT_EQ(open_pool_as(kUserA, root, "camera", 0600), 0);
+  const std::string file = root.path() + "/@pool/" + SharedRoot::kNamespace + "/camera";
+  ::chmod(file.c_str(), 0666);
+  EXPECT_EQ(pool_refused_as(kUserA, root, "camera", 0600, {file, "writable by every user"}), 0);
+  EXPECT_EQ(pool_refused_as(kUserA, root, "other", 0666, {"0666", "every local user"}), 0);
+}
+
+// Refusing would stop a robot over its bookkeeping: a squatted presence folder or log folder
+// leaves the process unannounced and logging to stderr only, each said once on stderr with the
+// path and its owner (and failed announcements counted), and nothing is written into them.
+TEST_F(ShmOwnership, SquattedPresenceAndLogFoldersAreSkippedWithOneWarningEach) {
+  SharedRoot root;
+  for (const char* folder : {"/@presence", "/@logs"}) {
+    const std::string path = root.path() + folder;
+    ASSERT_EQ(as_user(kUserM, "", [&] { return ::mkdir(path.c_str(), 0777) == 0 ? 0 : 1; }), 0);
+    ::chmod(path.c_str(), 0777);
+  }
+  EXPECT_EQ(works_with_warnings_as(kUserA, root, 0600, kUserM), 0);
+  EXPECT_TRUE(empty_folder(root.path() + "/@presence"));
+  EXPECT_TRUE(empty_folder(root.path() + "/@logs"));
+}
+
+TEST_F(ShmOwnership, AWorldWritableLogRingIsSkippedWithOneWarning) {
+  SharedRoot root;
+  ASSERT_EQ(works_with_warnings_as(kUserA, root, 0600, ""), 0);
+  const std::string ring = root.path() + "/@logs/default";
+  ASSERT_TRUE(std::filesystem::exists(ring));
+  ::chmod(ring.c_str(), 0666);
+  EXPECT_EQ(
+      as_user(kUserA, root.path(),
+              [&] {
+                const std::string text = stderr_of([] {
+                  horus::log::info("a line");
+                  horus::log::flush();
+                });
+                return said_once(text, {kLogWarning, ring, "writable by every user", "a line"});
+              }),
+      0);
+}
+
+// In a root shared by a group, the presence registry and the log rings stay their creator's
+// (documented in docs/shared-memory.md): a second user's processes share topics but are
+// unannounced and log to stderr only, and say so once each, naming the first user.
+TEST_F(ShmOwnership, InASharedRootASecondUsersPresenceAndLogsAreSkippedWithAWarning) {
+  SharedRoot root;
+  EXPECT_EQ(works_with_warnings_as(kUserA, root, 0660, ""), 0);
+  EXPECT_EQ(works_with_warnings_as(kUserB, root, 0660, kUserA), 0);
 }
 
 }  // namespace

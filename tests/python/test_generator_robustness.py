@@ -1,13 +1,20 @@
 """horus-gen on malformed input (emitting C++, Python and IDL): every input ends in exit 0 with
-output that Python compiles, or exit 1 with `file:line:col: error:` diagnostics and no output;
-never an internal error. A mutation fuzzer with a fixed seed over the project's own schemas, then
-one case per class of input that once crashed or hung the generator."""
+output that imports in Python and compiles with g++, or exit 1 with `file:line:col: error:`
+diagnostics and no output; never an internal error, never more than a few seconds of CPU. A
+mutation fuzzer with a fixed seed over the project's own schemas (every distinct accepted output
+imported, an evenly spread sample of them compiled), then one case per class of input that once
+crashed or hung the generator."""
 from __future__ import annotations
 
+import concurrent.futures
 import contextlib
+import hashlib
 import io
+import os
 import random
 import signal
+import subprocess
+import time
 from pathlib import Path
 
 import pytest
@@ -32,6 +39,9 @@ FRAGMENTS = ["[", "]", "<", ">", "{", "}", ";", ",", ":", "::", "=", "#[", "Vec<
              "on_miss: Stop,", "failure_policy: Restart { max_restarts: 1 },", "#[capacity = 3]", "node!", 'on: "x",']
 NODE_FUZZ_INPUTS = 300
 FUZZ_INPUTS = 2000
+# How many of the distinct accepted outputs g++ checks (every one is imported).
+CPP_COMPILES = 8
+CXX = os.environ.get("CXX", "g++")
 # CPU seconds, far above any input's: this catches hangs, it measures nothing. CPU time, not wall
 # time, so that a machine loaded by other work never passes for a hang.
 SECONDS_PER_INPUT = 5
@@ -79,22 +89,118 @@ def generate_in_process(schema: Path, out: Path, includes: tuple[Path, ...] = (R
     return status, stderr.getvalue()
 
 
+def output_digest(out: Path) -> str:
+    """What the generator wrote, as one digest: mutants that differ only in what the generator
+    ignores (comments, spacing) are compiled and imported once."""
+    digest = hashlib.sha256()
+    for path in sorted(p for p in out.rglob("*") if p.is_file() and p.name != ".horus-gen-outputs"):
+        digest.update(str(path.relative_to(out)).encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()
+
+
+@pytest.fixture(scope="module")
+def libraries(tmp_path_factory) -> Path:
+    """The packages mutants import (horus.msg, the test schemas' packages), generated once: a
+    mutant's own output holds only the fuzzed file's types."""
+    out = tmp_path_factory.mktemp("libraries")
+    for files in (sorted((ROOT / "schemas" / "horus" / "msg").glob("*.hmsg")),
+                  *(sorted((SCHEMAS / package).glob("*.h[ms]*")) for package in ("test_msgs", "other_pkg", "crosslang"))):
+        result = run_horus_gen("generate", "--lang", "cpp,python", "--out", str(out), "-I", str(ROOT / "schemas"),
+                               "-I", str(SCHEMAS), *map(str, files))
+        assert result.returncode == 0, result.stderr
+        (out / ".horus-gen-outputs").unlink()  # each run lists only its own outputs
+    return out
+
+
+# Imports every generated module of each output folder named on the command line, each folder in
+# a fresh set of modules (mutants share package names), over a copy of the libraries' modules so
+# that a package split between the two stays whole; prints one line per failure. The support
+# module is the copy of runtime/python's that horus-gen writes beside the packages. Generated
+# nodes subclass horus.Node: the built runtime package (given, or "" for none) is imported first,
+# and each folder's horus/ joins its path as `horus/__init__.py`'s extend_path would.
+IMPORT_SCRIPT = """
+import importlib, shutil, sys, tempfile, traceback
+from pathlib import Path
+libraries, runtime, outputs = Path(sys.argv[1]), sys.argv[2], sys.argv[3:]
+if runtime:
+    sys.path.insert(0, runtime)
+    import horus
+for out in outputs:
+    with tempfile.TemporaryDirectory() as merged:
+        shutil.copytree(libraries, merged, dirs_exist_ok=True)
+        shutil.copytree(Path(out) / "python", merged, dirs_exist_ok=True)
+        before = set(sys.modules)
+        sys.path.insert(0, merged)
+        if runtime:
+            horus.__path__.append(merged + "/horus")
+        for module in sorted((Path(out) / "python").rglob("*.py")):
+            name = ".".join(module.relative_to(Path(out) / "python").with_suffix("").parts)
+            name = name.removesuffix(".__init__")
+            try:
+                importlib.import_module(name)
+            except BaseException:
+                print(f"{out}: {name} does not import: " + traceback.format_exc().replace(chr(10), " | "))
+        sys.path.remove(merged)
+        if runtime:
+            horus.__path__.remove(merged + "/horus")
+        for name in set(sys.modules) - before:
+            del sys.modules[name]
+"""
+
+
+def python_runtime() -> str:
+    """The built `horus` package's folder (HORUS_BUILD_DIR/python, default build/python)."""
+    folder = Path(os.environ.get("HORUS_BUILD_DIR") or ROOT / "build") / "python"
+    if not any((folder / "horus").glob("_core*.so")):
+        raise FileNotFoundError(f"generated nodes import the horus runtime, not built in {folder}: build it with "
+                                f"`cmake --build {folder.parent} --target horus_python` (HORUS_BUILD_PYTHON=ON), "
+                                "or name another build folder in HORUS_BUILD_DIR")
+    return str(folder)
+
+
+def import_failures(outputs: list[Path], libraries: Path, runtime: str) -> list[str]:
+    """One Python process imports every output's modules (a process each would take minutes)."""
+    if not outputs:
+        return []
+    result = subprocess.run(["/usr/bin/python3", "-c", IMPORT_SCRIPT, str(libraries / "python"), runtime,
+                             *map(str, outputs)],
+                            capture_output=True, text=True, env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+    return result.stdout.splitlines() + ([f"the import process failed: {result.stderr}"] if result.returncode else [])
+
+
+def compile_failure(out: Path, libraries: Path) -> str | None:
+    """The output's C++ as one translation unit (its .cpp files, which include the package's
+    headers, and every header), checked by g++ -fsyntax-only; the compiler's errors, or None."""
+    cpp = out / "cpp"
+    unit = out / "all.cc"
+    unit.write_text("".join(f'#include "{p.relative_to(cpp)}"\n'
+                            for p in sorted(cpp.rglob("*")) if p.suffix in (".cpp", ".hpp")))
+    result = subprocess.run([CXX, "-std=c++20", "-fsyntax-only", f"-I{ROOT / 'runtime' / 'include'}", f"-I{cpp}",
+                             f"-I{libraries / 'cpp'}", str(unit)], capture_output=True, text=True)
+    return f"{cpp} does not compile:\n{result.stderr[:3000]}" if result.returncode else None
+
+
 @pytest.mark.parametrize("suffix, seeds, count", [(".hmsg", SEEDS, FUZZ_INPUTS), (".hnode", NODE_SEEDS, NODE_FUZZ_INPUTS)],
                          ids=["messages", "nodes"])
-def test_mutated_schemas_end_in_output_or_diagnostics(tmp_path, suffix, seeds, count):
+def test_mutated_schemas_end_in_output_or_diagnostics(tmp_path, capsys, libraries, suffix, seeds, count):
     rng = random.Random(23)
     schema = tmp_path / "fuzzed" / f"fuzzed{suffix}"
     schema.parent.mkdir()
     failures = []
+    accepted: dict[str, tuple[int, str, Path]] = {}  # output digest -> the first input that wrote it
+    slowest = (0.0, -1)
+    started, started_cpu = time.monotonic(), time.process_time()
     for index in range(count):
         text = mutate(rng, rng.choice(seeds))
         schema.write_text(text, encoding="utf-8")
         out = tmp_path / f"out{index}"
+        cpu = time.process_time()
         try:
             status, stderr = generate_in_process(schema, out, (ROOT / "schemas", SCHEMAS))
         except Hang:
-            failures.append((index, "hung", text))
+            failures.append((index, f"took more than {SECONDS_PER_INPUT} s of CPU", text))
             continue
+        slowest = max(slowest, (time.process_time() - cpu, index))
         if "internal error" in stderr or status not in (0, 1):
             failures.append((index, stderr or f"exit {status}", text))
         elif status == 1:
@@ -102,18 +208,33 @@ def test_mutated_schemas_end_in_output_or_diagnostics(tmp_path, suffix, seeds, c
             if written or ": error: " not in stderr:
                 failures.append((index, f"exit 1 with output {written[:3]} or no diagnostic: {stderr}", text))
         else:
-            for module in (out / "python").rglob("*.py"):
-                try:
-                    compile(module.read_text(), str(module), "exec")
-                except SyntaxError as error:
-                    failures.append((index, f"{module.name} does not compile: {error}", text))
+            accepted.setdefault(output_digest(out), (index, text, out))
+    generated, generated_cpu = time.monotonic() - started, time.process_time() - started_cpu
+
+    by_out = {str(out): (index, text) for index, text, out in accepted.values()}
+    runtime = python_runtime() if suffix == ".hnode" else ""
+    for line in import_failures([out for _, _, out in accepted.values()], libraries, runtime):
+        index, text = by_out.get(line.split(":", 1)[0], (-1, ""))
+        failures.append((index, line, text))
+    # Every accepted output is imported; a bounded, evenly spread sample is compiled (a compiler
+    # run takes a second or more), two at a time.
+    outputs = list(accepted.values())
+    sample = outputs[::max(1, -(-len(outputs) // CPP_COMPILES))]
+    with concurrent.futures.ThreadPoolExecutor(max_workers=2) as pool:
+        for (index, text, _), failure in zip(sample, pool.map(lambda entry: compile_failure(entry[2], libraries), sample)):
+            if failure:
+                failures.append((index, failure, text))
+    with capsys.disabled():
+        print(f"\n{count} {suffix} inputs generated in {generated:.1f} s ({generated_cpu:.1f} s of CPU); slowest input {slowest[1]}: "
+              f"{slowest[0] * 1000:.0f} ms of CPU; {len(accepted)} distinct outputs imported, {len(sample)} compiled; "
+              f"{time.monotonic() - started:.1f} s in all")
     assert not failures, "\n\n".join(f"input {i}: {why}\n--- input ---\n{text[:2000]}" for i, why, text in failures[:3])
 
 
-def check(tmp_path, text: str) -> str:
-    """Runs `horus-gen check` on `text` as the one schema of package p; returns its stderr after
-    asserting exit 1 with diagnostics."""
-    schema = tmp_path / "p" / "case.hmsg"
+def check(tmp_path, text: str, folder: str = "p") -> str:
+    """Runs `horus-gen check` on `text` as the one schema in `folder` (package p unless it says
+    otherwise); returns its stderr after asserting exit 1 with diagnostics."""
+    schema = tmp_path / folder / "case.hmsg"
     schema.parent.mkdir(exist_ok=True)
     schema.write_text(text, encoding="utf-8")
     result = run_horus_gen("check", str(schema))
@@ -122,34 +243,56 @@ def check(tmp_path, text: str) -> str:
     return result.stderr
 
 
-@pytest.mark.parametrize("text, error", [
-    pytest.param("A { x: " + "[" * 500 + "f32" + "; 2]" * 500 + " }\n",
-                 "types nest more than 16 deep", id="nested_arrays"),
-    pytest.param("A { x: " + "Vec<" * 500 + "f32" + ">" * 500 + " }\n",
-                 "types nest more than 16 deep", id="nested_generics"),
-    pytest.param("A { x: [f32; 2] = " + "[" * 500 + "1" + "]" * 500 + " }\n",
-                 "values nest more than 16 deep", id="nested_lists"),
-    pytest.param("A { x: u64 = " + "9" * 5000 + " }\n",
-                 "number of 5000 characters is longer than 100", id="long_integer"),
-    pytest.param("A { x: u64 = 0x" + "f" * 5000 + " }\n",
-                 "number of 5002 characters is longer than 100", id="long_hex"),
-    pytest.param("A { x: [u8; ²] }\n", "unexpected character '²'", id="unicode_digit"),
-    pytest.param("A { x: [u8; 1099511627776] }\n",
-                 "array length 1099511627776 is more than 1073741824", id="huge_array"),
-    pytest.param("A { x: string<1099511627776> }\n",
-                 "string capacity 1099511627776 is more than 1073741824", id="huge_string"),
-    pytest.param("B { a: u8, b: u32 }\nA { x: [B; 100000] }\n",
-                 "message 'A' is too large: 100000 elements with 1 padding", id="many_padding_ranges"),
-    pytest.param("A { x: [[u8; 1073741824]; 2] }\n", "message 'A' is too large", id="huge_message"),
-    pytest.param("A { é: u8 }\n", "name 'é' is not ASCII", id="unicode_name"),
-    pytest.param("A { ﬁeld: u8 }\n", "is not ASCII", id="nfkc_name"),
-    pytest.param("A" * 101 + " { x: u8 }\n", "name of 101 characters is longer than 100", id="long_name"),
-    pytest.param("/// a\0b\nA { x: u8 }\n", "character U+0000 is not allowed", id="nul_in_doc"),
-    pytest.param("/// a\u2028b\nA { x: u8 }\n", "character U+2028 is not allowed", id="line_separator_in_doc"),
-    pytest.param('A { x: string<4> = "a\\0" }\n', "holds a NUL character", id="nul_in_fixed_string"),
+def case(text: str, error: str, id: str, folder: str = "p"):
+    return pytest.param(text, error, folder, id=id)
+
+
+@pytest.mark.parametrize("text, error, folder", [
+    case("A { x: " + "[" * 500 + "f32" + "; 2]" * 500 + " }\n",
+          "types nest more than 16 deep", id="nested_arrays"),
+    case("A { x: " + "Vec<" * 500 + "f32" + ">" * 500 + " }\n",
+          "types nest more than 16 deep", id="nested_generics"),
+    case("A { x: [f32; 2] = " + "[" * 500 + "1" + "]" * 500 + " }\n",
+          "values nest more than 16 deep", id="nested_lists"),
+    case("A { x: u64 = " + "9" * 5000 + " }\n",
+          "number of 5000 characters is longer than 100", id="long_integer"),
+    case("A { x: u64 = 0x" + "f" * 5000 + " }\n",
+          "number of 5002 characters is longer than 100", id="long_hex"),
+    case("A { x: [u8; ²] }\n", "unexpected character '²'", id="unicode_digit"),
+    case("A { x: [u8; 1099511627776] }\n",
+          "array length 1099511627776 is more than 1073741824", id="huge_array"),
+    case("A { x: string<1099511627776> }\n",
+          "string capacity 1099511627776 is more than 1073741824", id="huge_string"),
+    case("B { a: u8, b: u32 }\nA { x: [B; 100000] }\n",
+          "message 'A' is too large: 100000 elements with 1 padding", id="many_padding_ranges"),
+    case("A { x: [[u8; 1073741824]; 2] }\n", "message 'A' is too large", id="huge_message"),
+    case("A { é: u8 }\n", "name 'é' is not ASCII", id="unicode_name"),
+    case("A { ﬁeld: u8 }\n", "is not ASCII", id="nfkc_name"),
+    case("A" * 101 + " { x: u8 }\n", "name of 101 characters is longer than 100", id="long_name"),
+    case("/// a\0b\nA { x: u8 }\n", "character U+0000 is not allowed", id="nul_in_doc"),
+    case("/// a\u2028b\nA { x: u8 }\n", "character U+2028 is not allowed", id="line_separator_in_doc"),
+    case('A { x: string<4> = "a\\0" }\n', "holds a NUL character", id="nul_in_fixed_string"),
+    # ValueError building an enum: a value outside the underlying type, two enumerators on one
+    # value, a value too long to spell (Python refuses int-to-text beyond 4300 digits).
+    case("enum E: u8 { A = 300 }\nA { e: E }\n", "value 300 of 'E::A' is out of range for u8", id="enum_value_out_of_range"),
+    case("enum E: u8 { A = 1, B = 1 }\nA { e: E }\n", "duplicate enum value 1: 'B' and 'A' of 'E'", id="enum_duplicate_value"),
+    case("enum E: u64 { A = 0x" + "f" * 5000 + " }\n", "number of 5002 characters is longer than 100", id="enum_huge_value"),
+    # identity.py spells array lengths into the type's identity text: one past int-to-text's limit.
+    case("A { x: [u8; 0x" + "f" * 4000 + "] }\n", "number of 4002 characters is longer than 100", id="spelled_array_length"),
+    # An integer as a float default: float() raised OverflowError past 1.8e308.
+    case("A { x: f64 = 0x" + "f" * 300 + " }\n", "number of 302 characters is longer than 100", id="float_default_overflow"),
+    case("A { x: f32 = 0x" + "f" * 98 + " }\n", "is out of range for f32", id="float_default_out_of_f32"),
+    # Names from the schema's folder (no `package` line) become file names too: characters a
+    # path or an identifier cannot hold, or too many of them, are refused like declared names.
+    case("A { x: u8 }\n", "package name 'bad-pkg' cannot be", folder="bad-pkg", id="folder_name_with_dash"),
+    case("A { x: u8 }\n", "'é' is not ASCII", folder="é", id="folder_name_not_ascii"),
+    case("A { x: u8 }\n", "is longer than 100 characters", folder="p" * 200, id="folder_name_too_long"),
 ])
-def test_each_class_of_bad_input_is_an_error_with_its_place(tmp_path, text, error):
-    assert error in check(tmp_path, text)
+
+
+def test_each_class_of_bad_input_is_an_error_with_its_place(tmp_path, text, error, folder):
+    stderr = check(tmp_path, text, folder)
+    assert error in stderr and "Traceback" not in stderr
 
 
 @pytest.mark.parametrize("name", ["NULL", "errno", "assert", "stdin", "EOF", "INT32_MAX", "linux", "self",

@@ -90,6 +90,11 @@ struct ProcessUse {
 void announce_use(const ProcessUse& use) noexcept;
 void withdraw_use(const ProcessUse& use) noexcept;
 
+/// How many times this process could not write a process announcement (its namespace's presence
+/// folder is another user's, say, in a root shared by a group). The first failure is written to
+/// stderr once, naming the path and the reason.
+std::uint64_t announcement_failures() noexcept;
+
 /// A use announced for the lifetime of the object (a topic handle, a server, a client).
 class AnnouncedUse {
  public:

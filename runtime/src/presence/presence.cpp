@@ -349,13 +349,41 @@ std::string uses_json(const NamespaceUses& uses) {
          "],\"services\":[" + services + "]}";
 }
 
-void write_announcement(const std::string& namespace_name, NamespaceUses& uses) {
-  uses.dirty = false;
-  if (!uses.announcement) {
-    uses.announcement = std::make_unique<PresenceAnnouncement>(namespace_name);
+std::atomic<std::uint64_t> announcement_failures_seen{0};
+
+/// Counts a failed process announcement; the first one in this process is said on stderr (a
+/// process that cannot announce still works, but `horus node list` will not show it).
+void announcement_failed(const std::string& namespace_name, const std::string& why) noexcept {
+  if (announcement_failures_seen.fetch_add(1, std::memory_order_relaxed) != 0) return;
+  char note[768];
+  const int n =
+      std::snprintf(note, sizeof note,
+                    "[horus] this process is not announced in namespace '%s' (`horus node "
+                    "list` will not show it; further failures are not reported): %s\n",
+                    namespace_name.c_str(), why.c_str());
+  std::size_t left = static_cast<std::size_t>(std::clamp(n, 0, static_cast<int>(sizeof note) - 1));
+  const char* at = note;
+  while (left > 0) {
+    const ssize_t put = ::write(STDERR_FILENO, at, left);
+    if (put < 0 && errno == EINTR) continue;
+    if (put <= 0) break;
+    at += put;
+    left -= static_cast<std::size_t>(put);
   }
+}
+
+void write_announcement(const std::string& namespace_name, NamespaceUses& uses) noexcept {
+  uses.dirty = false;
   std::string error;
-  static_cast<void>(uses.announcement->announce(uses_json(uses), error));
+  try {
+    if (!uses.announcement) {
+      uses.announcement = std::make_unique<PresenceAnnouncement>(namespace_name);
+    }
+    if (uses.announcement->announce(uses_json(uses), error)) return;
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  announcement_failed(namespace_name, error);
 }
 
 /// Rewrites the announcements whose uses changed, at most once per kRewriteInterval.
@@ -367,10 +395,7 @@ void write_announcement(const std::string& namespace_name, NamespaceUses& uses) 
                          [](const auto& entry) { return entry.second.dirty; });
     });
     for (auto& [namespace_name, uses] : all.namespaces) {
-      try {
-        if (uses.dirty) write_announcement(namespace_name, uses);
-      } catch (...) {  // NOLINT(bugprone-empty-catch): an unannounced process still works
-      }
+      if (uses.dirty) write_announcement(namespace_name, uses);
     }
     lock.unlock();
     std::this_thread::sleep_for(kRewriteInterval);
@@ -422,6 +447,10 @@ void change_use(const ProcessUse& use, bool add) noexcept {
 
 void announce_use(const ProcessUse& use) noexcept { change_use(use, true); }
 void withdraw_use(const ProcessUse& use) noexcept { change_use(use, false); }
+
+std::uint64_t announcement_failures() noexcept {
+  return announcement_failures_seen.load(std::memory_order_relaxed);
+}
 
 }  // namespace detail
 }  // namespace horus

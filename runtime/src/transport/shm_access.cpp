@@ -67,6 +67,19 @@ mode_t directory_mode(unsigned file_mode) {
   return group_sharing(file_mode) ? mode | S_ISGID : mode;
 }
 
+/// Why an open failed, with the owner and mode of what is there when permission was denied: a
+/// folder another user made first (0700, say) is refused by the kernel before fstat could name
+/// its owner. Only words for the message; nothing is decided on this lookup.
+std::string open_failure(int parent, const std::string& name, int error) {
+  std::string text = errno_text(error);
+  struct stat info {};
+  if (error == EACCES && ::fstatat(parent, name.c_str(), &info, AT_SYMLINK_NOFOLLOW) == 0) {
+    text += " (it belongs to " + describe_user(info.st_uid) + ", mode " +
+            octal(static_cast<unsigned>(info.st_mode)) + ")";
+  }
+  return text;
+}
+
 }  // namespace
 
 FileDescriptor::FileDescriptor(FileDescriptor&& other) noexcept
@@ -150,7 +163,7 @@ FileDescriptor open_trusted_directory(int parent, const std::string& name, const
     }
     throw Error("cannot open the topic directory " + path + ": " +
                 (error == ENOTDIR || error == ELOOP ? "it exists but is not a directory"
-                                                    : errno_text(error)));
+                                                    : open_failure(parent, name, error)));
   }
   struct stat info {};
   if (::fstat(folder.get(), &info) != 0) {
@@ -174,7 +187,7 @@ FileDescriptor open_trusted_file(int directory, const std::string& name, const s
     const int error = errno;
     throw Error("cannot open topic segment " + path + ": " +
                 (error == ELOOP ? "it is a symbolic link (refused: it could point anywhere)"
-                                : errno_text(error)));
+                                : open_failure(directory, name, error)));
   }
   struct stat info {};
   if (::fstat(file.get(), &info) != 0) {
