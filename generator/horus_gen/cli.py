@@ -13,7 +13,7 @@ import sys
 from . import graph
 from .data import DataPaths
 from .diagnostics import Reporter
-from .lang import LANGUAGES, emitter
+from .lang import LANGUAGES, emitter, idl
 from .lang.common import template_files
 from .loader import Options
 from .model import Enum, Message, Model, Node, Service
@@ -197,6 +197,6 @@ def describe_json(model: Model) -> str:
                          fields=[{"name": f.name, "type": f.spelling, "offset": f.offset, "size": f.size}
                                  for f in item.fields],
                          padding=[{"offset": p.offset, "size": p.size} for p in item.padding],
-                         schema=item.schema)
+                         schema=item.schema, dds_type=idl.dds_type_name(model, item.qualified))
         items.append(entry)
     return json.dumps({"types": items}, indent=2) + "\n"

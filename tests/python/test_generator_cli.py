@@ -133,6 +133,10 @@ def test_describe_json_is_machine_readable():
     assert pose["tier"] == "pod" and pose["size"] == 24 and pose["alignment"] == 8
     assert [(f["name"], f["offset"]) for f in pose["fields"]] == [("position", 0), ("theta", 16)]
     assert pose["padding"] == [{"offset": 20, "size": 4}]
+    # The DDS type names idlc gives the emitted IDL's structs (ROS 2's naming): the bridge's.
+    assert pose["dds_type"] == "test_msgs::dds_::Pose2_"
+    request = types[types["test_msgs.GetRobotPose"]["request"]]
+    assert request["dds_type"] == "test_msgs::dds_::GetRobotPose_Request_"
     assert types["test_msgs.GetRobotPose"]["request_topic"] == "GetRobotPose.request"
     assert types["test_msgs.Mode"]["values"] == {"Idle": 0, "Run": 1, "Fault": 200}
     assert int(pose["fingerprint"], 16) > 0

@@ -854,6 +854,26 @@ complete -F _horus horus
 """
 
 
+def bridge(args) -> int:
+    try:
+        from horus import _dds
+    except ImportError:
+        raise CommandFailed("this horus was built without Cyclone DDS (Debian: cyclonedds-dev), "
+                            "so it has no bridge") from None
+    import horus_bridge
+    if not args.export and not args.imports:
+        raise CommandFailed("nothing to bridge: give --export and/or --import patterns", EXIT_USAGE)
+    if args.depth < 1:
+        raise CommandFailed(f"--depth must be at least 1, got {args.depth}", EXIT_USAGE)
+    try:
+        bridge = horus_bridge.Bridge(_core(), _dds, args.namespace, args.export, args.imports,
+                                     args.domain, not args.best_effort, args.depth)
+    except RuntimeError as error:
+        raise CommandFailed(str(error)) from None
+    bridge.run()
+    return EXIT_OK
+
+
 def completion(args) -> int:
     parser = args.root_parser
     commands = parser._subparsers._group_actions[0].choices  # noqa: SLF001 (argparse has no API)
@@ -1007,6 +1027,23 @@ def build_parser() -> argparse.ArgumentParser:
 
     commands.add_parser("record", add_help=False, help="record, inspect, repair, replay, compare "
                         "and export sessions (MCAP): horus record --help")  # horus_record_cli.py
+
+    sub = commands.add_parser("bridge", help="carry topics to and from Cyclone DDS (other hosts, "
+                              "ROS 2)", parents=[common],
+                              description="Export local topics matching --export to DDS (as "
+                                          "rt/<name>, in CDR) and import DDS topics matching "
+                                          "--import into the namespace, until Ctrl+C. Nothing "
+                                          "crosses that no pattern names (docs/dds-bridge.md).")
+    sub.add_argument("--export", action="append", default=[], metavar="PATTERN",
+                     help="local topics to write to DDS (a glob; repeatable)")
+    sub.add_argument("--import", dest="imports", action="append", default=[], metavar="PATTERN",
+                     help="DDS topics (without rt/) to publish locally (a glob; repeatable)")
+    sub.add_argument("--domain", type=int, default=0, help="the DDS domain id (default 0)")
+    sub.add_argument("--best-effort", action="store_true",
+                     help="best-effort DDS endpoints (default: reliable)")
+    sub.add_argument("--depth", type=int, default=100,
+                     help="DDS history depth of each writer and reader (default 100)")
+    sub.set_defaults(handler=bridge)
 
     sub = commands.add_parser("completion", help="print the bash completion script",
                               description="Print the bash completion script: "

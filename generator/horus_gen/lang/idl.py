@@ -98,6 +98,12 @@ def scoped(model: Model, qualified: str) -> str:
     return "::" + "::".join([*modules(found.package), identifier(declared_name(model, qualified) + "_")])
 
 
+def dds_type_name(model: Model, qualified: str) -> str:
+    """The type's name on DDS, as idlc registers it from this IDL (and ROS 2 names it):
+    `pkg::msg::dds_::Name_`, with the underscore that escapes an identifier dropped, as IDL drops it."""
+    return "::".join(part[1:] if part.startswith("_") else part for part in scoped(model, qualified)[2:].split("::"))
+
+
 @dataclass(frozen=True)
 class Typedef:
     spec: str

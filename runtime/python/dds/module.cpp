@@ -1,0 +1,345 @@
+// horus._dds: the little of Cyclone DDS the bridge (`horus bridge`) needs, over raw CDR bytes.
+// A participant on a domain; writers and readers of (DDS topic name, DDS type name) whose samples
+// are CDR the caller encodes and decodes; the publications discovered. Every endpoint ignores
+// those of its own participant, so a bridge never reads back what it wrote.
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <chrono>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "raw_cdr.hpp"
+
+namespace py = pybind11;
+
+namespace horus::dds_bridge {
+namespace {
+
+[[noreturn]] void fail(const std::string& what, dds_return_t code) {
+  throw std::runtime_error(what + ": " + dds_strretcode(code));
+}
+
+dds_entity_t checked(dds_entity_t entity, const std::string& what) {
+  if (entity < 0) {
+    fail(what, entity);
+  }
+  return entity;
+}
+
+std::string hex(const dds_guid_t& guid) {
+  static constexpr char digits[] = "0123456789abcdef";
+  std::string out;
+  for (const auto byte : guid.v) {
+    out += digits[byte >> 4];
+    out += digits[byte & 15];
+  }
+  return out;
+}
+
+struct Qos {
+  bool reliable;
+  std::int32_t depth;
+  bool transient_local;
+};
+
+// One participant and the raw-CDR topics it has made (one per DDS topic name).
+class Participant {
+ public:
+  explicit Participant(std::uint32_t domain)
+      : handle_(checked(dds_create_participant(domain, nullptr, nullptr),
+                        "cannot create a DDS participant on domain " + std::to_string(domain))) {
+    publications_ =
+        checked(dds_create_reader(handle_, DDS_BUILTIN_TOPIC_DCPSPUBLICATION, nullptr, nullptr),
+                "cannot read DDS's publications");
+  }
+  ~Participant() { dds_delete(handle_); }
+  Participant(const Participant&) = delete;
+  Participant& operator=(const Participant&) = delete;
+
+  dds_entity_t handle() const { return handle_; }
+
+  std::string guid() const {
+    dds_guid_t guid{};
+    const dds_return_t code = dds_get_guid(handle_, &guid);
+    if (code < 0) {
+      fail("cannot read the participant's GUID", code);
+    }
+    return hex(guid);
+  }
+
+  dds_entity_t topic(const std::string& name, const std::string& type_name) {
+    const auto found = topics_.find(name);
+    if (found != topics_.end()) {
+      if (found->second.type_name != type_name) {
+        throw std::runtime_error("DDS topic '" + name + "' is already open with type " +
+                                 found->second.type_name + ", not " + type_name);
+      }
+      return found->second.entity;
+    }
+    ddsi_sertype* type = raw_cdr_sertype(type_name);
+    const dds_entity_t entity =
+        dds_create_topic_sertype(handle_, name.c_str(), &type, nullptr, nullptr, nullptr);
+    if (entity < 0) {
+      ddsi_sertype_unref(type);
+      fail("cannot create DDS topic '" + name + "' of type " + type_name, entity);
+    }
+    topics_.emplace(name, Topic{entity, type, type_name});
+    return entity;
+  }
+
+  const ddsi_sertype* sertype(const std::string& name) const { return topics_.at(name).type; }
+
+  // The publications DDS knows of now, this participant's own left out.
+  py::list publications() const {
+    const std::string own = guid();
+    py::list out;
+    void* samples[256] = {};
+    dds_sample_info_t infos[256];
+    const dds_return_t count =
+        dds_read_mask(publications_, samples, infos, 256, 256,
+                      DDS_ANY_SAMPLE_STATE | DDS_ANY_VIEW_STATE | DDS_ALIVE_INSTANCE_STATE);
+    if (count < 0) {
+      fail("cannot read DDS's publications", count);
+    }
+    for (dds_return_t i = 0; i < count; ++i) {
+      if (!infos[i].valid_data) {
+        continue;
+      }
+      const auto* endpoint = static_cast<const dds_builtintopic_endpoint_t*>(samples[i]);
+      const std::string participant = hex(endpoint->participant_key);
+      if (participant == own) {
+        continue;
+      }
+      void* data = nullptr;
+      std::size_t size = 0;
+      std::string user_data;
+      if (endpoint->qos != nullptr && dds_qget_userdata(endpoint->qos, &data, &size) &&
+          data != nullptr) {
+        user_data.assign(static_cast<const char*>(data), size);
+        dds_free(data);
+      }
+      py::dict row;
+      row["topic"] = std::string(endpoint->topic_name);
+      row["type"] = std::string(endpoint->type_name);
+      row["participant"] = participant;
+      row["user_data"] = py::bytes(user_data);
+      out.append(row);
+    }
+    dds_return_loan(publications_, samples, count);
+    return out;
+  }
+
+ private:
+  struct Topic {
+    dds_entity_t entity;
+    const ddsi_sertype* type;  // the topic holds the reference
+    std::string type_name;
+  };
+  dds_entity_t handle_;
+  dds_entity_t publications_;
+  std::map<std::string, Topic> topics_;
+};
+
+dds_qos_t* make_qos(const Qos& qos, const std::string& user_data) {
+  dds_qos_t* out = dds_create_qos();
+  if (qos.reliable) {
+    dds_qset_reliability(out, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  } else {
+    dds_qset_reliability(out, DDS_RELIABILITY_BEST_EFFORT, 0);
+  }
+  dds_qset_history(out, DDS_HISTORY_KEEP_LAST, qos.depth);
+  dds_qset_durability(
+      out, qos.transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
+  dds_qset_ignorelocal(out, DDS_IGNORELOCAL_PARTICIPANT);
+  if (!user_data.empty()) {
+    dds_qset_userdata(out, user_data.data(), user_data.size());
+  }
+  return out;
+}
+
+class Endpoint {
+ public:
+  Endpoint(std::shared_ptr<Participant> participant, dds_entity_t entity)
+      : participant_(std::move(participant)), entity_(entity) {}
+  ~Endpoint() { dds_delete(entity_); }
+  Endpoint(const Endpoint&) = delete;
+  Endpoint& operator=(const Endpoint&) = delete;
+
+ protected:
+  std::shared_ptr<Participant> participant_;
+  dds_entity_t entity_;
+};
+
+class Writer : public Endpoint {
+ public:
+  Writer(const std::shared_ptr<Participant>& participant, const std::string& topic,
+         const std::string& type_name, const Qos& qos, const std::string& user_data)
+      : Endpoint(participant, create(*participant, topic, type_name, qos, user_data)),
+        type_(participant->sertype(topic)),
+        topic_(topic) {}
+
+  void write(const py::buffer& data) {
+    const py::buffer_info info = data.request();
+    ddsi_serdata* sample =
+        raw_cdr_sample(type_, info.ptr, static_cast<std::size_t>(info.size * info.itemsize));
+    dds_return_t code = 0;
+    {
+      // A reliable writer blocks while its history is full of unacknowledged samples.
+      py::gil_scoped_release released;
+      code = dds_writecdr(entity_, sample);  // consumes the sample's reference
+    }
+    if (code < 0) {
+      fail("cannot write to DDS topic '" + topic_ + "'", code);
+    }
+  }
+
+  std::uint32_t matched() const {
+    dds_publication_matched_status_t status{};
+    dds_get_publication_matched_status(entity_, &status);
+    return status.current_count;
+  }
+
+ private:
+  static dds_entity_t create(Participant& participant, const std::string& topic,
+                             const std::string& type_name, const Qos& qos,
+                             const std::string& user_data) {
+    const dds_entity_t entity = participant.topic(topic, type_name);
+    dds_qos_t* settings = make_qos(qos, user_data);
+    const dds_entity_t writer = dds_create_writer(participant.handle(), entity, settings, nullptr);
+    dds_delete_qos(settings);
+    return checked(writer, "cannot create a DDS writer on '" + topic + "'");
+  }
+
+  const ddsi_sertype* type_;
+  std::string topic_;
+};
+
+class Reader : public Endpoint {
+ public:
+  Reader(const std::shared_ptr<Participant>& participant, const std::string& topic,
+         const std::string& type_name, const Qos& qos)
+      : Endpoint(participant, create(*participant, topic, type_name, qos)), topic_(topic) {
+    waitset_ = checked(dds_create_waitset(participant->handle()), "cannot create a DDS waitset");
+    const dds_entity_t condition =
+        checked(dds_create_readcondition(entity_, DDS_ANY_STATE), "cannot create a condition");
+    const dds_return_t code = dds_waitset_attach(waitset_, condition, 0);
+    if (code < 0) {
+      fail("cannot wait on DDS topic '" + topic + "'", code);
+    }
+  }
+  ~Reader() { dds_delete(waitset_); }
+  Reader(const Reader&) = delete;
+  Reader& operator=(const Reader&) = delete;
+
+  // The samples that arrived, oldest first, waiting up to `timeout` seconds for the first.
+  py::list take(double timeout) {
+    std::vector<std::string> received;
+    dds_return_t failure = 0;
+    {
+      py::gil_scoped_release released;
+      const auto wait = std::chrono::duration_cast<std::chrono::nanoseconds>(
+          std::chrono::duration<double>(timeout < 0 ? 0 : timeout));
+      dds_waitset_wait(waitset_, nullptr, 0, wait.count());
+      failure = take_all(received);
+    }
+    if (failure < 0) {
+      fail("cannot take from DDS topic '" + topic_ + "'", failure);
+    }
+    py::list out;
+    for (const auto& sample : received) {
+      out.append(py::bytes(sample));
+    }
+    return out;
+  }
+
+  std::uint32_t matched() const {
+    dds_subscription_matched_status_t status{};
+    dds_get_subscription_matched_status(entity_, &status);
+    return status.current_count;
+  }
+
+ private:
+  static dds_entity_t create(Participant& participant, const std::string& topic,
+                             const std::string& type_name, const Qos& qos) {
+    const dds_entity_t entity = participant.topic(topic, type_name);
+    dds_qos_t* settings = make_qos(qos, "");
+    const dds_entity_t reader = dds_create_reader(participant.handle(), entity, settings, nullptr);
+    dds_delete_qos(settings);
+    return checked(reader, "cannot create a DDS reader on '" + topic + "'");
+  }
+
+  dds_return_t take_all(std::vector<std::string>& out) {
+    constexpr std::uint32_t batch = 64;
+    ddsi_serdata* samples[batch];
+    dds_sample_info_t infos[batch];
+    for (;;) {
+      const dds_return_t count = dds_takecdr(entity_, samples, batch, infos, DDS_ANY_STATE);
+      if (count < 0) {
+        return count;
+      }
+      for (dds_return_t i = 0; i < count; ++i) {
+        if (infos[i].valid_data) {
+          const std::uint32_t size = ddsi_serdata_size(samples[i]);
+          std::string bytes(size, '\0');
+          ddsi_serdata_to_ser(samples[i], 0, size, bytes.data());
+          out.push_back(std::move(bytes));
+        }
+        ddsi_serdata_unref(samples[i]);  // takecdr hands out one reference per sample
+      }
+      if (count < static_cast<dds_return_t>(batch)) {
+        return 0;
+      }
+    }
+  }
+
+  std::string topic_;
+  dds_entity_t waitset_ = 0;
+};
+
+}  // namespace
+}  // namespace horus::dds_bridge
+
+PYBIND11_MODULE(_dds, m) {
+  using namespace horus::dds_bridge;
+  m.doc() = "Raw-CDR endpoints on Cyclone DDS for the HORUS bridge (horus bridge).";
+
+  py::class_<Participant, std::shared_ptr<Participant>>(m, "Participant")
+      .def(py::init<std::uint32_t>(), py::arg("domain"))
+      .def_property_readonly("guid", &Participant::guid)
+      .def("publications", &Participant::publications,
+           "The publications on the domain other participants have: dicts of topic, type, "
+           "participant (GUID) and user_data (bytes).");
+
+  py::class_<Writer>(m, "Writer")
+      .def(py::init([](const std::shared_ptr<Participant>& participant, const std::string& topic,
+                       const std::string& type_name, bool reliable, std::int32_t depth,
+                       bool transient_local, const py::bytes& user_data) {
+             return std::make_unique<Writer>(participant, topic, type_name,
+                                             Qos{reliable, depth, transient_local},
+                                             std::string(user_data));
+           }),
+           py::arg("participant"), py::arg("topic"), py::arg("type_name"), py::kw_only(),
+           py::arg("reliable") = true, py::arg("depth") = 100, py::arg("transient_local") = false,
+           py::arg("user_data") = py::bytes())
+      .def("write", &Writer::write, py::arg("cdr"),
+           "Writes one sample: its CDR, 4-byte encapsulation header included.")
+      .def("matched", &Writer::matched, "How many readers match this writer now.");
+
+  py::class_<Reader>(m, "Reader")
+      .def(py::init([](const std::shared_ptr<Participant>& participant, const std::string& topic,
+                       const std::string& type_name, bool reliable, std::int32_t depth,
+                       bool transient_local) {
+             return std::make_unique<Reader>(participant, topic, type_name,
+                                             Qos{reliable, depth, transient_local});
+           }),
+           py::arg("participant"), py::arg("topic"), py::arg("type_name"), py::kw_only(),
+           py::arg("reliable") = true, py::arg("depth") = 100, py::arg("transient_local") = false)
+      .def("take", &Reader::take, py::arg("timeout"),
+           "The samples received (CDR bytes, oldest first), waiting up to timeout seconds.")
+      .def("matched", &Reader::matched, "How many writers match this reader now.");
+}

@@ -1,0 +1,147 @@
+/* A plain Cyclone DDS program built with idlc from the IDL horus-gen emits (the tests build it),
+   standing in for a ROS 2 node: it knows nothing of HORUS but the IDL.
+     dds_peer read-cmdvel DOMAIN N   prints N horus.msg.CmdVel samples of rt/cmd_vel, one a line
+     dds_peer read-kinds DOMAIN N    prints N dds_test.Kinds samples of rt/kinds
+     dds_peer write-kinds DOMAIN     writes one known Kinds sample once a reader matches
+   It prints "ready" once its reader or writer exists; a timeout (20 s) is exit status 1. */
+#include <inttypes.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dds/dds.h"
+#include "dds_test/Kinds.h"
+#include "horus/msg/CmdVel.h"
+
+static dds_qos_t *reliable(void)
+{
+  dds_qos_t *qos = dds_create_qos();
+  dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 100);
+  return qos;
+}
+
+static void print_cmdvel(const void *sample)
+{
+  const horus_msg_dds__CmdVel_ *s = sample;
+  printf("stamp_nanos=%" PRIu64 " linear=%g angular=%g\n", s->stamp_nanos, s->linear, s->angular);
+}
+
+static void print_inner(const dds_test_dds__Inner_ *inner)
+{
+  printf("(%d %g)", inner->flag ? 1 : 0, inner->wide);
+}
+
+static void print_kinds(const void *sample)
+{
+  const dds_test_dds__Kinds_ *s = sample;
+  printf("small=%u big=%" PRId64 " mode=%u name=%s tag=%s blob=", s->small, s->big, s->mode,
+         s->name, s->tag);
+  for (uint32_t i = 0; i < s->blob._length; i++) printf("%02x", s->blob._buffer[i]);
+  printf(" raw=");
+  for (uint32_t i = 0; i < s->raw._length; i++) printf("%02x", s->raw._buffer[i]);
+  printf(" values=");
+  for (uint32_t i = 0; i < s->values._length; i++) printf("%s%g", i ? "," : "", s->values._buffer[i]);
+  printf(" grid=");
+  for (int i = 0; i < 6; i++) printf("%s%d", i ? "," : "", s->grid[i / 3][i % 3]);
+  printf(" labels=%s,%s inner=", s->labels[0], s->labels[1]);
+  print_inner(&s->inner);
+  printf(" inners=");
+  for (uint32_t i = 0; i < s->inners._length; i++) print_inner(&s->inners._buffer[i]);
+  printf(" maybe=");
+  if (s->maybe._length) printf("%g", s->maybe._buffer[0]); else printf("none");
+  printf(" nothing=%s points=", s->nothing._length ? "some" : "none");
+  for (uint32_t i = 0; i < s->points._length; i++)
+    printf("(%g %g %g)", s->points._buffer[i][0], s->points._buffer[i][1], s->points._buffer[i][2]);
+  printf(" last=%u\n", s->last);
+}
+
+static int read_samples(dds_entity_t participant, const dds_topic_descriptor_t *type,
+                        const char *name, int count, void (*print)(const void *))
+{
+  dds_entity_t topic = dds_create_topic(participant, type, name, NULL, NULL);
+  dds_qos_t *qos = reliable();
+  dds_entity_t reader = dds_create_reader(participant, topic, qos, NULL);
+  dds_delete_qos(qos);
+  if (reader < 0) { fprintf(stderr, "reader: %s\n", dds_strretcode(reader)); return 1; }
+  dds_entity_t waitset = dds_create_waitset(participant);
+  dds_waitset_attach(waitset, dds_create_readcondition(reader, DDS_ANY_STATE), 0);
+  printf("ready\n");
+  fflush(stdout);
+  int got = 0;
+  while (got < count)
+  {
+    if (dds_waitset_wait(waitset, NULL, 0, DDS_SECS(20)) <= 0)
+    {
+      fprintf(stderr, "timed out after %d samples\n", got);
+      return 1;
+    }
+    void *samples[16] = { 0 };
+    dds_sample_info_t infos[16];
+    int taken = dds_take(reader, samples, infos, 16, 16);
+    for (int i = 0; i < taken && got < count; i++)
+      if (infos[i].valid_data) { print(samples[i]); got++; }
+    fflush(stdout);
+    dds_return_loan(reader, samples, taken);
+  }
+  return 0;
+}
+
+static int write_kinds(dds_entity_t participant)
+{
+  dds_entity_t topic = dds_create_topic(participant, &dds_test_dds__Kinds__desc, "rt/kinds", NULL, NULL);
+  dds_qos_t *qos = reliable();
+  dds_entity_t writer = dds_create_writer(participant, topic, qos, NULL);
+  dds_delete_qos(qos);
+  if (writer < 0) { fprintf(stderr, "writer: %s\n", dds_strretcode(writer)); return 1; }
+  printf("ready\n");
+  fflush(stdout);
+  dds_publication_matched_status_t matched = { 0 };
+  for (int i = 0; i < 400 && matched.current_count == 0; i++)
+  {
+    dds_sleepfor(DDS_MSECS(50));
+    dds_get_publication_matched_status(writer, &matched);
+  }
+  if (matched.current_count == 0) { fprintf(stderr, "no reader matched\n"); return 1; }
+  uint8_t blob[] = { 1, 2, 3 };
+  float values[] = { 0.5f, -2.0f };
+  dds_test_dds__Inner_ inners[] = { { true, 1.25 }, { false, -3.5 } };
+  dds_test_dds__Kinds__points points[] = { { 1.0f, 2.0f, 3.0f } };
+  double maybe = 6.5;
+  dds_test_dds__Kinds_ s = {
+    .small = 7, .big = -9000000000LL, .mode = 300, .name = "from C", .tag = "c-tag",
+    .blob = { ._length = 3, ._maximum = 3, ._buffer = blob },
+    .raw = { ._length = 0 },
+    .values = { ._length = 2, ._maximum = 2, ._buffer = values },
+    .grid = { { 1, -2, 3 }, { -4, 5, -6 } },
+    .labels = { "first", "" },
+    .inner = { true, 0.125 },
+    .inners = { ._length = 2, ._maximum = 2, ._buffer = inners },
+    .maybe = { ._length = 1, ._maximum = 1, ._buffer = &maybe },
+    .nothing = { ._length = 0 },
+    .points = { ._length = 1, ._maximum = 1, ._buffer = points },
+    .last = 255,
+  };
+  dds_return_t code = dds_write(writer, &s);
+  if (code < 0) { fprintf(stderr, "write: %s\n", dds_strretcode(code)); return 1; }
+  /* Reliable delivery completes before the participant goes away. */
+  dds_wait_for_acks(writer, DDS_SECS(10));
+  return 0;
+}
+
+int main(int argc, char **argv)
+{
+  if (argc < 3) { fprintf(stderr, "usage: dds_peer read-cmdvel|read-kinds|write-kinds DOMAIN [N]\n"); return 2; }
+  dds_entity_t participant = dds_create_participant((dds_domainid_t) atoi(argv[2]), NULL, NULL);
+  if (participant < 0) { fprintf(stderr, "participant: %s\n", dds_strretcode(participant)); return 1; }
+  int count = argc > 3 ? atoi(argv[3]) : 1;
+  int status = 2;
+  if (strcmp(argv[1], "read-cmdvel") == 0)
+    status = read_samples(participant, &horus_msg_dds__CmdVel__desc, "rt/cmd_vel", count, print_cmdvel);
+  else if (strcmp(argv[1], "read-kinds") == 0)
+    status = read_samples(participant, &dds_test_dds__Kinds__desc, "rt/kinds", count, print_kinds);
+  else if (strcmp(argv[1], "write-kinds") == 0)
+    status = write_kinds(participant);
+  dds_delete(participant);
+  return status;
+}

@@ -1,0 +1,75 @@
+"""horus._dds: raw-CDR writers and readers on Cyclone DDS, in one process on loopback."""
+from __future__ import annotations
+
+import struct
+
+from conftest import wait_until
+from horus import _dds
+
+TYPE = "horus::msg::dds_::CmdVel_"
+
+
+def cmdvel(stamp: int) -> bytes:
+    return b"\x00\x01\x00\x00" + struct.pack("<Qff", stamp, 0.5, -0.25)
+
+
+def take(reader, count: int) -> list[bytes]:
+    got: list[bytes] = []
+    wait_until(lambda: got.extend(reader.take(0.1)) or len(got) >= count, f"{count} samples")
+    return got
+
+
+def test_samples_cross_between_participants_in_order_as_written(dds_domain):
+    a, b = _dds.Participant(dds_domain), _dds.Participant(dds_domain)
+    writer = _dds.Writer(a, "rt/cmd_vel", TYPE)
+    reader = _dds.Reader(b, "rt/cmd_vel", TYPE)
+    wait_until(lambda: writer.matched() == 1 and reader.matched() == 1, "the match")
+    for stamp in range(50):
+        writer.write(cmdvel(stamp))
+    assert take(reader, 50) == [cmdvel(stamp) for stamp in range(50)]
+
+
+def test_a_participant_never_reads_its_own_writes(dds_domain):
+    a, b = _dds.Participant(dds_domain), _dds.Participant(dds_domain)
+    writer = _dds.Writer(a, "rt/cmd_vel", TYPE)
+    own = _dds.Reader(a, "rt/cmd_vel", TYPE)
+    other = _dds.Reader(b, "rt/cmd_vel", TYPE)
+    wait_until(lambda: other.matched() == 1, "the other participant's reader")
+    writer.write(cmdvel(1))
+    assert take(other, 1) == [cmdvel(1)]
+    assert own.take(0.2) == [] and own.matched() == 0 and writer.matched() == 1
+
+
+def test_publications_name_topic_type_and_user_data_of_other_participants(dds_domain):
+    a, b = _dds.Participant(dds_domain), _dds.Participant(dds_domain)
+    writer = _dds.Writer(a, "rt/cmd_vel", TYPE, user_data=b"identity")
+    own = _dds.Writer(b, "rt/other", "x::dds_::Y_")
+
+    def found():
+        return [p for p in b.publications() if p["topic"] == "rt/cmd_vel"]
+    (publication,) = wait_until(found, "the publication")
+    assert publication["type"] == TYPE and publication["user_data"] == b"identity"
+    assert publication["participant"] == a.guid != b.guid
+    assert all(p["topic"] != "rt/other" for p in b.publications())
+    del writer, own  # alive until here: their publications are what the test reads
+
+
+def test_a_transient_local_writer_gives_late_readers_its_history(dds_domain):
+    a, b = _dds.Participant(dds_domain), _dds.Participant(dds_domain)
+    writer = _dds.Writer(a, "rt/map", TYPE, transient_local=True, depth=1)
+    writer.write(cmdvel(1))
+    writer.write(cmdvel(2))
+    reader = _dds.Reader(b, "rt/map", TYPE, transient_local=True, depth=1)
+    assert take(reader, 1) == [cmdvel(2)]
+
+
+def test_one_topic_name_with_two_types_is_refused(dds_domain):
+    a = _dds.Participant(dds_domain)
+    writer = _dds.Writer(a, "rt/cmd_vel", TYPE)
+    try:
+        _dds.Reader(a, "rt/cmd_vel", "horus::msg::dds_::Twist_")
+    except RuntimeError as error:
+        assert "horus::msg::dds_::CmdVel_" in str(error) and "Twist_" in str(error)
+    else:
+        raise AssertionError("a second type on one topic name was accepted")
+    del writer

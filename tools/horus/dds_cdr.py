@@ -1,0 +1,201 @@
+"""CDR (XCDR1, the encoding of @final structs) of HORUS messages, as DDS programs built from the IDL
+`horus-gen generate --lang idl` emits read and write them (docs/generated-code.md "IDL").
+
+The mapping follows that IDL member by member, driven by a generated class's codecs (the model
+dynamic_types compiles from a segment's schema text):
+
+    bool, integers, f32, f64   -> themselves, aligned to their size (8 at most)
+    enum                       -> its underlying integer
+    String, string<N>          -> uint32 length with the NUL, the UTF-8 bytes, the NUL
+    bytes, Vec<u8>, Vec<T>     -> uint32 count, the elements
+    Option<T>                  -> sequence<T, 1>: count 0 or 1, the element
+    [T; N]                     -> N elements, no count
+    nested message             -> its members in place
+    message without fields     -> ROS 2's one uint8 member
+
+A sample is a 4-byte encapsulation header (CDR_LE, options = the pad count) and the body, padded
+to a multiple of 4 as Cyclone DDS pads it. Reading takes big-endian CDR too.
+
+    codec = CdrCodec(cls)
+    cdr = codec.encode(message)        # bytes for horus._dds.Writer.write
+    message = codec.decode(cdr)        # ValueError when the bytes do not fit the type
+"""
+from __future__ import annotations
+
+import struct
+
+__all__ = ["CdrCodec"]
+
+_CDR_BE, _CDR_LE = b"\x00\x00", b"\x00\x01"
+
+
+class CdrCodec:
+    """Encodes instances of the generated class `cls` to CDR samples and decodes them back."""
+
+    def __init__(self, cls) -> None:
+        self.cls = cls
+
+    def encode(self, message) -> bytes:
+        out = bytearray()
+        _write_message(out, message)
+        padding = -len(out) % 4
+        out += bytes(padding)
+        return _CDR_LE + bytes((0, padding)) + bytes(out)
+
+    def decode(self, data) -> object:
+        data = bytes(data)
+        if len(data) < 4:
+            raise ValueError(f"a CDR sample of {len(data)} bytes has no encapsulation header")
+        scheme = data[:2]
+        if scheme not in (_CDR_LE, _CDR_BE):
+            raise ValueError(f"encapsulation {scheme.hex()} is not plain CDR (XCDR1): the writer's "
+                             "type is not a @final struct of the IDL horus-gen emits")
+        reader = _Reader(data[4:], "<" if scheme == _CDR_LE else ">")
+        try:
+            message = _read_message(reader, self.cls)
+            # Up to 3 bytes pad a sample to a multiple of 4; more is not this type.
+            if len(reader.data) - reader.position > 3:
+                raise ValueError(f"{len(reader.data) - reader.position} bytes are left over")
+        except (struct.error, ValueError) as error:
+            raise ValueError(f"a CDR sample does not decode as {self.cls.__horus__.name}: "
+                             f"{error}") from None
+        return message
+
+
+# -- writing --------------------------------------------------------------------------------------
+
+def _align(out: bytearray, size: int) -> None:
+    out += bytes(-len(out) % min(size, 8))
+
+
+def _put(out: bytearray, fmt: str, size: int, value) -> None:
+    _align(out, size)
+    out += struct.pack("<" + fmt, value)
+
+
+def _write_message(out: bytearray, message) -> None:
+    info = type(message).__horus__
+    if not info.fields:
+        out.append(0)  # structure_needs_at_least_one_member
+        return
+    for name, codec in zip(info.fields, info.codecs):
+        _write(out, codec, getattr(message, name))
+
+
+def _write_string(out: bytearray, text: str) -> None:
+    data = text.encode("utf-8")
+    _put(out, "I", 4, len(data) + 1)
+    out += data + b"\0"
+
+
+def _write(out: bytearray, codec, value) -> None:
+    kind = type(codec).__name__  # the support module is the compiled type's private copy
+    if kind == "Bool":
+        out.append(1 if value else 0)
+    elif kind in ("Int", "Float"):
+        _put(out, codec.fmt, codec.size, value)
+    elif kind == "Enum":
+        _put(out, codec.base.fmt, codec.base.size, int(value))
+    elif kind in ("Str", "FixedStr"):
+        _write_string(out, value)
+    elif kind == "Bytes":
+        data = bytes(value)
+        _put(out, "I", 4, len(data))
+        out += data
+    elif kind == "NumArray":
+        _align(out, codec.element.size)
+        out += codec.raw(value)  # little-endian, C order: CDR's array of arrays
+    elif kind == "ListArray":
+        for item in value:
+            _write(out, codec.element, item)
+    elif kind == "Vec":
+        items = value.tolist() if hasattr(value, "tolist") else value
+        _put(out, "I", 4, len(items))
+        for item in items:
+            _write(out, codec.element, item)
+    elif kind == "Option":
+        _put(out, "I", 4, 0 if value is None else 1)
+        if value is not None:
+            _write(out, codec.element, value)
+    elif kind == "Nested":
+        _write_message(out, value)
+    else:
+        raise TypeError(f"no CDR for the codec {kind}")
+
+
+# -- reading --------------------------------------------------------------------------------------
+
+class _Reader:
+    __slots__ = ("data", "position", "order")
+
+    def __init__(self, data: bytes, order: str) -> None:
+        self.data, self.position, self.order = data, 0, order
+
+    def take(self, fmt: str, size: int):
+        self.position += -self.position % min(size, 8)
+        (value,) = struct.unpack_from(self.order + fmt, self.data, self.position)
+        self.position += size
+        return value
+
+    def raw(self, size: int) -> bytes:
+        if self.position + size > len(self.data):
+            raise ValueError(f"{size} bytes wanted at offset {self.position} of a "
+                             f"{len(self.data)}-byte body")
+        chunk = self.data[self.position:self.position + size]
+        self.position += size
+        return chunk
+
+    def count(self) -> int:
+        value = self.take("I", 4)
+        if value > len(self.data) - self.position:
+            raise ValueError(f"a count of {value} at offset {self.position - 4} runs past the "
+                             f"{len(self.data)}-byte body")
+        return value
+
+
+def _read_message(reader: _Reader, cls):
+    info = cls.__horus__
+    message = cls()
+    if not info.fields:
+        reader.take("B", 1)
+        return message
+    for name, codec in zip(info.fields, info.codecs):
+        setattr(message, name, _read(reader, codec))
+    return message
+
+
+def _read(reader: _Reader, codec):
+    kind = type(codec).__name__
+    if kind == "Bool":
+        return reader.take("B", 1) != 0
+    if kind in ("Int", "Float"):
+        return reader.take(codec.fmt, codec.size)
+    if kind == "Enum":
+        number = reader.take(codec.base.fmt, codec.base.size)
+        return codec.members.get(number, number)
+    if kind in ("Str", "FixedStr"):
+        size = reader.count()
+        if size == 0:
+            raise ValueError(f"a string at offset {reader.position - 4} has length 0 (no NUL)")
+        return reader.raw(size)[:-1].decode("utf-8")
+    if kind == "Bytes":
+        return reader.raw(reader.count())
+    if kind == "NumArray":
+        import numpy
+        element = codec.element.size
+        reader.position += -reader.position % min(element, 8)
+        chunk = reader.raw(codec.count * element)
+        dtype = codec.dtype if reader.order == "<" else codec.dtype.newbyteorder(">")
+        return numpy.frombuffer(chunk, dtype).reshape(codec.shape).astype(codec.dtype)
+    if kind == "ListArray":
+        return [_read(reader, codec.element) for _ in range(codec.length)]
+    if kind == "Vec":
+        return [_read(reader, codec.element) for _ in range(reader.count())]
+    if kind == "Option":
+        present = reader.take("I", 4)
+        if present > 1:
+            raise ValueError(f"an Option (sequence<T, 1>) holds {present} elements")
+        return _read(reader, codec.element) if present else None
+    if kind == "Nested":
+        return _read_message(reader, codec.cls)
+    raise TypeError(f"no CDR for the codec {kind}")
