@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import base64
 import json
+import signal
 import struct
 
 import numpy as np
@@ -15,7 +16,9 @@ import horus
 from horus import Node, Scheduler
 from horus.msg import ImageDescriptor
 
+from conftest import wait_until
 from test_record import export_validated, run_horus
+from test_record_sessions import start_recording, subscribers
 
 FRAMES = 3  # fewer than a pool topic's 4 slots: neither the recorder nor a subscriber can lag
 
@@ -80,6 +83,24 @@ def test_a_recorded_pool_session_keeps_the_data_and_info_shows_it():
     assert topics["camera"]["encoding"] == "horus.pool"
     assert [topics[t]["messages"] for t in ("camera", "depth", "lidar")] == [FRAMES] * 3
     assert described["lost"] == 0
+
+
+def test_horus_record_keeps_the_pixels_of_another_process_images(tmp_path):
+    out = tmp_path / "camera.mcap"
+    camera = horus.Topic(horus.Image, "camera")
+    recorder = start_recording("camera", "-o", str(out))
+    wait_until(lambda: subscribers("camera") >= 1, "horus-record to subscribe to camera", limit=30)
+    for i in range(FRAMES):  # the ring keeps them alive until the recorder drains it at SIGINT
+        assert camera.send(horus.Image.from_numpy(pixels(i)))
+    recorder.send_signal(signal.SIGINT)
+    _, stderr = recorder.communicate(timeout=30)
+    assert recorder.returncode == 0, stderr
+    with open(out, "rb") as stream:
+        recorded = [(channel.message_encoding, message.data[
+                     int(channel.metadata["horus.payload_size"]):])
+                    for _, channel, message in make_reader(stream, validate_crcs=True)
+                    .iter_messages()]
+    assert recorded == [("horus.pool", pixels(i).tobytes()) for i in range(FRAMES)]
 
 
 IMAGE_SUBSCRIBER = """
