@@ -7,7 +7,9 @@ become its well-known schemas: a laser scan (horus.msg.LaserScan) foxglove.Laser
 frame (horus.msg.PoseStamped) foxglove.PoseInFrame, a transform (horus.msg.TransformStamped)
 foxglove.FrameTransform, horus.msg.CompressedImage foxglove.CompressedImage, and by shape any
 message carrying its pixels (width, height, step, encoding, data) foxglove.RawImage and any
-carrying its points (point_count, fields_per_point, dtype, data) foxglove.PointCloud. Every other
+carrying its points (point_count, fields_per_point, dtype, data) foxglove.PointCloud. A recorded
+Image, DepthImage or PointCloud (encoding horus.pool: the descriptor, then its data) is such a
+message with the data as `data` (a depth image: RawImage 32FC1 or 16UC1). Every other
 type is its plain values under the JSON Schema `horus-gen --lang jsonschema` writes for it. The
 node-tick channel is copied as it is (already JSON). HORUS types without a frame name take the
 topic's name as frame (a transform: parent "world", child the topic).
@@ -21,7 +23,7 @@ import os
 import tempfile
 
 import horus_mcap as mcap
-from horus_mcap import MSGPACK_ENCODING, POD_ENCODING
+from horus_mcap import MSGPACK_ENCODING, POD_ENCODING, POOL_ENCODING
 
 
 # ImageEncoding names -> Foxglove's RawImage encodings (those it draws).
@@ -181,6 +183,18 @@ def _point_cloud(plain, topic, log_time):
             "data": base64.b64encode(_bytes_of(plain["data"])).decode("ascii")}
 
 
+# DepthImage dtype -> (RawImage encoding, bytes per pixel).
+DEPTH_ENCODINGS = {"F32": ("32FC1", 4), "U16": ("16UC1", 2)}
+
+
+def _depth_image(plain, topic, log_time):
+    encoding, size = DEPTH_ENCODINGS.get(plain["dtype"], ("32FC1", 4))
+    return {"timestamp": _stamp(plain, log_time), "frame_id": plain.get("frame_id") or topic,
+            "width": plain["width"], "height": plain["height"], "encoding": encoding,
+            "step": plain["width"] * size,
+            "data": base64.b64encode(_bytes_of(plain["data"])).decode("ascii")}
+
+
 BY_TYPE = {"horus.msg.LaserScan": ("foxglove.LaserScan", _laser_scan),
            "horus.msg.PoseStamped": ("foxglove.PoseInFrame", _pose_in_frame),
            "horus.msg.TransformStamped": ("foxglove.FrameTransform", _frame_transform),
@@ -191,10 +205,16 @@ BY_SHAPE = ((frozenset({"width", "height", "step", "encoding", "data"}),
              ("foxglove.PointCloud", _point_cloud)))
 
 
+# Only with their data (a horus.pool channel) can these be drawn.
+WITH_DATA_BY_TYPE = {"horus.msg.DepthImageDescriptor": ("foxglove.RawImage", _depth_image)}
+
+
 def foxglove_mapping(type_name: str, fields: list[str]):
     """(Foxglove schema name, converter) for a type Foxglove draws, else None."""
     if type_name in BY_TYPE:
         return BY_TYPE[type_name]
+    if "data" in fields and type_name in WITH_DATA_BY_TYPE:
+        return WITH_DATA_BY_TYPE[type_name]
     for shape, mapping in BY_SHAPE:
         if shape <= set(fields):
             return mapping
@@ -243,7 +263,7 @@ class _ExportChannel:
         self.topic = channel.topic
         self.decode = None
         self.convert = None
-        if channel.message_encoding not in (POD_ENCODING, MSGPACK_ENCODING):
+        if channel.message_encoding not in (POD_ENCODING, MSGPACK_ENCODING, POOL_ENCODING):
             # Already readable (the node ticks): copied with its own schema.
             key = f"{schema.name}:{schema.encoding}" if schema else ""
             if schema is not None and key not in schema_ids:
@@ -260,8 +280,20 @@ class _ExportChannel:
                                           int(channel.metadata.get("horus.fingerprint", "0"), 16))
         except (dynamic_types.SchemaError, ValueError) as error:
             raise ExportError(f"topic '{channel.topic}': cannot decode {type_name}: {error}") from None
-        self.decode = lambda data: dynamic_types.to_plain(cls.from_bytes(data))
-        mapping = foxglove_mapping(type_name, list(cls.__horus__.fields))
+        fields = list(cls.__horus__.fields)
+        if channel.message_encoding == POOL_ENCODING:
+            size = int(channel.metadata.get("horus.payload_size", "0"))
+            fields.append("data")
+            self.decode = lambda data: {**dynamic_types.to_plain(cls.from_bytes(data[:size])),
+                                        "data": data[size:]}
+        else:
+            self.decode = lambda data: dynamic_types.to_plain(cls.from_bytes(data))
+        mapping = foxglove_mapping(type_name, fields)
+        if mapping is None and channel.message_encoding == POOL_ENCODING:
+            # A tensor: its descriptor's values (Foxglove has no schema for the data).
+            decode_with_data = self.decode
+            self.decode = lambda data: {k: v for k, v in decode_with_data(data).items()
+                                        if k != "data"}
         if mapping is not None:
             schema_name, convert = mapping
             topic = channel.topic

@@ -32,6 +32,9 @@ DEFAULT_CHUNK_SIZE = 1 << 20  # uncompressed bytes of records per chunk, as the 
 # The HORUS convention: channels of topics carry their raw POD or MessagePack bytes; the node
 # ticks are JSON on a channel no topic can be named (topic names have no '/').
 POD_ENCODING, MSGPACK_ENCODING = "horus.pod", "horus.msgpack"
+# A pool-backed topic (Image, DepthImage, PointCloud, Tensor): the descriptor (horus.payload_size
+# bytes, its block zeroed) followed by the data it covers (docs/recording.md).
+POOL_ENCODING = "horus.pool"
 TICKS_TOPIC = "/horus/ticks"
 
 

@@ -19,7 +19,7 @@ import sys
 import time
 
 import horus_mcap as mcap
-from horus_mcap import MSGPACK_ENCODING, POD_ENCODING, TICKS_TOPIC
+from horus_mcap import MSGPACK_ENCODING, POD_ENCODING, POOL_ENCODING, TICKS_TOPIC
 from horus_cli import (EXIT_NOT_FOUND, EXIT_OK, EXIT_USAGE, SCHEMA_DIR, CommandFailed,
                        _described_types, _emit, _Parser, _table)
 
@@ -218,10 +218,24 @@ class _ReplayTopic:
             raise CommandFailed(f"channel '{channel.topic}' has no valid horus.fingerprint "
                                f"({fingerprint!r}): not a HORUS recording") from None
         self.schema = schema.data.decode("utf-8", "replace")
-        self.is_pod = channel.message_encoding == POD_ENCODING
+        # A pool-backed topic's ring carries the descriptor; its data goes into a pool block.
+        self.is_pool = channel.message_encoding == POOL_ENCODING
+        self.is_pod = self.is_pool or channel.message_encoding == POD_ENCODING
         self.size = int(channel.metadata.get("horus.payload_size", "0")) if self.is_pod else 0
         self.largest = 0
         self.handle = None
+        self.frames = None
+
+    def payload(self, recorded: bytes) -> bytes | None:
+        """What goes into the ring for a recorded message (None: nothing, it is malformed or
+        the pool has no free block: said on stderr)."""
+        if not self.is_pool:
+            return recorded
+        try:
+            return self.frames.replay(recorded)
+        except RuntimeError as error:
+            print(f"horus record replay: {self.channel.topic}: {error}", file=sys.stderr)
+            return None
 
 
 def _replay_channels(reader_channels: dict[int, mcap.Channel], schemas: dict[int, mcap.Schema],
@@ -230,7 +244,7 @@ def _replay_channels(reader_channels: dict[int, mcap.Channel], schemas: dict[int
     for channel in reader_channels.values():
         if wanted is not None and channel.topic not in wanted:
             continue
-        if channel.message_encoding not in (POD_ENCODING, MSGPACK_ENCODING):
+        if channel.message_encoding not in (POD_ENCODING, MSGPACK_ENCODING, POOL_ENCODING):
             continue  # node ticks and anything not a HORUS topic are not republished
         schema = schemas.get(channel.schema_id)
         if schema is None:
@@ -276,7 +290,7 @@ def check_types(topics: dict[int, _ReplayTopic], args) -> None:
                                "refusing to replay it")
 
 
-def _open_topic(topic: _ReplayTopic, capacity: int):
+def _open_topic(topic: _ReplayTopic, capacity: int, namespace: str):
     from horus import _core
     alignment = 1
     if topic.is_pod and not topic.type_name.startswith("["):
@@ -286,6 +300,11 @@ def _open_topic(topic: _ReplayTopic, capacity: int):
     topic.handle = _core.Topic(topic.channel.topic, topic.type_name, topic.fingerprint,
                                topic.schema, topic.is_pod, topic.size, alignment, capacity,
                                max(16 * 1024, topic.largest), False)
+    if topic.is_pool:
+        # Each frame is made again in the namespace's pool; as many stay alive as the ring
+        # (which an existing topic sized) can still hand out.
+        topic.frames = _core.ReplayFrames(topic.type_name, topic.fingerprint, namespace,
+                                          topic.handle.capacity)
 
 
 def _selected(message: mcap.Message, first: int, start: float | None, end: float | None) -> bool:
@@ -316,9 +335,9 @@ def replay(args) -> int:
         raise CommandFailed(f"{path} holds no message on the topics to replay")
     first = min(first_time[channel_id] for channel_id in topics if channel_id in first_time)
     for channel_id, topic in topics.items():
-        topic.largest = largest.get(channel_id, 0)
+        topic.largest = topic.size if topic.is_pool else largest.get(channel_id, 0)
     for topic in topics.values():
-        _open_topic(topic, args.capacity)
+        _open_topic(topic, args.capacity, args.namespace or "")
     sent = failed = 0
     while True:
         wall_start = time.monotonic()
@@ -331,7 +350,9 @@ def replay(args) -> int:
             delay = wall_start + offset / args.rate - time.monotonic()
             if delay > 0:
                 time.sleep(delay)
-            if topics[record.channel_id].handle.send(record.data):
+            topic = topics[record.channel_id]
+            payload = topic.payload(record.data)
+            if payload is not None and topic.handle.send(payload):
                 sent += 1
             else:
                 failed += 1

@@ -52,7 +52,8 @@ struct RecordingSummary {
   std::filesystem::path path;
   std::uint64_t messages = 0;
   std::uint64_t bytes = 0;  // written to the file
-  /// Messages the recorder missed because a topic's ring lapped it, by topic.
+  /// Messages the recorder missed because a topic's ring lapped it (or, on a pool-backed topic,
+  /// whose block was gone by the time it read the descriptor), by topic.
   std::uint64_t lost_total = 0;
   std::map<std::string, std::uint64_t> lost;
 };

@@ -11,6 +11,7 @@
 #include <string>
 #include <thread>
 
+#include "horus/detail/pool_frames.hpp"
 #include "horus/detail/process.hpp"
 #include "horus/error.hpp"
 #include "pool_layout.hpp"
@@ -467,5 +468,11 @@ std::uint64_t PoolMapping::references(const msg::PoolBlock& block) const noexcep
   }
   return total;
 }
+
+namespace {
+// A program that can hold a pool block records and replays pool-backed topics with their data
+// (pool_frames.cpp): this file is linked whenever it can.
+[[maybe_unused]] const bool pool_frames_enabled = (enable_pool_frames(), true);
+}  // namespace
 
 }  // namespace horus::detail

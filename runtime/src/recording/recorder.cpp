@@ -6,12 +6,16 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <set>
 #include <thread>
+#include <vector>
 
 #include "horus/detail/json_string.hpp"
+#include "horus/detail/pool_frames.hpp"
 #include "horus/detail/ring.hpp"
 #include "horus/detail/send_clock.hpp"
 #include "horus/detail/shm_segment.hpp"
@@ -144,6 +148,10 @@ class RecorderImpl {
     std::string name;
     TopicEndpoint endpoint;
     std::uint16_t channel;
+    /// Set for a pool-backed type: its frames are recorded with their data.
+    std::unique_ptr<PoolFrames> frames;
+    std::vector<std::byte> descriptor;  // the frame's descriptor, taken from its slot
+    std::uint64_t refused = 0;          // descriptors whose block was gone: counted as lost
   };
   struct NodeTicks {
     std::string node;
@@ -193,13 +201,19 @@ class RecorderImpl {
         SegmentOptions{info.capacity, info.max_message_size, 0600, namespace_, false});
     std::uint16_t& schema = schema_ids_[info.type_name + "#" + hex16(info.fingerprint)];
     if (schema == 0) schema = writer_.add_schema(info.type_name, "horus.hmsg", info.schema);
+    std::unique_ptr<PoolFrames> frames =
+        info.is_pod ? make_pool_frames(info.type_name, info.fingerprint, namespace_, 1) : nullptr;
     McapMap metadata{{"horus.fingerprint", hex16(info.fingerprint)},
                      {"horus.type", info.type_name}};
     if (info.is_pod)
       metadata.emplace_back("horus.payload_size", std::to_string(info.max_message_size));
-    const std::uint16_t channel = writer_.add_channel(
-        info.name, schema, info.is_pod ? "horus.pod" : "horus.msgpack", metadata);
-    topics_.push_back(Recorded{info.name, TopicEndpoint(std::move(segment)), channel});
+    const std::string_view encoding = frames        ? kPoolEncoding
+                                      : info.is_pod ? "horus.pod"
+                                                    : "horus.msgpack";
+    const std::uint16_t channel = writer_.add_channel(info.name, schema, encoding, metadata);
+    std::vector<std::byte> descriptor(frames ? info.max_message_size : 0);
+    topics_.push_back(Recorded{info.name, TopicEndpoint(std::move(segment)), channel,
+                               std::move(frames), std::move(descriptor)});
   }
 
   /// Looks for the topics to record that appeared since the last look (mutex_ held).
@@ -266,6 +280,7 @@ class RecorderImpl {
   }
 
   bool take_one(Recorded& topic) {
+    if (topic.frames) return take_frame(topic);
     const RingView& ring = topic.endpoint.ring();
     std::uint32_t size = 0;
     std::uint32_t sent_s = 0;
@@ -285,6 +300,37 @@ class RecorderImpl {
     writer_.commit_message(topic.channel,
                            static_cast<std::uint32_t>(topic.endpoint.next_ticket() - 1),
                            realtime_ns(), std::uint64_t{sent_s} * 1'000'000'000U, size);
+    return true;
+  }
+
+  /// A frame of a pool-backed topic: its descriptor from the slot, then (PoolFrames::record)
+  /// the data from its block, held only for that copy.
+  bool take_frame(Recorded& topic) {
+    const RingView& ring = topic.endpoint.ring();
+    std::uint32_t size = 0;
+    std::uint32_t sent_s = 0;
+    const bool got = topic.endpoint.receive(
+        false,
+        [&](const std::byte* payload, std::uint32_t bytes) {
+          if (bytes != topic.descriptor.size()) return false;
+          std::memcpy(topic.descriptor.data(), payload, bytes);
+          const auto* slot = reinterpret_cast<const SlotHeader*>(payload - ring.payload_offset);
+          sent_s = slot->send_time_s.load(std::memory_order_relaxed);
+          size = bytes;
+          return true;
+        },
+        [] { return true; });
+    if (!got) return false;
+    const std::size_t written =
+        topic.frames->record(topic.descriptor.data(), size,
+                             [&](std::size_t bytes) { return writer_.reserve_message(bytes); });
+    if (written == 0) {
+      ++topic.refused;
+      return true;
+    }
+    writer_.commit_message(topic.channel,
+                           static_cast<std::uint32_t>(topic.endpoint.next_ticket() - 1),
+                           realtime_ns(), std::uint64_t{sent_s} * 1'000'000'000U, written);
     return true;
   }
 
@@ -315,7 +361,7 @@ class RecorderImpl {
     summary.bytes = writer_.file_size();
     for (const Recorded& topic : topics_) {
       const TopicStats stats = topic.endpoint.stats();
-      const std::uint64_t lost = stats.lost + stats.invalid;
+      const std::uint64_t lost = stats.lost + stats.invalid + topic.refused;
       if (lost > 0) summary.lost[topic.name] = lost;
       summary.lost_total += lost;
     }

@@ -4,12 +4,15 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
+#include <span>
 #include <string_view>
 
+#include "horus/detail/pool_frames.hpp"
 #include "horus/detail/ring.hpp"
 #include "horus/detail/shm_segment.hpp"
 #include "horus/detail/topic_endpoint.hpp"
 #include "horus/error.hpp"
+#include "horus/log.hpp"
 #include "horus/recording.hpp"
 #include "horus/topic_registry.hpp"
 
@@ -44,7 +47,7 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
   const RecordingReader recording(path);
   const std::string where = "replay of " + path.string();
   const std::vector<TopicInfo> now = list_topics(namespace_name);
-  std::map<std::uint16_t, TopicEndpoint*> endpoints;
+  std::map<std::uint16_t, std::pair<TopicEndpoint*, PoolFrames*>> endpoints;
   for (const auto& entry : recording.channels()) {
     const std::uint16_t id = entry.first;
     const RecordedChannel& channel = entry.second;
@@ -66,16 +69,17 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
       throw Error(where + ": topic '" + channel.topic + "' was recorded as " + type.name + " " +
                   text + " now: the type changed since the recording; refusing to replay it");
     }
-    const bool pod = channel.message_encoding == "horus.pod";
+    const bool pool = channel.message_encoding == kPoolEncoding;
+    const bool pod = pool || channel.message_encoding == "horus.pod";
     std::size_t size = 0;
     if (pod) {
       const auto found = channel.metadata.find("horus.payload_size");
       size =
           found == channel.metadata.end() ? 0 : std::strtoull(found->second.c_str(), nullptr, 10);
     }
-    std::size_t largest = 0;
+    std::size_t largest = size;  // a pool-backed topic's ring carries the descriptor only
     for (const RecordedMessage& m : recording.messages()) {
-      if (m.channel_id == id) largest = std::max(largest, m.data.size());
+      if (m.channel_id == id && !pool) largest = std::max(largest, m.data.size());
     }
     const TypeDescriptor descriptor{type.name, fingerprint, type.data, pod, size, 1};
     SegmentOptions options{live != now.end() ? live->capacity : 64,
@@ -83,7 +87,18 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
                            namespace_name, false};
     topics_.push_back(std::make_unique<TopicEndpoint>(
         ShmSegment::open_topic(channel.topic, descriptor, options)));
-    endpoints[id] = topics_.back().get();
+    PoolFrames* frames = nullptr;
+    if (pool) {
+      // Each frame is made again in this namespace's pool; the ring's capacity of them stay alive.
+      frames_.push_back(make_pool_frames(type.name, fingerprint, namespace_name,
+                                         topics_.back()->ring().mask + 1));
+      if (!frames_.back()) {
+        throw Error(where + ": topic '" + channel.topic + "' holds " + type.name +
+                    " frames with their data, which only a program linking horus::pool replays");
+      }
+      frames = frames_.back().get();
+    }
+    endpoints[id] = {topics_.back().get(), frames};
   }
   const RecordedChannel* ticks = recording.channel(kTicksTopic);
   for (const RecordedMessage& m : recording.messages()) {
@@ -99,7 +114,8 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
     }
     const auto endpoint = endpoints.find(m.channel_id);
     if (endpoint != endpoints.end())
-      messages_.push_back(Message{m.log_time, endpoint->second, m.data});
+      messages_.push_back(
+          Message{m.log_time, endpoint->second.first, endpoint->second.second, m.data});
   }
   std::stable_sort(messages_.begin(), messages_.end(),
                    [](const Message& a, const Message& b) { return a.log_time < b.log_time; });
@@ -112,10 +128,21 @@ void Replayer::deliver_before_cycle(std::uint64_t cycle) {
   const std::uint64_t before = start == cycle_starts_.end() ? UINT64_MAX : start->second;
   for (; next_ < messages_.size() && messages_[next_].log_time < before; ++next_) {
     Message& m = messages_[next_];
+    std::span<const std::byte> bytes(reinterpret_cast<const std::byte*>(m.data.data()),
+                                     m.data.size());
+    if (m.frames != nullptr) {
+      try {
+        bytes = m.frames->replay(m.data);
+      } catch (const Error& e) {
+        log::warn("replay: a frame could not be made again: %s", e.what());
+        continue;
+      }
+      if (bytes.empty()) continue;  // malformed in the file
+    }
     m.topic->send([&](std::byte* payload) {
-      if (m.data.size() > m.topic->ring().payload_capacity) return kReleasedSlot;
-      std::memcpy(payload, m.data.data(), m.data.size());
-      return static_cast<std::uint32_t>(m.data.size());
+      if (bytes.size() > m.topic->ring().payload_capacity) return kReleasedSlot;
+      std::memcpy(payload, bytes.data(), bytes.size());
+      return static_cast<std::uint32_t>(bytes.size());
     });
   }
 }

@@ -18,6 +18,7 @@ class RecordingReader;
 namespace horus::detail {
 
 class TopicEndpoint;
+class PoolFrames;
 
 class Replayer {
  public:
@@ -42,10 +43,12 @@ class Replayer {
   struct Message {
     std::uint64_t log_time;
     TopicEndpoint* topic;
+    PoolFrames* frames;  // for a pool-backed topic: makes the recorded frame again
     std::vector<std::uint8_t> data;
   };
 
   std::vector<std::unique_ptr<TopicEndpoint>> topics_;
+  std::vector<std::unique_ptr<PoolFrames>> frames_;
   std::vector<Message> messages_;  // by log time, recorded order within one time
   std::size_t next_ = 0;
   /// The recorded start (CLOCK_REALTIME ns) of each recorded cycle's first tick.
