@@ -95,6 +95,8 @@ TEST(KeyValueStore, TheSeedsExampleInOneProcess) {
   ASSERT_TRUE(missing) << missing.error().to_string();
   EXPECT_FALSE(missing->found);
   EXPECT_FALSE(missing->value.has_value());
+  // The handler's thread owns the map under `lock`; the test reads it the same way.
+  const std::lock_guard<std::mutex> held(lock);
   EXPECT_EQ(store.at("robot_id"), "arm_01");
 }
 
