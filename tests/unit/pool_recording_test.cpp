@@ -57,17 +57,6 @@ horus::RecorderOptions options_for(std::vector<std::string> topics) {
   return options;
 }
 
-std::vector<const horus::RecordedMessage*> messages_of(const horus::RecordingReader& reader,
-                                                       std::string_view topic) {
-  std::vector<const horus::RecordedMessage*> out;
-  const horus::RecordedChannel* channel = reader.channel(topic);
-  if (channel == nullptr) return out;
-  for (const auto& m : reader.messages()) {
-    if (m.channel_id == channel->id) out.push_back(&m);
-  }
-  return out;
-}
-
 template <class Descriptor>
 Descriptor descriptor_of(const horus::RecordedMessage& m) {
   Descriptor descriptor;
@@ -142,7 +131,7 @@ TEST_F(PoolRecording, RecorderKeepsImagesAndCloudsWithTheirDataAndLetsTheBlocksG
   EXPECT_EQ(schema.name, horus::TypeInfo<ImageDescriptor>::name);
   EXPECT_EQ(schema.data, horus::TypeInfo<ImageDescriptor>::schema);
 
-  const auto frames = messages_of(reader, "camera");
+  const auto frames = reader.messages_on("camera");
   ASSERT_EQ(frames.size(), 3U);
   for (std::size_t i = 0; i < frames.size(); ++i) {
     const auto descriptor = descriptor_of<ImageDescriptor>(*frames[i]);
@@ -158,7 +147,7 @@ TEST_F(PoolRecording, RecorderKeepsImagesAndCloudsWithTheirDataAndLetsTheBlocksG
     EXPECT_EQ(data_of(*frames[i], sizeof(ImageDescriptor)), pixels[i]) << "frame " << i;
   }
 
-  const auto clouds = messages_of(reader, "lidar");
+  const auto clouds = reader.messages_on("lidar");
   ASSERT_EQ(clouds.size(), 1U);
   EXPECT_EQ(reader.channel("lidar")->message_encoding, "horus.pool");
   const auto descriptor = descriptor_of<PointCloudDescriptor>(*clouds[0]);
@@ -198,7 +187,7 @@ TEST_F(PoolRecording, ADescriptorWhoseBlockWasFreedIsCountedLostNotRead) {
   EXPECT_EQ(summary.lost.at("camera"), 1U);
 
   const horus::RecordingReader reader(summary.path);
-  const auto frames = messages_of(reader, "camera");
+  const auto frames = reader.messages_on("camera");
   ASSERT_EQ(frames.size(), 1U);
   EXPECT_EQ(data_of(*frames[0], sizeof(ImageDescriptor)), std::vector<std::uint8_t>(64, 42));
 }

@@ -133,6 +133,8 @@ class RecordingReader {
   const std::vector<RecordedMetadata>& metadata() const noexcept { return metadata_; }
   /// The channel recorded for `topic`, or nullptr.
   const RecordedChannel* channel(std::string_view topic) const;
+  /// The messages of the channel of `topic`, in file order (none when it has no channel).
+  std::vector<const RecordedMessage*> messages_on(std::string_view topic) const;
   /// Whether the data section ends with its data-end record (its CRC checked): the recorder
   /// finished the file. A file cut by kill -9 has none.
   bool complete() const noexcept { return complete_; }

@@ -58,6 +58,16 @@ const RecordedChannel* RecordingReader::channel(std::string_view topic) const {
   return nullptr;
 }
 
+std::vector<const RecordedMessage*> RecordingReader::messages_on(std::string_view topic) const {
+  std::vector<const RecordedMessage*> out;
+  const RecordedChannel* found = channel(topic);
+  if (found == nullptr) return out;
+  for (const auto& m : messages_) {
+    if (m.channel_id == found->id) out.push_back(&m);
+  }
+  return out;
+}
+
 void RecordingReader::read_records(const std::uint8_t* data, std::size_t size, bool in_chunk) {
   namespace mcap = detail::mcap;
   const std::string where = "recording " + path_.string();
