@@ -14,27 +14,41 @@ gives no identity: the local topic must exist then). Another type is refused, na
 Nothing crosses that no pattern names. DDS endpoints ignore their own participant, and a topic
 named by both directions is refused, so nothing a bridge writes comes back to it. One thread per
 bridged topic moves messages; topics are looked for again every half second.
+
+Failures of a carried topic never end its thread: a DDS write or take that fails, a message that
+does not encode or decode, a local topic that refuses a message or fails is one line on stderr
+naming the topic, the error and how many failures the topic has had; the operation is retried
+after RETRY_S (a failed DDS write with the same message, so nothing is reordered), a message that
+cannot be encoded or delivered is dropped. Anything else a thread raises is a bug: one line, and
+the bridge exits with status 1 instead of carrying on without that topic. SIGTERM stops the
+bridge as Ctrl+C does (status 0).
 """
 from __future__ import annotations
 
 import fnmatch
 import json
+import signal
 import sys
 import tempfile
 import threading
-import time
 
 import dds_cdr
 import dynamic_types
 
 PREFIX = "rt/"  # ROS 2's prefix of topic names on DDS
 RESCAN_S = 0.5
+RETRY_S = 0.5  # after a failed DDS write or take, or a failing local topic
 LOCAL_CAPACITY = 64  # the geometry a topic the bridge creates gets (as `horus topic pub`'s)
 LOCAL_MAX_MESSAGE = 16 * 1024
 
 
 class BridgeError(Exception):
     """A topic the bridge will not carry (one line, naming the topic and why)."""
+
+
+# What a carried topic may fail with and be retried: DDS's return codes and HorusError (both
+# RuntimeError), a message the codec refuses (ValueError, struct.error), the OS.
+RETRIABLE = (RuntimeError, ValueError, OSError)
 
 
 def _say(text: str) -> None:
@@ -100,6 +114,8 @@ class Bridge:
         self.participant = dds.Participant(domain)
         self.types = _Types()
         self.stop = threading.Event()
+        self.broken: str | None = None  # why a thread died of an unexpected error
+        self.failures: dict[str, int] = {}  # per carried topic
         self.threads: list[threading.Thread] = []
         self.done: set[str] = set()  # local topic names exported or imported (or refused)
 
@@ -119,10 +135,22 @@ class Bridge:
             return False
         return True
 
-    def _spawn(self, target, *args) -> None:
-        thread = threading.Thread(target=target, args=args, daemon=True)
+    def _spawn(self, what: str, target, *args) -> None:
+        def guarded() -> None:
+            try:
+                target(*args)
+            except Exception as error:  # noqa: BLE001 - a bug: said once, and the bridge stops
+                self.broken = f"{what}: {type(error).__name__}: {error}"
+                self.stop.set()
+
+        thread = threading.Thread(target=guarded, name=what, daemon=True)
         thread.start()
         self.threads.append(thread)
+
+    def _failed(self, what: str, error, then: str) -> None:
+        """One line for a failure of a carried topic, with its running count."""
+        count = self.failures[what] = self.failures.get(what, 0) + 1
+        _complain(f"{what}: {error} (failure {count} of it); {then}")
 
     # -- export: local -> DDS ---------------------------------------------------------------------
 
@@ -146,15 +174,33 @@ class Bridge:
                             topic["single_publisher"])
         writer = self.dds.Writer(self.participant, PREFIX + name, dds_type,
                                  user_data=_identity(topic), **self.qos)
-        self._spawn(self._pump_export, local, cls, writer)
+        self._spawn(f"topic '{name}'", self._pump_export, name, local, cls, writer)
         _say(f"exporting '{name}' ({type_name}) as {PREFIX}{name} ({dds_type})")
 
-    def _pump_export(self, local, cls, writer) -> None:
+    def _pump_export(self, name: str, local, cls, writer) -> None:
         codec = dds_cdr.CdrCodec(cls)
+        what = f"topic '{name}'"
         while not self.stop.is_set():
-            data = local.recv(0.1)
-            if data is not None:
-                writer.write(codec.encode(cls.from_bytes(data)))
+            try:
+                data = local.recv(0.1)
+            except RETRIABLE as error:
+                self._failed(what, f"reading the local topic failed: {error}", "retrying")
+                self.stop.wait(RETRY_S)
+                continue
+            if data is None:
+                continue
+            try:
+                cdr = codec.encode(cls.from_bytes(data))
+            except RETRIABLE as error:
+                self._failed(what, f"a message does not encode as CDR: {error}", "dropped it")
+                continue
+            while not self.stop.is_set():
+                try:
+                    writer.write(cdr)
+                    break
+                except RuntimeError as error:
+                    self._failed(what, str(error), "writing the same message again")
+                    self.stop.wait(RETRY_S)
 
     # -- import: DDS -> local ---------------------------------------------------------------------
 
@@ -176,7 +222,7 @@ class Bridge:
                 continue
             if ready is not None:
                 self.done.add(name)
-                self._spawn(self._pump_import, *ready)
+                self._spawn(f"topic '{name}'", self._pump_import, name, *ready)
                 _say(f"importing {publication['topic']} ({publication['type']}) as '{name}' "
                      f"({ready[1].__horus__.name})")
 
@@ -212,29 +258,56 @@ class Bridge:
         reader = self.dds.Reader(self.participant, publication["topic"], dds_type, **self.qos)
         return reader, cls, handle
 
-    def _pump_import(self, reader, cls, local) -> None:
+    def _pump_import(self, name: str, reader, cls, local) -> None:
         codec = dds_cdr.CdrCodec(cls)
+        what = f"topic '{name}'"
         while not self.stop.is_set():
-            for cdr in reader.take(0.1):
+            try:
+                received = reader.take(0.1)
+            except RuntimeError as error:
+                self._failed(what, str(error), "retrying")
+                self.stop.wait(RETRY_S)
+                continue
+            for cdr in received:
                 try:
                     message = codec.decode(cdr)
-                except ValueError as error:
-                    _complain(str(error))
+                except RETRIABLE as error:
+                    self._failed(what, f"a DDS sample does not decode: {error}", "dropped it")
                     continue
-                if not local.send(message.to_bytes()):
-                    _complain(f"topic '{local.name}' refused a message from DDS")
+                try:
+                    delivered = local.send(message.to_bytes())
+                except RETRIABLE as error:
+                    self._failed(what, f"the local topic failed: {error}", "dropped the message")
+                    continue
+                if not delivered:
+                    self._failed(what, "the local topic refused a message from DDS (no room, "
+                                 "or a stalled publisher)", "dropped it")
 
-    def run(self) -> None:
+    def run(self) -> int:
+        """Carries topics until Ctrl+C or SIGTERM (0), or a thread's unexpected error (1)."""
         _say(f"bridge on DDS domain {self.domain}: exporting {self.exports or 'nothing'}, "
              f"importing {self.imports or 'nothing'}")
+        previous = signal.signal(signal.SIGTERM, lambda *_: self.stop.set())
         try:
-            while True:
-                if self.exports:
-                    self.scan_exports()
-                if self.imports:
-                    self.scan_imports()
-                time.sleep(RESCAN_S)
+            while not self.stop.is_set():
+                try:
+                    self.scan()
+                except RETRIABLE as error:
+                    _complain(f"looking for topics failed: {error}; looking again")
+                self.stop.wait(RESCAN_S)
         finally:
             self.stop.set()
             for thread in self.threads:
                 thread.join()
+            signal.signal(signal.SIGTERM, previous)
+        if self.broken is not None:
+            _complain(f"stopping: {self.broken}")
+            return 1
+        return 0
+
+    def scan(self) -> None:
+        if self.exports:
+            self.scan_exports()
+        if self.imports:
+            self.scan_imports()
+

@@ -870,8 +870,7 @@ def bridge(args) -> int:
                                      args.domain, not args.best_effort, args.depth)
     except RuntimeError as error:
         raise CommandFailed(str(error)) from None
-    bridge.run()
-    return EXIT_OK
+    return bridge.run()
 
 
 def completion(args) -> int:
