@@ -1,8 +1,12 @@
-"""Services across `horus bridge`: a client in namespace B calls a server in namespace A over DDS
-(rq/ScaleRequest, rr/ScaleReply), and with no server anywhere gets NoServer as it does locally."""
+"""Services across `horus bridge`: a client in namespace B (Python, and C++: service_peer.cpp)
+calls a server in namespace A over DDS (rq/ScaleRequest, rr/ScaleReply), and with no server
+anywhere gets NoServer as it does locally."""
 from __future__ import annotations
 
+import os
 import signal
+
+import pytest
 
 from conftest import wait_line
 from test_bridge import bridge, python_env
@@ -59,8 +63,14 @@ else:
 """
 
 
-def run_client(children, world, generated, mode: str) -> list[str]:
-    client = children.python(CLIENT, python_env(world, generated), mode)
+CPP_CLIENT = os.environ.get("HORUS_DDS_SERVICE_PEER", "")  # service_peer.cpp
+
+
+def run_client(children, world, generated, mode: str, language: str = "python") -> list[str]:
+    if language == "python":
+        client = children.python(CLIENT, python_env(world, generated), mode)
+    else:
+        client = children.start([CPP_CLIENT, mode], world.env())
     out, errors = client.communicate(timeout=90)
     assert client.returncode == 0, errors
     return out.splitlines()
@@ -78,6 +88,7 @@ def test_a_client_in_b_calls_a_server_in_a_through_the_bridges(
     assert lines == ["server True"] + [f"answer {2.5 * i} {i} times 2.5" for i in range(5)] + [
         "error ServiceFailed the handler raised: RemoteServiceError: on the server's host: "
         "service_failed: the handler raised: ValueError: a factor of 0"], lines
+    assert run_client(children, target, generated, "call", "c++") == ["answer 7.5 3 times 2.5"]
 
     # The server goes: the exporting bridge withdraws the service from DDS, the importing one
     # its local stand-in, and B's callers get NoServer as they would with no bridge.
@@ -95,9 +106,14 @@ def test_a_client_in_b_calls_a_server_in_a_through_the_bridges(
     assert "no longer importing service 'Scale' (no server on DDS)" in said["importer"], said
 
 
+@pytest.mark.parametrize("language", ["python", "c++"])
 def test_with_no_server_anywhere_a_client_across_the_bridge_gets_no_server(
-        dds_domain, worlds, children, generated):
+        language, dds_domain, worlds, children, generated):
     source, target = worlds
     bridge(children, source, generated, dds_domain, "--export-service", "*")
     bridge(children, target, generated, dds_domain, "--import-service", "*")
-    assert run_client(children, target, generated, "once") == ["error NoServerError no_server"]
+    lines = run_client(children, target, generated, "once", language)
+    if language == "python":
+        assert lines == ["error NoServerError no_server"]
+    else:
+        assert len(lines) == 1 and lines[0].startswith("error NoServer "), lines
