@@ -133,15 +133,16 @@ def horus_gen(*args: str) -> None:
 
 @pytest.fixture(scope="session")
 def generated(tmp_path_factory) -> pathlib.Path:
-    """Python (python/) of dds_test (schemas/), and IDL (idl/) of it and of horus.msg's geometry,
-    generated once. One run per language: a run removes what an earlier one left in its --out."""
+    """Python (python/) of dds_test (schemas/: messages and a service), and IDL (idl/) of it and of
+    horus.msg's geometry, generated once. One run per language: a run removes what an earlier one
+    left in its --out."""
     output = tmp_path_factory.mktemp("generated")
-    kinds = str(SCHEMAS / "dds_test" / "kinds.hmsg")
+    kinds = [str(SCHEMAS / "dds_test" / "kinds.hmsg"), str(SCHEMAS / "dds_test" / "scale.hsrv")]
     horus_gen("generate", "--lang", "python", "--out", str(output / "py"), "-I", str(SCHEMAS),
-              kinds)
+              *kinds)
     geometry = str(pathlib.Path(HORUS_SCHEMAS) / "horus" / "msg" / "geometry.hmsg")
     horus_gen("generate", "--lang", "idl", "--out", str(output / "dds"), "-I", str(SCHEMAS), "-I",
-              HORUS_SCHEMAS, kinds, geometry)
+              HORUS_SCHEMAS, *kinds, geometry)
     (output / "py" / "python").rename(output / "python")
     (output / "dds" / "idl").rename(output / "idl")
     return output

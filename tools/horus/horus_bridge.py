@@ -14,27 +14,46 @@ gives no identity: the local topic must exist then). Another type is refused, na
 Nothing crosses that no pattern names. DDS endpoints ignore their own participant, and a topic
 named by both directions is refused, so nothing a bridge writes comes back to it. One thread per
 bridged topic moves messages; topics are looked for again every half second.
+
+Failures of a carried topic never end its thread: a DDS write or take that fails, a message that
+does not encode or decode, a local topic that refuses a message or fails is one line on stderr
+naming the topic, the error and how many failures the topic has had; the operation is retried
+after RETRY_S (a failed DDS write with the same message, so nothing is reordered), a message that
+cannot be encoded or delivered is dropped. Anything else a thread raises is a bug: one line, and
+the bridge exits with status 1 instead of carrying on without that topic. SIGTERM stops the
+bridge as Ctrl+C does (status 0).
 """
 from __future__ import annotations
 
 import fnmatch
+import importlib
 import json
+import random
+import signal
+import struct
 import sys
 import tempfile
 import threading
 import time
+import types
 
 import dds_cdr
 import dynamic_types
 
 PREFIX = "rt/"  # ROS 2's prefix of topic names on DDS
 RESCAN_S = 0.5
+RETRY_S = 0.5  # after a failed DDS write or take, or a failing local topic
 LOCAL_CAPACITY = 64  # the geometry a topic the bridge creates gets (as `horus topic pub`'s)
 LOCAL_MAX_MESSAGE = 16 * 1024
 
 
 class BridgeError(Exception):
     """A topic the bridge will not carry (one line, naming the topic and why)."""
+
+
+# What a carried topic may fail with and be retried: DDS's return codes and HorusError (both
+# RuntimeError), a message the codec refuses (ValueError, struct.error), the OS.
+RETRIABLE = (RuntimeError, ValueError, OSError)
 
 
 def _say(text: str) -> None:
@@ -92,7 +111,8 @@ def _open_local(core, name: str, type_name: str, fingerprint: int, schema: str, 
 
 class Bridge:
     def __init__(self, core, dds, namespace: str, exports: list[str], imports: list[str],
-                 domain: int, reliable: bool, depth: int) -> None:
+                 domain: int, reliable: bool, depth: int, service_exports: list[str] = (),
+                 service_imports: list[str] = ()) -> None:
         self.core, self.dds, self.namespace = core, dds, namespace
         self.exports, self.imports = exports, imports
         self.qos = {"reliable": reliable, "depth": depth}
@@ -100,8 +120,11 @@ class Bridge:
         self.participant = dds.Participant(domain)
         self.types = _Types()
         self.stop = threading.Event()
+        self.broken: str | None = None  # why a thread died of an unexpected error
+        self.failures: dict[str, int] = {}  # per carried topic
         self.threads: list[threading.Thread] = []
         self.done: set[str] = set()  # local topic names exported or imported (or refused)
+        self.services = Services(self, list(service_exports), list(service_imports))
 
     @staticmethod
     def _matches(name: str, patterns: list[str]) -> bool:
@@ -119,10 +142,22 @@ class Bridge:
             return False
         return True
 
-    def _spawn(self, target, *args) -> None:
-        thread = threading.Thread(target=target, args=args, daemon=True)
+    def _spawn(self, what: str, target, *args) -> None:
+        def guarded() -> None:
+            try:
+                target(*args)
+            except Exception as error:  # noqa: BLE001 - a bug: said once, and the bridge stops
+                self.broken = f"{what}: {type(error).__name__}: {error}"
+                self.stop.set()
+
+        thread = threading.Thread(target=guarded, name=what, daemon=True)
         thread.start()
         self.threads.append(thread)
+
+    def _failed(self, what: str, error, then: str) -> None:
+        """One line for a failure of a carried topic or service, with its running count."""
+        count = self.failures[what] = self.failures.get(what, 0) + 1
+        _complain(f"{what}: {error} (failure {count} of it); {then}")
 
     # -- export: local -> DDS ---------------------------------------------------------------------
 
@@ -146,15 +181,33 @@ class Bridge:
                             topic["single_publisher"])
         writer = self.dds.Writer(self.participant, PREFIX + name, dds_type,
                                  user_data=_identity(topic), **self.qos)
-        self._spawn(self._pump_export, local, cls, writer)
+        self._spawn(f"topic '{name}'", self._pump_export, name, local, cls, writer)
         _say(f"exporting '{name}' ({type_name}) as {PREFIX}{name} ({dds_type})")
 
-    def _pump_export(self, local, cls, writer) -> None:
+    def _pump_export(self, name: str, local, cls, writer) -> None:
         codec = dds_cdr.CdrCodec(cls)
+        what = f"topic '{name}'"
         while not self.stop.is_set():
-            data = local.recv(0.1)
-            if data is not None:
-                writer.write(codec.encode(cls.from_bytes(data)))
+            try:
+                data = local.recv(0.1)
+            except RETRIABLE as error:
+                self._failed(what, f"reading the local topic failed: {error}", "retrying")
+                self.stop.wait(RETRY_S)
+                continue
+            if data is None:
+                continue
+            try:
+                cdr = codec.encode(cls.from_bytes(data))
+            except RETRIABLE as error:
+                self._failed(what, f"a message does not encode as CDR: {error}", "dropped it")
+                continue
+            while not self.stop.is_set():
+                try:
+                    writer.write(cdr)
+                    break
+                except RuntimeError as error:
+                    self._failed(what, str(error), "writing the same message again")
+                    self.stop.wait(RETRY_S)
 
     # -- import: DDS -> local ---------------------------------------------------------------------
 
@@ -176,7 +229,7 @@ class Bridge:
                 continue
             if ready is not None:
                 self.done.add(name)
-                self._spawn(self._pump_import, *ready)
+                self._spawn(f"topic '{name}'", self._pump_import, name, *ready)
                 _say(f"importing {publication['topic']} ({publication['type']}) as '{name}' "
                      f"({ready[1].__horus__.name})")
 
@@ -212,29 +265,342 @@ class Bridge:
         reader = self.dds.Reader(self.participant, publication["topic"], dds_type, **self.qos)
         return reader, cls, handle
 
-    def _pump_import(self, reader, cls, local) -> None:
+    def _pump_import(self, name: str, reader, cls, local) -> None:
         codec = dds_cdr.CdrCodec(cls)
+        what = f"topic '{name}'"
         while not self.stop.is_set():
-            for cdr in reader.take(0.1):
+            try:
+                received = reader.take(0.1)
+            except RuntimeError as error:
+                self._failed(what, str(error), "retrying")
+                self.stop.wait(RETRY_S)
+                continue
+            for cdr in received:
                 try:
                     message = codec.decode(cdr)
-                except ValueError as error:
-                    _complain(str(error))
+                except RETRIABLE as error:
+                    self._failed(what, f"a DDS sample does not decode: {error}", "dropped it")
                     continue
-                if not local.send(message.to_bytes()):
-                    _complain(f"topic '{local.name}' refused a message from DDS")
+                try:
+                    delivered = local.send(message.to_bytes())
+                except RETRIABLE as error:
+                    self._failed(what, f"the local topic failed: {error}", "dropped the message")
+                    continue
+                if not delivered:
+                    self._failed(what, "the local topic refused a message from DDS (no room, "
+                                 "or a stalled publisher)", "dropped it")
 
-    def run(self) -> None:
+    def run(self) -> int:
+        """Carries topics until Ctrl+C or SIGTERM (0), or a thread's unexpected error (1)."""
+        services = self.services
         _say(f"bridge on DDS domain {self.domain}: exporting {self.exports or 'nothing'}, "
-             f"importing {self.imports or 'nothing'}")
+             f"importing {self.imports or 'nothing'}; services: exporting "
+             f"{services.exports or 'nothing'}, importing {services.imports or 'nothing'}")
+        previous = signal.signal(signal.SIGTERM, lambda *_: self.stop.set())
         try:
-            while True:
-                if self.exports:
-                    self.scan_exports()
-                if self.imports:
-                    self.scan_imports()
-                time.sleep(RESCAN_S)
+            while not self.stop.is_set():
+                try:
+                    self.scan()
+                except RETRIABLE as error:
+                    _complain(f"looking for topics failed: {error}; looking again")
+                self.stop.wait(RESCAN_S)
         finally:
             self.stop.set()
+            for stop in self.services.carried.values():
+                stop.set()
+            for proxy in self.services.proxies.values():
+                proxy.stop()  # withdraws its registration: local callers get NoServer
             for thread in self.threads:
                 thread.join()
+            signal.signal(signal.SIGTERM, previous)
+        if self.broken is not None:
+            _complain(f"stopping: {self.broken}")
+            return 1
+        return 0
+
+    def scan(self) -> None:
+        if self.exports:
+            self.scan_exports()
+        if self.imports:
+            self.scan_imports()
+        self.services.scan()
+
+
+# -- services -------------------------------------------------------------------------------------
+#
+# A service S crosses as ROS 2's pair of DDS topics: requests on rq/SRequest (type
+# <pkg>::dds_::S_Request_), replies on rr/SReply (<pkg>::dds_::S_Response_). As rmw_cyclonedds
+# does, each sample starts (after the 4-byte encapsulation) with a request header of two 8-byte
+# fields, the caller's id (u64) and the call's sequence number (i64), followed by the message's
+# CDR body; a reply repeats its request's header. The raw CDR API gives no sample identity to
+# write, so the header is in the data. A call the server side could not answer (HORUS's failure,
+# no server, a timeout there) is replied with the sequence number negated and a CDR string
+# saying why instead of the response (a ROS 2 client ignores it, and times out).
+
+SERVICE_REQUEST, SERVICE_REPLY = "rq/", "rr/"
+REMOTE_CALL_TIMEOUT_S = 10.0  # how long an exporting bridge waits for its local server
+PROXY_TIMEOUT_S = 30.0  # how long an importing bridge's proxy waits for a reply over DDS
+_HEADER = struct.Struct("<Qq")
+
+
+def _with_header(cdr: bytes, caller: int, sequence: int) -> bytes:
+    return cdr[:4] + _HEADER.pack(caller, sequence) + cdr[4:]
+
+
+def _split_header(sample: bytes) -> tuple[int, int, bytes]:
+    """(caller, sequence, CDR of the message with its encapsulation header)."""
+    if len(sample) < 4 + _HEADER.size:
+        raise ValueError(f"a service sample of {len(sample)} bytes has no request header")
+    caller, sequence = _HEADER.unpack_from(sample, 4)
+    return caller, sequence, sample[:4] + sample[4 + _HEADER.size:]
+
+
+def _failure_body(text: str) -> bytes:
+    data = text.encode()
+    return b"\x00\x01\x00\x00" + struct.pack("<I", len(data) + 1) + data + b"\0"
+
+
+def _failure_text(cdr: bytes) -> str:
+    (length,) = struct.unpack_from("<I", cdr, 4)
+    return cdr[8:8 + length - 1].decode("utf-8", "replace")
+
+
+class RemoteServiceError(Exception):
+    """The server side's answer to a call was a failure (its text says which)."""
+
+
+def _service(name: str, request, response, fingerprint: int):
+    """What horus.ServiceClient / ServiceServer need of a generated service class."""
+    return types.SimpleNamespace(name=name, Request=request, Response=response,
+                                 request_topic=f"{name}.request",
+                                 response_topic=f"{name}.response", fingerprint=fingerprint)
+
+
+def _service_identity(service) -> bytes:
+    def part(cls):
+        meta = cls.__horus__
+        return {"type": meta.name, "fingerprint": f"{meta.fingerprint:016x}",
+                "schema": meta.schema}
+
+    return json.dumps({"service": service.name, "fingerprint": f"{service.fingerprint:016x}",
+                       "request": part(service.Request),
+                       "response": part(service.Response)}).encode()
+
+
+def _imported_class(type_name: str):
+    """A generated class by its HORUS name from the Python path (horus.msg, a user package)."""
+    package, _, short = type_name.rpartition(".")
+    try:
+        return getattr(importlib.import_module(package), short)
+    except (ImportError, AttributeError):
+        return None
+
+
+class Services:
+    """The service half of a bridge: exported services (a local server answers calls from DDS)
+    and imported ones (a local proxy server forwards calls to DDS), by pattern."""
+
+    def __init__(self, bridge: "Bridge", exports: list[str], imports: list[str]) -> None:
+        self.bridge = bridge
+        self.exports, self.imports = exports, imports
+        self.carried: dict[str, threading.Event] = {}  # service name -> its stop
+        self.proxies: dict[str, object] = {}  # imported service name -> its ServiceServer
+        self.refused: set[str] = set()
+
+    def scan(self) -> None:
+        if self.exports:
+            self.scan_exports()
+        if self.imports:
+            self.scan_imports()
+
+    # -- export: a local server, called from DDS ---------------------------------------------
+
+    def _classes(self, service: dict):
+        """(Request, Response) classes of a local service: from its request and reply topics'
+        stored schemas, else from the Python path; None while neither gives them."""
+        found = {}
+        for topic in self.bridge.core.list_topics(self.bridge.namespace):
+            name = topic["name"]
+            if not topic["type_name"] or topic["error"]:
+                continue
+            if name == f"{service['name']}.request":
+                found.setdefault("request", topic)
+            elif name.startswith(f"{service['name']}.response."):
+                found.setdefault("response", topic)
+
+        def payload(kind: str, type_name: str):
+            topic = found.get(kind)
+            if topic is not None:
+                text = topic["schema"]
+                return self.bridge.types.load(type_name, text[text.find("\n}\n") + 3:], None)
+            return _imported_class(type_name)
+
+        request = payload("request", service["request_type"])
+        response = payload("response", service["response_type"])
+        return None if request is None or response is None else (request, response)
+
+    def _dds_types(self, service) -> tuple[str, str]:
+        """ROS 2's type names of the request and response: <pkg>::dds_::S_Request_."""
+        names = []
+        for cls, suffix in ((service.Request, "Request_"), (service.Response, "Response_")):
+            meta = cls.__horus__
+            scope = self.bridge.types.dds_name(meta.name, meta.schema).rsplit("::", 1)[0]
+            names.append(f"{scope}::{service.name}_{suffix}")
+        return names[0], names[1]
+
+    def scan_exports(self) -> None:
+        for entry in self.bridge.core.list_services(self.bridge.namespace):
+            name = entry["name"]
+            if not Bridge._matches(name, self.exports) or name in self.refused:
+                continue
+            running = self.carried.get(name)
+            if running is not None:
+                if not entry["servers"]:  # the server left: so does the service, from DDS
+                    running.set()
+                    del self.carried[name]
+                    _say(f"no longer exporting service '{name}' (its server stopped)")
+                continue
+            if not entry["servers"]:
+                continue
+            if Bridge._matches(name, self.imports):
+                self.refused.add(name)
+                _complain(f"refusing service '{name}': it matches both --export-service and "
+                          "--import-service")
+                continue
+            try:
+                classes = self._classes(entry)
+                if classes is None:
+                    continue  # the response type shows with the first reply topic
+                self._export(_service(name, *classes, entry["fingerprint"]))
+            except (BridgeError, RuntimeError) as error:
+                self.refused.add(name)
+                _complain(f"cannot export service '{name}': {error}")
+
+    def _export(self, service) -> None:
+        from horus._service import ServiceClient
+
+        request_type, response_type = self._dds_types(service)
+        dds, participant, qos = self.bridge.dds, self.bridge.participant, self.bridge.qos
+        identity = _service_identity(service)
+        reader = dds.Reader(participant, f"{SERVICE_REQUEST}{service.name}Request", request_type,
+                            **qos)
+        writer = dds.Writer(participant, f"{SERVICE_REPLY}{service.name}Reply", response_type,
+                            user_data=identity, **qos)
+        client = ServiceClient(service)
+        stop = self.carried[service.name] = threading.Event()
+        self.bridge._spawn(f"service '{service.name}'", self._answer_calls, service, reader,
+                           writer, client, stop)
+        _say(f"exporting service '{service.name}' as {SERVICE_REQUEST}{service.name}Request "
+             f"({request_type}) and {SERVICE_REPLY}{service.name}Reply ({response_type})")
+
+    def _answer_calls(self, service, reader, writer, client, stop) -> None:
+        from horus._service import ServiceError
+
+        requests = dds_cdr.CdrCodec(service.Request)
+        responses = dds_cdr.CdrCodec(service.Response)
+        what = f"service '{service.name}'"
+        try:
+            while not stop.is_set() and not self.bridge.stop.is_set():
+                try:
+                    received = reader.take(0.1)
+                except RuntimeError as error:
+                    self.bridge._failed(what, str(error), "retrying")
+                    stop.wait(RETRY_S)
+                    continue
+                for sample in received:
+                    try:
+                        caller, sequence, cdr = _split_header(sample)
+                        request = requests.decode(cdr)
+                    except RETRIABLE as error:
+                        self.bridge._failed(what, f"a request does not decode: {error}",
+                                            "dropped it")
+                        continue
+                    try:
+                        reply = _with_header(
+                            responses.encode(client.call(request, REMOTE_CALL_TIMEOUT_S)),
+                            caller, sequence)
+                    except ServiceError as error:
+                        reply = _with_header(_failure_body(f"{error.kind}: {error}"), caller,
+                                             -sequence)
+                    try:
+                        writer.write(reply)
+                    except RuntimeError as error:
+                        self.bridge._failed(what, str(error), "the caller gets no reply")
+        finally:
+            client.close()
+
+    # -- import: a local proxy server, calling over DDS ---------------------------------------
+
+    def scan_imports(self) -> None:
+        offered = {}
+        for publication in self.bridge.participant.publications():
+            topic = publication["topic"]
+            if topic.startswith(SERVICE_REPLY) and topic.endswith("Reply"):
+                name = topic[len(SERVICE_REPLY):-len("Reply")]
+                if Bridge._matches(name, self.imports) and publication["user_data"]:
+                    offered[name] = publication
+        for name in [n for n in self.proxies if n not in offered]:
+            self.carried.pop(name).set()
+            self.proxies.pop(name).stop()  # no server on DDS: local callers get NoServer
+            _say(f"no longer importing service '{name}' (no server on DDS)")
+        for name, publication in offered.items():
+            if name in self.proxies or name in self.refused:
+                continue
+            if Bridge._matches(name, self.exports):
+                self.refused.add(name)
+                _complain(f"refusing service '{name}': it matches both --export-service and "
+                          "--import-service")
+                continue
+            try:
+                self._import(name, publication)
+            except (BridgeError, RuntimeError, ValueError, KeyError) as error:
+                self.refused.add(name)
+                _complain(f"cannot import service '{name}': {error}")
+
+    def _import(self, name: str, publication: dict) -> None:
+        from horus._service import ServiceServer
+
+        remote = json.loads(publication["user_data"])
+        request, response = (
+            self.bridge.types.load(remote[kind]["type"], remote[kind]["schema"],
+                                   int(remote[kind]["fingerprint"], 16))
+            for kind in ("request", "response"))
+        service = _service(name, request, response, int(remote["fingerprint"], 16))
+        request_type, response_type = self._dds_types(service)
+        if response_type != publication["type"]:
+            raise BridgeError(f"DDS carries its replies as {publication['type']}, its HORUS "
+                              f"types make {response_type}")
+        dds, participant, qos = self.bridge.dds, self.bridge.participant, self.bridge.qos
+        writer = dds.Writer(participant, f"{SERVICE_REQUEST}{name}Request", request_type, **qos)
+        reader = dds.Reader(participant, publication["topic"], response_type, **qos)
+        stop = threading.Event()
+        proxy = _Proxy(service, writer, reader, stop)
+        self.proxies[name] = ServiceServer(service, proxy.call)
+        self.carried[name] = stop
+        _say(f"importing service '{name}' from {SERVICE_REPLY}{name}Reply ({response_type})")
+
+
+class _Proxy:
+    """The handler of an imported service's local server: each call goes to DDS as a request
+    with this proxy's id and the next sequence number, and waits for the reply repeating them."""
+
+    def __init__(self, service, writer, reader, stop: threading.Event) -> None:
+        self.service, self.writer, self.reader, self.stop = service, writer, reader, stop
+        self.requests = dds_cdr.CdrCodec(service.Request)
+        self.responses = dds_cdr.CdrCodec(service.Response)
+        self.caller = random.getrandbits(64)
+        self.sequence = 0
+
+    def call(self, request):
+        self.sequence += 1
+        self.writer.write(_with_header(self.requests.encode(request), self.caller, self.sequence))
+        deadline = time.monotonic() + PROXY_TIMEOUT_S
+        while not self.stop.is_set() and time.monotonic() < deadline:
+            for sample in self.reader.take(0.05):
+                caller, sequence, cdr = _split_header(sample)
+                if caller != self.caller or abs(sequence) != self.sequence:
+                    continue  # another caller's reply, or a late one to a call that timed out
+                if sequence < 0:
+                    raise RemoteServiceError(f"on the server's host: {_failure_text(cdr)}")
+                return self.responses.decode(cdr)
+        raise RemoteServiceError(f"no reply over DDS within {PROXY_TIMEOUT_S:g} s")

@@ -861,17 +861,17 @@ def bridge(args) -> int:
         raise CommandFailed("this horus was built without Cyclone DDS (Debian: cyclonedds-dev), "
                             "so it has no bridge") from None
     import horus_bridge
-    if not args.export and not args.imports:
+    if not (args.export or args.imports or args.export_service or args.import_service):
         raise CommandFailed("nothing to bridge: give --export and/or --import patterns", EXIT_USAGE)
     if args.depth < 1:
         raise CommandFailed(f"--depth must be at least 1, got {args.depth}", EXIT_USAGE)
     try:
         bridge = horus_bridge.Bridge(_core(), _dds, args.namespace, args.export, args.imports,
-                                     args.domain, not args.best_effort, args.depth)
+                                     args.domain, not args.best_effort, args.depth,
+                                     args.export_service, args.import_service)
     except RuntimeError as error:
         raise CommandFailed(str(error)) from None
-    bridge.run()
-    return EXIT_OK
+    return bridge.run()
 
 
 def completion(args) -> int:
@@ -1038,6 +1038,10 @@ def build_parser() -> argparse.ArgumentParser:
                      help="local topics to write to DDS (a glob; repeatable)")
     sub.add_argument("--import", dest="imports", action="append", default=[], metavar="PATTERN",
                      help="DDS topics (without rt/) to publish locally (a glob; repeatable)")
+    sub.add_argument("--export-service", action="append", default=[], metavar="PATTERN",
+                     help="local services to serve on DDS (rq/<name>Request, rr/<name>Reply)")
+    sub.add_argument("--import-service", action="append", default=[], metavar="PATTERN",
+                     help="services on DDS to serve locally (calls forwarded to their server)")
     sub.add_argument("--domain", type=int, default=0, help="the DDS domain id (default 0)")
     sub.add_argument("--best-effort", action="store_true",
                      help="best-effort DDS endpoints (default: reliable)")

@@ -1,0 +1,188 @@
+"""bench/dds: one-way latency and throughput from a publisher in namespace A to a subscriber in
+namespace B through two `horus bridge` processes on Cyclone DDS over loopback, against Cyclone's
+own `ddsperf` ping-pong, plus the pieces in between (run.sh runs it; RESULTS.md records it).
+
+    bench.py ROLE ...   (run.sh starts the roles as processes of their own)
+"""
+from __future__ import annotations
+
+import json
+import statistics
+import sys
+import time
+
+WARMUP = 200  # messages discarded at the start of each latency run
+THROUGHPUT_S = 3.0  # how long the publisher floods in a throughput run
+
+
+def message_class(kind: str):
+    if kind == "cmdvel":
+        from horus.msg import CmdVel
+        return CmdVel
+    from bench_dds import Blob1500
+    return Blob1500
+
+
+def make(cls, seq: int):
+    """A message stamped now (CLOCK_MONOTONIC, shared by every process of the host)."""
+    if cls.__name__ == "CmdVel":
+        return cls(stamp_nanos=time.monotonic_ns(), linear=float(seq), angular=0.0)
+    return cls(stamp_nanos=time.monotonic_ns(), seq=seq)
+
+
+def seq_of(message) -> int:
+    return int(message.linear) if type(message).__name__ == "CmdVel" else message.seq
+
+
+def publish(kind: str, mode: str, count: str, period_us: str) -> None:
+    import horus
+    cls = message_class(kind)
+    topic = horus.Topic(cls, "bench")
+    print("ready", flush=True)
+    sys.stdin.readline()  # run.sh says go once both bridges carry the topic
+    period = int(period_us) * 1e-6
+    next_send = time.monotonic()
+    end = next_send + THROUGHPUT_S
+    seq = 0
+    while seq < int(count) if mode == "latency" else time.monotonic() < end:
+        topic.send(make(cls, seq))
+        seq += 1
+        if mode == "latency":
+            # Sleeping, not spinning (two cores): each message is stamped when it is sent.
+            next_send += period
+            time.sleep(max(0.0, next_send - time.monotonic()))
+    print("sent", seq, flush=True)
+
+
+def subscribe(kind: str, mode: str, count: str) -> None:
+    import horus
+    cls = message_class(kind)
+    topic = horus.Topic(cls, "bench")
+    print("ready", flush=True)
+    total = int(count)
+    latencies, first, last, received, last_seq = [], None, None, 0, -1
+    while True:
+        # The first message comes once both bridges run; then 2 s of silence is the end.
+        message = topic.recv(timeout=60.0 if first is None else 2.0)
+        now = time.monotonic_ns()
+        if message is None:
+            break  # the publisher is done (or the stream stalled)
+        seq = seq_of(message)
+        received += 1
+        last_seq = seq
+        if mode == "latency" and seq >= WARMUP:
+            latencies.append((now - message.stamp_nanos) / 1e3)
+        if first is None:
+            first = now
+        last = now
+        if mode == "latency" and seq == total - 1:
+            break
+    result = {"received": received, "last_seq": last_seq}
+    if latencies:
+        latencies.sort()
+        result.update(p50=latencies[len(latencies) // 2],
+                      p99=latencies[min(len(latencies) - 1, int(len(latencies) * 0.99))],
+                      samples=len(latencies))
+    if mode == "throughput" and received > 1:
+        result["rate"] = (received - 1) / ((last - first) / 1e9)
+        result["sent"] = last_seq + 1
+    print(json.dumps(result), flush=True)
+
+
+def dds_pong(domain: str, size: str) -> None:
+    """Echoes raw CDR samples of `ping` to `pong` through horus._dds (the bridge's endpoints)."""
+    from horus import _dds
+    participant = _dds.Participant(int(domain))
+    reader = _dds.Reader(participant, "bench_ping", "bench::Raw_")
+    writer = _dds.Writer(participant, "bench_pong", "bench::Raw_")
+    print("ready", flush=True)
+    while True:
+        for sample in reader.take(1.0):
+            writer.write(sample)
+
+
+def dds_ping(domain: str, size: str, count: str) -> None:
+    """Round trip / 2 of raw CDR samples through horus._dds from Python, ping-pong."""
+    from horus import _dds
+    participant = _dds.Participant(int(domain))
+    writer = _dds.Writer(participant, "bench_ping", "bench::Raw_")
+    reader = _dds.Reader(participant, "bench_pong", "bench::Raw_")
+    while writer.matched() == 0 or reader.matched() == 0:
+        time.sleep(0.01)
+    sample = b"\x00\x01\x00\x00" + bytes(int(size))
+    halves = []
+    for i in range(int(count)):
+        start = time.perf_counter_ns()
+        writer.write(sample)
+        while not reader.take(1.0):
+            pass
+        if i >= WARMUP:
+            halves.append((time.perf_counter_ns() - start) / 2e3)
+    halves.sort()
+    print(json.dumps({"p50": halves[len(halves) // 2], "p99": halves[int(len(halves) * 0.99)]}))
+
+
+def dds_sub(domain: str, count: str) -> None:
+    """One-way latency of paced raw CDR samples through horus._dds from Python (no bridge)."""
+    import struct
+    from horus import _dds
+    participant = _dds.Participant(int(domain))
+    reader = _dds.Reader(participant, "bench_oneway", "bench::Raw_")
+    print("ready", flush=True)
+    latencies = []
+    while len(latencies) < int(count):
+        for sample in reader.take(5.0):
+            now = time.monotonic_ns()
+            seq, stamp = struct.unpack_from("<QQ", sample, 4)
+            if seq >= WARMUP:
+                latencies.append((now - stamp) / 1e3)
+    latencies.sort()
+    print(json.dumps({"p50": latencies[len(latencies) // 2],
+                      "p99": latencies[int(len(latencies) * 0.99)]}), flush=True)
+
+
+def dds_pub(domain: str, size: str, count: str, period_us: str) -> None:
+    import struct
+    from horus import _dds
+    participant = _dds.Participant(int(domain))
+    writer = _dds.Writer(participant, "bench_oneway", "bench::Raw_")
+    while writer.matched() == 0:
+        time.sleep(0.01)
+    time.sleep(0.5)
+    padding = bytes(max(0, int(size) - 16))
+    next_send = time.monotonic()
+    for seq in range(int(count) + WARMUP):
+        writer.write(b"\x00\x01\x00\x00" + struct.pack("<QQ", seq, time.monotonic_ns()) + padding)
+        next_send += int(period_us) * 1e-6
+        time.sleep(max(0.0, next_send - time.monotonic()))
+
+
+def costs(kind: str) -> None:
+    """The bridge's Python work per message, in one process: what each side adds to DDS."""
+    import dds_cdr
+    cls = message_class(kind)
+    codec = dds_cdr.CdrCodec(cls)
+    message = make(cls, 1)
+    data = message.to_bytes()
+    cdr = codec.encode(message)
+
+    def per_call(work, n=20000) -> float:
+        best = []
+        for _ in range(5):
+            start = time.perf_counter_ns()
+            for _ in range(n):
+                work()
+            best.append((time.perf_counter_ns() - start) / n / 1e3)
+        return statistics.median(best)
+
+    print(json.dumps({
+        "export: from_bytes + encode": per_call(lambda: codec.encode(cls.from_bytes(data))),
+        "import: decode + to_bytes": per_call(lambda: codec.decode(cdr).to_bytes()),
+        "cdr_bytes": len(cdr)}))
+
+
+if __name__ == "__main__":
+    roles = {"publish": publish, "subscribe": subscribe, "dds-pong": dds_pong,
+             "dds-ping": dds_ping, "dds-sub": dds_sub, "dds-pub": dds_pub,
+             "costs": costs}
+    roles[sys.argv[1]](*sys.argv[2:])

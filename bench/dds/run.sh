@@ -1,0 +1,166 @@
+#!/usr/bin/env bash
+# bench/dds: one-way latency (p50/p99) and throughput of CmdVel (16 B) and a 1.5 KB message from a
+# publisher in namespace A to a subscriber in namespace B through two `horus bridge` processes on
+# Cyclone DDS over loopback, against Cyclone's own C ping-pong (`ddsperf`, round trip / 2) in the
+# same run, and the pieces in between (raw CDR ping-pong through horus._dds from Python; the
+# bridge's per-message Python work). The issue's goal: the bridge adds <= 1.3x to DDS's latency.
+# Usage: bench/dds/run.sh [BUILD_DIR]   (default: build; needs ddsperf: Debian cyclonedds-tools)
+set -euo pipefail
+build=$(realpath "${1:-build}")
+here=$(cd "$(dirname "$0")" && pwd)
+repo=$(cd "$here/../.." && pwd)
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+/usr/bin/python3 "$repo/generator/horus-gen" generate --lang python --out "$work/gen" \
+  "$here/bench_dds.hmsg" >/dev/null
+cat >"$work/lo.xml" <<'XML'
+<CycloneDDS xmlns="https://cdds.io/config">
+  <Domain Id="any">
+    <General>
+      <Interfaces><NetworkInterface name="lo"/></Interfaces>
+      <AllowMulticast>false</AllowMulticast>
+    </General>
+    <Discovery>
+      <ParticipantIndex>auto</ParticipantIndex>
+      <MaxAutoParticipantIndex>32</MaxAutoParticipantIndex>
+      <Peers><Peer address="127.0.0.1"/></Peers>
+    </Discovery>
+  </Domain>
+</CycloneDDS>
+XML
+export CYCLONEDDS_URI="file://$work/lo.xml"
+export PYTHONPATH="$build/python:$build/schemas/horus_gen/horus_msgs/python:$work/gen/python:$repo/tools/horus:$here"
+mkdir -m 700 "$work/shm_a" "$work/shm_b"
+/usr/bin/python3 - "$build/bin/horus" "$work" "$here/bench.py" <<'PY'
+import json, os, random, re, statistics, subprocess, sys, time
+horus, work, bench = sys.argv[1:]
+domain = random.randrange(1, 190)  # DDS domains end at 232: the runs use up to domain + 30
+
+def env(side):
+    return dict(os.environ, HORUS_SHM_DIR=f"{work}/shm_{side}", HORUS_NAMESPACE=f"bench_dds_{side}")
+
+def start(argv, side=None, stdin=False):
+    return subprocess.Popen(argv, env=env(side) if side else None, text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            stdin=subprocess.PIPE if stdin else None)
+
+def wait_for(process, prefix):
+    for line in process.stdout:
+        if line.startswith(prefix):
+            return line
+    raise SystemExit(f"expected {prefix!r}: {process.stderr.read()}")
+
+def stop(*processes):
+    for process in processes:
+        process.kill()
+        process.communicate()
+
+def through_bridges(kind, mode, count, period_us):
+    global domain
+    domain += 1  # a fresh domain: no endpoint of an earlier run is discovered
+    py = [sys.executable, bench]
+    subscriber = start(py + ["subscribe", kind, mode, str(count)], "b")
+    wait_for(subscriber, "ready")
+    publisher = start(py + ["publish", kind, mode, str(count), str(period_us)], "a", stdin=True)
+    wait_for(publisher, "ready")
+    importer = start([horus, "bridge", "--domain", str(domain), "--import", "bench"], "b")
+    exporter = start([horus, "bridge", "--domain", str(domain), "--export", "bench"], "a")
+    wait_for(exporter, "exporting 'bench'")
+    wait_for(importer, "importing")
+    time.sleep(1.0)  # the DDS reader and writer match
+    publisher.stdin.write("go\n")
+    publisher.stdin.flush()
+    result = json.loads(subscriber.communicate(timeout=300)[0].splitlines()[-1])
+    stop(publisher)
+    for process in (importer, exporter):
+        process.kill()
+        _, errors = process.communicate()
+        result.setdefault("bridge_errors", []).extend(errors.splitlines()[:3])
+    return result
+
+def local_hop(kind, count, period_us):
+    """The same publisher and subscriber in one namespace, no bridge: one HORUS hop."""
+    py = [sys.executable, bench]
+    subscriber = start(py + ["subscribe", kind, "latency", str(count)], "a")
+    wait_for(subscriber, "ready")
+    publisher = start(py + ["publish", kind, "latency", str(count), str(period_us)], "a",
+                      stdin=True)
+    wait_for(publisher, "ready")
+    publisher.stdin.write("go\n")
+    publisher.stdin.flush()
+    result = json.loads(subscriber.communicate(timeout=300)[0].splitlines()[-1])
+    stop(publisher)
+    return result
+
+def paced_dds(size, count, period_us):
+    py = [sys.executable, bench]
+    subscriber = start(py + ["dds-sub", str(domain + 30), str(count)])
+    wait_for(subscriber, "ready")
+    publisher = start(py + ["dds-pub", str(domain + 30), str(size), str(count), str(period_us)])
+    result = json.loads(subscriber.communicate(timeout=300)[0].splitlines()[-1])
+    stop(publisher)
+    return result
+
+def ddsperf(size):
+    pong = subprocess.Popen(["ddsperf", "-i", str(domain + 10), "-D", "14", "pong"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    out = subprocess.run(["ddsperf", "-i", str(domain + 10), "-D", "10", "-Qminmatch:1",
+                          "-Qinitwait:5", "ping", "size", str(size), "waitset"],
+                         capture_output=True, text=True, timeout=60).stdout
+    pong.kill()
+    pong.wait()
+    seconds = [(float(m[0]), float(m[1])) for m in
+               re.findall(r"size \d+ mean \S+ min \S+ 50% ([\d.]+)us 90% \S+ 99% ([\d.]+)us", out)]
+    seconds = seconds[1:]  # the first second carries discovery and warm-up
+    return {"p50": statistics.median(s[0] for s in seconds),
+            "p99": statistics.median(s[1] for s in seconds)}
+
+def python_dds(size):
+    py = [sys.executable, bench]
+    pong = start(py + ["dds-pong", str(domain + 20), str(size)])
+    wait_for(pong, "ready")
+    out = subprocess.run(py + ["dds-ping", str(domain + 20), str(size), "5200"],
+                         capture_output=True, text=True, timeout=120, check=True).stdout
+    stop(pong)
+    return json.loads(out)
+
+COUNT, PERIOD_US = 2200, 2000  # latency runs: 2000 messages measured, 500 a second
+rows = []
+for kind, size in (("cmdvel", 16), ("blob", 1512)):
+    latency = through_bridges(kind, "latency", COUNT, PERIOD_US)
+    throughput = through_bridges(kind, "throughput", 0, 0)
+    floor = ddsperf(size)
+    raw = python_dds(size)
+    paced = paced_dds(size, COUNT - 200, PERIOD_US)
+    hop = local_hop(kind, COUNT, PERIOD_US)
+    cost = json.loads(subprocess.run([sys.executable, bench, "costs", kind], capture_output=True,
+                                     text=True, check=True).stdout)
+    rows.append((kind, size, latency, throughput, floor, raw, cost, paced, hop))
+
+load = os.getloadavg()[0]
+print(f"load average at the end: {load:.2f}")
+print("One-way latency p50 / p99 in us; ratio = bridge / ddsperf.")
+print("| message | through two bridges | ddsperf ping-pong (C) | ratio p50 (p99) | "
+      "horus._dds ping-pong from Python | horus._dds one-way, paced, Python | one HORUS hop, "
+      "paced, Python | bridge Python work (export; import) |")
+print("|---|---|---|---|---|---|---|---|")
+def pair(r):
+    return f"{r['p50']:.1f} / {r['p99']:.1f}" if "p50" in r else f"none measured: {r}"
+for kind, size, latency, throughput, floor, raw, cost, paced, hop in rows:
+    name = "CmdVel (16 B)" if kind == "cmdvel" else "Blob1500 (1512 B)"
+    ratio = (f"{latency['p50'] / floor['p50']:.1f}x ({latency['p99'] / floor['p99']:.1f}x)"
+             if "p50" in latency else "-")
+    print(f"| {name} | {pair(latency)} | {pair(floor)} | {ratio} | {pair(raw)} | {pair(paced)} | {pair(hop)} | "
+          f"{cost['export: from_bytes + encode']:.1f}; {cost['import: decode + to_bytes']:.1f} |")
+print()
+print("Throughput: the publisher in A sends as fast as it can for 3 s.")
+print("| message | sent in A | received in B | received per second |")
+print("|---|---|---|---|")
+for kind, size, latency, throughput, *_ in rows:
+    name = "CmdVel (16 B)" if kind == "cmdvel" else "Blob1500 (1512 B)"
+    print(f"| {name} | {throughput.get('sent', 0):,} (last seq seen + 1) | "
+          f"{throughput['received']:,} | {throughput.get('rate', 0):,.0f} |")
+for kind, size, latency, throughput, *_ in rows:
+    for line in latency.get("bridge_errors", []) + throughput.get("bridge_errors", []):
+        print(f"{kind}: a bridge said: {line}")
+PY
