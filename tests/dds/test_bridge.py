@@ -12,13 +12,19 @@ from conftest import wait_line
 HORUS = os.environ.get("HORUS_CLI", "")
 COUNT = 40
 
+# Rings and DDS histories deep enough for seconds of a stalled process: on a loaded machine a
+# process may not run for that long, and the sequence check is about order and loss in the
+# bridge, not about how far a Python process can fall behind a ring.
+RING = "capacity = 512\n"
+DEPTH = "1000"
+
 # Publishes an increasing sequence on cmd_vel (POD), kinds (serialized) and secret (never
-# exported), 200 a second, until killed.
-PUBLISHER = """
+# exported), 100 a second, until killed.
+PUBLISHER = RING + """
 import time, horus
 from horus.msg import CmdVel
 from dds_test import Kinds
-topics = {name: horus.Topic(cls, name) for name, cls in
+topics = {name: horus.Topic(cls, name, capacity=capacity) for name, cls in
           (("cmd_vel", CmdVel), ("kinds", Kinds), ("secret", CmdVel))}
 print("ready", flush=True)
 i = 0
@@ -27,18 +33,19 @@ while True:
     topics["kinds"].send(Kinds(big=i, name=f"n{i}", values=[float(i)], maybe=None))
     topics["secret"].send(CmdVel(stamp_nanos=i))
     i += 1
-    time.sleep(0.005)
+    time.sleep(0.01)
 """
 
 # Prints the first COUNT messages of each of the topics it is given: "<topic> <seq> ...".
-SUBSCRIBER = """
+SUBSCRIBER = RING + """
 import sys, time, horus
 from horus.msg import CmdVel
 from dds_test import Kinds
 count = int(sys.argv[1])
 wanted = {"cmd_vel": (CmdVel, lambda m: (m.stamp_nanos, m.linear == 0.5 * m.stamp_nanos)),
           "kinds": (Kinds, lambda m: (m.big, m.name == f"n{m.big}" and m.values == [m.big]))}
-topics = {name: (horus.Topic(wanted[name][0], name), wanted[name][1]) for name in sys.argv[2:]}
+topics = {name: (horus.Topic(wanted[name][0], name, capacity=capacity), wanted[name][1])
+          for name in sys.argv[2:]}
 print("ready", flush=True)
 got = {name: [] for name in topics}
 while any(len(seen) < count for seen in got.values()):
@@ -62,7 +69,7 @@ def python_env(world, generated) -> dict:
 
 
 def bridge(children, world, generated, domain: int, *patterns: str):
-    process = children.start([HORUS, "bridge", "--domain", str(domain), *patterns],
+    process = children.start([HORUS, "bridge", "--domain", str(domain), "--depth", DEPTH, *patterns],
                              python_env(world, generated))
     wait_line(process, "bridge on DDS domain")
     return process
