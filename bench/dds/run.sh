@@ -13,22 +13,7 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 /usr/bin/python3 "$repo/generator/horus-gen" generate --lang python --out "$work/gen" \
   "$here/bench_dds.hmsg" >/dev/null
-cat >"$work/lo.xml" <<'XML'
-<CycloneDDS xmlns="https://cdds.io/config">
-  <Domain Id="any">
-    <General>
-      <Interfaces><NetworkInterface name="lo"/></Interfaces>
-      <AllowMulticast>false</AllowMulticast>
-    </General>
-    <Discovery>
-      <ParticipantIndex>auto</ParticipantIndex>
-      <MaxAutoParticipantIndex>32</MaxAutoParticipantIndex>
-      <Peers><Peer address="127.0.0.1"/></Peers>
-    </Discovery>
-  </Domain>
-</CycloneDDS>
-XML
-export CYCLONEDDS_URI="file://$work/lo.xml"
+export CYCLONEDDS_URI="file://$repo/docs/cyclonedds-loopback.xml"
 export PYTHONPATH="$build/python:$build/schemas/horus_gen/horus_msgs/python:$work/gen/python:$repo/tools/horus:$here"
 mkdir -m 700 "$work/shm_a" "$work/shm_b"
 /usr/bin/python3 - "$build/bin/horus" "$work" "$here/bench.py" <<'PY'

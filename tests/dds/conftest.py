@@ -18,32 +18,15 @@ SCHEMAS = HERE / "schemas"
 GENERATOR = os.environ.get("HORUS_GEN_PROGRAM", "")
 HORUS_SCHEMAS = os.environ.get("HORUS_SCHEMA_DIR", "")
 
-# Loopback only, no multicast (lo has none): participants find each other through the unicast
-# peer 127.0.0.1 and the participant indices Cyclone probes there.
-LOOPBACK_CONFIG = """<?xml version="1.0" encoding="UTF-8"?>
-<CycloneDDS xmlns="https://cdds.io/config">
-  <Domain Id="any">
-    <General>
-      <Interfaces><NetworkInterface name="lo"/></Interfaces>
-      <AllowMulticast>false</AllowMulticast>
-    </General>
-    <Discovery>
-      <ParticipantIndex>auto</ParticipantIndex>
-      <MaxAutoParticipantIndex>32</MaxAutoParticipantIndex>
-      <Peers><Peer address="127.0.0.1"/></Peers>
-    </Discovery>
-  </Domain>
-</CycloneDDS>
-"""
+# Loopback only, no multicast: the configuration docs/dds-bridge.md shows.
+LOOPBACK_CONFIG = HERE.parent.parent / "docs" / "cyclonedds-loopback.xml"
 
 
 @pytest.fixture(autouse=True)
 def dds_domain(monkeypatch, tmp_path) -> int:
     """A DDS domain of this test's own on loopback (children inherit CYCLONEDDS_URI), and the
     type cache of `horus` kept in tmp_path."""
-    config = tmp_path / "cyclonedds.xml"
-    config.write_text(LOOPBACK_CONFIG)
-    monkeypatch.setenv("CYCLONEDDS_URI", f"file://{config}")
+    monkeypatch.setenv("CYCLONEDDS_URI", f"file://{LOOPBACK_CONFIG}")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     monkeypatch.chdir(tmp_path)
     return random.randrange(1, 230)

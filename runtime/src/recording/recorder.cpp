@@ -284,18 +284,13 @@ class RecorderImpl {
     const RingView& ring = topic.endpoint.ring();
     std::uint32_t size = 0;
     std::uint32_t sent_s = 0;
-    const bool got = topic.endpoint.receive(
-        false,
-        [&](const std::byte* payload, std::uint32_t bytes) {
+    const bool got =
+        receive_stamped(topic, sent_s, [&](const std::byte* payload, std::uint32_t bytes) {
           if (bytes > ring.payload_capacity) return false;
-          std::uint8_t* out = writer_.reserve_message(bytes);
-          std::memcpy(out, payload, bytes);
-          const auto* slot = reinterpret_cast<const SlotHeader*>(payload - ring.payload_offset);
-          sent_s = slot->send_time_s.load(std::memory_order_relaxed);
+          std::memcpy(writer_.reserve_message(bytes), payload, bytes);
           size = bytes;
           return true;
-        },
-        [] { return true; });
+        });
     if (!got) return false;
     writer_.commit_message(topic.channel,
                            static_cast<std::uint32_t>(topic.endpoint.next_ticket() - 1),
@@ -303,23 +298,34 @@ class RecorderImpl {
     return true;
   }
 
-  /// A frame of a pool-backed topic: its descriptor from the slot, then (PoolFrames::record)
-  /// the data from its block, held only for that copy.
-  bool take_frame(Recorded& topic) {
+  /// Takes the topic's next message through `copy(payload, bytes)` (false: not taken), and the
+  /// send stamp of the slot it came from into `sent_s`.
+  template <class Copy>
+  static bool receive_stamped(Recorded& topic, std::uint32_t& sent_s, Copy&& copy) {
     const RingView& ring = topic.endpoint.ring();
-    std::uint32_t size = 0;
-    std::uint32_t sent_s = 0;
-    const bool got = topic.endpoint.receive(
+    return topic.endpoint.receive(
         false,
         [&](const std::byte* payload, std::uint32_t bytes) {
-          if (bytes != topic.descriptor.size()) return false;
-          std::memcpy(topic.descriptor.data(), payload, bytes);
+          if (!copy(payload, bytes)) return false;
           const auto* slot = reinterpret_cast<const SlotHeader*>(payload - ring.payload_offset);
           sent_s = slot->send_time_s.load(std::memory_order_relaxed);
-          size = bytes;
           return true;
         },
         [] { return true; });
+  }
+
+  /// A frame of a pool-backed topic: its descriptor from the slot, then (PoolFrames::record)
+  /// the data from its block, held only for that copy.
+  bool take_frame(Recorded& topic) {
+    std::uint32_t size = 0;
+    std::uint32_t sent_s = 0;
+    const bool got =
+        receive_stamped(topic, sent_s, [&](const std::byte* payload, std::uint32_t bytes) {
+          if (bytes != topic.descriptor.size()) return false;
+          std::memcpy(topic.descriptor.data(), payload, bytes);
+          size = bytes;
+          return true;
+        });
     if (!got) return false;
     const std::size_t written =
         topic.frames->record(topic.descriptor.data(), size,
