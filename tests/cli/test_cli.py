@@ -81,6 +81,45 @@ def test_usage_errors_exit_two_with_one_line():
         assert "Traceback" not in result.stderr
 
 
+def test_windows_rates_timeouts_and_counts_must_be_above_zero():
+    # Each would otherwise sleep a negative time, busy-loop, divide by zero or never end.
+    for args in (["topic", "list", "-v", "--window", "-1"],
+                 ["topic", "hz", "scan", "--window", "0"],
+                 ["topic", "bw", "scan", "--window", "nan"],
+                 ["topic", "echo", "scan", "--count", "0"],
+                 ["topic", "echo", "scan", "--timeout", "-2"],
+                 ["topic", "pub", "scan", "{}", "--count", "-1"],
+                 ["topic", "pub", "scan", "{}", "--rate", "inf"],
+                 ["service", "call", "Add", "{}", "--timeout", "0"],
+                 ["log", "--since", "-5"],
+                 ["monitor", "--interval", "0"],
+                 ["bridge", "--export", "*", "--depth", "0"],
+                 ["record", "-a", "--duration", "0"],
+                 ["record", "replay", "x.mcap", "--rate", "-1"],
+                 ["record", "replay", "x.mcap", "--capacity", "0"]):
+        result = run_horus(*args)
+        assert result.returncode == 2, (args, result)
+        option = next(arg for arg in args if arg.startswith("--") and arg != "--export")
+        assert result.stderr.count("\n") == 1 and f"argument {option}" in result.stderr \
+            and "above 0" in result.stderr, (args, result.stderr)
+
+
+def test_an_unexpected_failure_is_one_internal_error_line(tmp_path):
+    # A schema compiler that prints something other than JSON: nothing the command expects.
+    generator = tmp_path / "horus-gen"
+    generator.write_text("#!/bin/sh\necho not json\n")
+    generator.chmod(0o755)
+    environment = dict(os.environ, HORUS_GEN_PROGRAM=str(generator))
+    result = subprocess.run([HORUS, "msg", "list"], capture_output=True, text=True, timeout=30,
+                            env=environment)
+    assert result.returncode == 1, result
+    assert result.stderr.startswith("horus: internal error: JSONDecodeError: ")
+    assert result.stderr.count("\n") == 1 and "Traceback" not in result.stderr
+    debug = subprocess.run([HORUS, "msg", "list"], capture_output=True, text=True, timeout=30,
+                           env=dict(environment, HORUS_DEBUG="1"))
+    assert debug.returncode == 1 and "Traceback" in debug.stderr, debug
+
+
 def test_no_subcommand_prints_help():
     result = run_horus()
     assert result.returncode == 0

@@ -24,6 +24,29 @@ SCHEMA_DIR = os.environ.get("HORUS_SCHEMA_DIR", "")
 LEVELS = ("debug", "info", "warn", "error")
 
 
+def positive_float(text: str) -> float:
+    """An argparse type: a number above 0 (a window, a rate, a timeout of 0 or less would
+    busy-loop, divide by zero or never end)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = None
+    if value is None or not value > 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"needs a number above 0, got {text!r}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """An argparse type: a whole number above 0 (a count of 0 would mean forever)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"needs a whole number above 0, got {text!r}")
+    return value
+
+
 class CommandFailed(Exception):
     """A failure reported as one line on stderr, with its exit status."""
 
@@ -369,8 +392,6 @@ def topic_pub(args) -> int:
         raise CommandFailed(f"the message is {len(payload)} bytes, topic '{args.topic}' holds at "
                             f"most {topic['max_message_size']}")
     handle = _open_topic(topic, cls)
-    if args.rate is not None and args.rate <= 0:
-        raise CommandFailed(f"--rate must be above 0, got {args.rate:g}", EXIT_USAGE)
     period = 1.0 / (args.rate or 1.0)
     sent = 0
     next_send = time.monotonic()
@@ -863,8 +884,6 @@ def bridge(args) -> int:
     import horus_bridge
     if not (args.export or args.imports or args.export_service or args.import_service):
         raise CommandFailed("nothing to bridge: give --export and/or --import patterns", EXIT_USAGE)
-    if args.depth < 1:
-        raise CommandFailed(f"--depth must be at least 1, got {args.depth}", EXIT_USAGE)
     try:
         bridge = horus_bridge.Bridge(_core(), _dds, args.namespace, args.export, args.imports,
                                      args.domain, not args.best_effort, args.depth,
@@ -921,7 +940,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = action(topic, "list", "the namespace's topics", topic_list)
     sub.add_argument("-v", "--verbose", action="store_true",
                      help="with type, publishers, subscribers and rate")
-    sub.add_argument("--window", type=float, default=0.5,
+    sub.add_argument("--window", type=positive_float, default=0.5,
                      help="seconds over which -v measures rates (default 0.5)")
     sub = action(topic, "info", "one topic: type, schema, capacity, users, counters", topic_info)
     sub.add_argument("topic")
@@ -942,7 +961,7 @@ def build_parser() -> argparse.ArgumentParser:
         sub = action(topic, name, f"a topic's {what}, from slot headers (nothing decoded), "
                                   "each window until Ctrl+C", handler)
         sub.add_argument("topic")
-        sub.add_argument("--window", type=float, default=1.0,
+        sub.add_argument("--window", type=positive_float, default=1.0,
                          help="seconds per measurement (default 1)")
         sub.add_argument("--once", action="store_true", help="print one window and exit")
 
@@ -950,19 +969,19 @@ def build_parser() -> argparse.ArgumentParser:
                                 "(any type), the newest one sent first", topic_echo)
     sub.add_argument("topic")
     sub.add_argument("--once", action="store_true", help="print one message and exit")
-    sub.add_argument("--count", type=int, metavar="N", help="print N messages and exit")
+    sub.add_argument("--count", type=positive_int, metavar="N", help="print N messages and exit")
     sub.add_argument("--field", metavar="A.B", help="print only this field (dotted path; list "
                                                    "elements by index)")
-    sub.add_argument("--timeout", type=float, metavar="SECONDS",
+    sub.add_argument("--timeout", type=positive_float, metavar="SECONDS",
                      help="exit 1 when no message came within SECONDS")
     sub = action(topic, "pub", "publish a message given as YAML or JSON (any type, from the "
                                "topic's stored schema), every 1/RATE s until Ctrl+C", topic_pub,
                  json_output=False)
     sub.add_argument("topic")
     sub.add_argument("value", help="the fields, e.g. '{linear: 0.5}'; fields left out are zero")
-    sub.add_argument("--rate", type=float, metavar="HZ", help="messages per second (default 1)")
+    sub.add_argument("--rate", type=positive_float, metavar="HZ", help="messages per second (default 1)")
     sub.add_argument("--once", action="store_true", help="publish one message and exit")
-    sub.add_argument("--count", type=int, metavar="N", help="publish N messages and exit")
+    sub.add_argument("--count", type=positive_int, metavar="N", help="publish N messages and exit")
     sub.add_argument("--type", metavar="TYPE", help="the message type (qualified or bare name) "
                                                     "when nobody has opened the topic yet")
     sub.add_argument("-I", dest="include", action="append", metavar="DIR",
@@ -979,7 +998,7 @@ def build_parser() -> argparse.ArgumentParser:
                                   "type, from the service's stored schemas)", service_call)
     sub.add_argument("service")
     sub.add_argument("value", help="the request's fields, e.g. '{a: 1, b: 2}'; fields left out are zero")
-    sub.add_argument("--timeout", type=float, default=5.0, metavar="SECONDS",
+    sub.add_argument("--timeout", type=positive_float, default=5.0, metavar="SECONDS",
                      help="how long to wait for the response (default 5)")
 
     message = group("msg", "message types of the installed (or given) schemas: list, show, hash")
@@ -1000,7 +1019,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.set_defaults(handler=log)
     sub.add_argument("--node", help="only lines of this node (its name, '-' or '@<scheduler>')")
     sub.add_argument("--level", choices=LEVELS, help="only lines at this level or above")
-    sub.add_argument("--since", type=float, metavar="SECONDS",
+    sub.add_argument("--since", type=positive_float, metavar="SECONDS",
                      help="only lines of the last SECONDS seconds")
     sub.add_argument("--follow", "-f", action="store_true",
                      help="keep printing new lines until Ctrl+C")
@@ -1015,7 +1034,7 @@ def build_parser() -> argparse.ArgumentParser:
                               description="A live terminal view of the namespace's nodes (rate, "
                                           "tick time, misses, health) and topics (rate, "
                                           "bandwidth), until q or Ctrl+C.", parents=[common])
-    sub.add_argument("--interval", type=float, default=1.0,
+    sub.add_argument("--interval", type=positive_float, default=1.0,
                      help="seconds between refreshes (default 1)")
     sub.set_defaults(handler=monitor)
 
@@ -1045,7 +1064,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("--domain", type=int, default=0, help="the DDS domain id (default 0)")
     sub.add_argument("--best-effort", action="store_true",
                      help="best-effort DDS endpoints (default: reliable)")
-    sub.add_argument("--depth", type=int, default=100,
+    sub.add_argument("--depth", type=positive_int, default=100,
                      help="DDS history depth of each writer and reader (default 100)")
     sub.set_defaults(handler=bridge)
 
@@ -1076,10 +1095,15 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_OK
     except BrokenPipeError:
         return EXIT_OK
-    except Exception as error:  # noqa: BLE001 (a runtime error is one line, never a traceback)
-        if type(error).__name__ != "HorusError":
+    except Exception as error:  # noqa: BLE001 (any failure is one line, never a traceback)
+        if type(error).__name__ == "HorusError":  # the runtime's refusal: a problem of the input
+            print(f"horus: {error}", file=sys.stderr)
+            return EXIT_NOT_FOUND
+        if os.environ.get("HORUS_DEBUG") == "1":
             raise
-        print(f"horus: {error}", file=sys.stderr)
+        reason = " ".join(str(error).split())
+        print(f"horus: internal error: {type(error).__name__}: {reason} (HORUS_DEBUG=1 shows "
+              "the traceback)", file=sys.stderr)
         return EXIT_NOT_FOUND
 
 

@@ -21,7 +21,7 @@ import time
 import horus_mcap as mcap
 from horus_mcap import MSGPACK_ENCODING, POD_ENCODING, POOL_ENCODING, TICKS_TOPIC
 from horus_cli import (EXIT_NOT_FOUND, EXIT_OK, EXIT_USAGE, SCHEMA_DIR, CommandFailed,
-                       _described_types, _emit, _Parser, _table)
+                       _described_types, _emit, _Parser, _table, positive_float, positive_int)
 
 
 # The standalone recorder, set by the launcher (bin/horus) to the horus-record beside it.
@@ -314,8 +314,6 @@ def _selected(message: mcap.Message, first: int, start: float | None, end: float
 
 def replay(args) -> int:
     path = resolve(args.file)
-    if args.rate <= 0:
-        raise CommandFailed("--rate must be > 0 (1 is the recorded speed)", EXIT_USAGE)
     wanted = {t for t in args.topics.split(",") if t} if args.topics else None
     # A first walk finds the channels, each one's first message time and largest message (a
     # serialized topic's slots must hold it) before anything is published.
@@ -467,14 +465,14 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-o", "--output", metavar="FILE",
                         help="the file (default: a new session_YYYY_MM_DD_HHMMSS.mcap in "
                              "$HORUS_RECORDINGS)")
-    parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    parser.add_argument("--duration", type=positive_float, metavar="S", help="stop after S seconds")
     parser.set_defaults(handler=record)
     return parser
 
 
 def _replay_arguments(sub: argparse.ArgumentParser) -> None:
     sub.add_argument("file")
-    sub.add_argument("--rate", type=float, default=1.0,
+    sub.add_argument("--rate", type=positive_float, default=1.0,
                      help="speed factor (default 1: as recorded; 2: twice as fast)")
     sub.add_argument("--loop", action="store_true", help="start again at the end, until Ctrl+C")
     sub.add_argument("--topics", metavar="A,B", help="only these topics")
@@ -482,7 +480,7 @@ def _replay_arguments(sub: argparse.ArgumentParser) -> None:
                      help="from S seconds after the first message")
     sub.add_argument("--end", type=float, metavar="S",
                      help="up to S seconds after the first message")
-    sub.add_argument("--capacity", type=int, default=64,
+    sub.add_argument("--capacity", type=positive_int, default=64,
                      help="slots of topics the replay creates (default 64)")
     sub.add_argument("-I", dest="include", action="append", metavar="DIR",
                      help="schema folder whose types must match the recording (repeatable; "
