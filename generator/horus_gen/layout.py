@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Callable
 
-from .model import EnumRef, FixedArray, FixedString, MessageRef, Padding, Primitive, Type
+from .model import EnumRef, FixedArray, FixedString, MessageRef, Optional, Padding, Primitive, Type, Vec
 
 # Limits (docs/schema-language.md, "Limits"): a POD message is one shared-memory slot, and its
 # padding is listed range by range in the generated code of both languages.
@@ -47,6 +47,24 @@ def type_layout(t: Type, nested: NestedLayout, enum_underlying: Callable[[str], 
         repeated = tuple(Padding(i * size + h.offset, h.size) for i in range(t.length) for h in holes) if holes else ()
         return size * t.length, align, repeated
     raise ValueError(f"{t!r} has no POD layout")
+
+
+def counted_size(t: Type, pod_size: Callable[[Type], int | None]) -> int:
+    """Bytes of a value of `t` as the array limit counts them: POD types at their layout size
+    (`pod_size`; None for a serialized type), anything serialized at one byte. Raises
+    LayoutTooLarge for a fixed-size array past MAX_POD_SIZE anywhere in `t`: inside Vec<…>,
+    Option<…> or a serialized message such an array would not compile in C++ or fit a numpy shape
+    any more than in a POD message."""
+    if isinstance(t, FixedArray):
+        element = counted_size(t.element, pod_size)
+        if element * t.length > MAX_POD_SIZE:
+            raise LayoutTooLarge(f"[{t.length} elements of {element} bytes] is more than the {MAX_POD_SIZE} bytes "
+                                 "a fixed-size array may hold")
+        return element * t.length
+    if isinstance(t, (Vec, Optional)):
+        counted_size(t.element, pod_size)
+        return 1
+    return pod_size(t) or 1
 
 
 def struct_layout(members: list[tuple[int, int, tuple[Padding, ...]]]

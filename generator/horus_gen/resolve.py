@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from . import identity
 from .diagnostics import Note, Reporter, Source, Span, did_you_mean
 from .lang import cpp, keyword_clash, python
-from .layout import MAX_POD_SIZE, LayoutTooLarge, struct_layout, type_layout
+from .layout import MAX_POD_SIZE, LayoutTooLarge, counted_size, struct_layout, type_layout
 from .loader import Loader, Options, Unit
 from .model import (PRIMITIVES, Bytes, Constant, DynString, Enum, EnumRef, Field, FixedArray,
                     FixedString, Message, MessageRef, Mixin, Model, Optional, Padding, Primitive,
@@ -470,6 +470,9 @@ class Resolver:
                                         f"'{f.spelling}', but the message is #[fixed]",
                                         "use a fixed-size type (string<N>, [T; N]) or remove #[fixed]")
                     break
+        if not is_pod and not all([self.arrays_fit(f.type, f.span, f"field '{f.name}' of '{item.name}'")
+                                   for f in fields]):
+            return
         size = alignment = None
         padding: tuple[Padding, ...] = ()
         if is_pod:
@@ -527,6 +530,19 @@ class Resolver:
             found = self.model.types.get(t.qualified)
             return isinstance(found, Message) and found.is_pod
         return False
+
+    def arrays_fit(self, t: Type, span: Span, what: str) -> bool:
+        """Reports a fixed-size array past MAX_POD_SIZE inside a type that has no POD layout (whose
+        layout would have reported it): in Vec<…>, Option<…>, a serialized message or node data."""
+        try:
+            counted_size(t, lambda leaf: type_layout(leaf, self.nested_layout, self.enum_underlying)[0]
+                         if self.is_pod(leaf) else None)
+        except LayoutTooLarge as error:
+            self.reporter.error(span, f"{what} is too large: {error}",
+                                "use Vec<T> or bytes for bulk data; a fixed-size array holds at most "
+                                f"{MAX_POD_SIZE} bytes wherever it is")
+            return False
+        return True
 
     def nested_layout(self, qualified: str) -> tuple[int, int, tuple[Padding, ...]]:
         message = self.model.message(qualified)

@@ -71,7 +71,7 @@ class NodeResolver:
             self.check_member(item, f.name, f.span, members)
             check_attributes(self.reporter, f.attributes, {}, f"data field '{f.name}'")
             t = self.resolver.resolve_type(f.type, unit)
-            if t is None:
+            if t is None or not self.resolver.arrays_fit(t, f.span, f"data field '{f.name}'"):
                 continue
             default = None
             if f.default is not None:

@@ -231,15 +231,15 @@ def test_mutated_schemas_end_in_output_or_diagnostics(tmp_path, capsys, librarie
     assert not failures, "\n\n".join(f"input {i}: {why}\n--- input ---\n{text[:2000]}" for i, why, text in failures[:3])
 
 
-def check(tmp_path, text: str, folder: str = "p") -> str:
+def check(tmp_path, text: str, folder: str = "p", suffix: str = ".hmsg") -> str:
     """Runs `horus-gen check` on `text` as the one schema in `folder` (package p unless it says
     otherwise); returns its stderr after asserting exit 1 with diagnostics."""
-    schema = tmp_path / folder / "case.hmsg"
+    schema = tmp_path / folder / ("case" + suffix)
     schema.parent.mkdir(exist_ok=True)
     schema.write_text(text, encoding="utf-8")
     result = run_horus_gen("check", str(schema))
     assert result.returncode == 1, result.stderr
-    assert "internal error" not in result.stderr and "case.hmsg:" in result.stderr, result.stderr
+    assert "internal error" not in result.stderr and schema.name + ":" in result.stderr, result.stderr
     return result.stderr
 
 
@@ -266,6 +266,12 @@ def case(text: str, error: str, id: str, folder: str = "p"):
     case("B { a: u8, b: u32 }\nA { x: [B; 100000] }\n",
           "message 'A' is too large: 100000 elements with 1 padding", id="many_padding_ranges"),
     case("A { x: [[u8; 1073741824]; 2] }\n", "message 'A' is too large", id="huge_message"),
+    # The same limit where no POD layout is computed: this one was accepted, and its C++ did not compile.
+    case("B { v: Vec<[[[u8; 1073741824]; 1073741824]; 1073741824]> }\n",
+         "case.hmsg:1:5: error: field 'v' of 'B' is too large: [1073741824 elements of 1073741824 bytes]",
+         id="huge_array_in_vec"),
+    case("B { v: Option<[[u8; 1073741824]; 2]> }\n", "field 'v' of 'B' is too large", id="huge_array_in_option"),
+    case("B { s: String, v: [[u16; 1073741824]; 1] }\n", "field 'v' of 'B' is too large", id="huge_array_in_serialized"),
     case("A { é: u8 }\n", "name 'é' is not ASCII", id="unicode_name"),
     case("A { ﬁeld: u8 }\n", "is not ASCII", id="nfkc_name"),
     case("A" * 101 + " { x: u8 }\n", "name of 101 characters is longer than 100", id="long_name"),
@@ -293,6 +299,17 @@ def case(text: str, error: str, id: str, folder: str = "p"):
 def test_each_class_of_bad_input_is_an_error_with_its_place(tmp_path, text, error, folder):
     stderr = check(tmp_path, text, folder)
     assert error in stderr and "Traceback" not in stderr
+
+
+@pytest.mark.parametrize("text, suffix, error", [
+    ("S { request { a: Vec<[[u8; 1073741824]; 4]> } response { b: u8 } }\n", ".hsrv",
+     "case.hsrv:1:15: error: field 'a' of 'SRequest' is too large"),
+    ("node! { N { data { x: Vec<[[u8; 1073741824]; 4]> } } }\n", ".hnode",
+     "case.hnode:1:20: error: data field 'x' is too large"),
+], ids=["service", "node_data"])
+def test_a_fixed_size_array_is_bounded_in_services_and_node_data(tmp_path, text, suffix, error):
+    stderr = check(tmp_path, text, suffix=suffix)
+    assert error in stderr and "a fixed-size array holds at most 1073741824 bytes" in stderr
 
 
 @pytest.mark.parametrize("name", ["NULL", "errno", "assert", "stdin", "EOF", "INT32_MAX", "linux", "self",
