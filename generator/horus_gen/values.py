@@ -92,9 +92,11 @@ def convert_value(reporter: Reporter, types: dict[str, Message | Enum], literal:
         if literal.kind != "string":
             error(wrong + _describe(literal), 'write a quoted string: "text"')
             return None
-        if isinstance(t, FixedString) and "\0" in literal.value:
-            error(f"value of {owner} holds a NUL character, which string<{t.capacity}> cannot hold",
-                  "string<N> ends at its first NUL; use bytes for binary data")
+        if "\0" in literal.value:
+            # C++ would initialise from the literal as a C string, ending it at the NUL, while
+            # Python keeps the whole text: the two languages' defaults would differ.
+            error(f"value of {owner} holds a NUL character, which {spelled} values cannot hold",
+                  "text ends at its first NUL; use bytes for binary data")
             return None
         if isinstance(t, FixedString) and len(literal.value.encode("utf-8")) > t.capacity:
             error(f"value of {owner} is {len(literal.value.encode('utf-8'))} bytes, more than "

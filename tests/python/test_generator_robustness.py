@@ -278,6 +278,11 @@ def case(text: str, error: str, id: str, folder: str = "p"):
     case("/// a\0b\nA { x: u8 }\n", "character U+0000 is not allowed", id="nul_in_doc"),
     case("/// a\u2028b\nA { x: u8 }\n", "character U+2028 is not allowed", id="line_separator_in_doc"),
     case('A { x: string<4> = "a\\0" }\n', "holds a NUL character", id="nul_in_fixed_string"),
+    # C++ initialised std::string from "a\0b" as "a"; Python kept 'a\x00b'.
+    case('C { s: String = "a\\0b" }\n', "value of field 's' holds a NUL character, which String values",
+         id="nul_in_string"),
+    case('C { const S: String = "a\\0b", x: u8 }\n', "value of constant 'S' holds a NUL character",
+         id="nul_in_string_constant"),
     # ValueError building an enum: a value outside the underlying type, two enumerators on one
     # value, a value too long to spell (Python refuses int-to-text beyond 4300 digits).
     case("enum E: u8 { A = 300 }\nA { e: E }\n", "value 300 of 'E::A' is out of range for u8", id="enum_value_out_of_range"),
