@@ -36,6 +36,19 @@ def test_check_warns_about_topics_nobody_publishes_or_reads_and_still_succeeds()
     assert result.stderr.endswith("1 warning generated.\n")
 
 
+def test_check_warns_about_a_topic_nobody_publishes_at_its_subscription():
+    listener = str(NODES / "listener.hnode")
+    result = run_horus_gen("check", "-I", str(SCHEMAS), listener)
+    assert result.returncode == 0, result.stderr
+    # Without the talker, nobody publishes the pose the listener subscribes to.
+    assert f"{listener}:12:13: warning: node 'listener' subscribes to topic 'pair.pose', which no " \
+        "node of these files publishes\n" in result.stderr
+    assert warnings_of(result.stderr) == [
+        "node 'listener' subscribes to topic 'pair.pose', which no node of these files publishes",
+        "node 'listener' publishes topic 'pair.echo', which no node of these files subscribes to"]
+    assert result.stderr.endswith("2 warnings generated.\n")
+
+
 def test_check_warns_about_a_service_nobody_serves(tmp_path):
     result = run_horus_gen("check", "-I", str(SCHEMAS), str(NODES / "tracker.hnode"))
     assert result.returncode == 0, result.stderr
