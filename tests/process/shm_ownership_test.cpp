@@ -292,6 +292,15 @@ int works_with_warnings_as(const char* user, const SharedRoot& root, unsigned mo
   });
 }
 
+/// Creates the empty file `path` (mode 0600) as `user`'s, where only root could put it.
+bool plant_file_of(const char* user, const std::string& path) {
+  const int planted = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  const bool owned =
+      planted >= 0 && ::fchown(planted, uid_of(user), ::getgrnam(kGroup)->gr_gid) == 0;
+  if (planted >= 0) ::close(planted);
+  return owned;
+}
+
 bool empty_folder(const std::string& path) {
   return std::filesystem::is_directory(path) && std::filesystem::is_empty(path);
 }
@@ -341,7 +350,23 @@ TEST_F(ShmOwnership, ARootCreatedByAnotherUserIsRefusedNamingItsOwner) {
   const std::string squatted = parent.path() + "/squatted";
   ASSERT_EQ(as_user(kUserM, "", [&] { return ::mkdir(squatted.c_str(), 0777) == 0 ? 0 : 1; }), 0);
   ::chmod(squatted.c_str(), 0777);
-  EXPECT_EQ(refused_as(kUserA, squatted, "cmd", 0600, {squatted, kUserM}), 0);
+  EXPECT_EQ(refused_as(kUserA, squatted, "cmd", 0600, {squatted, kUserM, "HORUS_SHM_DIR"}), 0);
+}
+
+// The default root's name is known to every user, so anyone can take it first: the refusal names
+// the owner and the way out (a root of one's own), which then works.
+TEST_F(ShmOwnership, ASquattedDefaultRootIsRefusedWithTheWayOut) {
+  const std::string victim_root = "/dev/shm/horus-" + std::to_string(uid_of(kUserB));
+  std::filesystem::remove_all(victim_root);
+  ASSERT_EQ(as_user(kUserM, "", [&] { return ::mkdir(victim_root.c_str(), 0700) == 0 ? 0 : 1; }),
+            0);
+  // 0700: the kernel refuses B before fstat could name the owner; the message still does.
+  EXPECT_EQ(refused_as(kUserB, "", "cmd", 0600, {victim_root, kUserM, "HORUS_SHM_DIR"}), 0);
+  ::chmod(victim_root.c_str(), 0755);
+  EXPECT_EQ(refused_as(kUserB, "", "cmd", 0600, {victim_root, kUserM, "HORUS_SHM_DIR"}), 0);
+  SharedRoot own;
+  EXPECT_EQ(send_as(kUserB, own, "cmd", 0600, 1), 0) << "the way out the message names failed";
+  std::filesystem::remove_all(victim_root);
 }
 
 TEST_F(ShmOwnership, ANamespaceFolderCreatedByAnotherUserIsRefusedNamingItsOwner) {
@@ -358,11 +383,45 @@ TEST_F(ShmOwnership, ANamespaceFolderCreatedByAnotherUserIsRefusedNamingItsOwner
 
 TEST_F(ShmOwnership, ASegmentCreatedByAnotherUserIsRefusedWithoutGroupSharing) {
   SharedRoot root;
-  // A shares one topic with its group, so its namespace folder is group-writable; B (in the
-  // group) plants the topic A will open privately.
-  ASSERT_EQ(send_as(kUserA, root, "status", 0660, 1), 0);
-  ASSERT_EQ(send_as(kUserB, root, "cmd", 0660, 666), 0);
+  // B (in A's group) cannot write A's private folder, so the test (root) plants B's segment there.
+  ASSERT_EQ(send_as(kUserA, root, "status", 0600, 1), 0);
+  ASSERT_TRUE(plant_file_of(kUserB, root.segment("cmd")));
   EXPECT_EQ(refused_as(kUserA, root.path(), "cmd", 0600, {root.segment("cmd"), kUserB}), 0);
+}
+
+// A's own folder or segment that its group can write was made for sharing: a handle that did not
+// ask to share must not use it, or a group member could write what A means to keep private.
+TEST_F(ShmOwnership, AGroupWritableObjectOfOwnIsRefusedWithoutSharing) {
+  SharedRoot root;
+  ASSERT_EQ(send_as(kUserA, root, "status", 0660, 1), 0);  // the folder is now group-writable
+  EXPECT_EQ(refused_as(kUserA, root.path(), "cmd", 0600,
+                       {root.folder(), "writable by group " + std::string(kGroup),
+                        "did not ask to share"}),
+            0);
+  EXPECT_EQ(send_as(kUserA, root, "cmd", 0660, 1), 0) << "asking to share must work";
+
+  SharedRoot private_root;
+  ASSERT_EQ(send_as(kUserA, private_root, "cmd", 0600, 1), 0);
+  ::chmod(private_root.segment("cmd").c_str(), 0660);
+  EXPECT_EQ(refused_as(kUserA, private_root.path(), "cmd", 0600,
+                       {private_root.segment("cmd"), "did not ask to share"}),
+            0);
+}
+
+// A shared folder is sticky: a member can remove its own segments but not another member's.
+TEST_F(ShmOwnership, AGroupMemberCannotRemoveAnotherMembersSegment) {
+  SharedRoot root;
+  ASSERT_EQ(send_as(kUserA, root, "cmd", 0660, 1), 0);
+  ASSERT_EQ(send_as(kUserB, root, "other", 0660, 2), 0);
+  EXPECT_EQ(as_user(kUserB, root.path(),
+                    [&root] {
+                      const bool refused =
+                          ::unlink(root.segment("cmd").c_str()) != 0 && errno == EPERM;
+                      const bool own_removed = ::unlink(root.segment("other").c_str()) == 0;
+                      return refused && own_removed ? 0 : 1;
+                    }),
+            0);
+  EXPECT_TRUE(std::filesystem::exists(root.segment("cmd")));
 }
 
 TEST_F(ShmOwnership, AWorldWritableSegmentIsRefusedAndCannotBeAskedFor) {
@@ -395,7 +454,8 @@ TEST_F(ShmOwnership, TwoUsersOfAGroupShareTopicsWhenBothAskForIt) {
   EXPECT_EQ(info.st_gid, ::getgrnam(kGroup)->gr_gid);
   EXPECT_EQ(info.st_mode & 0777, 0660U);
   ASSERT_EQ(::stat(root.folder().c_str(), &info), 0);
-  EXPECT_EQ(info.st_mode & 07777, 02770U) << "a shared folder passes its group on (setgid)";
+  EXPECT_EQ(info.st_mode & 07777, 03770U)
+      << "a shared folder passes its group on (setgid) and keeps members' segments (sticky)";
 
   EXPECT_EQ(send_as(kUserB, root, "cmd", 0660, 42), 0);
   EXPECT_EQ(as_user(kUserA, root.path(),
@@ -448,13 +508,22 @@ TEST_F(ShmOwnership, ATensorPoolFolderCreatedByAnotherUserIsRefusedNamingItsOwne
 
 TEST_F(ShmOwnership, ATensorPoolFileCreatedByAnotherUserIsRefusedWithoutGroupSharing) {
   SharedRoot root;
-  // A shares one pool with its group, so the pool folder is group-writable; B plants the pool
-  // A will open privately.
+  // B (in A's group) cannot write A's private pool folder, so the test (root) plants B's file.
+  ASSERT_EQ(open_pool_as(kUserA, root, "mine", 0600), 0);
+  const std::string file = root.path() + "/@pool/" + SharedRoot::kNamespace + "/camera";
+  ASSERT_TRUE(plant_file_of(kUserB, file));
+  EXPECT_EQ(pool_refused_as(kUserA, root, "camera", 0600, {file, kUserB}), 0);
+}
+
+TEST_F(ShmOwnership, TwoUsersOfAGroupSharePoolsWhenBothAskForIt) {
+  SharedRoot root;
   ASSERT_EQ(open_pool_as(kUserA, root, "shared", 0660), 0);
   ASSERT_EQ(open_pool_as(kUserB, root, "camera", 0660), 0);
-  const std::string file = root.path() + "/@pool/" + SharedRoot::kNamespace + "/camera";
-  EXPECT_EQ(pool_refused_as(kUserA, root, "camera", 0600, {file, kUserB}), 0);
   EXPECT_EQ(open_pool_as(kUserA, root, "camera", 0660), 0) << "the group-sharing case must work";
+  EXPECT_EQ(pool_refused_as(kUserA, root, "other", 0600,
+                            {root.path() + "/@pool", "did not ask to share"}),
+            0)
+      << "A did not ask to share (mode 0600) and still used the group's folder";
   EXPECT_EQ(pool_refused_as(kUserM, root, "camera", 0660, {root.path() + "/@pool"}), 0)
       << "a user outside the group reached the group's pool";
 }

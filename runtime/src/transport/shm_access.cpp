@@ -61,11 +61,18 @@ bool in_my_groups(gid_t gid) {
 }
 
 /// Directory mode for a file mode: the classes that may read files may also list and enter; a
-/// folder shared with a group passes its group on to what is created in it (setgid).
+/// folder shared with a group passes its group on to what is created in it (setgid), and is
+/// sticky so that no member can remove or replace another member's segments.
 mode_t directory_mode(unsigned file_mode) {
   const auto mode = static_cast<mode_t>(0700 | (file_mode & 0066) | ((file_mode & 0044) >> 2));
-  return group_sharing(file_mode) ? mode | S_ISGID : mode;
+  return group_sharing(file_mode) ? mode | S_ISGID | S_ISVTX : mode;
 }
+
+/// What to do about a root another user holds: the default root's name is known to every user.
+constexpr const char* kRootRemedy =
+    " (use a root of your own: set HORUS_SHM_DIR to a folder only you can write, e.g. "
+    "$XDG_RUNTIME_DIR/horus, the same for every process and tool of the robot; or have root "
+    "remove it)";
 
 /// Why an open failed, with the owner and mode of what is there when permission was denied: a
 /// folder another user made first (0700, say) is refused by the kernel before fstat could name
@@ -109,7 +116,7 @@ std::string untrusted_reason(const struct stat& info, const std::string& path, b
   if (root) {
     if (info.st_uid != me && info.st_uid != 0) {
       return path + " belongs to " + owner + ", not to this process's " + describe_user(me) +
-             " or root: another user may have created it first";
+             " or root: another user may have created it first" + kRootRemedy;
     }
     if ((info.st_mode & (S_IWGRP | S_IWOTH)) != 0 && (info.st_mode & S_ISVTX) == 0) {
       return path + " (mode " + mode +
@@ -123,6 +130,11 @@ std::string untrusted_reason(const struct stat& info, const std::string& path, b
            ") is writable by every user: anyone could send on its topics";
   }
   if (info.st_uid == me) {
+    if (!sharing && (info.st_mode & S_IWGRP) != 0) {
+      return path + " (mode " + mode + ") is writable by " + describe_group(info.st_gid) +
+             ", but this process did not ask to share: a member could send on its topics (to "
+             "share, open with a mode that has group bits, e.g. 0660)";
+    }
     return {};
   }
   if (!sharing) {
@@ -163,7 +175,8 @@ FileDescriptor open_trusted_directory(int parent, const std::string& name, const
     }
     throw Error("cannot open the topic directory " + path + ": " +
                 (error == ENOTDIR || error == ELOOP ? "it exists but is not a directory"
-                                                    : open_failure(parent, name, error)));
+                                                    : open_failure(parent, name, error)) +
+                (root && error != ENOENT ? kRootRemedy : ""));
   }
   struct stat info {};
   if (::fstat(folder.get(), &info) != 0) {

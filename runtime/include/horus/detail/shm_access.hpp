@@ -5,10 +5,12 @@
 // judged by fstat on the descriptor, so nothing can be swapped between the check and the use. An
 // object is trusted when this process's effective user owns it, or, when the caller shares
 // through a group (a mode with group bits, on both sides), when it belongs to a group this process
-// is in; in both cases it must not be writable by every user. The root folder may also belong to
-// root, and may be writable by a group or by everyone only when it is sticky (like /tmp), so that
-// nobody can rename or remove what another user made in it. runtime/src/transport/README.md
-// explains the layout and how to share.
+// is in; in both cases it must not be writable by every user, nor by a group unless the caller
+// shares (a group member could otherwise write what was meant to be private). Folders created for
+// sharing are setgid and sticky (3770). The root folder may also belong to root, and may be
+// writable by a group or by everyone only when it is sticky (like /tmp), so that nobody can rename
+// or remove what another user made in it. runtime/src/transport/README.md explains the layout and
+// how to share.
 #pragma once
 
 #include <sys/stat.h>
