@@ -1,15 +1,23 @@
 // Services between threads of one process: every behaviour that needs no second process.
 // Each test has its own namespace; every wait is bounded.
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <chrono>
+#include <cstdio>
+#include <deque>
+#include <fstream>
 #include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include <horus/detail/shm_segment.hpp>
 #include <horus/service.hpp>
 #include <horus/topic_registry.hpp>
 #include <service_test/compute.hpp>
@@ -321,45 +329,97 @@ TEST_F(ServiceThreadTest, ClientsOnManyThreadsEachGetTheirOwnAnswers) {
   EXPECT_EQ(server.stats().requests, 800U);
 }
 
-// After kMaxReplyCollisions clashes a client shares its reply topic with another one. Sharing is
-// safe only because each keeps the answers with its own client id: here a second endpoint
-// receives on the first client's reply topic and asks with the same request id, so each answer
-// reaches both and each must take only its own.
-TEST_F(ServiceThreadTest, ClientsSharingAReplyTopicEachTakeOnlyTheirOwnAnswers) {
+/// Whether some thread or process waits for a flock on the file at `path`: a "->" line of
+/// /proc/locks for the file's device and inode.
+bool someone_waits_to_lock(const std::string& path) {
+  struct stat info {};
+  if (::stat(path.c_str(), &info) != 0) {
+    return false;
+  }
+  char file[64];
+  std::snprintf(file, sizeof file, " %02x:%02x:%llu ", major(info.st_dev), minor(info.st_dev),
+                static_cast<unsigned long long>(info.st_ino));
+  std::ifstream locks("/proc/locks");
+  for (std::string line; std::getline(locks, line);) {
+    if (line.find("->") != std::string::npos && line.find(file) != std::string::npos) {
+      return true;
+    }
+  }
+  return false;
+}
+
+// Every reply topic a client picks is taken by a second subscriber while the client opens it, so
+// after kMaxReplyCollisions clashes it shares one. Each clash is made, in order, by holding a
+// shared flock on the candidate segment: the client's set-up lock waits for it, and before it is
+// let go, a handle here subscribes. Sharing is safe only because each endpoint keeps the answers
+// with its own client id: the other endpoint here asks with the same request id as the client's
+// first call, each answer reaches both, and each must take only its own.
+TEST_F(ServiceThreadTest, AClientClashingOnEveryReplyTopicSharesOneAndGetsItsOwnAnswers) {
   using RequestFrame = horus::detail::ServiceRequestFrame<ComputeRequest>;
   using ResponseFrame = horus::detail::ServiceResponseFrame<ComputeResponse>;
-  std::atomic<int> calls{0};
-  auto server = compute_server(&calls);
-  horus::ServiceClient<Compute> client;  // the first client of the service: reply topic 0
-  const std::string shared = horus::detail::reply_topic(Compute::response_topic(), 0);
-  horus::Topic<ResponseFrame> other_replies(shared);
-  static_cast<void>(other_replies.try_recv());  // subscribes, as a client does
-  ASSERT_EQ(horus::detail::free_reply_index(Compute::response_topic(), name_), 1U);
+  constexpr int kCandidates = horus::detail::kMaxReplyCollisions + 1;
+  auto server = compute_server();
+  const std::string folder = horus::detail::namespace_directory(name_);
+  std::deque<horus::Topic<ResponseFrame>> others;
+  std::vector<int> locks;
+  for (int index = 0; index < kCandidates; ++index) {
+    const std::string name = horus::detail::reply_topic(Compute::response_topic(), index);
+    others.emplace_back(name);
+    locks.push_back(::open((folder + "/" + name).c_str(), O_RDONLY | O_CLOEXEC));
+    ASSERT_GE(locks.back(), 0);
+    ASSERT_EQ(::flock(locks.back(), LOCK_SH), 0);
+  }
+  int clashes = 0;
+  std::thread clasher([&] {
+    const auto deadline = std::chrono::steady_clock::now() + kLong;
+    for (int index = 0; index < kCandidates; ++index) {
+      const std::string path =
+          folder + "/" + horus::detail::reply_topic(Compute::response_topic(), index);
+      while (!someone_waits_to_lock(path) && std::chrono::steady_clock::now() < deadline) {
+        std::this_thread::sleep_for(100us);
+      }
+      clashes += someone_waits_to_lock(path) ? 1 : 0;
+      static_cast<void>(others[static_cast<std::size_t>(index)].try_recv());  // subscribes
+      ::flock(locks[static_cast<std::size_t>(index)], LOCK_UN);
+    }
+  });
+  std::optional<horus::ServiceClient<Compute>> client;
+  client.emplace();
+  clasher.join();
+  for (const int lock : locks) {
+    ::close(lock);
+  }
+  ASSERT_EQ(clashes, kCandidates) << "the client did not try each candidate in turn";
+  horus::Topic<ResponseFrame>& shared = others.back();
 
   horus::Topic<RequestFrame> requests(std::string(Compute::request_topic()));
   constexpr std::uint64_t kOtherClient = 0xC0FFEE;
   ASSERT_TRUE(requests.send(horus::detail::request_frame(
-      kOtherClient, 0, horus::ServiceRequest<ComputeRequest>{1, {100, 100, 0, 0}})));
+      kOtherClient, kCandidates - 1, horus::ServiceRequest<ComputeRequest>{1, {100, 100, 0, 0}})));
   const auto deadline = std::chrono::steady_clock::now() + kLong;
-  while (calls.load() < 1 && std::chrono::steady_clock::now() < deadline) {
+  while (server.stats().requests < 1 && std::chrono::steady_clock::now() < deadline) {
     std::this_thread::sleep_for(1ms);
   }
-  ASSERT_EQ(calls.load(), 1);
+  ASSERT_EQ(server.stats().requests, 1U);
 
-  // The first client's first request has id 1 too; the other endpoint's answer sits on the topic.
-  const auto sum = client.call({1, 2, 0, 0}, kLong);
+  // The client's first request has id 1 too; the other endpoint's answer sits on the topic.
+  const auto sum = client->call({1, 2, 0, 0}, kLong);
   ASSERT_TRUE(sum.has_value()) << sum.error().to_string();
   EXPECT_EQ(sum->sum, 3);
 
   std::optional<ResponseFrame> own;
   std::optional<ResponseFrame> foreign;
-  while (auto frame = other_replies.try_recv()) {
+  while (auto frame = shared.try_recv()) {
     (frame->client_id == kOtherClient ? own : foreign) = *frame;
   }
   ASSERT_TRUE(own.has_value());
   EXPECT_EQ(own->payload.sum, 200);
-  ASSERT_TRUE(foreign.has_value());  // the first client's answer passed by too
+  ASSERT_TRUE(foreign.has_value()) << "the client did not share the last candidate";
   EXPECT_EQ(foreign->payload.sum, 3);
+  for (int index = 0; index + 1 < kCandidates; ++index) {
+    EXPECT_FALSE(others[static_cast<std::size_t>(index)].try_recv().has_value())
+        << "an answer went to reply topic " << index;
+  }
 }
 
 }  // namespace
