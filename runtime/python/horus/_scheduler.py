@@ -91,9 +91,10 @@ class Scheduler:
     def set_node_rate(self, name: str, rate: float) -> bool:
         return self._core.set_node_rate(name, float(rate))
 
-    def set_tick_budget(self, name: str, budget: float) -> bool:
-        """`budget` in seconds."""
-        return self._core.set_tick_budget(name, float(budget))
+    def set_tick_budget(self, name: str, budget_us: float) -> bool:
+        """Microseconds, as seed 001 has it (unlike Node(budget=...), in seconds):
+        set_tick_budget("motor", 500) allows 500 us per tick."""
+        return self._core.set_tick_budget(name, float(budget_us) * 1e-6)
 
     def remove_node(self, name: str) -> bool:
         removed = self._core.remove_node(name)
