@@ -9,6 +9,8 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include "bindings.hpp"
@@ -51,12 +53,24 @@ std::string lower(std::string_view text) {
   return out;
 }
 
+/// on_miss as seed 001 spells it, both ways.
+constexpr std::pair<std::string_view, Miss> kMissNames[] = {{"warn", Miss::Warn},
+                                                            {"skip", Miss::Skip},
+                                                            {"safe_mode", Miss::SafeMode},
+                                                            {"stop", Miss::Stop}};
+
 Miss parse_miss(const std::string& text) {
-  if (text == "warn") return Miss::Warn;
-  if (text == "skip") return Miss::Skip;
-  if (text == "safe_mode") return Miss::SafeMode;
-  if (text == "stop") return Miss::Stop;
+  for (const auto& [name, miss] : kMissNames) {
+    if (text == name) return miss;
+  }
   throw Error("on_miss must be one of 'warn', 'skip', 'safe_mode', 'stop', got '" + text + "'");
+}
+
+std::string_view miss_name(Miss miss) {
+  for (const auto& [name, value] : kMissNames) {
+    if (value == miss) return name;
+  }
+  return "?";
 }
 
 FailurePolicy parse_failure_policy(const std::string& text) {
@@ -79,7 +93,7 @@ py::dict info_dict(const NodeInfo& info) {
   out["budget"] = seconds_or_none(info.budget);
   out["deadline"] = seconds_or_none(info.deadline);
   out["watchdog"] = seconds_or_none(info.watchdog);
-  out["on_miss"] = lower(to_string(info.on_miss));
+  out["on_miss"] = std::string(miss_name(info.on_miss));
   out["failure_policy"] = lower(to_string(info.failure_policy));
   out["critical"] = info.critical;
   out["on"] = info.on_topic ? py::object(py::str(*info.on_topic)) : py::object(py::none());

@@ -133,7 +133,7 @@ def test_on_miss_and_failure_policies_are_applied():
                  failure_policy="skip")
     sched = Scheduler().add(motor).add(safety).add(cloud)
     info = {i["name"]: i for i in sched.get_all_nodes()}
-    assert info["motor"]["on_miss"] == "safemode"
+    assert info["motor"]["on_miss"] == "safe_mode"
     assert info["safety_monitor"]["on_miss"] == "stop"
     assert info["cloud_upload"]["failure_policy"] == "skip"
     with pytest.raises(ValueError, match="on_miss"):

@@ -102,7 +102,7 @@ def test_warehouse_agv_as_written():
         ("safety", "Rt"), ("lidar", "Rt"), ("planner", "Compute"), ("tracker", "Rt"),
         ("motor", "Rt"), ("battery", "Rt"), ("fleet", "Rt")]
     assert info["motor"]["critical"] and info["safety"]["critical"]
-    assert info["motor"]["on_miss"] == "safemode" and info["safety"]["on_miss"] == "stop"
+    assert info["motor"]["on_miss"] == "safe_mode" and info["safety"]["on_miss"] == "stop"
     assert sched.status() == "stopped"
     # With a 100 us budget a Python safety tick on a loaded machine may miss and, as the seed
     # asks, stop everything: either way every node was shut down.
