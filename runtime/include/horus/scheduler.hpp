@@ -321,6 +321,7 @@ struct NodeInfo {
   FailurePolicy::Kind failure_policy = FailurePolicy::Kind::Fatal;
   bool critical = false;
   std::optional<std::string> on_topic;
+  std::optional<int> priority;  // as given to NodeSettings::priority()
   std::string last_error;
   std::vector<TopicMetadata> publishers;  // as reported after init()
   std::vector<TopicMetadata> subscribers;

@@ -97,6 +97,7 @@ py::dict info_dict(const NodeInfo& info) {
   out["failure_policy"] = lower(to_string(info.failure_policy));
   out["critical"] = info.critical;
   out["on"] = info.on_topic ? py::object(py::str(*info.on_topic)) : py::object(py::none());
+  out["priority"] = info.priority ? py::object(py::int_(*info.priority)) : py::object(py::none());
   out["last_error"] = info.last_error;
   py::list pubs;
   for (const auto& topic : info.publishers)
@@ -109,10 +110,12 @@ py::dict info_dict(const NodeInfo& info) {
   return out;
 }
 
-py::dict metrics_dict(const NodeMetrics& m) {
+/// A node's counters, and its priority (seed 001's get_node_stats() example prints it).
+py::dict metrics_dict(const NodeMetrics& m, std::optional<int> priority) {
   py::dict out;
   out["name"] = m.name;
   out["order"] = m.order;
+  out["priority"] = priority ? py::object(py::int_(*priority)) : py::object(py::none());
   out["total_ticks"] = m.total_ticks;
   out["successful_ticks"] = m.successful_ticks;
   out["failed_ticks"] = m.failed_ticks;
@@ -311,8 +314,10 @@ void bind_scheduler(py::module_& m) {
            })
       .def("node_metrics",
            [](const Scheduler& sched, const std::string& name) -> py::object {
-             auto metrics = sched.node_metrics(name);
-             return metrics ? py::object(metrics_dict(*metrics)) : py::object(py::none());
+             const auto metrics = sched.node_metrics(name);
+             const auto info = sched.node_info(name);
+             return metrics && info ? py::object(metrics_dict(*metrics, info->priority))
+                                    : py::object(py::none());
            })
       .def("safety_stats",
            [](const Scheduler& sched) {

@@ -135,7 +135,8 @@ class Scheduler:
         return self._core.nodes()
 
     def get_node_stats(self, name: str) -> dict | None:
-        """The node's tick counts, durations (seconds), misses and restarts."""
+        """The node's priority (None when unset), tick counts, durations (seconds), misses and
+        restarts."""
         return self._core.node_metrics(name)
 
     def safety_stats(self) -> dict:

@@ -54,6 +54,7 @@ NodeInfo SchedulerImpl::info(const NodeSlot& slot) const {
   info.failure_policy = slot.config.failure_policy.kind();
   info.critical = slot.critical;
   info.on_topic = slot.config.on_topic;
+  info.priority = slot.config.priority;
   info.last_error = slot.last_error;
   info.publishers = slot.publishers;
   info.subscribers = slot.subscribers;

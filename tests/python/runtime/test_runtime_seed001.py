@@ -436,3 +436,21 @@ def test_init_failure_excludes_only_that_node():
     assert ticked == ["ok", "ok"]
     states = {i["name"]: i["state"] for i in sched.get_all_nodes()}
     assert states["broken"] == "Error"
+
+
+def test_get_node_stats_as_written(capsys):
+    sched = Scheduler(tick_rate=1000)
+    sched.add(Node(name="motor", tick=lambda n: None, rate=1000, order=0, priority=80))
+    sched.add(Node(name="logger", tick=lambda n: None, rate=10, order=100))
+    sched.tick_once()
+    sched.tick_once()
+
+    stats = sched.get_node_stats("motor")
+    print(f"Node: {stats['name']}")
+    print(f"Priority: {stats['priority']}")
+    print(f"Total ticks: {stats['total_ticks']}")
+    print(f"Errors: {stats['errors_count']}")
+
+    assert capsys.readouterr().out == "Node: motor\nPriority: 80\nTotal ticks: 2\nErrors: 0\n"
+    assert sched.get_node_stats("logger")["priority"] is None
+    assert sched.get_node_stats("nope") is None
