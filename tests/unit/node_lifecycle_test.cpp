@@ -132,6 +132,19 @@ TEST(NodeLifecycle, FatalInitFailureStopsTheScheduler) {
   EXPECT_EQ(sched.status(), horus::SchedulerStatus::Stopped);
 }
 
+TEST(NodeLifecycle, FatalWithoutStopOnFailedInitExcludesTheNodeAndOthersContinue) {
+  Journal journal;
+  horus::Scheduler sched;
+  add(sched, journal, "lidar", 0, horus::FailurePolicy::Fatal{.stop_on_failed_init = false})
+      ->init_throws = true;
+  add(sched, journal, "motor", 1);
+  sched.tick_once();
+  EXPECT_EQ(journal.only("tick:"), (std::vector<std::string>{"tick:motor"}));
+  EXPECT_EQ(sched.node_info("lidar")->state, horus::NodeState::Error);
+  EXPECT_EQ(sched.node_info("lidar")->failure_policy, horus::FailurePolicy::Kind::Fatal);
+  EXPECT_EQ(sched.stop_reason(), "");
+}
+
 TEST(NodeLifecycle, ShutdownRunsInReverseOrderAndSurvivesAThrowingNode) {
   Journal journal;
   horus::Scheduler sched;

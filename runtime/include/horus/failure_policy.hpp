@@ -12,8 +12,12 @@ namespace horus {
 ///   .failure_policy(horus::FailurePolicy::Restart{.max_restarts = 3, .initial_backoff = 1_ms})
 class FailurePolicy {
  public:
-  /// The node's failure stops the scheduler (default).
-  struct Fatal {};
+  /// The node's failure stops the scheduler (default). With stop_on_failed_init false, a failed
+  /// init() only excludes the node (Error state) and the others run on: seed 001's rule, which
+  /// the Python scheduler applies to nodes added without a failure_policy.
+  struct Fatal {
+    bool stop_on_failed_init = true;
+  };
   /// Re-run init() after initial_backoff, doubling the wait after each further failure; after
   /// max_restarts failed restarts the failure is treated as Fatal.
   struct Restart {
@@ -31,14 +35,16 @@ class FailurePolicy {
 
   enum class Kind : std::uint8_t { Fatal, Restart, Skip, Ignore };
 
-  FailurePolicy() = default;
+  // Not "= default": GCC cannot use Fatal's member initialiser before this class is complete.
+  FailurePolicy() : policy_(Fatal{}) {}
   FailurePolicy(Fatal p) : policy_(p) {}
   FailurePolicy(Restart p) : policy_(p) {}
   FailurePolicy(Skip p) : policy_(p) {}
   FailurePolicy(Ignore p) : policy_(p) {}
 
   Kind kind() const noexcept { return static_cast<Kind>(policy_.index()); }
-  /// The parameters of a Restart / Skip policy; nullptr for other kinds.
+  /// The parameters of a Fatal / Restart / Skip policy; nullptr for other kinds.
+  const Fatal* fatal() const noexcept { return std::get_if<Fatal>(&policy_); }
   const Restart* restart() const noexcept { return std::get_if<Restart>(&policy_); }
   const Skip* skip() const noexcept { return std::get_if<Skip>(&policy_); }
 

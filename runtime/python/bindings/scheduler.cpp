@@ -227,7 +227,11 @@ void bind_scheduler(py::module_& m) {
             if (auto b = from_seconds(budget)) builder.budget(*b);
             if (auto d = from_seconds(deadline)) builder.deadline(*d);
             if (on_miss) builder.on_miss(parse_miss(*on_miss));
-            if (failure_policy) builder.failure_policy(parse_failure_policy(*failure_policy));
+            // Seed 001: without a policy, a failed init() excludes the node and the others
+            // run on; a failing tick() still stops the scheduler (docs/seeds.md).
+            builder.failure_policy(failure_policy
+                                       ? parse_failure_policy(*failure_policy)
+                                       : FailurePolicy::Fatal{.stop_on_failed_init = false});
             if (on) builder.on(*on);
             if (priority) builder.priority(*priority);
             if (core) builder.core(*core);

@@ -232,6 +232,10 @@ void SchedulerImpl::handle_failure(NodeSlot& slot, Phase phase, const std::strin
   const FailurePolicy& policy = slot.config.failure_policy;
   switch (policy.kind()) {
     case FailurePolicy::Kind::Fatal:
+      if (phase == Phase::Init && !policy.fatal()->stop_on_failed_init) {
+        slot.state.store(NodeState::Error);
+        break;
+      }
       slot.state.store(phase == Phase::Tick ? NodeState::Crashed : NodeState::Error);
       std::snprintf(reason, sizeof(reason), "node '%s' failed in %s: %s (FailurePolicy::Fatal)",
                     slot.name.c_str(), phase_name(phase), what.c_str());

@@ -421,21 +421,51 @@ def test_reverse_order_shutdown():
 
 
 def test_init_failure_excludes_only_that_node():
+    # Seed 001's default: no failure_policy, yet the run goes on without the broken node.
     ticked = []
 
     def broken(node):
         raise OSError("no such device")
 
     sched = Scheduler(tick_rate=100, deterministic=True)
-    # The C++ scheduler's default policy (fatal) would stop everything; this one excludes.
-    sched.add(Node(name="broken", init=broken, tick=lambda n: ticked.append("broken"), rate=100,
-                   failure_policy="ignore"))
+    sched.add(Node(name="broken", init=broken, tick=lambda n: ticked.append("broken"), rate=100))
     sched.add(Node(name="ok", tick=lambda n: ticked.append("ok"), rate=100))
     sched.tick_once()
     sched.tick_once()
     assert ticked == ["ok", "ok"]
-    states = {i["name"]: i["state"] for i in sched.get_all_nodes()}
-    assert states["broken"] == "Error"
+    info = {i["name"]: i for i in sched.get_all_nodes()}
+    assert info["broken"]["state"] == "Error"
+    assert info["broken"]["last_error"].startswith("init(): OSError: no such device")
+    assert sched.stop_reason() == ""
+
+    ticked.clear()
+    running = Scheduler(tick_rate=100, deterministic=True)
+    running.add(Node(name="broken", init=broken, tick=lambda n: ticked.append("broken"), rate=100))
+    running.add(Node(name="ok", tick=lambda n: ticked.append("ok"), rate=100))
+    assert running.run(duration=0.05) == 0
+    assert ticked == ["ok"] * 5
+
+
+def test_failure_policy_fatal_given_explicitly_still_stops_on_a_failed_init():
+    ticked = []
+    sched = Scheduler(tick_rate=100, deterministic=True)
+    sched.add(Node(name="broken", init=lambda n: 1 / 0, tick=lambda n: None, rate=100,
+                   failure_policy="fatal"))
+    sched.add(Node(name="ok", tick=lambda n: ticked.append("ok"), rate=100))
+    assert sched.run(duration=1.0) == 1
+    assert ticked == []
+    assert "node 'broken' failed in init()" in sched.stop_reason()
+
+
+def test_a_failing_tick_without_a_policy_stops_the_scheduler():
+    def flaky(node):
+        raise ConnectionError("encoder lost")
+
+    sched = Scheduler(tick_rate=100, deterministic=True)
+    sched.add(Node(name="motor", tick=flaky, rate=100))
+    assert sched.run(duration=1.0) == 1
+    assert sched.get_node_stats("motor")["failed_ticks"] == 1
+    assert sched.get_all_nodes()[0]["state"] == "Crashed"
 
 
 def test_get_node_stats_as_written(capsys):
