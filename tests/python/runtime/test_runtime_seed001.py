@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import os
 import textwrap
+import threading
 import time
 
 import pytest
@@ -484,3 +485,122 @@ def test_get_node_stats_as_written(capsys):
     assert capsys.readouterr().out == "Node: motor\nPriority: 80\nTotal ticks: 2\nErrors: 0\n"
     assert sched.get_node_stats("logger")["priority"] is None
     assert sched.get_node_stats("nope") is None
+
+
+def test_safety_stats_as_written(capsys):
+    sched = Scheduler(tick_rate=1000, watchdog_ms=100)
+    sched.add(Node(name="slow", tick=lambda n: time.sleep(0.12), rate=1000, order=0,
+                   budget=100 * us))
+    sched.add(Node(name="quick", tick=lambda n: None, rate=1000, order=10))
+    sched.tick_once()
+
+    stats = sched.safety_stats()
+    if stats:
+        print(f"Budget overruns: {stats['budget_overruns']}")
+        print(f"Watchdog expirations: {stats['watchdog_expirations']}")
+        print(f"Node health states: {stats['health_states']}")
+
+    out = capsys.readouterr().out
+    assert "Budget overruns: 1\nWatchdog expirations: 1\nNode health states: {" in out
+    assert stats["budget_overruns"] == 1 and stats["watchdog_expirations"] == 1
+    assert set(stats["health_states"]) == {"slow", "quick"}
+    # Past 1x its watchdog (2x on a loaded machine); never Isolated, which is for critical nodes.
+    assert stats["health_states"]["slow"] in ("Warning", "Unhealthy")
+    assert stats["health_states"]["quick"] == "Healthy"
+
+
+def test_per_node_watchdog_overrides_the_global_one():
+    motor_ctrl = lambda node: None  # noqa: E731
+    motor = Node(
+        name="motor",
+        tick=motor_ctrl,
+        rate=1000,
+        order=0,
+        watchdog=200 * ms,  # Stricter: 200 ms instead of global 500 ms
+    )
+    sched = Scheduler(tick_rate=1000, watchdog_ms=500).add(motor)
+    sched.add(Node(name="lidar", tick=motor_ctrl, rate=1000, order=1))
+    sched.tick_once()
+    watchdogs = {i["name"]: i["watchdog"] for i in sched.get_all_nodes()}
+    assert watchdogs == {"motor": pytest.approx(0.2), "lidar": pytest.approx(0.5)}
+
+
+def _wait_for(condition, what: str, timeout: float = 30.0) -> None:
+    end = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < end, f"timed out waiting for {what}"
+        time.sleep(0.005)
+
+
+def test_runtime_mutation_on_a_running_scheduler():
+    sensor_ticks, logger_ticks, shut_down = [], [], []
+    read_lidar = lambda node: sensor_ticks.append(horus.tick())  # noqa: E731
+    sched = Scheduler(tick_rate=1000)
+    # Sensor normally runs at 100 Hz
+    sched.add(Node(name="sensor", tick=read_lidar, rate=100, order=0))
+    sched.add(Node(name="cloud_logger", tick=lambda n: logger_ticks.append(1), rate=100,
+                   order=100, shutdown=lambda n: shut_down.append(n.name)))
+    runner = threading.Thread(target=sched.run)  # running in a thread
+    runner.start()
+    try:
+        _wait_for(lambda: logger_ticks and sensor_ticks, "the first ticks")
+
+        # Slow down to conserve power
+        assert sched.set_node_rate("sensor", 20)   # 100 Hz -> 20 Hz
+        assert sched.get_all_nodes()[0]["rate"] == 20.0
+        # Speed up for precision docking
+        assert sched.set_node_rate("sensor", 500)  # 20 Hz -> 500 Hz
+        assert sched.get_all_nodes()[0]["rate"] == 500.0
+
+        removed = sched.remove_node("cloud_logger")  # Returns True if found
+        assert removed is True
+        _wait_for(lambda: shut_down, "the removed node's shutdown()")
+        assert not sched.has_node("cloud_logger") and sched.get_node_names() == ["sensor"]
+        ticks_after_removal = len(logger_ticks)
+        seen = len(sensor_ticks)
+        _wait_for(lambda: len(sensor_ticks) > seen + 5, "the sensor to tick on")
+        assert len(logger_ticks) == ticks_after_removal
+        assert sched.remove_node("cloud_logger") is False
+    finally:
+        sched.stop()
+        runner.join(timeout=30)
+    assert not runner.is_alive()
+    assert shut_down == ["cloud_logger"]
+
+
+def test_a_frozen_critical_node_puts_every_node_in_its_safe_state():
+    entered, motor_ticks, lidar_ticks = [], [], []
+
+    class Motor(Node):
+        def tick(self):
+            motor_ticks.append(horus.tick())
+            if len(motor_ticks) == 1:
+                time.sleep(0.35)  # frozen past 3x its 100 ms critical timeout
+
+        def enter_safe_state(self):
+            entered.append(self.name)
+
+        def is_safe_state(self):
+            return False  # stays isolated
+
+    class Lidar(Node):
+        def tick(self):
+            lidar_ticks.append(horus.tick())
+
+        def enter_safe_state(self):
+            entered.append(self.name)
+
+    sched = Scheduler(tick_rate=100)
+    sched.add(Motor(name="motor_controller", rate=100, order=0))
+    sched.add(Lidar(name="lidar", rate=100, order=10))
+    sched.add_critical_node("motor_controller", timeout_ms=100)
+    sched.tick_once()
+    assert sorted(entered) == ["lidar", "motor_controller"]
+    assert sched.safety_stats()["health_states"]["motor_controller"] == "Isolated"
+    info = {i["name"]: i for i in sched.get_all_nodes()}
+    assert info["motor_controller"]["critical"] and not info["lidar"]["critical"]
+    assert info["motor_controller"]["watchdog"] == pytest.approx(0.1)
+
+    sched.tick_once()
+    assert motor_ticks == [0], "an isolated node is out of the tick loop"
+    assert lidar_ticks == [0, 1]
