@@ -1,12 +1,15 @@
 """The `horus` command against live C++ and Python processes (bin/horus, as a user runs it)."""
 from __future__ import annotations
 
+import calendar
 import json
 import os
 import pathlib
+import re
 import shutil
 import subprocess
 import sys
+import time
 
 from conftest import HORUS, run_horus, wait_ready, wait_until
 
@@ -336,8 +339,16 @@ def test_completion_script_names_the_subcommands(children):
     assert _complete(result.stdout, "record", "d") == ["delete", "diff"]
 
 
+def started_between(started_wall_ns: int, before: float, after: float) -> bool:
+    """Whether a start time the command shows lies between two wall-clock readings taken around
+    the process's start, give or take the kernel's clock tick (it is counted in ticks)."""
+    return before - 0.05 <= started_wall_ns / 1e9 <= after + 0.05
+
+
 def test_node_list_shows_a_schedulers_nodes_with_their_topics(children):
+    before = time.time()
     process = children.python(SCHEDULER.format(sensor="lidar"))
+    after = time.time()
     wait_ready(process)
     nodes = wait_until(lambda: json.loads(run_horus("node", "list", "--json").stdout),
                        "the scheduler's announcement")
@@ -348,13 +359,24 @@ def test_node_list_shows_a_schedulers_nodes_with_their_topics(children):
     assert lidar["publishers"] == [{"topic": "scan", "type": "horus.msg.GenericMessage"}]
     assert planner["subscribers"] == [{"topic": "scan", "type": "horus.msg.GenericMessage"}]
     assert lidar["state"] == "Running" and lidar["health"] == "Healthy"
+    assert started_between(lidar["started_wall_ns"], before, after), (lidar, before, after)
 
     assert run_horus("node", "list").stdout.split() == ["lidar", "planner"]
     verbose = run_horus("node", "list", "-v").stdout.splitlines()
     assert verbose[0].split()[:4] == ["NODE", "PID", "SCHEDULER", "RATE_HZ"]
     info = run_horus("node", "info", "planner")
     assert info.returncode == 0, info.stderr
-    assert f"process: pid {process.pid}" in info.stdout
+    shown = re.search(rf"^process: pid {process.pid} \(started (\S+)\.(\d\d)Z\), scheduler ",
+                      info.stdout, re.MULTILINE)
+    assert shown, info.stdout
+    seconds = calendar.timegm(time.strptime(shown[1], "%Y-%m-%dT%H:%M:%S")) + int(shown[2]) / 100
+    assert abs(seconds - planner["started_wall_ns"] / 1e9) < 0.01
+    described = json.loads(run_horus("node", "info", "planner", "--json").stdout)
+    assert [(n["name"], n["pid"], n["rate_hz"]) for n in described] == \
+        [("planner", process.pid, 20.0)]
+    assert described[0]["subscribers"] == planner["subscribers"]
+    # The same start, worked out again from the boot time (two clocks read a moment apart).
+    assert abs(described[0]["started_wall_ns"] - planner["started_wall_ns"]) < 1_000_000
     assert "subscribers: scan (horus.msg.GenericMessage)" in info.stdout
     assert "rate: 20.0 Hz requested" in info.stdout
 
@@ -472,7 +494,9 @@ while True:
 
 
 def test_processes_without_a_scheduler_announce_their_topics_and_services(children):
+    before = time.time()
     python = children.python(TOPIC_WITHOUT_SCHEDULER)
+    after = time.time()
     wait_ready(python)
     server = children.program(os.environ["HORUS_PY_SERVICE_PEER"], "serve")
     wait_ready(server, "serving")
@@ -486,6 +510,12 @@ def test_processes_without_a_scheduler_announce_their_topics_and_services(childr
     assert processes[python.pid]["topics"] == [
         {"topic": "alone", "type": "horus.msg.CmdVel", "handles": 1}]
     assert processes[python.pid]["nodes"] == [] and processes[python.pid]["services"] == []
+    assert started_between(processes[python.pid]["started_wall_ns"], before, after)
+    table = run_horus("process", "list").stdout.splitlines()
+    assert table[0].split()[:3] == ["PID", "STARTED", "PROGRAM"]
+    row = next(line.split() for line in table if line.startswith(f"{python.pid} "))
+    assert re.fullmatch(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d\dZ", row[1]), row
+    assert row[2] == "python3"
     served = {s["service"]: s for s in processes[server.pid]["services"]}
     assert served["Add"] == {"service": "Add", "role": "server",
                              "request_type": "pyrt_test.AddRequest",

@@ -96,6 +96,19 @@ def _find_topic(args, name: str) -> dict:
     raise CommandFailed(f"no topic '{name}' in namespace '{args.namespace or _core().current_namespace()}'")
 
 
+def _utc(seconds: float, digits: int = 0) -> str:
+    """A wall-clock time as ISO 8601 UTC, with `digits` decimals of the second."""
+    text = time.strftime("%Y-%m-%dT%H:%M:%S", time.gmtime(seconds))
+    if digits:
+        text += f"{seconds % 1:.{digits}f}"[1:]
+    return text + "Z"
+
+
+def _started(started_wall_ns: int) -> str:
+    """When a process started (to the kernel's clock tick: two decimals), or "?"."""
+    return _utc(started_wall_ns / 1e9, 2) if started_wall_ns else "?"
+
+
 def _topic_rate(topic: dict, since: dict | None, seconds: float) -> float | None:
     if since is None or seconds <= 0:
         return None
@@ -141,7 +154,7 @@ def topic_info(args) -> int:
         users = ", ".join(f"pid {p['pid']} ({p['program']})" for p in t["processes"]) or "none"
         print(f"open in: {users}")
         if t["last_send_s"] is not None:
-            print("last send: " + time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(t["last_send_s"])))
+            print(f"last send: {_utc(t['last_send_s'])}")
         if t["schema"]:
             print("schema:")
             for line in t["schema"].splitlines():
@@ -533,23 +546,24 @@ def service_call(args) -> int:
                                 f"{args.timeout:g} s")
 
 
-def _announcements(args) -> list[tuple[int, dict]]:
-    """(pid, announcement) of the namespace's live processes: a scheduler's (with "nodes") or a
-    process's (with "process": its topics and services). Dead processes' announcements are never
-    shown: `horus shm clean` removes them."""
+def _announcements(args) -> list[tuple[dict, dict]]:
+    """(presence entry: pid, started_wall_ns..., announcement) of the namespace's live processes:
+    a scheduler's announcement (with "nodes") or a process's (with "process": its topics and
+    services). Dead processes' announcements are never shown: `horus shm clean` removes them."""
     found = []
     for entry in _core().list_presence(args.namespace):
         if entry["alive"] and not entry["error"]:
-            found.append((entry["pid"], json.loads(entry["snapshot_json"])))
+            found.append((entry, json.loads(entry["snapshot_json"])))
     return found
 
 
 def _processes(args) -> list[dict]:
     """The namespace's live processes, each with its schedulers' nodes, topics and services."""
     by_pid: dict[int, dict] = {}
-    for pid, snapshot in _announcements(args):
-        process = by_pid.setdefault(pid, {"pid": pid, "program": "?", "nodes": [], "topics": [],
-                                          "services": []})
+    for entry, snapshot in _announcements(args):
+        process = by_pid.setdefault(entry["pid"], {
+            "pid": entry["pid"], "started_wall_ns": entry["started_wall_ns"], "program": "?",
+            "nodes": [], "topics": [], "services": []})
         if "process" in snapshot:
             process["program"] = snapshot["process"]
             process["topics"] += snapshot["topics"]
@@ -563,8 +577,9 @@ def process_list(args) -> int:
     processes = _processes(args)
 
     def render(rows):
-        _table(["PID", "PROGRAM", "NODES", "TOPICS", "SERVICES"],
-               [[p["pid"], p["program"], ",".join(p["nodes"]) or "-",
+        _table(["PID", "STARTED", "PROGRAM", "NODES", "TOPICS", "SERVICES"],
+               [[p["pid"], _started(p["started_wall_ns"]), p["program"],
+                 ",".join(p["nodes"]) or "-",
                  ",".join(t["topic"] for t in p["topics"]) or "-",
                  ",".join(f"{s['service']}({s['role']})" for s in p["services"]) or "-"]
                 for p in rows])
@@ -575,9 +590,10 @@ def process_list(args) -> int:
 def _live_nodes(args) -> list[dict]:
     """Every node of the namespace's live schedulers, with the process that runs it."""
     nodes = []
-    for pid, snapshot in _announcements(args):
+    for entry, snapshot in _announcements(args):
         for node in snapshot.get("nodes", []):
-            node["pid"] = pid
+            node["pid"] = entry["pid"]
+            node["started_wall_ns"] = entry["started_wall_ns"]
             node["scheduler"] = snapshot["scheduler"]
             nodes.append(node)
     nodes.sort(key=lambda n: (n["name"], n["pid"]))
@@ -610,7 +626,8 @@ def node_info(args) -> int:
     def render(rows):
         for n in rows:
             print(f"node: {n['name']}")
-            print(f"process: pid {n['pid']}, scheduler {n['scheduler']}")
+            print(f"process: pid {n['pid']} (started {_started(n['started_wall_ns'])}), "
+                  f"scheduler {n['scheduler']}")
             print(f"state: {n['state']}, health: {n['health']}")
             print(f"class: {n['class']}, order: {n['order']}")
             print(f"rate: {_rate(n['rate_hz'])} Hz requested, {_rate(n['achieved_rate_hz'])} Hz achieved")

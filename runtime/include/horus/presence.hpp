@@ -27,6 +27,9 @@ struct PresenceInfo {
   std::uint32_t pid = 0;
   /// Whether the announcing process still runs (a process that took over its pid does not count).
   bool alive = false;
+  /// When the announcing process started (ns since the Unix epoch, to the kernel's clock tick;
+  /// from the recorded identity, so a dead one's too); 0 when unknown.
+  std::int64_t started_wall_ns = 0;
   /// When the announcement was last rewritten (ns since the Unix epoch).
   std::int64_t updated_wall_ns = 0;
   /// The scheduler and its nodes as a JSON object: {"scheduler", "time_ns", "cycle", "nodes": [

@@ -70,6 +70,7 @@ void bind_introspection(py::module_& m) {
           entry["entry"] = info.entry;
           entry["pid"] = info.pid;
           entry["alive"] = info.alive;
+          entry["started_wall_ns"] = info.started_wall_ns;
           entry["updated_wall_ns"] = info.updated_wall_ns;
           entry["snapshot_json"] = info.snapshot_json;
           entry["error"] = info.error;

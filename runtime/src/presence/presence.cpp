@@ -133,6 +133,7 @@ PresenceInfo read_entry(int folder, const std::string& folder_path, const std::s
       return info;
     }
     info.pid = detail::identity_pid(identity);
+    info.started_wall_ns = detail::identity_start_wall_ns(identity);
     info.updated_wall_ns = updated;
     info.snapshot_json = text.substr(static_cast<std::size_t>(header_size));
     info.alive = detail::identity_alive(identity);

@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 
 namespace horus::detail {
 
@@ -95,6 +96,27 @@ bool identity_alive(std::uint64_t identity) noexcept {
   const std::uint64_t start = identity >> 32;
   const bool exited = stat.state == 'Z' || stat.state == 'X';
   return !exited && (start == 0 || (stat.start_ticks & 0xffffffffU) == start);
+}
+
+std::int64_t identity_start_wall_ns(std::uint64_t identity) noexcept {
+  const std::uint64_t start = identity >> 32;
+  const long ticks_per_second = ::sysconf(_SC_CLK_TCK);
+  timespec boot{};
+  timespec wall{};
+  if (start == 0 || ticks_per_second <= 0 || ::clock_gettime(CLOCK_BOOTTIME, &boot) != 0 ||
+      ::clock_gettime(CLOCK_REALTIME, &wall) != 0) {
+    return 0;
+  }
+  const std::int64_t tick_ns = 1'000'000'000 / ticks_per_second;
+  const std::int64_t since_boot_ns = boot.tv_sec * 1'000'000'000LL + boot.tv_nsec;
+  const auto now_ticks = static_cast<std::uint64_t>(since_boot_ns / tick_ns);
+  // The identity keeps the start's low 32 bits (497 days at 100 ticks/s): the start is the
+  // latest tick count up to now with those bits, so a machine up longer still gets it right.
+  const std::uint64_t start_ticks = now_ticks - ((now_ticks - start) & 0xffffffffU);
+  // Boot time from two continuous clocks, not from the tick count: the same start reads the
+  // same (to the microsecond) each time it is asked.
+  const std::int64_t booted_wall_ns = wall.tv_sec * 1'000'000'000LL + wall.tv_nsec - since_boot_ns;
+  return booted_wall_ns + static_cast<std::int64_t>(start_ticks) * tick_ns;
 }
 
 }  // namespace horus::detail

@@ -36,5 +36,8 @@ std::uint64_t this_process_identity() noexcept;
 /// has), and (when known) it started when the identity says. A syscall and a read of /proc:
 /// slow paths only.
 bool identity_alive(std::uint64_t identity) noexcept;
+/// When the process with this identity started, in ns since the Unix epoch (to the kernel's
+/// clock tick), as tools show it; 0 when the identity's start time is unknown.
+std::int64_t identity_start_wall_ns(std::uint64_t identity) noexcept;
 
 }  // namespace horus::detail
