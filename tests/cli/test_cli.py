@@ -230,13 +230,49 @@ def test_log_filters_and_follows_a_nodes_log_info(children):
         follow.communicate()
 
 
+MISSING_DEADLINES = """
+import time, horus
+ticks = [0]
+def slow(node):
+    time.sleep(0.02)  # ten times its deadline
+    ticks[0] += 1
+    if ticks[0] == 1:
+        print("ready", flush=True)
+sched = horus.Scheduler(tick_rate=20, name="agv")
+sched.add(horus.Node(name="slow", tick=slow, rate=20, deadline=0.002, on_miss="warn"))
+sched.run()
+"""
+
+
+def test_log_shows_the_schedulers_own_deadline_warning(children):
+    process = children.python(MISSING_DEADLINES)
+    wait_ready(process)
+    lines = wait_until(lambda: run_horus("log", "--level", "warn").stdout.splitlines(),
+                       "the scheduler's deadline warning")
+    # The scheduler logs as "@<its name>"; the first miss is logged, later ones only counted.
+    assert len(lines) == 1, lines
+    assert re.search(r" WARN @agv: node 'slow' missed its deadline by \d+ us \(further misses "
+                     r"counted only\)$", lines[0]), lines
+    assert run_horus("log", "--node", "@agv").stdout.splitlines() == lines
+    assert run_horus("log", "--node", "slow", "--level", "warn").stdout == ""
+    records = json.loads(run_horus("log", "--level", "warn", "--json").stdout)
+    assert [(r["source"], r["level"], r["pid"]) for r in records] == \
+        [("@agv", "WARN", process.pid)]
+
+
 def test_shm_clean_removes_only_the_dead(children, namespace):
-    wait_ready(children.python(PUBLISH_CMDVEL.format(name="alive")))
+    alive = children.python(PUBLISH_CMDVEL.format(name="alive"))
+    wait_ready(alive)
     dead = children.program(os.environ["HORUS_PY_PEER"], "pub", "cmdvel", "dead", "1")
     assert dead.wait(timeout=30) == 0
     listing = {s["name"]: s for s in json.loads(run_horus("shm", "list", "--json").stdout)}
-    assert listing["alive"]["live_users"] == 1 and listing["dead"]["live_users"] == 0
+    assert listing["alive"]["users"] == [{"pid": alive.pid, "program": "python3"}]
+    assert listing["alive"]["in_use"]
+    assert listing["dead"]["users"] == [] and not listing["dead"]["in_use"]
     assert listing["dead"]["size"] > 0
+    table = {line.split()[0]: line.split() for line in run_horus("shm", "list").stdout.splitlines()}
+    assert table["SEGMENT"][:3] == ["SEGMENT", "BYTES", "USERS"]
+    assert table["alive"][2] == f"{alive.pid}(python3)" and table["dead"][2] == "-"
 
     result = run_horus("shm", "clean")
     assert result.returncode == 0, result.stderr

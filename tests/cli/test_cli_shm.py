@@ -1,5 +1,5 @@
-"""`horus shm list` / `clean` and a namespace's log ring and presence folder: shown with whether a
-live process uses them, kept while one does, removed once the last one died."""
+"""`horus shm list` / `clean` and a namespace's log ring and presence folder: shown with the live
+processes that use them, kept while one does, removed once the last one died."""
 from __future__ import annotations
 
 import json
@@ -31,9 +31,12 @@ def test_the_log_ring_and_presence_folder_are_listed_and_cleaned_once_their_user
     assert listed["@logs"]["path"].endswith(f"/@logs/{namespace}")
     assert listed["@presence"]["path"].endswith(f"/@presence/{namespace}")
     assert listed["@logs"]["in_use"] and listed["@presence"]["in_use"]
+    # The talker holds both (a lock each): the only user of each.
+    talker_user = [{"pid": talker.pid, "program": "python3"}]
+    assert listed["@logs"]["users"] == talker_user and listed["@presence"]["users"] == talker_user
     assert listed["@logs"]["size"] > 0
     table = {line.split()[0]: line.split() for line in run_horus("shm", "list").stdout.splitlines()}
-    assert table["@logs"][2:4] == ["in", "use"]
+    assert table["@logs"][2] == table["@presence"][2] == f"{talker.pid}(python3)"
 
     assert run_horus("shm", "clean").returncode == 0
     assert {name: row["in_use"] for name, row in shm_objects().items()} == \
@@ -41,10 +44,10 @@ def test_the_log_ring_and_presence_folder_are_listed_and_cleaned_once_their_user
 
     talker.kill()  # no destructor: its announcement stays, its locks go
     talker.wait()
-    assert {name: row["in_use"] for name, row in shm_objects().items()} == \
-        {"@logs": False, "@presence": False}
+    assert {name: (row["in_use"], row["users"]) for name, row in shm_objects().items()} == \
+        {"@logs": (False, []), "@presence": (False, [])}
     table = {line.split()[0]: line.split() for line in run_horus("shm", "list").stdout.splitlines()}
-    assert table["@logs"][2] == "0"
+    assert table["@logs"][2] == table["@presence"][2] == "-"
 
     cleaned = run_horus("shm", "clean", "--json")
     assert cleaned.returncode == 0, cleaned.stderr

@@ -676,6 +676,35 @@ def log(args) -> int:
         seen = snapshot["written"]
 
 
+def _program(pid: int) -> str:
+    """A process's program name as the kernel tells it, or "?" (gone, or not ours to read)."""
+    try:
+        with open(f"/proc/{pid}/comm", encoding="utf-8", errors="replace") as comm:
+            return comm.read().strip() or "?"
+    except OSError:
+        return "?"
+
+
+def _flock_holders(path: str) -> list[int]:
+    """The pids holding a flock on `path` (those waiting for one left out), from /proc/locks."""
+    try:
+        status = os.stat(path)
+        with open("/proc/locks", encoding="ascii", errors="replace") as locks:
+            lines = locks.read().splitlines()
+    except OSError:
+        return []
+    holders = set()
+    for line in lines:
+        fields = line.split()  # "1: FLOCK ADVISORY READ <pid> <major>:<minor>:<inode> 0 EOF"
+        if len(fields) < 6 or fields[1] != "FLOCK":
+            continue  # a POSIX lock, or a waiter ("1: -> FLOCK ...")
+        major, minor, inode = fields[5].split(":")
+        if (int(major, 16), int(minor, 16), int(inode)) == \
+                (os.major(status.st_dev), os.minor(status.st_dev), status.st_ino):
+            holders.add(int(fields[4]))
+    return sorted(holders)
+
+
 def shm_list(args) -> int:
     core = _core()
     folder = core.namespace_directory(args.namespace)
@@ -686,19 +715,26 @@ def shm_list(args) -> int:
             size = os.stat(path).st_size
         except OSError:
             size = None
-        users = topic["publishers"] + topic["subscribers"]
         rows.append({"name": topic["name"], "path": path, "size": size,
-                     "live_users": users, "in_use": users > 0, "error": topic["error"]})
-    # The log ring and the presence folder: their users are told by a lock, not counted.
-    rows += [{"name": o["kind"], "path": o["path"], "size": o["size"], "live_users": None,
-              "in_use": o["in_use"], "error": ""}
+                     "pids": topic["user_pids"], "in_use": bool(topic["user_pids"]),
+                     "error": topic["error"]})
+    # The log ring and the presence folder: their users hold a lock on them.
+    rows += [{"name": o["kind"], "path": o["path"], "size": o["size"],
+              "pids": _flock_holders(o["path"]), "in_use": o["in_use"], "error": ""}
              for o in core.list_namespace_objects(args.namespace)]
+    for row in rows:
+        row["users"] = [{"pid": pid, "program": _program(pid)} for pid in row.pop("pids")]
+
+    def users_text(row) -> str:
+        if row["users"]:
+            return ",".join(f"{u['pid']}({u['program']})" for u in row["users"])
+        # A lock held by a process this one cannot see (another pid namespace).
+        return "(in use)" if row["in_use"] else "-"
 
     def render(items):
-        _table(["SEGMENT", "BYTES", "LIVE_USERS", "PATH"],
-               [[r["name"], "-" if r["size"] is None else r["size"],
-                 r["live_users"] if r["live_users"] is not None else
-                 ("in use" if r["in_use"] else 0), r["path"]] for r in items])
+        _table(["SEGMENT", "BYTES", "USERS", "PATH"],
+               [[r["name"], "-" if r["size"] is None else r["size"], users_text(r), r["path"]]
+                for r in items])
     _emit(rows, args.json, render)
     return EXIT_OK
 

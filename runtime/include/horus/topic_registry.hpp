@@ -28,6 +28,9 @@ struct TopicInfo {
   /// Open handles in live processes that have sent / received at least once.
   std::size_t publishers = 0;
   std::size_t subscribers = 0;
+  /// The live processes with the segment open (any handle, notifiers too: what keeps
+  /// `horus shm clean` away), ascending, each once.
+  std::vector<std::uint32_t> user_pids;
   /// Whether the calling process has a Topic handle on it (a notifier does not count): how a
   /// session recording finds the topics its nodes opened without naming them.
   bool open_here = false;

@@ -128,6 +128,7 @@ void bind_topics(py::module_& m) {
           topic["is_pod"] = info.is_pod;
           topic["publishers"] = info.publishers;
           topic["subscribers"] = info.subscribers;
+          topic["user_pids"] = info.user_pids;
           topic["message_count"] = info.message_count;
           topic["schema"] = info.schema;
           topic["capacity"] = info.capacity;

@@ -135,8 +135,12 @@ void inspect(const detail::NamespaceFolder& folder, TopicInfo& info,
       if (detail::identity_alive(process)) {
         info.publishers += (roles & detail::kRolePublisher) != 0 ? 1 : 0;
         info.subscribers += (roles & detail::kRoleSubscriber) != 0 ? 1 : 0;
+        info.user_pids.push_back(detail::identity_pid(process));
       }
     }
+    std::sort(info.user_pids.begin(), info.user_pids.end());
+    info.user_pids.erase(std::unique(info.user_pids.begin(), info.user_pids.end()),
+                         info.user_pids.end());
   }
   if (info.error.empty() && control.layout_ready.load(std::memory_order_acquire) == 1) {
     LayoutHeader header{};
