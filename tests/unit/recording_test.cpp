@@ -12,6 +12,7 @@
 #include <iterator>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "horus/horus.hpp"
@@ -364,6 +365,101 @@ TEST(Recording, DeterministicReplayGivesIdenticalOutputsRunAfterRun) {
   ASSERT_FALSE(first.empty());
   EXPECT_EQ(first, second);
   EXPECT_EQ(first.back(), expected_sum);  // every recorded input reached the node, in order
+}
+
+/// Publishes its tick count on two ticks of three.
+class Pulse : public horus::Node {
+ public:
+  std::string_view name() const override { return "pulse"; }
+  void tick() override {
+    if (ticks_ % 3 != 1) out_.send(topic_test::sealed<Sample>(ticks_));
+    ++ticks_;
+  }
+  std::vector<horus::TopicMetadata> publishers() const override {
+    return {{"pulse", std::string(horus::TypeInfo<Sample>::name)}};
+  }
+
+ private:
+  horus::Topic<Sample> out_{"pulse"};
+  std::uint64_t ticks_ = 0;
+};
+
+/// Notes on which of its ticks each pulse arrived, and publishes that pairing.
+class Listener : public horus::Node {
+ public:
+  explicit Listener(std::string name) : name_(std::move(name)), out_(name_ + "_out") {}
+  std::string_view name() const override { return name_; }
+  void tick() override {
+    while (auto msg = in_.try_recv()) {
+      arrivals.emplace_back(msg->seq, ticks_);
+      out_.send(topic_test::sealed<Sample>(msg->seq * 1000 + ticks_));
+    }
+    ++ticks_;
+  }
+  std::vector<horus::TopicMetadata> publishers() const override {
+    return {{name_ + "_out", std::string(horus::TypeInfo<Sample>::name)}};
+  }
+  std::vector<horus::TopicMetadata> subscribers() const override {
+    return {{"pulse", std::string(horus::TypeInfo<Sample>::name)}};
+  }
+
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> arrivals;  // (pulse, tick it arrived on)
+
+ private:
+  std::string name_;
+  horus::Topic<Sample> in_{"pulse"};
+  horus::Topic<Sample> out_;
+  std::uint64_t ticks_ = 0;
+};
+
+/// A live run records which tick of each reader a message reached; a deterministic replay
+/// delivers it so that a reader of the same name gets it on that same tick: the one ordered
+/// after the publisher in the same cycle, the one ordered before it in the next. Two replays
+/// recorded in turn hold the same outputs.
+TEST(Recording, DeterministicReplayDeliversEachMessageOnTheTickItWasReceived) {
+  topic_test::PrivateNamespace ns;
+  RecordingsFolder folder;
+  constexpr int kCycles = 60;
+  std::filesystem::path file;
+  const auto early = std::make_shared<Listener>("early");
+  const auto late = std::make_shared<Listener>("late");
+  {
+    horus::Scheduler sched(quiet_config().recording(true));  // live: the recorder lags as it may
+    sched.add(early).order(0).build();
+    sched.add(std::make_shared<Pulse>()).order(1).build();
+    sched.add(late).order(2).build();
+    for (int i = 0; i < kCycles; ++i) sched.tick_once();
+    file = sched.stop_recording().at(0);
+  }
+  ASSERT_EQ(late->arrivals.size(), 40U);
+  ASSERT_EQ(late->arrivals.front(), std::make_pair(std::uint64_t{0}, std::uint64_t{0}));
+  ASSERT_EQ(early->arrivals.front(), std::make_pair(std::uint64_t{0}, std::uint64_t{1}));
+  const horus::RecordingReader recording(file);
+  const auto ticks = recording.messages_on("/horus/ticks");
+  ASSERT_FALSE(ticks.empty());
+  EXPECT_THAT(std::string(ticks.front()->data.begin(), ticks.front()->data.end()),
+              ::testing::HasSubstr(R"("received":{"pulse":)"));
+
+  const auto replay = [&] {
+    const auto early_again = std::make_shared<Listener>("early");
+    const auto late_again = std::make_shared<Listener>("late");
+    horus::Scheduler sched(quiet_config().deterministic(true).recording(true).replay(file));
+    sched.add(early_again).order(0).build();
+    sched.add(late_again).order(2).build();
+    for (int i = 0; i < kCycles; ++i) sched.tick_once();
+    EXPECT_EQ(early_again->arrivals, early->arrivals);
+    EXPECT_EQ(late_again->arrivals, late->arrivals);
+    return sched.stop_recording().at(0);
+  };
+  const horus::RecordingReader first(replay());
+  const horus::RecordingReader second(replay());
+  for (const char* topic : {"early_out", "late_out"}) {
+    const auto a = first.messages_on(topic);
+    const auto b = second.messages_on(topic);
+    ASSERT_EQ(a.size(), b.size()) << topic;
+    EXPECT_FALSE(a.empty()) << topic;
+    for (std::size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i]->data, b[i]->data) << topic << i;
+  }
 }
 
 TEST(Recording, ReplayRefusesATopicWhoseTypeChangedNamingIt) {

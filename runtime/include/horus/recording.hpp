@@ -70,8 +70,10 @@ class Recorder {
 
   /// Records `topic` too, from now on (from when it appears, if it does not exist yet).
   void add_topic(const std::string& topic);
-  /// Records the ticks a node's scheduler logs into `log` on the "/horus/ticks" channel.
-  void add_tick_log(std::string node, std::shared_ptr<detail::TickLog> log);
+  /// Records the ticks a node's scheduler logs into `log` on the "/horus/ticks" channel, each
+  /// with the positions of the recorded `subscribed` topics when the tick started.
+  void add_tick_log(std::string node, std::shared_ptr<detail::TickLog> log,
+                    std::vector<std::string> subscribed = {});
 
   /// Takes what the rings hold now, on the calling thread (the recording thread waits
   /// meanwhile). A deterministic scheduler calls it after each pass, so that a simulation that

@@ -47,7 +47,8 @@ constexpr std::string_view kTickSchema =
     R"({"title":"horus.recording.Tick","type":"object",)"
     R"("properties":{"node":{"type":"string"},"tick":{"type":"integer"},)"
     R"("start_ns":{"type":"integer"},"duration_ns":{"type":"integer"},)"
-    R"("outcome":{"type":"string","enum":["ok","error","deadline_miss"]}},)"
+    R"("outcome":{"type":"string","enum":["ok","error","deadline_miss"]},)"
+    R"("received":{"type":"object","additionalProperties":{"type":"integer"}}},)"
     R"("required":["node","tick","start_ns","duration_ns","outcome"]})";
 
 std::string hex16(std::uint64_t value) {
@@ -109,9 +110,12 @@ class RecorderImpl {
     open_pending();
   }
 
-  void add_tick_log(std::string node, std::shared_ptr<TickLog> log) {
+  void add_tick_log(std::string node, std::shared_ptr<TickLog> log,
+                    std::vector<std::string> subscribed) {
     std::lock_guard lock(mutex_);
-    tick_logs_.push_back(NodeTicks{std::move(node), std::move(log)});
+    NodeTicks& ticks = tick_logs_.emplace_back(
+        NodeTicks{std::move(node), std::move(log), std::move(subscribed), {}});
+    for (const Recorded& topic : topics_) watch(ticks, topic);
   }
 
   void drain() {
@@ -146,7 +150,8 @@ class RecorderImpl {
  private:
   struct Recorded {
     std::string name;
-    TopicEndpoint endpoint;
+    /// Shared with the tick logs of the nodes that subscribe to it (TickLog::watch).
+    std::shared_ptr<TopicEndpoint> endpoint;
     std::uint16_t channel;
     /// Set for a pool-backed type: its frames are recorded with their data.
     std::unique_ptr<PoolFrames> frames;
@@ -156,7 +161,20 @@ class RecorderImpl {
   struct NodeTicks {
     std::string node;
     std::shared_ptr<TickLog> log;
+    std::vector<std::string> subscribed;  // the node's subscribers()
+    std::vector<std::string> watched;     // those its entries carry, in TickLog::watch order
   };
+
+  /// Lets `ticks` carry `topic`'s ring position if the node subscribes to it (mutex_ held).
+  static void watch(NodeTicks& ticks, const Recorded& topic) {
+    if (std::find(ticks.subscribed.begin(), ticks.subscribed.end(), topic.name) ==
+            ticks.subscribed.end() ||
+        std::find(ticks.watched.begin(), ticks.watched.end(), topic.name) != ticks.watched.end()) {
+      return;
+    }
+    if (ticks.log->watch(topic.endpoint->ring(), topic.endpoint))
+      ticks.watched.push_back(topic.name);
+  }
 
   bool known(const std::string& topic) const {
     return std::find(pending_.begin(), pending_.end(), topic) != pending_.end() ||
@@ -212,8 +230,9 @@ class RecorderImpl {
                                                     : "horus.msgpack";
     const std::uint16_t channel = writer_.add_channel(info.name, schema, encoding, metadata);
     std::vector<std::byte> descriptor(frames ? info.max_message_size : 0);
-    topics_.push_back(Recorded{info.name, TopicEndpoint(std::move(segment)), channel,
-                               std::move(frames), std::move(descriptor)});
+    topics_.push_back(Recorded{info.name, std::make_shared<TopicEndpoint>(std::move(segment)),
+                               channel, std::move(frames), std::move(descriptor)});
+    for (NodeTicks& ticks : tick_logs_) watch(ticks, topics_.back());
   }
 
   /// Looks for the topics to record that appeared since the last look (mutex_ held).
@@ -274,14 +293,14 @@ class RecorderImpl {
       for (int i = 0; i < limit && take_one(topic); ++i) ++taken;
     }
     for (NodeTicks& ticks : tick_logs_) {
-      taken += ticks.log->drain([&](const TickEntry& entry) { write_tick(ticks.node, entry); });
+      taken += ticks.log->drain([&](const TickEntry& entry) { write_tick(ticks, entry); });
     }
     return taken;
   }
 
   bool take_one(Recorded& topic) {
     if (topic.frames) return take_frame(topic);
-    const RingView& ring = topic.endpoint.ring();
+    const RingView& ring = topic.endpoint->ring();
     std::uint32_t size = 0;
     std::uint32_t sent_s = 0;
     const bool got =
@@ -293,7 +312,7 @@ class RecorderImpl {
         });
     if (!got) return false;
     writer_.commit_message(topic.channel,
-                           static_cast<std::uint32_t>(topic.endpoint.next_ticket() - 1),
+                           static_cast<std::uint32_t>(topic.endpoint->next_ticket() - 1),
                            realtime_ns(), std::uint64_t{sent_s} * 1'000'000'000U, size);
     return true;
   }
@@ -302,8 +321,8 @@ class RecorderImpl {
   /// send stamp of the slot it came from into `sent_s`.
   template <class Copy>
   static bool receive_stamped(Recorded& topic, std::uint32_t& sent_s, Copy&& copy) {
-    const RingView& ring = topic.endpoint.ring();
-    return topic.endpoint.receive(
+    const RingView& ring = topic.endpoint->ring();
+    return topic.endpoint->receive(
         false,
         [&](const std::byte* payload, std::uint32_t bytes) {
           if (!copy(payload, bytes)) return false;
@@ -335,12 +354,12 @@ class RecorderImpl {
       return true;
     }
     writer_.commit_message(topic.channel,
-                           static_cast<std::uint32_t>(topic.endpoint.next_ticket() - 1),
+                           static_cast<std::uint32_t>(topic.endpoint->next_ticket() - 1),
                            realtime_ns(), std::uint64_t{sent_s} * 1'000'000'000U, written);
     return true;
   }
 
-  void write_tick(const std::string& node, const TickEntry& entry) {
+  void write_tick(const NodeTicks& ticks, const TickEntry& entry) {
     if (ticks_channel_ == 0) {
       const std::uint16_t schema =
           writer_.add_schema("horus.recording.Tick", "jsonschema", kTickSchema);
@@ -349,12 +368,21 @@ class RecorderImpl {
     const auto start = static_cast<std::uint64_t>(entry.start_ns + clock_offset_ns_);
     tick_text_.clear();
     tick_text_ += "{\"node\":";
-    tick_text_ += json_string(node);
+    tick_text_ += json_string(ticks.node);
     tick_text_ += ",\"tick\":" + std::to_string(entry.tick) +
                   ",\"start_ns\":" + std::to_string(start) +
                   ",\"duration_ns\":" + std::to_string(entry.duration_ns) + ",\"outcome\":\"";
     tick_text_ += outcome_name(entry.outcome);
-    tick_text_ += "\"}";
+    tick_text_ += '"';
+    if (entry.watched > 0) {
+      tick_text_ += ",\"received\":{";
+      for (std::size_t i = 0; i < entry.watched; ++i) {
+        if (i > 0) tick_text_ += ',';
+        tick_text_ += json_string(ticks.watched[i]) + ":" + std::to_string(entry.received[i]);
+      }
+      tick_text_ += '}';
+    }
+    tick_text_ += '}';
     writer_.add_message(
         ticks_channel_, tick_sequence_++, start, start,
         {reinterpret_cast<const std::uint8_t*>(tick_text_.data()), tick_text_.size()});
@@ -366,7 +394,7 @@ class RecorderImpl {
     summary.messages = writer_.message_count();
     summary.bytes = writer_.file_size();
     for (const Recorded& topic : topics_) {
-      const TopicStats stats = topic.endpoint.stats();
+      const TopicStats stats = topic.endpoint->stats();
       const std::uint64_t lost = stats.lost + stats.invalid + topic.refused;
       if (lost > 0) summary.lost[topic.name] = lost;
       summary.lost_total += lost;
@@ -441,8 +469,9 @@ Recorder::Recorder(RecorderOptions options)
     : impl_(std::make_unique<detail::RecorderImpl>(std::move(options))) {}
 Recorder::~Recorder() = default;
 void Recorder::add_topic(const std::string& topic) { impl_->add_topic(topic); }
-void Recorder::add_tick_log(std::string node, std::shared_ptr<detail::TickLog> log) {
-  impl_->add_tick_log(std::move(node), std::move(log));
+void Recorder::add_tick_log(std::string node, std::shared_ptr<detail::TickLog> log,
+                            std::vector<std::string> subscribed) {
+  impl_->add_tick_log(std::move(node), std::move(log), std::move(subscribed));
 }
 const std::filesystem::path& Recorder::path() const noexcept { return impl_->path(); }
 bool Recorder::recording() const noexcept { return impl_->recording(); }

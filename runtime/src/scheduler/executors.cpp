@@ -128,13 +128,16 @@ void SchedulerImpl::pass_once(const std::vector<std::string>* names) {
   refresh_loop_slots();
   const std::vector<SlotPtr>& slots = loop_slots_;
   if (names != nullptr) check_names(slots, *names, "tick_once");
-  // What the recording received before this cycle began reaches its topics first.
-  if (replayer_) replayer_->deliver_before_cycle(cycle_.load(std::memory_order_relaxed));
+  // What the recording received before this cycle began reaches its topics first, and what a
+  // node of this name first received in this cycle, just before its tick.
+  const std::uint64_t cycle = cycle_.load(std::memory_order_relaxed);
+  if (replayer_) replayer_->deliver_before_cycle(cycle);
   std::int64_t mono = monotonic_ns();
   const std::int64_t pass_start = mono;
   for (const SlotPtr& slot : slots) {
     NodeSlot& s = *slot;
     if (!named(names, s.name)) continue;
+    if (replayer_) replayer_->deliver_before_tick(cycle, s.name);
     if (s.execution_class == ExecutionClass::Event) {
       if (s.notifier->wait(std::chrono::nanoseconds(0))) service(s, mono, mono);
     } else if (deterministic) {

@@ -142,6 +142,7 @@ void SchedulerImpl::service(NodeSlot& slot, std::int64_t release, std::int64_t& 
     slot.watchdog_level.store(0, std::memory_order_relaxed);
     slot.tick_started_ns.store(start, std::memory_order_release);
   }
+  if (slot.tick_log) slot.tick_log->note_start();
   std::exception_ptr error;
   {
     TickContextScope scope(&ctx);

@@ -377,8 +377,14 @@ void SchedulerImpl::prepare() {
     {
       std::lock_guard lock(mutex_);
       for (const SlotPtr& s : fresh) {
+        std::vector<std::string> subscribed;
         for (const TopicMetadata& t : s->publishers) topics.push_back(t.topic_name);
-        for (const TopicMetadata& t : s->subscribers) topics.push_back(t.topic_name);
+        for (const TopicMetadata& t : s->subscribers) {
+          topics.push_back(t.topic_name);
+          subscribed.push_back(t.topic_name);
+        }
+        // Its ticks, with the positions of the topics it reads (replay lines them up by those).
+        if (s->tick_log) recorder->add_tick_log(s->name, s->tick_log, std::move(subscribed));
       }
     }
     // And the topics this process has open, for nodes that open topics without naming them.
@@ -399,8 +405,7 @@ void SchedulerImpl::start_recording(const std::vector<SlotPtr>& fresh) {
   }
   for (const SlotPtr& s : fresh) {
     if (s->tick_log) continue;
-    s->tick_log = std::make_shared<TickLog>();
-    recorder_->add_tick_log(s->name, s->tick_log);
+    s->tick_log = std::make_shared<TickLog>();  // handed to the recorder once initialised
   }
 }
 

@@ -2,12 +2,24 @@
 // recorder's thread. A single-producer single-consumer ring: the tick path stores one entry and
 // publishes it with one release store (no lock, no allocation, no syscall); when the recorder
 // has fallen a whole ring behind, the tick is counted as dropped instead.
+//
+// Each entry also carries, for the topics the node subscribes to (up to kWatched of them), how
+// many tickets each ring had handed out when the tick started: a message of ticket t was there
+// for the node to receive in the first tick whose count exceeds t. A deterministic replay
+// delivers each recorded message before that tick (docs/recording.md), which a stamp taken by
+// the recorder (late by however far it lags) cannot tell.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
+#include <tuple>
+#include <utility>
+
+#include "horus/detail/ring.hpp"
 
 namespace horus::detail {
 
@@ -18,22 +30,50 @@ struct TickEntry {
   std::int64_t start_ns;  // CLOCK_MONOTONIC
   std::int64_t duration_ns;
   TickOutcome outcome;
+  /// How many of `received` are set: TickLog::watch() calls made before the tick started.
+  std::uint8_t watched = 0;
+  /// Tickets handed out on the i-th watched topic when the tick started.
+  std::array<std::uint64_t, 8> received{};
 };
 
 class TickLog {
  public:
   static constexpr std::size_t kCapacity = 4096;
+  static constexpr std::size_t kWatched = std::tuple_size_v<decltype(TickEntry::received)>;
+
+  /// Consumer: from the next tick on, entries carry `ring`'s tickets as received[i], i the number
+  /// of earlier calls (`owner` keeps the ring mapped as long as this log). False when kWatched
+  /// rings are watched already.
+  bool watch(const RingView& ring, std::shared_ptr<const void> owner) {
+    const std::size_t index = watched_count_.load(std::memory_order_relaxed);
+    if (index == kWatched) return false;
+    watched_[index] = Watched{&ring, std::move(owner)};
+    watched_count_.store(index + 1, std::memory_order_release);
+    return true;
+  }
+
+  /// Producer, as the node's tick starts: what the watched rings have handed out so far.
+  void note_start() noexcept {
+    if (!active_.load(std::memory_order_relaxed)) return;
+    const std::size_t count = watched_count_.load(std::memory_order_acquire);
+    for (std::size_t i = 0; i < count; ++i) start_received_[i] = ring_written(*watched_[i].ring);
+    start_watched_ = static_cast<std::uint8_t>(count);
+  }
 
   /// Producer: the thread running the node (one at a time; the scheduler hands a node between
-  /// threads only through a thread start or join).
+  /// threads only through a thread start or join). The entry takes the counts of note_start().
   void push(const TickEntry& entry) noexcept {
     if (!active_.load(std::memory_order_relaxed)) return;
     const std::uint64_t head = head_.load(std::memory_order_relaxed);
+    const std::uint8_t watched = std::exchange(start_watched_, 0);
     if (head - tail_.load(std::memory_order_acquire) >= kCapacity) {
       dropped_.store(dropped_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
       return;
     }
-    entries_[head % kCapacity] = entry;
+    TickEntry& stored = entries_[head % kCapacity];
+    stored = entry;
+    stored.watched = watched;
+    std::copy_n(start_received_.begin(), watched, stored.received.begin());
     head_.store(head + 1, std::memory_order_release);
   }
 
@@ -56,7 +96,17 @@ class TickLog {
   void close() noexcept { active_.store(false, std::memory_order_relaxed); }
 
  private:
+  struct Watched {
+    const RingView* ring = nullptr;
+    std::shared_ptr<const void> owner;
+  };
+
   std::array<TickEntry, kCapacity> entries_{};
+  std::array<Watched, kWatched> watched_{};
+  std::atomic<std::size_t> watched_count_{0};
+  std::array<std::uint64_t, kWatched>
+      start_received_{};  // the producer's, between note_start and push
+  std::uint8_t start_watched_ = 0;
   alignas(64) std::atomic<std::uint64_t> head_{0};
   std::atomic<std::uint64_t> dropped_{0};
   std::atomic<bool> active_{true};
