@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import base64
+import functools
 import json
 import os
 import subprocess
@@ -15,7 +16,7 @@ from mcap.records import Chunk, DataEnd, Footer, MessageIndex
 from mcap.stream_reader import StreamReader
 
 import horus_mcap
-from horus.msg import CmdVel, LaserScan, PoseStamped, TransformStamped
+from horus.msg import CmdVel, CompressedImage, LaserScan, PoseStamped, TransformStamped
 
 HORUS = os.environ.get("HORUS_CLI", "")
 
@@ -51,9 +52,22 @@ def write_recording(path, topics: dict, *, fingerprint_of=None, chunk_size=4096)
         writer.finish()
 
 
+@functools.cache
+def foxglove_schemas() -> dict:
+    """Foxglove's own JSON Schemas by name ("foxglove.RawImage": {...}), from npm
+    @foxglove/schemas (the ctest fixture foxglove_schemas fetches them)."""
+    path = os.environ.get("HORUS_FOXGLOVE_SCHEMAS", "")
+    assert path and os.path.isfile(path), (
+        "HORUS_FOXGLOVE_SCHEMAS names Foxglove's schemas; run this suite through ctest "
+        "(pytest_record, after its fixture foxglove_schemas)")
+    with open(path, encoding="utf-8") as f:
+        return json.load(f)
+
+
 def export_validated(path, out) -> list[tuple[str, str, object]]:
     """Exports `path` for Foxglove into `out`, reads it back with PyPI mcap (CRCs checked) and
-    validates every JSON message against its channel's schema: (topic, schema name, value)."""
+    validates every JSON message: a message of a Foxglove well-known schema against Foxglove's
+    published one, any other against its channel's schema. (topic, schema name, value)."""
     exported = run_horus("record", "export", str(path), "--foxglove", str(out))
     assert exported.returncode == 0, exported.stderr
     messages = []
@@ -61,7 +75,11 @@ def export_validated(path, out) -> list[tuple[str, str, object]]:
         for schema, channel, message in make_reader(stream, validate_crcs=True).iter_messages():
             assert channel.message_encoding == "json" and schema.encoding == "jsonschema"
             value = json.loads(message.data)
-            jsonschema.validate(value, json.loads(schema.data))
+            if schema.name.startswith("foxglove."):
+                assert schema.name in foxglove_schemas(), f"Foxglove has no schema {schema.name}"
+                jsonschema.validate(value, foxglove_schemas()[schema.name])
+            else:
+                jsonschema.validate(value, json.loads(schema.data))
             messages.append((channel.topic, schema.name, value))
     return messages
 
@@ -203,15 +221,20 @@ def test_foxglove_export_validates_every_message_against_its_schema(tmp_path):
     pose = PoseStamped(frame_id="map", timestamp_ns=7)
     pose.pose.position.x = 1.5
     transform = TransformStamped(translation=[1.0, 2.0, 3.0], rotation=[0.0, 0.0, 0.0, 1.0])
+    jpeg = CompressedImage(format="jpeg", width=2, height=1, data=b"\xff\xd8\xff\xd9")
     path, out = tmp_path / "f.mcap", tmp_path / "foxglove.mcap"
     write_recording(path, {"scan": (LaserScan, [scan] * 3), "pose": (PoseStamped, [pose] * 2),
-                           "tf": (TransformStamped, [transform]), "cmd": (CmdVel, cmd_vels(5))})
+                           "tf": (TransformStamped, [transform]), "jpeg": (CompressedImage, [jpeg]),
+                           "cmd": (CmdVel, cmd_vels(5))})
     seen = {}
     for topic, schema_name, value in export_validated(path, out):
         seen.setdefault(topic, (schema_name, value))
     assert {t: s for t, (s, _) in seen.items()} == {
         "scan": "foxglove.LaserScan", "pose": "foxglove.PoseInFrame",
-        "tf": "foxglove.FrameTransform", "cmd": "horus.msg.CmdVel"}
+        "tf": "foxglove.FrameTransform", "jpeg": "foxglove.CompressedImage",
+        "cmd": "horus.msg.CmdVel"}
+    assert seen["jpeg"][1]["format"] == "jpeg"
+    assert base64.b64decode(seen["jpeg"][1]["data"]) == b"\xff\xd8\xff\xd9"
     scan_json = seen["scan"][1]
     assert scan_json["timestamp"] == {"sec": 5, "nsec": 123}
     assert scan_json["ranges"][:2] == [0.0, 2.5] and len(scan_json["ranges"]) == 360

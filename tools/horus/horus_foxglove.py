@@ -42,6 +42,8 @@ class ExportError(Exception):
 
 
 # -- Foxglove's well-known schemas, written from the field lists its documentation gives -------
+# (written into the export's schema records; the tests validate every exported message against
+# Foxglove's published schemas, npm @foxglove/schemas, not against these: tests/recording)
 
 def _number() -> dict:
     return {"type": "number"}
