@@ -193,7 +193,8 @@ void bind_scheduler(py::module_& m) {
                        std::size_t blackbox_mb, std::optional<std::string> name,
                        std::vector<int> cores, std::optional<std::uint64_t> max_deadline_misses,
                        bool verbose, std::optional<std::string> telemetry,
-                       std::optional<std::uint64_t> seed, bool recording) {
+                       std::optional<std::uint64_t> seed, bool recording,
+                       std::optional<std::string> replay) {
              SchedulerConfig config;
              config.tick_rate(Rate::hz(tick_rate))
                  .rt(rt)
@@ -207,12 +208,13 @@ void bind_scheduler(py::module_& m) {
              if (max_deadline_misses) config.max_deadline_misses(max_deadline_misses);
              if (telemetry) config.telemetry(*telemetry);
              if (seed) config.seed(*seed);
+             if (replay) config.replay(*replay);
              return std::unique_ptr<Scheduler, ReleasingDeleter>(new Scheduler(std::move(config)));
            }),
            py::arg("tick_rate"), py::arg("rt"), py::arg("deterministic"), py::arg("watchdog_ms"),
            py::arg("blackbox_mb"), py::arg("name"), py::arg("cores"),
            py::arg("max_deadline_misses"), py::arg("verbose"), py::arg("telemetry"),
-           py::arg("seed"), py::arg("recording") = false)
+           py::arg("seed"), py::arg("recording") = false, py::arg("replay") = py::none())
       .def(
           "add",
           [](Scheduler& sched, std::shared_ptr<Node> node, std::int32_t order,

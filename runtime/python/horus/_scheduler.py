@@ -1,6 +1,8 @@
 """horus.Scheduler and horus.run: seed 001's scheduler over the C++ one."""
 from __future__ import annotations
 
+import os
+
 from . import _core
 from ._node import Node
 
@@ -10,14 +12,16 @@ class Scheduler:
 
     Every keyword of seed 001; `seed` sets the deterministic random sequence. `telemetry`
     ("udp://HOST:PORT" or "file:///PATH") exports every node's metrics as JSON each second while
-    it runs and once when run() ends.
+    it runs and once when run() ends. `replay` (with deterministic=True) feeds a recording into
+    the nodes' topics, each message before the tick that received it (docs/recording.md).
     """
 
     def __init__(self, tick_rate: float = 1000.0, rt: bool = False, deterministic: bool = False,
                  blackbox_mb: int = 0, watchdog_ms: float = 0, recording: bool = False,
                  name: str | None = None, cores: list[int] | None = None,
                  max_deadline_misses: int | None = None, verbose: bool = False,
-                 telemetry: str | None = None, seed: int | None = None) -> None:
+                 telemetry: str | None = None, seed: int | None = None,
+                 replay: str | os.PathLike | None = None) -> None:
         if not float(tick_rate) > 0.0:
             raise ValueError(f"tick_rate must be > 0 Hz, got {tick_rate!r}")
         if watchdog_ms is None or not float(watchdog_ms) >= 0.0:
@@ -27,7 +31,8 @@ class Scheduler:
             tick_rate=float(tick_rate), rt=bool(rt), deterministic=bool(deterministic),
             watchdog_ms=float(watchdog_ms), blackbox_mb=int(blackbox_mb), name=name,
             cores=list(cores or []), max_deadline_misses=max_deadline_misses,
-            verbose=bool(verbose), telemetry=telemetry, seed=seed, recording=bool(recording))
+            verbose=bool(verbose), telemetry=telemetry, seed=seed, recording=bool(recording),
+            replay=None if replay is None else os.fspath(replay))
         self._nodes: dict[str, object] = {}
 
     # -- building ---------------------------------------------------------------------------

@@ -138,6 +138,50 @@ def test_python_session_is_recorded_listed_and_read_by_an_independent_reader():
     assert name not in sched.list_recordings() and not os.path.exists(files[0])
 
 
+def _listener(name: str, order: int, arrivals: list) -> Node:
+    """A node that notes on which of its ticks each CmdVel on "cmd" arrived."""
+    ticks = [0]
+
+    def tick(node):
+        while (msg := node.recv("cmd")) is not None:
+            arrivals.append((msg.linear, ticks[0]))
+        ticks[0] += 1
+    return Node(name=name, tick=tick, order=order, subs={"cmd": CmdVel})
+
+
+def test_a_python_session_replayed_deterministically_gives_the_same_arrivals_twice():
+    def drive(node):
+        drive.ticks += 1
+        if drive.ticks % 3 != 2:
+            node.send("cmd", CmdVel(linear=float(drive.ticks), angular=0.0))
+    drive.ticks = 0
+
+    live_early, live_late = [], []
+    sched = Scheduler(tick_rate=100, recording=True)
+    sched.add(_listener("early", 0, live_early))
+    sched.add(Node(name="driver", tick=drive, order=1, pubs={"cmd": CmdVel}))
+    sched.add(_listener("late", 2, live_late))
+    for _ in range(30):
+        sched.tick_once()
+    [path] = sched.stop_recording()
+    assert len(live_late) == 20 and live_late[0] == (1.0, 0) and live_early[0] == (1.0, 1)
+
+    def replay():
+        early, late = [], []
+        again = Scheduler(tick_rate=100, deterministic=True, replay=path)
+        again.add(_listener("early", 0, early))
+        again.add(_listener("late", 2, late))
+        for _ in range(30):
+            again.tick_once()
+        return early, late
+
+    first = replay()
+    assert first == (live_early, live_late)  # each message on the tick it was received live
+    assert replay() == first
+    with pytest.raises(horus.HorusError, match="needs deterministic"):
+        Scheduler(replay=path)
+
+
 def _start_recorder(*args):
     assert RECORD, "HORUS_RECORD_PROGRAM names horus-record; run this suite through ctest"
     return subprocess.Popen([RECORD, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
