@@ -1,5 +1,6 @@
 """Fixtures of the recording suite: those of the `horus` command's suite (tests/cli/conftest.py:
-a namespace per test, the command, child processes), and a recordings folder per test."""
+a namespace per test, the command, child processes), a recordings folder per test, and the check
+of a file's CRCs and indexes that tests/python/runtime uses."""
 from __future__ import annotations
 
 import importlib.util
@@ -7,13 +8,21 @@ import os
 
 import pytest
 
-_spec = importlib.util.spec_from_file_location(
-    "cli_fixtures", os.path.join(os.path.dirname(__file__), "..", "cli", "conftest.py"))
-cli_fixtures = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(cli_fixtures)
+
+
+def _load(name: str, *path: str):
+    spec = importlib.util.spec_from_file_location(name, os.path.join(os.path.dirname(__file__), *path))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+cli_fixtures = _load("cli_fixtures", "..", "cli", "conftest.py")
 namespace = cli_fixtures.namespace
 children = cli_fixtures.children
 wait_until = cli_fixtures.wait_until
+# Every CRC (the summary's too) and index of a file, read by PyPI mcap (tests/python/runtime).
+check_file = _load("mcap_check", "..", "python", "runtime", "mcap_check.py").check_file
 
 
 @pytest.fixture(autouse=True)
