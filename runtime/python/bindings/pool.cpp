@@ -11,6 +11,8 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "bindings.hpp"
@@ -130,7 +132,7 @@ py::buffer_info buffer_of(T& value) {
                          layout.strides, !value.writable());
 }
 
-// ---- DLPack (the v0 ABI every consumer reads) ----------------------------------------------
+// ---- DLPack: the unversioned ABI every consumer reads, and 1.0's, which has a read-only flag --
 
 struct DLDevice {
   std::int32_t device_type;
@@ -155,24 +157,43 @@ struct DLManagedTensor {
   void* manager_ctx;
   void (*deleter)(DLManagedTensor* self);
 };
+struct DLPackVersion {
+  std::uint32_t major;
+  std::uint32_t minor;
+};
+struct DLManagedTensorVersioned {
+  DLPackVersion version;
+  void* manager_ctx;
+  void (*deleter)(DLManagedTensorVersioned* self);
+  std::uint64_t flags;
+  DLTensor dl_tensor;
+};
 constexpr std::int32_t kDlCpu = 1;
+constexpr DLPackVersion kDlpackVersion{1, 0};
+constexpr std::uint64_t kDlpackReadOnly = 1;  // DLPACK_FLAG_BITMASK_READ_ONLY
+
+/// A consumer renames a capsule "used_" + this name and calls the deleter itself.
+template <class Managed>
+constexpr const char* kCapsuleName = "dltensor";
+template <>
+constexpr const char* kCapsuleName<DLManagedTensorVersioned> = "dltensor_versioned";
 
 /// What a DLPack capsule owns: a reference on the value's block and the shape arrays.
-template <class T>
+template <class T, class Managed>
 struct DlpackOwner {
-  DLManagedTensor managed{};
+  Managed managed{};
   T value;
   std::vector<std::int64_t> shape;
   std::vector<std::int64_t> strides;
 };
 
-template <class T>
+template <class Managed, class T>
 py::capsule to_dlpack(const T& value) {
   if (!value.valid()) {
     throw Error("this value is empty (moved from)");
   }
   const ArrayLayout layout = layout_of(value);
-  auto owner = std::make_unique<DlpackOwner<T>>();
+  auto owner = std::make_unique<DlpackOwner<T, Managed>>();
   owner->value = value;
   for (std::size_t i = 0; i < layout.shape.size(); ++i) {
     owner->shape.push_back(layout.shape[i]);
@@ -186,19 +207,42 @@ py::capsule to_dlpack(const T& value) {
   tensor.shape = owner->shape.data();
   tensor.strides = owner->strides.data();
   tensor.byte_offset = 0;
+  if constexpr (std::is_same_v<Managed, DLManagedTensorVersioned>) {
+    owner->managed.version = kDlpackVersion;
+    owner->managed.flags = value.writable() ? 0 : kDlpackReadOnly;
+  }
   owner->managed.manager_ctx = owner.get();
-  owner->managed.deleter = [](DLManagedTensor* self) {
-    delete static_cast<DlpackOwner<T>*>(self->manager_ctx);
+  owner->managed.deleter = [](Managed* self) {
+    delete static_cast<DlpackOwner<T, Managed>*>(self->manager_ctx);
   };
-  DLManagedTensor* managed = &owner.release()->managed;
-  // A consumer renames the capsule "used_dltensor" and calls the deleter itself; an unconsumed
-  // capsule still named "dltensor" is freed here.
-  return py::capsule(managed, "dltensor", [](PyObject* capsule) {
-    if (PyCapsule_IsValid(capsule, "dltensor") != 0) {
-      auto* unused = static_cast<DLManagedTensor*>(PyCapsule_GetPointer(capsule, "dltensor"));
+  Managed* managed = &owner.release()->managed;
+  // An unconsumed capsule (still under its own name) is freed here.
+  return py::capsule(managed, kCapsuleName<Managed>, [](PyObject* capsule) {
+    if (PyCapsule_IsValid(capsule, kCapsuleName<Managed>) != 0) {
+      auto* unused = static_cast<Managed*>(PyCapsule_GetPointer(capsule, kCapsuleName<Managed>));
       unused->deleter(unused);
     }
   });
+}
+
+/// The array API's __dlpack__: a versioned capsule (which can say "read-only") for a consumer
+/// that reads DLPack 1.0 or later, the unversioned one otherwise. Never a copy.
+template <class T>
+py::capsule dlpack_export(const T& value, std::optional<std::pair<int, int>> max_version,
+                          std::optional<std::pair<int, int>> dl_device, std::optional<bool> copy) {
+  if (dl_device && dl_device->first != kDlCpu) {
+    throw py::buffer_error("this value lives in CPU shared memory, not on device (" +
+                           std::to_string(dl_device->first) + ", " +
+                           std::to_string(dl_device->second) + ")");
+  }
+  if (copy.value_or(false)) {
+    throw py::buffer_error(
+        "__dlpack__ exports the pool memory itself; copy it with numpy.array(value)");
+  }
+  if (max_version && static_cast<std::uint32_t>(max_version->first) >= kDlpackVersion.major) {
+    return to_dlpack<DLManagedTensorVersioned>(value);
+  }
+  return to_dlpack<DLManagedTensor>(value);
 }
 
 // ---- from_numpy -------------------------------------------------------------------------------
@@ -391,8 +435,13 @@ void bind_pool_backed(Class& cls) {
       .def("__repr__", &T::log_summary)
       .def(
           "__dlpack__",
-          [](const T& value, const py::object& /*stream*/) { return to_dlpack(value); },
-          py::arg("stream") = py::none())
+          [](const T& value, const py::object& /*stream*/,
+             std::optional<std::pair<int, int>> max_version,
+             std::optional<std::pair<int, int>> dl_device, std::optional<bool> copy) {
+            return dlpack_export(value, max_version, dl_device, copy);
+          },
+          py::kw_only(), py::arg("stream") = py::none(), py::arg("max_version") = py::none(),
+          py::arg("dl_device") = py::none(), py::arg("copy") = py::none())
       .def("__dlpack_device__", [](const T&) { return py::make_tuple(kDlCpu, 0); });
 }
 

@@ -2,7 +2,8 @@
 
 Their data stays in a shared-memory pool (runtime/src/pool/README.md); a topic of them sends only
 a descriptor. `numpy.asarray(value)` and `value.__dlpack__()` give the pool memory itself (no
-copy), read-only for a received value; `Image.from_numpy(a)` copies `a` once into the pool.
+copy), read-only for a received value (DLPack says so in the versioned capsule a consumer asking
+for 1.0 gets); `Image.from_numpy(a)` copies `a` once into the pool.
 `horus.Topic(Image, name)` opens a PoolTopic.
 """
 from __future__ import annotations

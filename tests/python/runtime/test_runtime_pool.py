@@ -3,6 +3,7 @@ ways (1080p RGB, 720p depth, a million points), values equal and the receiver's 
 pool; numpy and DLPack views without copies, read-only when received; references back to zero."""
 from __future__ import annotations
 
+import ctypes
 import os
 import stat
 import subprocess
@@ -196,6 +197,64 @@ def test_numpy_and_dlpack_views_share_the_pool_memory():
     assert tensor.shape == [2, 3, 4] and tensor.strides == [96, 32, 8]
     np.testing.assert_array_equal(np.asarray(tensor), np.arange(24).reshape(2, 3, 4))
     assert "Tensor([2, 3, 4] I64" in repr(tensor)
+
+
+_capsule_name = ctypes.pythonapi.PyCapsule_GetName
+_capsule_name.restype, _capsule_name.argtypes = ctypes.c_char_p, [ctypes.py_object]
+_capsule_pointer = ctypes.pythonapi.PyCapsule_GetPointer
+_capsule_pointer.restype = ctypes.c_void_p
+_capsule_pointer.argtypes = [ctypes.py_object, ctypes.c_char_p]
+
+
+class _DLPackVersion(ctypes.Structure):
+    _fields_ = [("major", ctypes.c_uint32), ("minor", ctypes.c_uint32)]
+
+
+class _DLManagedTensorVersionedHead(ctypes.Structure):
+    """DLPack 1.0's DLManagedTensorVersioned up to its flags (dl_tensor follows)."""
+    _fields_ = [("version", _DLPackVersion), ("manager_ctx", ctypes.c_void_p),
+                ("deleter", ctypes.c_void_p), ("flags", ctypes.c_uint64)]
+
+
+DLPACK_FLAG_BITMASK_READ_ONLY = 1
+
+
+def dlpack_export(value, **kwargs):
+    """(capsule name, DLPack version, flags) of value.__dlpack__(**kwargs)."""
+    capsule = value.__dlpack__(**kwargs)
+    name = _capsule_name(capsule)
+    if name != b"dltensor_versioned":
+        return name, None, None
+    head = _DLManagedTensorVersionedHead.from_address(_capsule_pointer(capsule, name))
+    return name, (head.version.major, head.version.minor), head.flags
+
+
+def test_dlpack_versioned_capsule_says_read_only_for_a_received_value():
+    publisher = horus.Topic(horus.Image, "frames")
+    subscriber = horus.Topic(horus.Image, "frames")
+    own = horus.Image.from_numpy(image_bytes())
+    assert publisher.send(own)
+    received = subscriber.recv(1.0)
+    assert received is not None and not received.writable
+    pool = own.pool
+
+    assert dlpack_export(own, max_version=(1, 0)) == (b"dltensor_versioned", (1, 0), 0)
+    assert dlpack_export(received, max_version=(1, 0)) == (
+        b"dltensor_versioned", (1, 0), DLPACK_FLAG_BITMASK_READ_ONLY)
+    assert dlpack_export(received, max_version=(1, 3))[0] == b"dltensor_versioned"
+    # A consumer that does not say, or knows only 0.x, gets the unversioned capsule.
+    assert dlpack_export(received) == (b"dltensor", None, None)
+    assert dlpack_export(received, max_version=(0, 8)) == (b"dltensor", None, None)
+    assert dlpack_export(own, stream=None, dl_device=(1, 0), copy=False)[0] == b"dltensor"
+    with pytest.raises(BufferError, match="copy"):
+        own.__dlpack__(copy=True)
+    with pytest.raises(BufferError, match="device"):
+        own.__dlpack__(max_version=(1, 0), dl_device=(2, 0))
+    # Unconsumed capsules gave their references back.
+    del publisher
+    assert pool.references(own.block) == 2  # `own` and `received`
+    del received, subscriber
+    assert pool.references(own.block) == 1
 
 
 def test_from_numpy_refuses_what_has_no_encoding():
