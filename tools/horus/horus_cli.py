@@ -1131,9 +1131,18 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     from horus_record_cli import parse_record  # `record` parses its own arguments
     parser = build_parser()
-    args = parse_record(sys.argv[1:] if argv is None else argv) or parser.parse_args(argv)
+    words = sys.argv[1:] if argv is None else argv
+    args = parse_record(words)
+    if args is None:
+        args, unknown = parser.parse_known_args(words)
+        if getattr(args, "handler", None) is blackbox:
+            # Everything after `blackbox` is horus-blackbox's, its options (--help) first too,
+            # which argparse's REMAINDER would not take.
+            args.blackbox_args = words[words.index("blackbox") + 1:]
+        elif unknown:
+            parser.error(f"unrecognized arguments: {' '.join(unknown)}")
     if getattr(args, "handler", None) is None:
-        parser.parse_args([*(argv if argv is not None else sys.argv[1:]), "--help"])
+        parser.parse_args([*words, "--help"])
     args.root_parser = parser
     args.namespace = getattr(args, "namespace", None) or ""
     if args.namespace:

@@ -239,7 +239,7 @@ py::capsule dlpack_export(const T& value, std::optional<std::pair<int, int>> max
     throw py::buffer_error(
         "__dlpack__ exports the pool memory itself; copy it with numpy.array(value)");
   }
-  if (max_version && static_cast<std::uint32_t>(max_version->first) >= kDlpackVersion.major) {
+  if (max_version && max_version->first >= static_cast<int>(kDlpackVersion.major)) {
     return to_dlpack<DLManagedTensorVersioned>(value);
   }
   return to_dlpack<DLManagedTensor>(value);
