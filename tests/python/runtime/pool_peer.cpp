@@ -1,10 +1,10 @@
 // The C++ side of the Python pool tests (test_runtime_pool.py): sends or receives one Image
-// (1080p RGB), DepthImage (720p metres) or PointCloud (a million XYZ points) whose every value
-// follows a formula both languages compute.
-//   pool_peer send <image|depth|cloud> <topic>: prints "open", waits for a line on stdin, sends,
-//     and keeps the frame alive until the next line (the receiver is done)
-//   pool_peer recv <image|depth|cloud> <topic>: opens the topic, prints "ready", receives,
-//     checks, exits 0
+// (1080p RGB), DepthImage (720p metres, or millimetres for depth_mm) or PointCloud (a million
+// XYZ points) whose every value follows a formula both languages compute.
+//   pool_peer send <image|depth|depth_mm|cloud> <topic>: prints "open", waits for a line on
+//     stdin, sends, and keeps the frame alive until the next line (the receiver is done)
+//   pool_peer recv <image|depth|depth_mm|cloud> <topic>: opens the topic, prints "ready",
+//     receives, checks, exits 0
 //   pool_peer node-send image <topic> <count>: a scheduler whose C++ node publishes one image a
 //     tick (timestamp_ns = 1..count); prints "open", waits for a line, ticks until all are sent,
 //     waits for a line (the receiver is done), drops its scheduler and prints "references N",
@@ -41,6 +41,9 @@ constexpr auto kWait = 30s;
 std::uint8_t image_byte(std::size_t i) { return static_cast<std::uint8_t>(i * 7 + i / 4099); }
 float depth_at(std::uint32_t x, std::uint32_t y) {
   return 0.25F + static_cast<float>(x) * 0.001F + static_cast<float>(y) * 0.0001F;
+}
+std::uint16_t depth_mm_at(std::uint32_t x, std::uint32_t y) {
+  return static_cast<std::uint16_t>(300 + x + 2 * y);
 }
 float point_value(std::size_t i, int field) {
   switch (field) {
@@ -203,6 +206,17 @@ int send_kind(const std::string& kind, const std::string& topic) {
     }
     return send(topic, depth);
   }
+  if (kind == "depth_mm") {
+    horus::DepthImage depth = horus::DepthImage::millimeters(720, 1280);
+    auto bytes = depth.data_mut();
+    for (std::uint32_t y = 0; y < 720; ++y) {
+      for (std::uint32_t x = 0; x < 1280; ++x) {
+        const std::uint16_t millimetres = depth_mm_at(x, y);
+        std::memcpy(bytes.data() + (std::size_t{y} * 1280 + x) * 2, &millimetres, 2);
+      }
+    }
+    return send(topic, depth);
+  }
   horus::PointCloud cloud = horus::PointCloud::make(1'000'000, 3, horus::msg::TensorDtype::F32);
   auto bytes = cloud.data_mut();
   for (std::size_t i = 0; i < 1'000'000; ++i) {
@@ -247,6 +261,19 @@ int recv_kind(const std::string& kind, const std::string& topic) {
     }
     return 0;
   }
+  if (kind == "depth_mm") {
+    std::optional<horus::DepthImage> depth = receive<horus::DepthImage>(topic);
+    if (!depth) return fail("no depth image");
+    if (!depth->is_millimeters() || depth->width() != 1280 || depth->height() != 720) {
+      return fail("wrong geometry");
+    }
+    for (std::uint32_t y = 0; y < 720; ++y) {
+      for (std::uint32_t x = 0; x < 1280; ++x) {
+        if (depth->get_depth_u16(x, y) != depth_mm_at(x, y)) return fail("depth");
+      }
+    }
+    return 0;
+  }
   std::optional<horus::PointCloud> cloud = receive<horus::PointCloud>(topic);
   if (!cloud) return fail("no cloud");
   if (cloud->point_count() != 1'000'000 || !cloud->is_xyz()) return fail("wrong geometry");
@@ -267,7 +294,7 @@ int main(int argc, char** argv) {
   const bool node = mode == "node-send" || mode == "node-recv";
   if (argc != (node ? 5 : 4)) {
     return fail(
-        "usage: pool_peer send|recv image|depth|cloud <topic>, or node-send|node-recv "
+        "usage: pool_peer send|recv image|depth|depth_mm|cloud <topic>, or node-send|node-recv "
         "image <topic> <count>");
   }
   try {

@@ -1,6 +1,7 @@
 """The tensor pool from Python: Image, DepthImage and PointCloud exchanged with a C++ process both
-ways (1080p RGB, 720p depth, a million points), values equal and the receiver's array inside the
-pool; numpy and DLPack views without copies, read-only when received; references back to zero."""
+ways (1080p RGB, 720p depth in metres and in millimetres, a million points), values equal and the
+receiver's array inside the pool, read_latest() the same frame; numpy and DLPack views without
+copies, read-only when received; references back to zero."""
 from __future__ import annotations
 
 import ctypes
@@ -34,6 +35,11 @@ def depth_meters() -> np.ndarray:
             + y.astype(np.float32) * np.float32(0.0001))
 
 
+def depth_millimeters() -> np.ndarray:
+    y, x = np.mgrid[0:720, 0:1280]
+    return (300 + x + 2 * y).astype(np.uint16)
+
+
 def cloud_points() -> np.ndarray:
     index = np.arange(1_000_000)
     return np.stack([index.astype(np.float32), index.astype(np.float32) * np.float32(0.5),
@@ -54,6 +60,7 @@ def tell(proc: subprocess.Popen, line: str) -> None:
 KINDS = {
     "image": (horus.Image, image_bytes, lambda a: horus.Image.from_numpy(a)),
     "depth": (horus.DepthImage, depth_meters, lambda a: horus.DepthImage.from_numpy(a)),
+    "depth_mm": (horus.DepthImage, depth_millimeters, lambda a: horus.DepthImage.from_numpy(a)),
     "cloud": (horus.PointCloud, cloud_points, lambda a: horus.PointCloud.from_numpy(a)),
 }
 
@@ -76,6 +83,10 @@ def test_cpp_sends_python_reads_in_place(kind):
         np.testing.assert_array_equal(array, expected())
         if kind == "image":
             assert value.frame_id == "cpp"
+        if kind.startswith("depth"):
+            assert value.is_millimeters() == (kind == "depth_mm")
+        latest = topic.read_latest()
+        assert latest is not None and latest.data_address == value.data_address
         with pytest.raises(ValueError):
             array.flat[0] = 1
         tell(proc, "done")
