@@ -9,6 +9,8 @@ import re
 import subprocess
 from pathlib import Path
 
+import pytest
+
 CHECK = os.environ["HORUS_CHECK"]
 BUILD = Path(os.environ["HORUS_CHECK_BUILD_DIR"])
 FIXTURE = Path(os.environ["HORUS_CHECK_FIXTURE"])
@@ -44,19 +46,26 @@ def expectations(*names):
     return expected
 
 
-def test_findings_at_their_lines():
-    names = ("worker.cpp", "clean.cpp", "rogue.cpp")
-    result = run(fixture_files(*names), "--json")
-    assert result.returncode == 1
-    report = json.loads(result.stdout)
+FIXTURE_SOURCES = ("worker.cpp", "clean.cpp", "rogue.cpp")
+
+
+@pytest.fixture(scope="module")
+def fixture_run():
+    """One run over every fixture source (Clang parses each: slow), which several tests read."""
+    return run(fixture_files(*FIXTURE_SOURCES), "--json")
+
+
+def test_findings_at_their_lines(fixture_run):
+    assert fixture_run.returncode == 1
+    report = json.loads(fixture_run.stdout)
     found = {(Path(f["file"]).name, f["line"], f["check"]) for f in report["findings"]}
-    assert found == expectations(*names)
+    assert found == expectations(*FIXTURE_SOURCES)
 
 
-def test_tick_findings_name_node_and_call_chain():
-    report = json.loads(run(fixture_files("worker.cpp"), "--json").stdout)
+def test_tick_findings_name_node_and_call_chain(fixture_run):
+    report = json.loads(fixture_run.stdout)
     by_check = {}
-    for finding in report["findings"]:
+    for finding in (f for f in report["findings"] if Path(f["file"]).name == "worker.cpp"):
         assert finding["node"] in ("Worker", "Logger")
         if finding["node"] == "Logger":
             assert finding["check"] == "horus-rt-io" and "std::cout" in finding["message"]
@@ -103,8 +112,8 @@ def test_layout_that_differs_on_i686():
     assert "field 'stamp_ns' at offset 4 instead of 8" in message and "size 12 instead of 16" in message
 
 
-def test_nodes_inventory():
-    report = json.loads(run(fixture_files("worker.cpp", "rogue.cpp"), "--json").stdout)
+def test_nodes_inventory(fixture_run):
+    report = json.loads(fixture_run.stdout)
     nodes = {node["name"]: node for node in report["nodes"]}
     worker = nodes["check_fixture::WorkerBase"]
     assert worker["realtime"] == "rate"
