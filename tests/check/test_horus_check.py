@@ -74,10 +74,12 @@ def test_tick_findings_name_node_and_call_chain(fixture_run):
     sleep = by_check["horus-rt-sleep"][0]
     assert sleep["chain"][:2] == ["Worker::tick", "settle"]
     assert sleep["chain"][-1] == "std::this_thread::sleep_for"
-    # remember() is reached from tick() directly and through settle(): the lock is one finding
-    # per call site, whatever the path.
-    lock_lines = {f["line"] for f in by_check["horus-rt-lock"]}
-    assert len(lock_lines) == 1
+    # remember() is reached from tick() directly, through settle() and through journal(): its
+    # lock is one finding per call site, whatever the path.
+    guards = [f for f in by_check["horus-rt-lock"] if "std::lock_guard" in f["message"]]
+    assert len(guards) == 1, guards
+    assert [f["chain"] for f in by_check["horus-rt-block"] if "ServiceClient" in f["message"]] \
+        == [["Worker::tick", "journal", "horus::ServiceClient::call"]]
 
 
 def test_compiler_style_text_and_exit_status():

@@ -734,7 +734,12 @@ class FactCollector : public RecursiveASTVisitor<FactCollector> {
         info->getTemplateArgs().size() == 0)
       return true;
     const RecordDecl* message = info->getTemplateArgs()[0].getAsType()->getAsRecordDecl();
-    if (message == nullptr || message->getDefinition() == nullptr) return true;
+    // The runtime's own wire types (horus::detail: a service's registration, say) come with
+    // every service handle and never leave the machine, whose runtime lays them out: no schema
+    // of the user's to fix.
+    if (message == nullptr || message->getDefinition() == nullptr ||
+        qualified(message).rfind("horus::detail::", 0) == 0)
+      return true;
     bool pod = false;
     std::string schema = qualified(message);
     for (const Decl* decl : info->decls()) {
