@@ -146,3 +146,37 @@ def test_a_python_node_and_a_cpp_program_declared_by_the_same_files_talk(generat
     # The C++ talker sends step * n: 0.25, 0.5, ... in order.
     assert all(x > 0 and (x / 0.25).is_integer() for x in listener.xs)
     assert listener.xs == sorted(listener.xs)
+
+
+def test_a_server_started_in_init_answers_another_nodes_client_member(generated):
+    """tracker.hnode's Tracker serves where_is (serve_where_is() in init()); the Reporter's
+    generated client member where_is calls it, as tests/generated does in C++."""
+    test_msgs, test_nodes = generated
+    GetRobotPose = test_msgs.GetRobotPose
+
+    class Tracker(test_nodes.TrackerBase):
+        def init(self):
+            self.serve_where_is(lambda request: GetRobotPose.Response(
+                x=self.gain * 4.0 if request.robot_name == "agv" else -1.0))
+
+        def shutdown(self):
+            self.where_is.stop()
+
+        def tick(self):
+            pass
+
+    class Reporter(test_nodes.ReporterBase):
+        def tick(self):
+            pass
+
+    tracker, reporter = Tracker(), Reporter()
+    with horus.Scheduler(deterministic=True, tick_rate=100.0) as sched:
+        sched.add(tracker).add(reporter)
+        assert tracker.where_is is None
+        sched.tick_once()  # init(): the tracker starts serving
+        assert isinstance(tracker.where_is, horus.ServiceServer)
+        assert isinstance(reporter.where_is, horus.ServiceClient)
+        assert reporter.where_is.call(GetRobotPose.Request(robot_name="agv"), timeout=5.0).x == 2.0
+        assert reporter.where_is.call(GetRobotPose.Request(robot_name="other"), timeout=5.0).x == -1.0
+        assert tracker.where_is.requests == 2
+        reporter.where_is.close()
