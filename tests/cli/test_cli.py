@@ -66,13 +66,19 @@ horus.run(horus.Node(name={sensor!r}, tick=sense, rate=100, order=0, pubs=["scan
 def test_help_at_every_level_exits_zero():
     for args in ([], ["topic"], ["topic", "list"], ["topic", "info"], ["topic", "echo"],
                  ["topic", "pub"], ["service", "call"], ["process"], ["process", "list"],
-                 ["service"],
-                 ["service", "list"], ["service", "info"], ["node"], ["node", "list"],
-                 ["node", "info"], ["topic", "hz"], ["topic", "bw"], ["monitor"], ["msg"], ["msg", "show"], ["log"], ["shm"], ["shm", "list"],
-                 ["shm", "clean"], ["completion"]):
+                 ["service"], ["service", "list"], ["service", "info"], ["node"],
+                 ["node", "list"], ["node", "info"], ["topic", "hz"], ["topic", "bw"],
+                 ["monitor"], ["msg"], ["msg", "list"], ["msg", "show"], ["msg", "hash"], ["log"],
+                 ["shm"], ["shm", "list"], ["shm", "clean"], ["completion"], ["blackbox"],
+                 ["bridge"], ["record"], *(["record", action] for action in
+                                            ("list", "info", "delete", "repair", "replay", "diff",
+                                             "export"))):
         result = run_horus(*args, "--help")
         assert result.returncode == 0, (args, result.stderr)
-        assert result.stdout.startswith("usage: horus"), (args, result.stdout)
+        # `blackbox` hands --help to horus-blackbox, whose usage line names it.
+        usage = "usage: horus-blackbox" if args == ["blackbox"] else \
+            f"usage: horus {' '.join(args)}".rstrip()
+        assert result.stdout.startswith(usage), (args, result.stdout)
 
 
 def test_usage_errors_exit_two_with_one_line():
@@ -195,6 +201,11 @@ def test_service_list_and_info_against_a_live_cpp_server(children):
     assert info.returncode == 0, info.stderr
     assert f"server: pid {server.pid}" in info.stdout
     assert f"request: {served['request_type']}" in info.stdout
+    described = json.loads(run_horus("service", "info", served["name"], "--json").stdout)
+    assert described["name"] == served["name"] and described["server_pid"] == server.pid
+    assert described["request_type"] == served["request_type"]
+    assert described["response_type"] == served["response_type"]
+    assert described["client_processes"] == []
     verbose = run_horus("service", "list", "-v")
     assert verbose.stdout.splitlines()[0].split()[:3] == ["SERVICE", "REQUEST", "RESPONSE"]
 
@@ -491,7 +502,12 @@ def test_monitor_without_a_terminal_is_a_usage_error():
 
 
 def test_msg_list_show_and_hash_of_installed_types_match_the_live_segment(children):
-    assert "horus.msg.CmdVel" in run_horus("msg", "list").stdout.split()
+    names = run_horus("msg", "list").stdout.split()
+    assert "horus.msg.CmdVel" in names
+    listed = json.loads(run_horus("msg", "list", "--json").stdout)
+    assert [t["name"] for t in listed] == names
+    cmd_vel = next(t for t in listed if t["name"] == "horus.msg.CmdVel")
+    assert cmd_vel["kind"] == "message" and cmd_vel["tier"] == "pod" and cmd_vel["size"] == 16
     shown = json.loads(run_horus("msg", "show", "CmdVel", "--json").stdout)
     assert shown["name"] == "horus.msg.CmdVel" and shown["size"] == 16
     assert [f["name"] for f in shown["fields"]] == ["stamp_nanos", "linear", "angular"]

@@ -164,6 +164,23 @@ def test_bad_values_and_topics_are_one_line(children):
         assert "Traceback" not in result.stderr
 
 
+SILENT = """
+import time, horus
+from horus.msg import CmdVel
+topic = horus.Topic(CmdVel, "silent")
+print("ready", flush=True)
+time.sleep(60)
+"""
+
+
+def test_echo_with_a_timeout_exits_one_on_a_silent_topic(children):
+    wait_ready(children.python(SILENT))
+    result = run_horus("topic", "echo", "silent", "--timeout", "0.3")
+    assert result.returncode == 1, result
+    assert result.stdout == ""
+    assert result.stderr == "horus: no message on topic 'silent' within 0.3 s\n"
+
+
 def test_pub_with_a_type_creates_a_topic_nobody_opened_yet(tmp_path, user_types):
     result = run_horus("topic", "pub", "fresh", "{linear: 1.5}", "--type", "CmdVel", "--once")
     assert result.returncode == 0, result.stderr

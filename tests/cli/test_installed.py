@@ -1,5 +1,6 @@
 """The installed `horus` command: `cmake --install` of this build into a scratch prefix, then its
-bin/horus run against a live process with nothing of the build tree on its paths."""
+bin/horus run against a live process with nothing of the build tree on its paths, and its bash
+completion file sourced."""
 from __future__ import annotations
 
 import json
@@ -45,3 +46,20 @@ def test_the_installed_command_lists_and_echoes_a_live_topic(children, tmp_path)
     assert json.loads(echoed.stdout) == {"stamp_nanos": 0, "linear": 4.0, "angular": 1.0}
     shown = run("msg", "show", "CmdVel", "--json")
     assert shown.returncode == 0 and json.loads(shown.stdout)["size"] == 16, shown.stderr
+
+    # The installed completion file, sourced as bash-completion does, with the installed
+    # command on the PATH: subcommands, and live topic names from the command itself.
+    script = prefix / "share" / "bash-completion" / "completions" / "horus"
+    path_environment = dict(environment, PATH=f"{prefix / 'bin'}:{os.environ['PATH']}")
+
+    def complete(*words: str) -> list[str]:
+        line = " ".join(f"'{word}'" for word in ("horus", *words))
+        program = f"source '{script}'\nCOMP_WORDS=({line}); COMP_CWORD={len(words)}; _horus; " \
+                  'printf "%s\\n" "${COMPREPLY[@]}"'
+        result = subprocess.run(["bash", "-c", program], capture_output=True, text=True,
+                                timeout=60, env=path_environment)
+        assert result.returncode == 0, result.stderr
+        return sorted(result.stdout.split())
+    assert complete("se") == ["service"]
+    assert complete("topic", "e") == ["echo"]
+    assert complete("topic", "echo", "inst") == ["installed_cmd"]
