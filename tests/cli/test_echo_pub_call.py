@@ -1,10 +1,12 @@
 """`horus topic echo / pub` and `horus service call` against live C++ and Python processes, for
 standard types and for user types generated in the test (the command was never built with
-them), POD and serialized, and their bad input."""
+them; one package is even written by the test), POD and serialized, and their bad input."""
 from __future__ import annotations
 
 import json
 import os
+import subprocess
+import uuid
 
 from conftest import run_horus, wait_ready, wait_until
 
@@ -100,6 +102,84 @@ def test_echo_and_pub_of_user_types_unknown_to_the_command(children, user_types)
     assert result.returncode == 0, result.stderr
     received = [process.stdout.readline().strip() for _ in range(2)]
     assert received == ["pose Drive 7.25 shelf", "route back [1.0, 2.0] None"]
+
+
+FRESH_SCHEMA = """package {package};
+
+enum Blade: u8 {{
+    Off = 0,
+    Spinning = 1,
+}}
+
+/// POD.
+Battery {{
+    volts: f32,
+    cells: [u16; 3],
+    blade: Blade,
+}}
+
+/// Serialized, holding the POD type.
+Report {{
+    zone: String,
+    cut_m2: Vec<f32>,
+    battery: Battery,
+}}
+"""
+
+FRESH_PROCESS = """
+import sys, time
+sys.path.insert(0, {python!r})
+import horus
+from {package} import Battery, Blade, Report
+batteries, reports = horus.Topic(Battery, "battery"), horus.Topic(Report, "report")
+batteries.send(Battery(volts=24.5, cells=[4100, 4090, 4080], blade=Blade.Spinning))
+reports.send(Report(zone="north", cut_m2=[1.5, 2.5], battery=Battery(volts=23.0)))
+inbox = {{"battery": horus.Topic(Battery, "battery_in"), "report": horus.Topic(Report, "report_in")}}
+for topic in inbox.values():
+    topic.try_recv()
+print("ready", flush=True)
+while True:
+    for name, topic in inbox.items():
+        m = topic.recv(0.01)
+        if m is not None and name == "battery":
+            print("battery", m.volts, list(m.cells), m.blade.name, flush=True)
+        elif m is not None:
+            print("report", m.zone, list(m.cut_m2), m.battery.volts, flush=True)
+"""
+
+
+def test_echo_and_pub_of_a_type_written_and_generated_in_this_test(children, tmp_path):
+    # A package name no schema folder, cache or build ever held: the command can only decode it
+    # from the schema text the topics' segments store.
+    package = f"mower_{uuid.uuid4().hex[:8]}"
+    folder = tmp_path / "fresh" / package
+    folder.mkdir(parents=True)
+    (folder / "mower.hmsg").write_text(FRESH_SCHEMA.format(package=package))
+    output = tmp_path / "fresh_generated"
+    subprocess.run([os.environ["HORUS_GEN_PROGRAM"], "generate", "--lang", "python", "--out",
+                    str(output), "-I", str(folder.parent), str(folder / "mower.hmsg")], check=True)
+    process = children.python(FRESH_PROCESS.format(python=str(output / "python"),
+                                                   package=package))
+    wait_ready(process)
+
+    info = json.loads(run_horus("topic", "info", "battery", "--json").stdout)
+    assert (info["type_name"], info["is_pod"]) == (f"{package}.Battery", True)
+    assert _echo_json("battery") == {"volts": 24.5, "cells": [4100, 4090, 4080],
+                                     "blade": "Spinning"}
+    assert _echo_json("report") == {"zone": "north", "cut_m2": [1.5, 2.5],
+                                    "battery": {"volts": 23.0, "cells": [0, 0, 0],
+                                                "blade": "Off"}}
+    assert run_horus("topic", "echo", "report", "--once", "--field", "battery.volts").stdout \
+        == "23.0\n"
+
+    for topic, value in (("battery_in", "{volts: 12.5, cells: [1, 2, 3], blade: Spinning}"),
+                         ("report_in", "{zone: south, cut_m2: [0.5], battery: {volts: 11}}")):
+        result = run_horus("topic", "pub", topic, value, "--once")
+        assert result.returncode == 0, result.stderr
+    received = [process.stdout.readline().strip() for _ in range(2)]
+    assert received == ["battery 12.5 [1, 2, 3] Spinning", "report south [0.5] 11.0"]
+    bad = run_horus("topic", "pub", "battery_in", "{blade: Flying}", "--once")
+    assert bad.returncode == 1 and "Flying" in bad.stderr and bad.stderr.count("\n") == 1, bad
 
 
 def test_service_call_against_a_live_cpp_server(children):
