@@ -36,6 +36,14 @@ class CallbackScope {
   bool outer_;
 };
 
+/// Whether Python code may still run here. Once the interpreter is finalizing (a scheduler
+/// destroyed at exit, say by a failed test's traceback), CPython ends any other thread that takes
+/// the GIL with pthread_exit, whose unwinding the scheduler's catch (...) swallows: the process
+/// aborts ("exception not rethrown"). Such a thread skips its Python callbacks instead.
+bool python_may_run() noexcept {
+  return Py_IsInitialized() != 0 && (_Py_IsFinalizing() == 0 || PyGILState_Check() != 0);
+}
+
 /// Takes the GIL for one callback. A scheduler thread that Python does not know gets a Python
 /// thread state once, kept until the thread ends: making and destroying one per callback (what a
 /// PyGILState_Ensure/Release pair does there) costs microseconds. A thread Python started (the
@@ -75,7 +83,7 @@ class CallbackGil {
       state = PyThreadState_Get();
     }
     ~Keeper() {
-      if (state != nullptr && Py_IsInitialized() != 0) {
+      if (state != nullptr && python_may_run()) {
         PyEval_RestoreThread(state);
         PyGILState_Release(gil_state);
       }
@@ -134,6 +142,13 @@ PyNode::PyNode(std::string name, py::tuple callbacks, std::vector<TopicMetadata>
 }
 
 PyNode::~PyNode() {
+  if (!python_may_run()) {
+    // At exit the callables are left to the interpreter rather than end this thread.
+    for (py::object* callback : {&init_, &tick_, &shutdown_, &enter_safe_state_, &is_safe_state_}) {
+      callback->release();
+    }
+    return;
+  }
   // The scheduler may drop its last reference on one of its threads.
   py::gil_scoped_acquire gil;
   init_ = py::object();
@@ -144,7 +159,7 @@ PyNode::~PyNode() {
 }
 
 void PyNode::call(const py::object& callback) const {
-  if (callback.is_none()) {
+  if (callback.is_none() || !python_may_run()) {
     return;
   }
   CallbackScope scope;
@@ -160,6 +175,9 @@ void PyNode::call(const py::object& callback) const {
 }
 
 bool PyNode::is_safe_state() const {
+  if (!python_may_run()) {
+    return true;
+  }
   CallbackGil gil;
   if (is_safe_state_.is_none()) {
     return true;

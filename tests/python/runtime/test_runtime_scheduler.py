@@ -3,6 +3,8 @@ GIL, tracebacks in the log, and Ctrl+C / SIGTERM stopping run() cleanly."""
 from __future__ import annotations
 
 import signal
+import subprocess
+import sys
 import textwrap
 import threading
 import time
@@ -162,6 +164,29 @@ def test_run_from_a_python_thread_that_then_ends():
     out, err = child.communicate(timeout=60)
     assert child.returncode == 0, err
     assert out.split() == ["True", "True"]
+
+
+def test_a_failed_test_holding_a_scheduler_does_not_crash_pytest_at_exit(tmp_path):
+    # The failed test's traceback keeps its scheduler until the interpreter finalizes; the node
+    # shutdowns then ran on threads CPython ends, and the process aborted instead of reporting.
+    test_file = tmp_path / "test_holds_a_scheduler.py"
+    test_file.write_text(textwrap.dedent("""
+        import horus
+
+        class Lidar(horus.Node):
+            def tick(self):
+                pass
+
+        def test_fails_holding_its_scheduler():
+            sched = horus.Scheduler(tick_rate=100)
+            sched.add(Lidar(name="lidar", rate=100))
+            sched.tick_once()
+            assert sched is None
+    """))
+    child = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                            str(test_file)], capture_output=True, text=True, timeout=120)
+    assert child.returncode == 1, child.stdout + child.stderr  # one failed test, no abort
+    assert "1 failed" in child.stdout and "FATAL" not in child.stderr, child.stderr
 
 
 def test_a_dropped_scheduler_releases_its_python_nodes():
