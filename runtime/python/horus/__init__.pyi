@@ -1,6 +1,7 @@
 # Type stubs of the horus package (the runtime); generated message packages ship their own.
 import concurrent.futures
 import enum
+import os
 from typing import Any, Awaitable, Callable, ClassVar, Generic, Literal, Mapping, Sequence, TypeVar, overload
 
 M = TypeVar("M")
@@ -90,7 +91,8 @@ class Scheduler:
                  blackbox_mb: int = ..., watchdog_ms: float = ..., recording: bool = ...,
                  name: str | None = ..., cores: list[int] | None = ...,
                  max_deadline_misses: int | None = ..., verbose: bool = ...,
-                 telemetry: str | None = ..., seed: int | None = ...) -> None: ...
+                 telemetry: str | None = ..., seed: int | None = ...,
+                 replay: str | os.PathLike[str] | None = ...) -> None: ...
     def add(self, node: Node | Any, **settings: Any) -> "Scheduler": ...
     def add_critical_node(self, name: str, timeout_ms: float) -> "Scheduler": ...
     def run(self, duration: float | None = ...) -> int: ...
