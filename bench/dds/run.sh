@@ -3,7 +3,9 @@
 # publisher in namespace A to a subscriber in namespace B through two `horus bridge` processes on
 # Cyclone DDS over loopback, against Cyclone's own C ping-pong (`ddsperf`, round trip / 2) in the
 # same run, and the pieces in between (raw CDR ping-pong through horus._dds from Python; the
-# bridge's per-message Python work). The goal: the bridge adds <= 1.3x to DDS's latency.
+# bridge's per-message conversion: the C++ CdrPlan its pumps run for these POD types, and the
+# Python codec serialized types still use). The goal: the bridge adds <= 1.3x to DDS's
+# latency.
 # Usage: bench/dds/run.sh [BUILD_DIR]   (default: build; needs ddsperf: Debian cyclonedds-tools)
 set -euo pipefail
 build=$(realpath "${1:-build}")
@@ -127,8 +129,8 @@ print(f"load average at the end: {load:.2f}")
 print("One-way latency p50 / p99 in us; ratio = bridge / ddsperf.")
 print("| message | through two bridges | ddsperf ping-pong (C) | ratio p50 (p99) | "
       "horus._dds ping-pong from Python | horus._dds one-way, paced, Python | one HORUS hop, "
-      "paced, Python | bridge Python work (export; import) |")
-print("|---|---|---|---|---|---|---|---|")
+      "paced, Python | CdrPlan from Python (export; import) | the Python codec (export; import) |")
+print("|---|---|---|---|---|---|---|---|---|")
 def pair(r):
     return f"{r['p50']:.1f} / {r['p99']:.1f}" if "p50" in r else f"none measured: {r}"
 for kind, size, latency, throughput, floor, raw, cost, paced, hop in rows:
@@ -136,6 +138,7 @@ for kind, size, latency, throughput, floor, raw, cost, paced, hop in rows:
     ratio = (f"{latency['p50'] / floor['p50']:.1f}x ({latency['p99'] / floor['p99']:.1f}x)"
              if "p50" in latency else "-")
     print(f"| {name} | {pair(latency)} | {pair(floor)} | {ratio} | {pair(raw)} | {pair(paced)} | {pair(hop)} | "
+          f"{cost['export: CdrPlan.encode']:.2f}; {cost['import: CdrPlan.decode']:.2f} | "
           f"{cost['export: from_bytes + encode']:.1f}; {cost['import: decode + to_bytes']:.1f} |")
 print()
 print("Throughput: the publisher in A sends as fast as it can for 3 s.")

@@ -13,7 +13,8 @@ gives no identity: the local topic must exist then). Another type is refused, na
 
 Nothing crosses that no pattern names. DDS endpoints ignore their own participant, and a topic
 named by both directions is refused, so nothing a bridge writes comes back to it. One thread per
-bridged topic moves messages; topics are looked for again every half second.
+bridged topic moves messages: for a POD type a C++ thread of horus._dds (a pump, converting with
+the type's dds_cdr.pod_plan), else a Python thread; topics are looked for again every half second.
 
 Failures of a carried topic never end its thread: a DDS write or take that fails, a message that
 does not encode or decode, a local topic that refuses a message or fails is one line on stderr
@@ -101,12 +102,18 @@ def _identity(topic: dict) -> bytes:
                        "schema": topic["schema"]}).encode()
 
 
-def _open_local(core, name: str, type_name: str, fingerprint: int, schema: str, cls, capacity: int,
-                max_message_size: int, single_publisher: bool):
+def _local_topic(name: str, type_name: str, fingerprint: int, schema: str, capacity: int,
+                 max_message_size: int, single_publisher: bool) -> dict:
+    """The local topic a carried topic's thread opens (horus._core.Topic's arguments)."""
+    return {"name": name, "type_name": type_name, "fingerprint": fingerprint, "schema": schema,
+            "capacity": capacity, "max_message_size": max_message_size,
+            "single_publisher": single_publisher}
+
+
+def _open_local(core, local: dict, cls):
     info = cls.__horus__
-    return core.Topic(name, type_name, fingerprint, schema, info.is_pod,
-                      info.size if info.is_pod else 0, info.alignment if info.is_pod else 1,
-                      capacity, max_message_size, single_publisher)
+    return core.Topic(is_pod=info.is_pod, size=info.size if info.is_pod else 0,
+                      alignment=info.alignment if info.is_pod else 1, **local)
 
 
 class Bridge:
@@ -123,6 +130,7 @@ class Bridge:
         self.broken: str | None = None  # why a thread died of an unexpected error
         self.failures: dict[str, int] = {}  # per carried topic
         self.threads: list[threading.Thread] = []
+        self.pumps: dict[str, object] = {}  # POD topic name -> its horus._dds pump
         self.done: set[str] = set()  # local topic names exported or imported (or refused)
         self.services = Services(self, list(service_exports), list(service_imports))
 
@@ -154,6 +162,15 @@ class Bridge:
         thread.start()
         self.threads.append(thread)
 
+    def _pump(self, start, endpoint, cls, local: dict) -> None:
+        """Carries a POD topic on a C++ thread of horus._dds: `start` is export_pump or
+        import_pump, `endpoint` its DDS writer or reader."""
+        info = cls.__horus__
+        plan = self.dds.CdrPlan(info.name, info.size, dds_cdr.pod_plan(cls))
+        local = dict(local, alignment=info.alignment, namespace=self.namespace or "")
+        self.pumps[local["name"]] = start(endpoint, plan, local,
+                                          f"horus bridge: topic '{local['name']}'")
+
     def _failed(self, what: str, error, then: str) -> None:
         """One line for a failure of a carried topic or service, with its running count."""
         count = self.failures[what] = self.failures.get(what, 0) + 1
@@ -176,12 +193,16 @@ class Bridge:
         name, type_name = topic["name"], topic["type_name"]
         cls = self.types.load(type_name, topic["schema"], topic["fingerprint"])
         dds_type = self.types.dds_name(type_name, topic["schema"])
-        local = _open_local(self.core, name, type_name, topic["fingerprint"], topic["schema"], cls,
-                            topic["capacity"], topic["max_message_size"],
-                            topic["single_publisher"])
+        local = _local_topic(name, type_name, topic["fingerprint"], topic["schema"],
+                             topic["capacity"], topic["max_message_size"],
+                             topic["single_publisher"])
         writer = self.dds.Writer(self.participant, PREFIX + name, dds_type,
                                  user_data=_identity(topic), **self.qos)
-        self._spawn(f"topic '{name}'", self._pump_export, name, local, cls, writer)
+        if cls.__horus__.is_pod:
+            self._pump(self.dds.export_pump, writer, cls, local)
+        else:
+            self._spawn(f"topic '{name}'", self._pump_export, name,
+                        _open_local(self.core, local, cls), cls, writer)
         _say(f"exporting '{name}' ({type_name}) as {PREFIX}{name} ({dds_type})")
 
     def _pump_export(self, name: str, local, cls, writer) -> None:
@@ -223,18 +244,24 @@ class Bridge:
                 continue
             try:
                 ready = self._import(name, publication)
+                if ready is not None:
+                    reader, cls, local = ready
+                    if cls.__horus__.is_pod:
+                        self._pump(self.dds.import_pump, reader, cls, local)
+                    else:
+                        self._spawn(f"topic '{name}'", self._pump_import, name, reader, cls,
+                                    _open_local(self.core, local, cls))
             except (BridgeError, RuntimeError) as error:
                 self.done.add(name)
                 _complain(f"cannot import topic '{name}': {error}")
                 continue
             if ready is not None:
                 self.done.add(name)
-                self._spawn(f"topic '{name}'", self._pump_import, name, *ready)
                 _say(f"importing {publication['topic']} ({publication['type']}) as '{name}' "
-                     f"({ready[1].__horus__.name})")
+                     f"({cls.__horus__.name})")
 
     def _import(self, name: str, publication: dict):
-        """The (reader, class, local handle) of an import; None when the type is not known
+        """The (reader, class, local topic) of an import; None when the type is not known
         yet (a plain DDS writer, and no local topic of that name)."""
         remote = json.loads(publication["user_data"]) if publication["user_data"] else None
         local = next((t for t in self.core.list_topics(self.namespace)
@@ -260,10 +287,9 @@ class Bridge:
             raise BridgeError(f"the local topic has type {type_name} ({dds_type} on DDS), DDS "
                               f"carries {publication['type']}")
         cls = self.types.load(type_name, schema, fingerprint)
-        handle = _open_local(self.core, name, type_name, fingerprint, schema, cls, capacity,
-                             max_message, False)
+        local = _local_topic(name, type_name, fingerprint, schema, capacity, max_message, False)
         reader = self.dds.Reader(self.participant, publication["topic"], dds_type, **self.qos)
-        return reader, cls, handle
+        return reader, cls, local
 
     def _pump_import(self, name: str, reader, cls, local) -> None:
         codec = dds_cdr.CdrCodec(cls)
@@ -303,9 +329,12 @@ class Bridge:
                     self.scan()
                 except RETRIABLE as error:
                     _complain(f"looking for topics failed: {error}; looking again")
+                self._check_pumps()
                 self.stop.wait(RESCAN_S)
         finally:
             self.stop.set()
+            for pump in self.pumps.values():
+                pump.stop()
             for stop in self.services.carried.values():
                 stop.set()
             for proxy in self.services.proxies.values():
@@ -317,6 +346,12 @@ class Bridge:
             _complain(f"stopping: {self.broken}")
             return 1
         return 0
+
+    def _check_pumps(self) -> None:
+        for name, pump in self.pumps.items():
+            if pump.broken is not None and self.broken is None:
+                self.broken = f"topic '{name}': {pump.broken}"
+                self.stop.set()
 
     def scan(self) -> None:
         if self.exports:

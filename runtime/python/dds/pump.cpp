@@ -1,0 +1,164 @@
+#include "pump.hpp"
+
+#include <unistd.h>
+
+#include <exception>
+#include <stdexcept>
+#include <utility>
+
+#include "raw_cdr.hpp"
+
+namespace horus::dds_bridge {
+namespace {
+
+python::ErasedTopic open_local(const LocalTopic& local, std::size_t size) {
+  TopicOptions options;
+  options.capacity = local.capacity;
+  options.max_message_size = local.max_message_size;
+  options.namespace_name = local.namespace_name;
+  options.single_publisher = local.single_publisher;
+  return {local.name,
+          python::ErasedType{local.type_name, local.fingerprint, local.schema, true, size,
+                             local.alignment},
+          options};
+}
+
+}  // namespace
+
+Pump::Pump(std::string label, std::shared_ptr<void> keep_alive)
+    : label_(std::move(label)), keep_alive_(std::move(keep_alive)) {}
+
+Pump::~Pump() { stop(); }
+
+void Pump::start(std::function<void()> loop) {
+  thread_ = std::thread([this, loop = std::move(loop)] { run(loop); });
+}
+
+void Pump::run(const std::function<void()>& loop) noexcept {
+  try {
+    loop();
+  } catch (const std::exception& error) {
+    const std::lock_guard lock(mutex_);
+    broken_ = error.what();
+  }
+}
+
+void Pump::stop() {
+  {
+    const std::lock_guard lock(mutex_);
+    stopping_.store(true, std::memory_order_relaxed);
+  }
+  woken_.notify_all();
+  if (thread_.joinable()) {
+    thread_.join();
+  }
+}
+
+std::string Pump::broken() const {
+  const std::lock_guard lock(mutex_);
+  return broken_;
+}
+
+void Pump::failed(const std::string& error, const char* then) {
+  const std::uint64_t count = failures_.fetch_add(1, std::memory_order_relaxed) + 1;
+  const std::string line =
+      label_ + ": " + error + " (failure " + std::to_string(count) + " of it); " + then + "\n";
+  // One write: the line stays whole beside what other threads print.
+  [[maybe_unused]] const ssize_t written = ::write(STDERR_FILENO, line.data(), line.size());
+}
+
+void Pump::pause() {
+  std::unique_lock lock(mutex_);
+  woken_.wait_for(lock, kRetry, [this] { return stopping(); });
+}
+
+ExportPump::ExportPump(const LocalTopic& local, CdrPlan plan, dds_entity_t writer,
+                       const ddsi_sertype* type, std::string dds_topic, std::string label,
+                       std::shared_ptr<void> keep_alive)
+    : Pump(std::move(label), std::move(keep_alive)),
+      local_(open_local(local, plan.pod_size())),
+      plan_(std::move(plan)),
+      writer_(writer),
+      type_(type),
+      dds_topic_(std::move(dds_topic)) {
+  start([this] { loop(); });
+}
+
+void ExportPump::loop() {
+  std::vector<std::byte> sample;
+  while (!stopping()) {
+    // The handle takes only messages of the POD size: the plan's bytes are all there.
+    const std::ptrdiff_t size = local_.recv(kPoll);
+    if (size < 0) {
+      continue;
+    }
+    plan_.encode(local_.received(static_cast<std::size_t>(size)).data(), sample);
+    while (!stopping()) {
+      // dds_writecdr consumes the reference: a retry makes the sample again.
+      const dds_return_t code =
+          dds_writecdr(writer_, raw_cdr_sample(type_, sample.data(), sample.size()));
+      if (code >= 0) {
+        count_carried();
+        break;
+      }
+      failed("cannot write to DDS topic '" + dds_topic_ + "': " + dds_strretcode(code),
+             "writing the same message again");
+      pause();
+    }
+  }
+}
+
+ImportPump::ImportPump(const LocalTopic& local, CdrPlan plan, dds_entity_t reader,
+                       std::string dds_topic, std::string label, std::shared_ptr<void> keep_alive)
+    : Pump(std::move(label), std::move(keep_alive)),
+      local_(open_local(local, plan.pod_size())),
+      plan_(std::move(plan)),
+      reader_(reader),
+      waitset_(dds_create_waitset(dds_get_participant(reader))),
+      dds_topic_(std::move(dds_topic)),
+      message_(plan_.pod_size()) {
+  if (waitset_ < 0) {
+    throw std::runtime_error(std::string("cannot create a DDS waitset: ") +
+                             dds_strretcode(waitset_));
+  }
+  const dds_entity_t condition = dds_create_readcondition(reader_, DDS_ANY_STATE);
+  const dds_return_t code = condition < 0 ? condition : dds_waitset_attach(waitset_, condition, 0);
+  if (code < 0) {
+    dds_delete(waitset_);
+    throw std::runtime_error("cannot wait on DDS topic '" + dds_topic_ +
+                             "': " + dds_strretcode(code));
+  }
+  start([this] { loop(); });
+}
+
+ImportPump::~ImportPump() {
+  stop();
+  dds_delete(waitset_);
+}
+
+void ImportPump::loop() {
+  while (!stopping()) {
+    dds_waitset_wait(waitset_, nullptr, 0, std::chrono::nanoseconds(kPoll).count());
+    const dds_return_t code =
+        take_raw_cdr(reader_, [this](std::span<const std::byte> sample) { deliver(sample); });
+    if (code < 0) {
+      failed("cannot take from DDS topic '" + dds_topic_ + "': " + dds_strretcode(code),
+             "retrying");
+      pause();
+    }
+  }
+}
+
+void ImportPump::deliver(std::span<const std::byte> sample) {
+  const std::string error = plan_.decode(sample, message_.data());
+  if (!error.empty()) {
+    failed("a DDS sample does not decode: " + error, "dropped it");
+  } else if (!local_.send(message_)) {
+    failed("the local topic refused a message from DDS (no room, or a stalled publisher)",
+           "dropped it");
+  } else {
+    count_carried();
+  }
+}
+
+}  // namespace horus::dds_bridge
