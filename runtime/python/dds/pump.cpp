@@ -31,15 +31,19 @@ Pump::Pump(std::string label, std::shared_ptr<void> keep_alive)
 Pump::~Pump() { stop(); }
 
 void Pump::start(std::function<void()> loop) {
-  thread_ = std::thread([this, loop = std::move(loop)] { run(loop); });
+  thread_ = std::thread([this, loop = std::move(loop)] { guarded(loop); });
 }
 
-void Pump::run(const std::function<void()>& loop) noexcept {
+void Pump::guarded(const std::function<void()>& work) noexcept {
   try {
-    loop();
+    work();
   } catch (const std::exception& error) {
-    const std::lock_guard lock(mutex_);
-    broken_ = error.what();
+    {
+      const std::lock_guard lock(mutex_);
+      broken_ = error.what();
+      stopping_.store(true, std::memory_order_relaxed);
+    }
+    woken_.notify_all();
   }
 }
 
@@ -67,9 +71,9 @@ void Pump::failed(const std::string& error, const char* then) {
   [[maybe_unused]] const ssize_t written = ::write(STDERR_FILENO, line.data(), line.size());
 }
 
-void Pump::pause() {
+void Pump::pause(std::chrono::milliseconds how_long) {
   std::unique_lock lock(mutex_);
-  woken_.wait_for(lock, kRetry, [this] { return stopping(); });
+  woken_.wait_for(lock, how_long, [this] { return stopping(); });
 }
 
 ExportPump::ExportPump(const LocalTopic& local, CdrPlan plan, dds_entity_t writer,
@@ -114,39 +118,45 @@ ImportPump::ImportPump(const LocalTopic& local, CdrPlan plan, dds_entity_t reade
       local_(open_local(local, plan.pod_size())),
       plan_(std::move(plan)),
       reader_(reader),
-      waitset_(dds_create_waitset(dds_get_participant(reader))),
       dds_topic_(std::move(dds_topic)),
       message_(plan_.pod_size()) {
-  if (waitset_ < 0) {
-    throw std::runtime_error(std::string("cannot create a DDS waitset: ") +
-                             dds_strretcode(waitset_));
-  }
-  const dds_entity_t condition = dds_create_readcondition(reader_, DDS_ANY_STATE);
-  const dds_return_t code = condition < 0 ? condition : dds_waitset_attach(waitset_, condition, 0);
+  dds_listener_t* listener = dds_create_listener(this);
+  dds_lset_data_available(listener, [](dds_entity_t, void* arg) {
+    auto* pump = static_cast<ImportPump*>(arg);
+    if (!pump->stopping()) {
+      pump->guarded([pump] { pump->drain(); });
+    }
+  });
+  const dds_return_t code = dds_set_listener(reader_, listener);  // copies it
+  dds_delete_listener(listener);
   if (code < 0) {
-    dds_delete(waitset_);
-    throw std::runtime_error("cannot wait on DDS topic '" + dds_topic_ +
+    throw std::runtime_error("cannot listen on DDS topic '" + dds_topic_ +
                              "': " + dds_strretcode(code));
   }
   start([this] { loop(); });
 }
 
 ImportPump::~ImportPump() {
+  dds_set_listener(reader_, nullptr);  // returns once no call of the listener runs
   stop();
-  dds_delete(waitset_);
 }
 
 void ImportPump::loop() {
+  // Samples that arrived before the listener was set, or that a failed take left.
   while (!stopping()) {
-    dds_waitset_wait(waitset_, nullptr, 0, std::chrono::nanoseconds(kPoll).count());
-    const dds_return_t code =
-        take_raw_cdr(reader_, [this](std::span<const std::byte> sample) { deliver(sample); });
-    if (code < 0) {
-      failed("cannot take from DDS topic '" + dds_topic_ + "': " + dds_strretcode(code),
-             "retrying");
-      pause();
-    }
+    pause(drain() ? std::chrono::duration_cast<std::chrono::milliseconds>(kPoll) : kRetry);
   }
+}
+
+bool ImportPump::drain() {
+  const std::lock_guard lock(draining_);
+  const dds_return_t code =
+      take_raw_cdr(reader_, [this](std::span<const std::byte> sample) { deliver(sample); });
+  if (code < 0) {
+    failed("cannot take from DDS topic '" + dds_topic_ + "': " + dds_strretcode(code), "retrying");
+    return false;
+  }
+  return true;
 }
 
 void ImportPump::deliver(std::span<const std::byte> sample) {

@@ -1,7 +1,9 @@
 // The per-message path of a POD topic through the bridge, out of Python: one C++ thread per
 // carried topic. An export pump waits on the local HORUS topic, turns each message into CDR with
-// the type's CdrPlan and writes it with dds_writecdr; an import pump waits on a DDS reader, takes
-// the samples with dds_takecdr, turns each back into the POD struct and publishes it locally.
+// the type's CdrPlan and writes it with dds_writecdr. An import pump takes the samples with
+// dds_takecdr, turns each back into the POD struct and publishes it locally, from the reader's
+// data-available listener (in Cyclone's receive thread: no thread of its own to wake per
+// message); its thread takes what a failed take left behind.
 // Failures follow docs/dds-bridge.md "When something fails": one line on stderr per failure with
 // the topic's running count, a failed DDS write or take retried after kRetry (the same message:
 // nothing is reordered), a message that cannot be decoded or delivered dropped. The thread never
@@ -67,13 +69,13 @@ class Pump {
   bool stopping() const noexcept { return stopping_.load(std::memory_order_relaxed); }
   /// One line on stderr: `<label>: <error> (failure N of it); <then>`.
   void failed(const std::string& error, const char* then);
-  /// Sleeps kRetry, or less when stopped.
-  void pause();
+  /// Sleeps `how_long`, or less when stopped.
+  void pause(std::chrono::milliseconds how_long = kRetry);
   void count_carried() noexcept { carried_.fetch_add(1, std::memory_order_relaxed); }
+  /// Runs `work`; what it throws (a bug) goes to broken() and stops the loop.
+  void guarded(const std::function<void()>& work) noexcept;
 
  private:
-  void run(const std::function<void()>& loop) noexcept;
-
   std::string label_;
   std::shared_ptr<void> keep_alive_;  // the DDS endpoint the thread uses
   std::atomic<bool> stopping_{false};
@@ -111,14 +113,16 @@ class ImportPump final : public Pump {
 
  private:
   void loop();
+  /// Takes and delivers every sample the reader holds: false when the take failed (said).
+  bool drain();
   void deliver(std::span<const std::byte> sample);
 
   python::ErasedTopic local_;
   CdrPlan plan_;
   dds_entity_t reader_;
-  dds_entity_t waitset_;
   std::string dds_topic_;
   std::vector<std::byte> message_;
+  std::mutex draining_;  // the listener and the thread: one take and delivery at a time, in order
 };
 
 }  // namespace horus::dds_bridge
