@@ -51,6 +51,7 @@ struct Qos {
   bool reliable;
   std::int32_t depth;
   bool transient_local;
+  std::int64_t deadline_ms;  // 0: none
 };
 
 // One participant and the raw-CDR topics it has made (one per DDS topic name).
@@ -129,8 +130,16 @@ class Participant {
         user_data.assign(static_cast<const char*>(data), size);
         dds_free(data);
       }
+      dds_durability_kind_t durability = DDS_DURABILITY_VOLATILE;
+      dds_duration_t deadline = DDS_INFINITY;
+      if (endpoint->qos != nullptr) {
+        dds_qget_durability(endpoint->qos, &durability);
+        dds_qget_deadline(endpoint->qos, &deadline);
+      }
       py::dict row;
       row["topic"] = std::string(endpoint->topic_name);
+      row["transient_local"] = durability == DDS_DURABILITY_TRANSIENT_LOCAL;
+      row["deadline_ms"] = deadline == DDS_INFINITY ? 0 : deadline / DDS_MSECS(1);
       row["type"] = std::string(endpoint->type_name);
       row["participant"] = participant;
       row["user_data"] = py::bytes(user_data);
@@ -161,6 +170,14 @@ dds_qos_t* make_qos(const Qos& qos, const std::string& user_data) {
   dds_qset_history(out, DDS_HISTORY_KEEP_LAST, qos.depth);
   dds_qset_durability(
       out, qos.transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
+  if (qos.transient_local) {
+    // Latched: a reader that joins later gets the last sample (the writer keeps one for it).
+    dds_qset_durability_service(out, 0, DDS_HISTORY_KEEP_LAST, 1, DDS_LENGTH_UNLIMITED,
+                                DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED);
+  }
+  if (qos.deadline_ms > 0) {
+    dds_qset_deadline(out, DDS_MSECS(qos.deadline_ms));
+  }
   dds_qset_ignorelocal(out, DDS_IGNORELOCAL_PARTICIPANT);
   if (!user_data.empty()) {
     dds_qset_userdata(out, user_data.data(), user_data.size());
@@ -213,6 +230,12 @@ class Writer : public Endpoint {
     dds_publication_matched_status_t status{};
     dds_get_publication_matched_status(entity_, &status);
     return status.current_count;
+  }
+
+  std::uint32_t deadlines_missed() const {
+    dds_offered_deadline_missed_status_t status{};
+    dds_get_offered_deadline_missed_status(entity_, &status);
+    return status.total_count;
   }
 
  private:
@@ -271,6 +294,12 @@ class Reader : public Endpoint {
     dds_subscription_matched_status_t status{};
     dds_get_subscription_matched_status(entity_, &status);
     return status.current_count;
+  }
+
+  std::uint32_t deadlines_missed() const {
+    dds_requested_deadline_missed_status_t status{};
+    dds_get_requested_deadline_missed_status(entity_, &status);
+    return status.total_count;
   }
 
  private:
@@ -360,35 +389,40 @@ PYBIND11_MODULE(_dds, m) {
       .def_property_readonly("guid", &Participant::guid)
       .def("publications", &Participant::publications,
            "The publications on the domain other participants have: dicts of topic, type, "
-           "participant (GUID) and user_data (bytes).");
+           "participant (GUID), user_data (bytes), transient_local and deadline_ms (0: none).");
 
   py::class_<Writer, std::shared_ptr<Writer>>(m, "Writer")
       .def(py::init([](const std::shared_ptr<Participant>& participant, const std::string& topic,
                        const std::string& type_name, bool reliable, std::int32_t depth,
-                       bool transient_local, const py::bytes& user_data) {
+                       bool transient_local, std::int64_t deadline_ms, const py::bytes& user_data) {
              return std::make_shared<Writer>(participant, topic, type_name,
-                                             Qos{reliable, depth, transient_local},
+                                             Qos{reliable, depth, transient_local, deadline_ms},
                                              std::string(user_data));
            }),
            py::arg("participant"), py::arg("topic"), py::arg("type_name"), py::kw_only(),
            py::arg("reliable") = true, py::arg("depth") = 100, py::arg("transient_local") = false,
-           py::arg("user_data") = py::bytes())
+           py::arg("deadline_ms") = 0, py::arg("user_data") = py::bytes())
       .def("write", &Writer::write, py::arg("cdr"),
            "Writes one sample: its CDR, 4-byte encapsulation header included.")
-      .def("matched", &Writer::matched, "How many readers match this writer now.");
+      .def("matched", &Writer::matched, "How many readers match this writer now.")
+      .def("deadlines_missed", &Writer::deadlines_missed,
+           "How many times this writer wrote nothing within its deadline (deadline_ms).");
 
   py::class_<Reader, std::shared_ptr<Reader>>(m, "Reader")
       .def(py::init([](const std::shared_ptr<Participant>& participant, const std::string& topic,
                        const std::string& type_name, bool reliable, std::int32_t depth,
-                       bool transient_local) {
+                       bool transient_local, std::int64_t deadline_ms) {
              return std::make_shared<Reader>(participant, topic, type_name,
-                                             Qos{reliable, depth, transient_local});
+                                             Qos{reliable, depth, transient_local, deadline_ms});
            }),
            py::arg("participant"), py::arg("topic"), py::arg("type_name"), py::kw_only(),
-           py::arg("reliable") = true, py::arg("depth") = 100, py::arg("transient_local") = false)
+           py::arg("reliable") = true, py::arg("depth") = 100, py::arg("transient_local") = false,
+           py::arg("deadline_ms") = 0)
       .def("take", &Reader::take, py::arg("timeout"),
            "The samples received (CDR bytes, oldest first), waiting up to timeout seconds.")
-      .def("matched", &Reader::matched, "How many writers match this reader now.");
+      .def("matched", &Reader::matched, "How many writers match this reader now.")
+      .def("deadlines_missed", &Reader::deadlines_missed,
+           "How many times nothing arrived within this reader's deadline (deadline_ms).");
 
   py::class_<CdrPlan>(m, "CdrPlan",
                       "A POD type's CDR as steps over its struct bytes (dds_cdr.pod_plan).")
@@ -429,14 +463,16 @@ PYBIND11_MODULE(_dds, m) {
   m.def(
       "export_pump",
       [](const std::shared_ptr<Writer>& writer, const CdrPlan& plan, const py::dict& local,
-         std::string label) -> std::unique_ptr<Pump> {
+         std::string label, bool latched) -> std::unique_ptr<Pump> {
         return std::make_unique<ExportPump>(local_topic(local), plan, writer->entity(),
-                                            writer->type(), writer->topic(), std::move(label),
-                                            writer);
+                                            writer->type(), writer->topic(), latched,
+                                            std::move(label), writer);
       },
       py::arg("writer"), py::arg("plan"), py::arg("local"), py::arg("label"),
+      py::arg("latched") = false,
       "Carries the local topic `local` (horus._core.Topic's arguments as a dict, and namespace) "
-      "to `writer` on a thread of its own; failures are lines on stderr starting with `label`.");
+      "to `writer` on a thread of its own; failures are lines on stderr starting with `label`. "
+      "latched: first the topic's newest message (for a transient-local writer).");
   m.def(
       "import_pump",
       [](const std::shared_ptr<Reader>& reader, const CdrPlan& plan, const py::dict& local,

@@ -77,38 +77,47 @@ void Pump::pause(std::chrono::milliseconds how_long) {
 }
 
 ExportPump::ExportPump(const LocalTopic& local, CdrPlan plan, dds_entity_t writer,
-                       const ddsi_sertype* type, std::string dds_topic, std::string label,
-                       std::shared_ptr<void> keep_alive)
+                       const ddsi_sertype* type, std::string dds_topic, bool latched,
+                       std::string label, std::shared_ptr<void> keep_alive)
     : Pump(std::move(label), std::move(keep_alive)),
       local_(open_local(local, plan.pod_size())),
       plan_(std::move(plan)),
       writer_(writer),
       type_(type),
-      dds_topic_(std::move(dds_topic)) {
+      dds_topic_(std::move(dds_topic)),
+      latched_(latched) {
   start([this] { loop(); });
 }
 
 void ExportPump::loop() {
-  std::vector<std::byte> sample;
+  // A latched topic's last message, sent before this handle opened, is what a late joiner on DDS
+  // should get; one that arrived since is taken below anyway.
+  if (latched_ && !local_.has_msg()) {
+    if (const std::ptrdiff_t size = local_.read_latest(); size >= 0) {
+      send_to_dds(static_cast<std::size_t>(size));
+    }
+  }
   while (!stopping()) {
-    // The handle takes only messages of the POD size: the plan's bytes are all there.
-    const std::ptrdiff_t size = local_.recv(kPoll);
-    if (size < 0) {
-      continue;
+    if (const std::ptrdiff_t size = local_.recv(kPoll); size >= 0) {
+      send_to_dds(static_cast<std::size_t>(size));
     }
-    plan_.encode(local_.received(static_cast<std::size_t>(size)).data(), sample);
-    while (!stopping()) {
-      // dds_writecdr consumes the reference: a retry makes the sample again.
-      const dds_return_t code =
-          dds_writecdr(writer_, raw_cdr_sample(type_, sample.data(), sample.size()));
-      if (code >= 0) {
-        count_carried();
-        break;
-      }
-      failed("cannot write to DDS topic '" + dds_topic_ + "': " + dds_strretcode(code),
-             "writing the same message again");
-      pause();
+  }
+}
+
+void ExportPump::send_to_dds(std::size_t size) {
+  // The handle takes only messages of the POD size: the plan's bytes are all there.
+  plan_.encode(local_.received(size).data(), sample_);
+  while (!stopping()) {
+    // dds_writecdr consumes the reference: a retry makes the sample again.
+    const dds_return_t code =
+        dds_writecdr(writer_, raw_cdr_sample(type_, sample_.data(), sample_.size()));
+    if (code >= 0) {
+      count_carried();
+      return;
     }
+    failed("cannot write to DDS topic '" + dds_topic_ + "': " + dds_strretcode(code),
+           "writing the same message again");
+    pause();
   }
 }
 

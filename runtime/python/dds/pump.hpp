@@ -90,18 +90,24 @@ class Pump {
 /// Local topic -> DDS writer.
 class ExportPump final : public Pump {
  public:
+  /// `latched`: first sends the topic's newest message, if it has one and nothing newer came.
   ExportPump(const LocalTopic& local, CdrPlan plan, dds_entity_t writer, const ddsi_sertype* type,
-             std::string dds_topic, std::string label, std::shared_ptr<void> keep_alive);
+             std::string dds_topic, bool latched, std::string label,
+             std::shared_ptr<void> keep_alive);
   ~ExportPump() override { stop(); }
 
  private:
   void loop();
+  /// Writes the message of `size` bytes the handle received, retrying a failed write.
+  void send_to_dds(std::size_t size);
 
   python::ErasedTopic local_;
   CdrPlan plan_;
   dds_entity_t writer_;
   const ddsi_sertype* type_;
   std::string dds_topic_;
+  bool latched_;
+  std::vector<std::byte> sample_;
 };
 
 /// DDS reader -> local topic.
