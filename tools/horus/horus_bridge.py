@@ -362,11 +362,19 @@ class Bridge:
 
     def run(self) -> int:
         """Carries topics until Ctrl+C or SIGTERM (0), or a thread's unexpected error (1)."""
+        previous = signal.signal(signal.SIGTERM, lambda *_: self.stop.set())
+        try:
+            return self.serve()
+        finally:
+            signal.signal(signal.SIGTERM, previous)
+
+    def serve(self) -> int:
+        """Carries topics until `stop` is set (0), or a thread's unexpected error (1): the
+        bridge's loop, on any thread (horus.Network runs it inside a scheduler's process)."""
         services = self.services
         _say(f"bridge on DDS domain {self.domain}: exporting {self.exports or 'nothing'}, "
              f"importing {self.imports or 'nothing'}; services: exporting "
              f"{services.exports or 'nothing'}, importing {services.imports or 'nothing'}")
-        previous = signal.signal(signal.SIGTERM, lambda *_: self.stop.set())
         try:
             while not self.stop.is_set():
                 try:
@@ -386,7 +394,6 @@ class Bridge:
                 proxy.stop()  # withdraws its registration: local callers get NoServer
             for thread in self.threads:
                 thread.join()
-            signal.signal(signal.SIGTERM, previous)
         if self.broken is not None:
             _complain(f"stopping: {self.broken}")
             return 1
