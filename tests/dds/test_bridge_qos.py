@@ -86,3 +86,12 @@ def test_a_missed_deadline_is_a_line_with_a_count_on_both_sides(
                    limit=30)
         counts = missed_counts(lines)
         assert counts == sorted(set(counts)) and counts[0] >= 1, f"{side}: {lines.lines}"
+
+
+def test_a_deadline_without_a_pattern_or_milliseconds_is_a_usage_error(worlds, generated):
+    from test_bridge import horus_in
+    for given in ("cmd_*=soon", "=5", "cmd_vel", "cmd_*=0"):
+        result = horus_in(worlds[0], generated, "bridge", "--export", "cmd_*", "--deadline", given)
+        assert result.returncode == 2 and result.stderr.strip().splitlines() == [
+            f"horus: --deadline wants PATTERN=MS (a whole number of milliseconds, at least 1), "
+            f"got {given!r}"], result.stderr
