@@ -129,6 +129,7 @@ ImportPump::ImportPump(const LocalTopic& local, CdrPlan plan, dds_entity_t reade
       reader_(reader),
       dds_topic_(std::move(dds_topic)),
       message_(plan_.pod_size()) {
+  start([this] { loop(); });
   dds_listener_t* listener = dds_create_listener(this);
   dds_lset_data_available(listener, [](dds_entity_t, void* arg) {
     auto* pump = static_cast<ImportPump*>(arg);
@@ -139,10 +140,10 @@ ImportPump::ImportPump(const LocalTopic& local, CdrPlan plan, dds_entity_t reade
   const dds_return_t code = dds_set_listener(reader_, listener);  // copies it
   dds_delete_listener(listener);
   if (code < 0) {
+    stop();  // before the members the thread uses are unwound
     throw std::runtime_error("cannot listen on DDS topic '" + dds_topic_ +
                              "': " + dds_strretcode(code));
   }
-  start([this] { loop(); });
 }
 
 ImportPump::~ImportPump() {
@@ -153,7 +154,7 @@ ImportPump::~ImportPump() {
 void ImportPump::loop() {
   // Samples that arrived before the listener was set, or that a failed take left.
   while (!stopping()) {
-    pause(drain() ? std::chrono::duration_cast<std::chrono::milliseconds>(kPoll) : kRetry);
+    pause(drain() ? kPoll : kRetry);
   }
 }
 
