@@ -6,6 +6,7 @@ own `ddsperf` ping-pong, plus the pieces in between (run.sh runs it; RESULTS.md 
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import statistics
 import sys
@@ -34,32 +35,48 @@ def seq_of(message) -> int:
     return int(message.linear) if type(message).__name__ == "CmdVel" else message.seq
 
 
-def publish(kind: str, mode: str, count: str, period_us: str) -> None:
+def in_process(domain: str | None, **patterns):
+    """With a DDS domain, a scheduler whose horus.Network carries `bench` inside this process
+    (the in-process option: no bridge process); else nothing to enter."""
+    import horus
+    if domain is None:
+        return contextlib.nullcontext()
+    return horus.Scheduler(network=horus.Network(domain=int(domain), **patterns))
+
+
+def publish(kind: str, mode: str, count: str, period_us: str, domain: str | None = None) -> None:
     import horus
     cls = message_class(kind)
     topic = horus.Topic(cls, "bench")
-    print("ready", flush=True)
-    sys.stdin.readline()  # run.sh says go once both bridges carry the topic
-    period = int(period_us) * 1e-6
-    next_send = time.monotonic()
-    end = next_send + THROUGHPUT_S
-    seq = 0
-    while seq < int(count) if mode == "latency" else time.monotonic() < end:
-        topic.send(make(cls, seq))
-        seq += 1
-        if mode == "latency":
-            # Sleeping, not spinning (two cores): each message is stamped when it is sent.
-            next_send += period
-            time.sleep(max(0.0, next_send - time.monotonic()))
-    print("sent", seq, flush=True)
+    with in_process(domain, export=["bench"]):
+        print("ready", flush=True)
+        sys.stdin.readline()  # run.sh says go once both bridges carry the topic
+        period = int(period_us) * 1e-6
+        next_send = time.monotonic()
+        end = next_send + THROUGHPUT_S
+        seq = 0
+        while seq < int(count) if mode == "latency" else time.monotonic() < end:
+            topic.send(make(cls, seq))
+            seq += 1
+            if mode == "latency":
+                # Sleeping, not spinning (two cores): each message is stamped when it is sent.
+                next_send += period
+                time.sleep(max(0.0, next_send - time.monotonic()))
+        print("sent", seq, flush=True)
 
 
-def subscribe(kind: str, mode: str, count: str) -> None:
+def subscribe(kind: str, mode: str, count: str, domain: str | None = None) -> None:
     import horus
     cls = message_class(kind)
     topic = horus.Topic(cls, "bench")
-    print("ready", flush=True)
-    total = int(count)
+    with in_process(domain, import_=["bench"]):
+        print("ready", flush=True)
+        result = receive(topic, mode, int(count))
+    print(json.dumps(result), flush=True)
+
+
+def receive(topic, mode: str, total: int) -> dict:
+    """What arrives on `topic`: latency p50/p99 after the warm-up, or the rate of a flood."""
     latencies, first, last, received, last_seq = [], None, None, 0, -1
     while True:
         # The first message comes once both bridges run; then 2 s of silence is the end.
@@ -86,7 +103,7 @@ def subscribe(kind: str, mode: str, count: str) -> None:
     if mode == "throughput" and received > 1:
         result["rate"] = (received - 1) / ((last - first) / 1e9)
         result["sent"] = last_seq + 1
-    print(json.dumps(result), flush=True)
+    return result
 
 
 def dds_pong(domain: str, size: str) -> None:
@@ -158,10 +175,15 @@ def dds_pub(domain: str, size: str, count: str, period_us: str) -> None:
 
 
 def costs(kind: str) -> None:
-    """The bridge's Python work per message, in one process: what each side adds to DDS."""
+    """The bridge's conversion per message, in one process: for a POD type the C++ CdrPlan its
+    pumps run (timed here through a Python call each, so an upper bound), and what a Python
+    thread did before (and still does for serialized types)."""
     import dds_cdr
+    from horus import _dds
     cls = message_class(kind)
     codec = dds_cdr.CdrCodec(cls)
+    info = cls.__horus__
+    plan = _dds.CdrPlan(info.name, info.size, dds_cdr.pod_plan(cls))
     message = make(cls, 1)
     data = message.to_bytes()
     cdr = codec.encode(message)
@@ -178,6 +200,8 @@ def costs(kind: str) -> None:
     print(json.dumps({
         "export: from_bytes + encode": per_call(lambda: codec.encode(cls.from_bytes(data))),
         "import: decode + to_bytes": per_call(lambda: codec.decode(cdr).to_bytes()),
+        "export: CdrPlan.encode": per_call(lambda: plan.encode(data)),
+        "import: CdrPlan.decode": per_call(lambda: plan.decode(cdr)),
         "cdr_bytes": len(cdr)}))
 
 

@@ -2,8 +2,11 @@
 # bench/dds: one-way latency (p50/p99) and throughput of CmdVel (16 B) and a 1.5 KB message from a
 # publisher in namespace A to a subscriber in namespace B through two `horus bridge` processes on
 # Cyclone DDS over loopback, against Cyclone's own C ping-pong (`ddsperf`, round trip / 2) in the
-# same run, and the pieces in between (raw CDR ping-pong through horus._dds from Python; the
-# bridge's per-message Python work). The issue's goal: the bridge adds <= 1.3x to DDS's latency.
+# same run, the same path with each bridge a horus.Network inside the publisher's and the
+# subscriber's processes, and the pieces in between (raw CDR ping-pong through horus._dds from Python; the
+# bridge's per-message conversion: the C++ CdrPlan its pumps run for these POD types, and the
+# Python codec serialized types still use). The issue's goal: the bridge adds <= 1.3x to DDS's
+# latency.
 # Usage: bench/dds/run.sh [BUILD_DIR]   (default: build; needs ddsperf: Debian cyclonedds-tools)
 set -euo pipefail
 build=$(realpath "${1:-build}")
@@ -14,6 +17,7 @@ trap 'rm -rf "$work"' EXIT
 /usr/bin/python3 "$repo/generator/horus-gen" generate --lang python --out "$work/gen" \
   "$here/bench_dds.hmsg" >/dev/null
 export CYCLONEDDS_URI="file://$repo/docs/cyclonedds-loopback.xml"
+export HORUS_GEN_PROGRAM="$repo/generator/horus-gen"  # for the in-process bridges (horus.Network)
 export PYTHONPATH="$build/python:$build/schemas/horus_gen/horus_msgs/python:$work/gen/python:$repo/tools/horus:$here"
 mkdir -m 700 "$work/shm_a" "$work/shm_b"
 /usr/bin/python3 - "$build/bin/horus" "$work" "$here/bench.py" <<'PY'
@@ -61,6 +65,25 @@ def through_bridges(kind, mode, count, period_us):
         process.kill()
         _, errors = process.communicate()
         result.setdefault("bridge_errors", []).extend(errors.splitlines()[:3])
+    return result
+
+def in_process(kind, count, period_us):
+    """The same, each side's bridge a horus.Network inside the publisher's and the subscriber's
+    own processes (no bridge process)."""
+    global domain
+    domain += 1
+    py = [sys.executable, bench]
+    subscriber = start(py + ["subscribe", kind, "latency", str(count), str(domain)], "b")
+    wait_for(subscriber, "ready")
+    publisher = start(py + ["publish", kind, "latency", str(count), str(period_us), str(domain)],
+                      "a", stdin=True)
+    wait_for(publisher, "exporting 'bench'")
+    wait_for(subscriber, "importing")
+    time.sleep(1.0)  # the DDS reader and writer match
+    publisher.stdin.write("go\n")
+    publisher.stdin.flush()
+    result = json.loads(subscriber.communicate(timeout=300)[0].splitlines()[-1])
+    stop(publisher)
     return result
 
 def local_hop(kind, count, period_us):
@@ -113,6 +136,7 @@ COUNT, PERIOD_US = 2200, 2000  # latency runs: 2000 messages measured, 500 a sec
 rows = []
 for kind, size in (("cmdvel", 16), ("blob", 1512)):
     latency = through_bridges(kind, "latency", COUNT, PERIOD_US)
+    networks = in_process(kind, COUNT, PERIOD_US)
     throughput = through_bridges(kind, "throughput", 0, 0)
     floor = ddsperf(size)
     raw = python_dds(size)
@@ -120,22 +144,25 @@ for kind, size in (("cmdvel", 16), ("blob", 1512)):
     hop = local_hop(kind, COUNT, PERIOD_US)
     cost = json.loads(subprocess.run([sys.executable, bench, "costs", kind], capture_output=True,
                                      text=True, check=True).stdout)
-    rows.append((kind, size, latency, throughput, floor, raw, cost, paced, hop))
+    rows.append((kind, size, latency, throughput, floor, raw, cost, paced, hop, networks))
 
 load = os.getloadavg()[0]
 print(f"load average at the end: {load:.2f}")
 print("One-way latency p50 / p99 in us; ratio = bridge / ddsperf.")
 print("| message | through two bridges | ddsperf ping-pong (C) | ratio p50 (p99) | "
+      "through two in-process horus.Network | its ratio p50 (p99) | "
       "horus._dds ping-pong from Python | horus._dds one-way, paced, Python | one HORUS hop, "
-      "paced, Python | bridge Python work (export; import) |")
-print("|---|---|---|---|---|---|---|---|")
+      "paced, Python | CdrPlan from Python (export; import) | the Python codec (export; import) |")
+print("|---|---|---|---|---|---|---|---|---|---|---|")
 def pair(r):
     return f"{r['p50']:.1f} / {r['p99']:.1f}" if "p50" in r else f"none measured: {r}"
-for kind, size, latency, throughput, floor, raw, cost, paced, hop in rows:
+def ratio(r, floor):
+    return f"{r['p50'] / floor['p50']:.1f}x ({r['p99'] / floor['p99']:.1f}x)" if "p50" in r else "-"
+for kind, size, latency, throughput, floor, raw, cost, paced, hop, networks in rows:
     name = "CmdVel (16 B)" if kind == "cmdvel" else "Blob1500 (1512 B)"
-    ratio = (f"{latency['p50'] / floor['p50']:.1f}x ({latency['p99'] / floor['p99']:.1f}x)"
-             if "p50" in latency else "-")
-    print(f"| {name} | {pair(latency)} | {pair(floor)} | {ratio} | {pair(raw)} | {pair(paced)} | {pair(hop)} | "
+    print(f"| {name} | {pair(latency)} | {pair(floor)} | {ratio(latency, floor)} | "
+          f"{pair(networks)} | {ratio(networks, floor)} | {pair(raw)} | {pair(paced)} | {pair(hop)} | "
+          f"{cost['export: CdrPlan.encode']:.2f}; {cost['import: CdrPlan.decode']:.2f} | "
           f"{cost['export: from_bytes + encode']:.1f}; {cost['import: decode + to_bytes']:.1f} |")
 print()
 print("Throughput: the publisher in A sends as fast as it can for 3 s.")

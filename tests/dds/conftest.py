@@ -116,11 +116,12 @@ def horus_gen(*args: str) -> None:
 
 @pytest.fixture(scope="session")
 def generated(tmp_path_factory) -> pathlib.Path:
-    """Python (python/) of dds_test (schemas/: messages and a service), and IDL (idl/) of it and of
+    """Python (python/) of dds_test (schemas/: messages, POD ones, a service), and IDL (idl/) of it and of
     horus.msg's geometry, generated once. One run per language: a run removes what an earlier one
     left in its --out."""
     output = tmp_path_factory.mktemp("generated")
-    kinds = [str(SCHEMAS / "dds_test" / "kinds.hmsg"), str(SCHEMAS / "dds_test" / "scale.hsrv")]
+    kinds = [str(SCHEMAS / "dds_test" / name)
+             for name in ("kinds.hmsg", "pod.hmsg", "scale.hsrv")]
     horus_gen("generate", "--lang", "python", "--out", str(output / "py"), "-I", str(SCHEMAS),
               *kinds)
     geometry = str(pathlib.Path(HORUS_SCHEMAS) / "horus" / "msg" / "geometry.hmsg")

@@ -1,5 +1,6 @@
-"""`horus bridge`: two HORUS namespaces that share no memory talk through Cyclone DDS alone, and a
-plain idlc-built DDS program reads and writes HORUS topics through a bridge."""
+"""`horus bridge`: two HORUS namespaces that share no memory talk through Cyclone DDS alone (POD
+topics through the bridge's C++ pumps, serialized ones through its Python threads), and a plain
+idlc-built DDS program reads and writes HORUS topics through a bridge."""
 from __future__ import annotations
 
 import os
@@ -18,32 +19,46 @@ COUNT = 40
 RING = "capacity = 512\n"
 DEPTH = "1000"
 
-# Publishes an increasing sequence on cmd_vel (POD), kinds (serialized) and secret (never
-# exported), 100 a second, until killed.
-PUBLISHER = RING + """
+# The i-th message of pods: a POD type with every kind of POD field (schemas/dds_test/pod.hmsg).
+PODS = """
+from dds_test import Gear, Pods, Wheel
+def pods(i):
+    return Pods(seq=i, on=i % 2 == 0, tiny=-(i % 100), half=-i, word=3 * i, delta=-(i << 20),
+                ratio=i / 4, wide=i / 3, gear=Gear.Reverse, label=f"p{i}", full="full",
+                after=i % 65536, direction=[i, 0.5, -1.0], grid=[[i, -i, 1], [2, 3, -4]],
+                flags=[True, i % 2 == 1, False], names=["", f"{i % 1000}"],
+                gears=[Gear.Drive, Gear.Park], wheel=Wheel(id=7, speed=-i),
+                wheels=[Wheel(id=i % 65536, speed=i / 8), Wheel()], last=i % 256)
+"""
+
+# Publishes an increasing sequence on cmd_vel and pods (POD), kinds (serialized) and secret
+# (never exported), 100 a second, until killed.
+PUBLISHER = RING + PODS + """
 import time, horus
 from horus.msg import CmdVel
 from dds_test import Kinds
 topics = {name: horus.Topic(cls, name, capacity=capacity) for name, cls in
-          (("cmd_vel", CmdVel), ("kinds", Kinds), ("secret", CmdVel))}
+          (("cmd_vel", CmdVel), ("kinds", Kinds), ("pods", Pods), ("secret", CmdVel))}
 print("ready", flush=True)
 i = 0
 while True:
     topics["cmd_vel"].send(CmdVel(stamp_nanos=i, linear=0.5 * i, angular=-1.0))
     topics["kinds"].send(Kinds(big=i, name=f"n{i}", values=[float(i)], maybe=None))
+    topics["pods"].send(pods(i))
     topics["secret"].send(CmdVel(stamp_nanos=i))
     i += 1
     time.sleep(0.01)
 """
 
 # Prints the first COUNT messages of each of the topics it is given: "<topic> <seq> ...".
-SUBSCRIBER = RING + """
+SUBSCRIBER = RING + PODS + """
 import sys, time, horus
 from horus.msg import CmdVel
 from dds_test import Kinds
 count = int(sys.argv[1])
 wanted = {"cmd_vel": (CmdVel, lambda m: (m.stamp_nanos, m.linear == 0.5 * m.stamp_nanos)),
-          "kinds": (Kinds, lambda m: (m.big, m.name == f"n{m.big}" and m.values == [m.big]))}
+          "kinds": (Kinds, lambda m: (m.big, m.name == f"n{m.big}" and m.values == [m.big])),
+          "pods": (Pods, lambda m: (m.seq, m == pods(m.seq)))}
 topics = {name: (horus.Topic(wanted[name][0], name, capacity=capacity), wanted[name][1])
           for name in sys.argv[2:]}
 print("ready", flush=True)
@@ -98,17 +113,18 @@ def test_exported_topics_reach_the_other_namespace_in_order_and_nothing_else_doe
         direction, dds_domain, worlds, children, generated, kinds_class):
     source, target = worlds if direction == "a_to_b" else reversed(worlds)
     subscriber = children.python(SUBSCRIBER, python_env(target, generated), str(COUNT), "cmd_vel",
-                                 "kinds")
+                                 "kinds", "pods")
     wait_line(subscriber, "ready")
     publisher = children.python(PUBLISHER, python_env(source, generated))
     wait_line(publisher, "ready")
     bridge(children, target, generated, dds_domain, "--import", "*")
     exporter = bridge(children, source, generated, dds_domain, "--export", "cmd_vel",
-                      "--export", "kin*")
+                      "--export", "kin*", "--export", "pods")
 
     got = sequences(subscriber)
     assert_in_order("cmd_vel", got["cmd_vel"])
     assert_in_order("kinds", got["kinds"])
+    assert_in_order("pods", got["pods"])
     # secret was never exported: the target namespace has no such topic, DDS no such topic.
     listed = horus_in(target, generated, "topic", "list")
     assert listed.returncode == 0 and "secret" not in listed.stdout.split(), listed.stdout

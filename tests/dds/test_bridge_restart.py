@@ -7,6 +7,8 @@ from __future__ import annotations
 import signal
 import threading
 
+import pytest
+
 from conftest import wait_line, wait_until
 from test_bridge import PUBLISHER, bridge, python_env
 
@@ -73,40 +75,53 @@ def test_an_exporting_bridge_stopped_or_killed_and_restarted_resumes_in_order(
     assert len(gaps) <= 4, f"messages lost while a bridge ran: {gaps}"
 
 
-# Writes rt/kinds as a plain DDS program would (no HORUS identity): a sample cut short, then a
+# Writes rt/<topic> as a plain DDS program would (no HORUS identity): a sample cut short, then a
 # good one, once the importing bridge's reader matches.
 BAD_THEN_GOOD = """
 import sys, time
 from horus import _dds
+from horus.msg import CmdVel
 import dds_cdr
 from dds_test import Kinds
-participant = _dds.Participant(int(sys.argv[1]))
-writer = _dds.Writer(participant, "rt/kinds", "dds_test::dds_::Kinds_")
+domain, topic = int(sys.argv[1]), sys.argv[2]
+good, dds_type = {
+    "kinds": (Kinds(big=7, name="after the bad one"), "dds_test::dds_::Kinds_"),
+    "cmd_vel": (CmdVel(stamp_nanos=7, linear=2.5), "horus::msg::dds_::CmdVel_")}[topic]
+participant = _dds.Participant(domain)
+writer = _dds.Writer(participant, "rt/" + topic, dds_type)
 deadline = time.monotonic() + 30
 while writer.matched() == 0 and time.monotonic() < deadline:
     time.sleep(0.02)
-good = dds_cdr.CdrCodec(Kinds).encode(Kinds(big=7, name="after the bad one"))
-writer.write(good[:9])
-writer.write(good)
+cdr = dds_cdr.CdrCodec(type(good)).encode(good)
+writer.write(cdr[:9])
+writer.write(cdr)
 time.sleep(2)  # reliable delivery before the writer goes
 """
 
 
+# kinds is serialized (the bridge's Python thread), cmd_vel POD (its C++ pump, whose CdrPlan
+# says how far the body reached).
+@pytest.mark.parametrize("topic, type_name, good, reason", [
+    ("kinds", "dds_test.Kinds", "'name': 'after the bad one'", ""),
+    ("cmd_vel", "horus.msg.CmdVel", "'linear': 2.5",
+     "8 bytes wanted at offset 8 of a 8-byte body")])
 def test_a_sample_that_does_not_decode_is_one_line_and_the_topic_carries_on(
-        dds_domain, worlds, children, generated):
+        topic, type_name, good, reason, dds_domain, worlds, children, generated):
     from test_bridge import HOLDER
     target = worlds[1]
-    holder = children.python(HOLDER, python_env(target, generated), "kinds", "dds_test.Kinds")
+    holder = children.python(HOLDER, python_env(target, generated), topic, type_name)
     wait_line(holder, "ready")
-    importer = bridge(children, target, generated, dds_domain, "--import", "kinds")
-    writer = children.python(BAD_THEN_GOOD, python_env(target, generated), str(dds_domain))
+    importer = bridge(children, target, generated, dds_domain, "--import", topic)
+    writer = children.python(BAD_THEN_GOOD, python_env(target, generated), str(dds_domain),
+                             topic)
     out, errors = holder.communicate(timeout=60)
-    assert holder.returncode == 0 and "'name': 'after the bad one'" in out, errors
+    assert holder.returncode == 0 and good in out, errors
     writer.communicate(timeout=30)
     importer.send_signal(signal.SIGTERM)
     _, said = importer.communicate(timeout=30)
     assert importer.returncode == 0, said
     lines = said.splitlines()
     assert len(lines) == 1 and lines[0].startswith(
-        "horus bridge: topic 'kinds': a DDS sample does not decode: ") and lines[0].endswith(
+        f"horus bridge: topic '{topic}': a DDS sample does not decode: a CDR sample does not "
+        f"decode as {type_name}: {reason}") and lines[0].endswith(
         "(failure 1 of it); dropped it"), said

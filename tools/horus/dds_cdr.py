@@ -19,12 +19,15 @@ to a multiple of 4 as Cyclone DDS pads it. Reading takes big-endian CDR too.
     codec = CdrCodec(cls)
     cdr = codec.encode(message)        # bytes for horus._dds.Writer.write
     message = codec.decode(cdr)        # ValueError when the bytes do not fit the type
+
+For a POD type, pod_plan(cls) gives the same mapping as steps over the struct bytes, for
+horus._dds.CdrPlan: the bridge's C++ threads then carry the type with no Python per message.
 """
 from __future__ import annotations
 
 import struct
 
-__all__ = ["CdrCodec"]
+__all__ = ["CdrCodec", "pod_plan"]
 
 _CDR_BE, _CDR_LE = b"\x00\x00", b"\x00\x01"
 
@@ -60,6 +63,58 @@ class CdrCodec:
             raise ValueError(f"a CDR sample does not decode as {self.cls.__horus__.name}: "
                              f"{error}") from None
         return message
+
+
+# -- the plan of a POD type --------------------------------------------------------------------
+
+def pod_plan(cls) -> list[tuple[str, int, int, int]]:
+    """The CDR of the POD class `cls` as steps (kind, offset in the struct, size, count) in CDR
+    order: "copy" numbers and enums of `size` bytes, "bool", "string" (string<size>), "empty" (a
+    message without fields). Neighbouring numbers of one size merge into one step."""
+    steps: list[tuple[str, int, int, int]] = []
+    _plan_message(steps, cls, 0)
+    merged = [steps[0]]
+    for kind, offset, size, count in steps[1:]:
+        last_kind, last_offset, last_size, last_count = merged[-1]
+        if (kind == last_kind and kind in ("copy", "bool") and size == last_size
+                and offset == last_offset + last_size * last_count):
+            merged[-1] = (kind, last_offset, size, last_count + count)
+        else:
+            merged.append((kind, offset, size, count))
+    return merged
+
+
+def _plan_message(steps: list, cls, base: int) -> None:
+    info = cls.__horus__
+    if not info.is_pod:
+        raise TypeError(f"{info.name} is a serialized message: it has no POD layout")
+    if not info.fields:
+        steps.append(("empty", base, 1, 1))
+    for codec, offset in zip(info.codecs, info.offsets):
+        _plan(steps, codec, base + offset)
+
+
+def _plan(steps: list, codec, offset: int) -> None:
+    kind = type(codec).__name__
+    if kind == "Bool":
+        steps.append(("bool", offset, 1, 1))
+    elif kind in ("Int", "Float"):
+        steps.append(("copy", offset, codec.size, 1))
+    elif kind == "Enum":
+        steps.append(("copy", offset, codec.base.size, 1))
+    elif kind == "FixedStr":
+        steps.append(("string", offset, codec.size, 1))
+    elif kind == "NumArray":
+        element = codec.element
+        steps.append(("bool" if type(element).__name__ == "Bool" else "copy", offset,
+                      element.size, codec.count))
+    elif kind == "ListArray":
+        for index in range(codec.length):
+            _plan(steps, codec.element, offset + index * codec.element.size)
+    elif kind == "Nested":
+        _plan_message(steps, codec.cls, offset)
+    else:
+        raise TypeError(f"no POD CDR step for the codec {kind}")
 
 
 # -- writing --------------------------------------------------------------------------------------

@@ -2,6 +2,7 @@
 (docs/dds-bridge.md).
 
     horus bridge --export 'cmd_*' --import 'odom' [--domain N] [--best-effort] [--depth N]
+                 [--transient-local PATTERN] [--deadline PATTERN=MS]
 
 A local topic whose name matches an --export pattern is written to the DDS topic `rt/<name>`
 in CDR (dds_cdr) under its DDS type name (`horus-gen describe`'s dds_type, ROS 2's naming); its
@@ -13,7 +14,13 @@ gives no identity: the local topic must exist then). Another type is refused, na
 
 Nothing crosses that no pattern names. DDS endpoints ignore their own participant, and a topic
 named by both directions is refused, so nothing a bridge writes comes back to it. One thread per
-bridged topic moves messages; topics are looked for again every half second.
+bridged topic moves messages: for a POD type a C++ thread of horus._dds (a pump, converting with
+the type's dds_cdr.pod_plan), else a Python thread; topics are looked for again every half second.
+
+--transient-local topics are latched (the exporting side sends the newest message when it starts,
+its writer keeps the last one for late readers); --deadline topics say each missed deadline on
+stderr with a count. An importing reader takes the QoS its writer offers unless a pattern of its
+own names the topic.
 
 Failures of a carried topic never end its thread: a DDS write or take that fails, a message that
 does not encode or decode, a local topic that refuses a message or fails is one line on stderr
@@ -101,21 +108,31 @@ def _identity(topic: dict) -> bytes:
                        "schema": topic["schema"]}).encode()
 
 
-def _open_local(core, name: str, type_name: str, fingerprint: int, schema: str, cls, capacity: int,
-                max_message_size: int, single_publisher: bool):
+def _local_topic(name: str, type_name: str, fingerprint: int, schema: str, capacity: int,
+                 max_message_size: int, single_publisher: bool) -> dict:
+    """The local topic a carried topic's thread opens (horus._core.Topic's arguments)."""
+    return {"name": name, "type_name": type_name, "fingerprint": fingerprint, "schema": schema,
+            "capacity": capacity, "max_message_size": max_message_size,
+            "single_publisher": single_publisher}
+
+
+def _open_local(core, local: dict, cls):
     info = cls.__horus__
-    return core.Topic(name, type_name, fingerprint, schema, info.is_pod,
-                      info.size if info.is_pod else 0, info.alignment if info.is_pod else 1,
-                      capacity, max_message_size, single_publisher)
+    return core.Topic(is_pod=info.is_pod, size=info.size if info.is_pod else 0,
+                      alignment=info.alignment if info.is_pod else 1, **local)
 
 
 class Bridge:
     def __init__(self, core, dds, namespace: str, exports: list[str], imports: list[str],
                  domain: int, reliable: bool, depth: int, service_exports: list[str] = (),
-                 service_imports: list[str] = ()) -> None:
+                 service_imports: list[str] = (), latched: list[str] = (),
+                 deadlines: list[tuple[str, int]] = ()) -> None:
         self.core, self.dds, self.namespace = core, dds, namespace
         self.exports, self.imports = exports, imports
         self.qos = {"reliable": reliable, "depth": depth}
+        self.latched = list(latched)  # patterns of transient-local topics
+        self.deadlines = list(deadlines)  # (pattern, milliseconds), the first match counts
+        self.watched: dict[str, list] = {}  # topic -> [endpoint, deadline ms, misses said]
         self.domain = domain
         self.participant = dds.Participant(domain)
         self.types = _Types()
@@ -123,6 +140,7 @@ class Bridge:
         self.broken: str | None = None  # why a thread died of an unexpected error
         self.failures: dict[str, int] = {}  # per carried topic
         self.threads: list[threading.Thread] = []
+        self.pumps: dict[str, object] = {}  # POD topic name -> its horus._dds pump
         self.done: set[str] = set()  # local topic names exported or imported (or refused)
         self.services = Services(self, list(service_exports), list(service_imports))
 
@@ -154,6 +172,40 @@ class Bridge:
         thread.start()
         self.threads.append(thread)
 
+    def _pump(self, start, endpoint, cls, local: dict, **options) -> None:
+        """Carries a POD topic on a C++ thread of horus._dds: `start` is export_pump or
+        import_pump, `endpoint` its DDS writer or reader."""
+        info = cls.__horus__
+        plan = self.dds.CdrPlan(info.name, info.size, dds_cdr.pod_plan(cls))
+        local = dict(local, alignment=info.alignment, namespace=self.namespace or "")
+        self.pumps[local["name"]] = start(endpoint, plan, local,
+                                          f"horus bridge: topic '{local['name']}'", **options)
+
+    def _topic_qos(self, name: str, publication: dict | None = None) -> dict:
+        """The DDS QoS of a carried topic: --transient-local and --deadline when they name it,
+        else (importing) what the discovered writer offers, so the reader matches it."""
+        deadline = next((ms for pattern, ms in self.deadlines
+                         if fnmatch.fnmatchcase(name, pattern)), None)
+        latched = self._matches(name, self.latched)
+        if publication is not None:
+            latched = latched or publication["transient_local"]
+            deadline = publication["deadline_ms"] if deadline is None else deadline
+        return dict(self.qos, transient_local=latched, deadline_ms=deadline or 0)
+
+    def _watch_deadline(self, name: str, endpoint, qos: dict) -> None:
+        if qos["deadline_ms"]:
+            self.watched[name] = [endpoint, qos["deadline_ms"], 0]
+
+    def _say_missed_deadlines(self) -> None:
+        """One line per topic whose deadline passed without a message since the last look."""
+        for name, watch in self.watched.items():
+            endpoint, milliseconds, said = watch
+            missed = endpoint.deadlines_missed()
+            if missed > said:
+                watch[2] = missed
+                _complain(f"topic '{name}': no message within its {milliseconds} ms deadline "
+                          f"(missed {missed} times so far)")
+
     def _failed(self, what: str, error, then: str) -> None:
         """One line for a failure of a carried topic or service, with its running count."""
         count = self.failures[what] = self.failures.get(what, 0) + 1
@@ -176,24 +228,35 @@ class Bridge:
         name, type_name = topic["name"], topic["type_name"]
         cls = self.types.load(type_name, topic["schema"], topic["fingerprint"])
         dds_type = self.types.dds_name(type_name, topic["schema"])
-        local = _open_local(self.core, name, type_name, topic["fingerprint"], topic["schema"], cls,
-                            topic["capacity"], topic["max_message_size"],
-                            topic["single_publisher"])
+        local = _local_topic(name, type_name, topic["fingerprint"], topic["schema"],
+                             topic["capacity"], topic["max_message_size"],
+                             topic["single_publisher"])
+        qos = self._topic_qos(name)
         writer = self.dds.Writer(self.participant, PREFIX + name, dds_type,
-                                 user_data=_identity(topic), **self.qos)
-        self._spawn(f"topic '{name}'", self._pump_export, name, local, cls, writer)
+                                 user_data=_identity(topic), **qos)
+        if cls.__horus__.is_pod:
+            self._pump(self.dds.export_pump, writer, cls, local, latched=qos["transient_local"])
+        else:
+            self._spawn(f"topic '{name}'", self._pump_export, name,
+                        _open_local(self.core, local, cls), cls, writer, qos["transient_local"])
+        self._watch_deadline(name, writer, qos)
         _say(f"exporting '{name}' ({type_name}) as {PREFIX}{name} ({dds_type})")
 
-    def _pump_export(self, name: str, local, cls, writer) -> None:
+    def _pump_export(self, name: str, local, cls, writer, latched: bool) -> None:
         codec = dds_cdr.CdrCodec(cls)
         what = f"topic '{name}'"
+        # A latched topic's newest message from before this handle, for late joiners on DDS.
+        first = local.read_latest() if latched and not local.has_msg() else None
         while not self.stop.is_set():
-            try:
-                data = local.recv(0.1)
-            except RETRIABLE as error:
-                self._failed(what, f"reading the local topic failed: {error}", "retrying")
-                self.stop.wait(RETRY_S)
-                continue
+            if first is not None:
+                data, first = first, None
+            else:
+                try:
+                    data = local.recv(0.1)
+                except RETRIABLE as error:
+                    self._failed(what, f"reading the local topic failed: {error}", "retrying")
+                    self.stop.wait(RETRY_S)
+                    continue
             if data is None:
                 continue
             try:
@@ -223,18 +286,25 @@ class Bridge:
                 continue
             try:
                 ready = self._import(name, publication)
+                if ready is not None:
+                    reader, cls, local, qos = ready
+                    if cls.__horus__.is_pod:
+                        self._pump(self.dds.import_pump, reader, cls, local)
+                    else:
+                        self._spawn(f"topic '{name}'", self._pump_import, name, reader, cls,
+                                    _open_local(self.core, local, cls))
+                    self._watch_deadline(name, reader, qos)
             except (BridgeError, RuntimeError) as error:
                 self.done.add(name)
                 _complain(f"cannot import topic '{name}': {error}")
                 continue
             if ready is not None:
                 self.done.add(name)
-                self._spawn(f"topic '{name}'", self._pump_import, name, *ready)
                 _say(f"importing {publication['topic']} ({publication['type']}) as '{name}' "
-                     f"({ready[1].__horus__.name})")
+                     f"({cls.__horus__.name})")
 
     def _import(self, name: str, publication: dict):
-        """The (reader, class, local handle) of an import; None when the type is not known
+        """The (reader, class, local topic, QoS) of an import; None when the type is not known
         yet (a plain DDS writer, and no local topic of that name)."""
         remote = json.loads(publication["user_data"]) if publication["user_data"] else None
         local = next((t for t in self.core.list_topics(self.namespace)
@@ -260,10 +330,10 @@ class Bridge:
             raise BridgeError(f"the local topic has type {type_name} ({dds_type} on DDS), DDS "
                               f"carries {publication['type']}")
         cls = self.types.load(type_name, schema, fingerprint)
-        handle = _open_local(self.core, name, type_name, fingerprint, schema, cls, capacity,
-                             max_message, False)
-        reader = self.dds.Reader(self.participant, publication["topic"], dds_type, **self.qos)
-        return reader, cls, handle
+        local = _local_topic(name, type_name, fingerprint, schema, capacity, max_message, False)
+        qos = self._topic_qos(name, publication)
+        reader = self.dds.Reader(self.participant, publication["topic"], dds_type, **qos)
+        return reader, cls, local, qos
 
     def _pump_import(self, name: str, reader, cls, local) -> None:
         codec = dds_cdr.CdrCodec(cls)
@@ -292,31 +362,48 @@ class Bridge:
 
     def run(self) -> int:
         """Carries topics until Ctrl+C or SIGTERM (0), or a thread's unexpected error (1)."""
+        previous = signal.signal(signal.SIGTERM, lambda *_: self.stop.set())
+        try:
+            return self.serve()
+        finally:
+            signal.signal(signal.SIGTERM, previous)
+
+    def serve(self) -> int:
+        """Carries topics until `stop` is set (0), or a thread's unexpected error (1): the
+        bridge's loop, on any thread (horus.Network runs it inside a scheduler's process)."""
         services = self.services
         _say(f"bridge on DDS domain {self.domain}: exporting {self.exports or 'nothing'}, "
              f"importing {self.imports or 'nothing'}; services: exporting "
              f"{services.exports or 'nothing'}, importing {services.imports or 'nothing'}")
-        previous = signal.signal(signal.SIGTERM, lambda *_: self.stop.set())
         try:
             while not self.stop.is_set():
                 try:
                     self.scan()
                 except RETRIABLE as error:
                     _complain(f"looking for topics failed: {error}; looking again")
+                self._check_pumps()
+                self._say_missed_deadlines()
                 self.stop.wait(RESCAN_S)
         finally:
             self.stop.set()
+            for pump in self.pumps.values():
+                pump.stop()
             for stop in self.services.carried.values():
                 stop.set()
             for proxy in self.services.proxies.values():
                 proxy.stop()  # withdraws its registration: local callers get NoServer
             for thread in self.threads:
                 thread.join()
-            signal.signal(signal.SIGTERM, previous)
         if self.broken is not None:
             _complain(f"stopping: {self.broken}")
             return 1
         return 0
+
+    def _check_pumps(self) -> None:
+        for name, pump in self.pumps.items():
+            if pump.broken is not None and self.broken is None:
+                self.broken = f"topic '{name}': {pump.broken}"
+                self.stop.set()
 
     def scan(self) -> None:
         if self.exports:

@@ -937,10 +937,18 @@ def bridge(args) -> int:
     import horus_bridge
     if not (args.export or args.imports or args.export_service or args.import_service):
         raise CommandFailed("nothing to bridge: give --export and/or --import patterns", EXIT_USAGE)
+    deadlines = []
+    for given in args.deadline:
+        pattern, _, milliseconds = given.rpartition("=")
+        if not pattern or not milliseconds.isdigit() or int(milliseconds) < 1:
+            raise CommandFailed(f"--deadline wants PATTERN=MS (a whole number of milliseconds, "
+                                f"at least 1), got {given!r}", EXIT_USAGE)
+        deadlines.append((pattern, int(milliseconds)))
     try:
         bridge = horus_bridge.Bridge(_core(), _dds, args.namespace, args.export, args.imports,
                                      args.domain, not args.best_effort, args.depth,
-                                     args.export_service, args.import_service)
+                                     args.export_service, args.import_service,
+                                     args.transient_local, deadlines)
     except RuntimeError as error:
         raise CommandFailed(str(error)) from None
     return bridge.run()
@@ -1119,6 +1127,13 @@ def build_parser() -> argparse.ArgumentParser:
                      help="best-effort DDS endpoints (default: reliable)")
     sub.add_argument("--depth", type=positive_int, default=100,
                      help="DDS history depth of each writer and reader (default 100)")
+    sub.add_argument("--transient-local", action="append", default=[], metavar="PATTERN",
+                     help="latched topics: a DDS reader that joins later gets the last message "
+                          "(default: volatile; an importing bridge follows the writer)")
+    sub.add_argument("--deadline", action="append", default=[], metavar="PATTERN=MS",
+                     help="topics that must carry a message every MS milliseconds; each missed "
+                          "deadline is said on stderr (default: none; an importing bridge "
+                          "follows the writer)")
     sub.set_defaults(handler=bridge)
 
     sub = commands.add_parser("completion", help="print the bash completion script",

@@ -1,7 +1,8 @@
 // horus._dds: the little of Cyclone DDS the bridge (`horus bridge`) needs, over raw CDR bytes.
 // A participant on a domain; writers and readers of (DDS topic name, DDS type name) whose samples
 // are CDR the caller encodes and decodes; the publications discovered. Every endpoint ignores
-// those of its own participant, so a bridge never reads back what it wrote.
+// those of its own participant, so a bridge never reads back what it wrote. For POD topics, a
+// CdrPlan and the pumps (pump.hpp) that carry a topic between HORUS and DDS with no Python.
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
@@ -9,10 +10,15 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <vector>
 
+#include "cdr_plan.hpp"
+#include "pump.hpp"
 #include "raw_cdr.hpp"
 
 namespace py = pybind11;
@@ -45,6 +51,7 @@ struct Qos {
   bool reliable;
   std::int32_t depth;
   bool transient_local;
+  std::int64_t deadline_ms;  // 0: none
 };
 
 // One participant and the raw-CDR topics it has made (one per DDS topic name).
@@ -123,8 +130,16 @@ class Participant {
         user_data.assign(static_cast<const char*>(data), size);
         dds_free(data);
       }
+      dds_durability_kind_t durability = DDS_DURABILITY_VOLATILE;
+      dds_duration_t deadline = DDS_INFINITY;
+      if (endpoint->qos != nullptr) {
+        dds_qget_durability(endpoint->qos, &durability);
+        dds_qget_deadline(endpoint->qos, &deadline);
+      }
       py::dict row;
       row["topic"] = std::string(endpoint->topic_name);
+      row["transient_local"] = durability == DDS_DURABILITY_TRANSIENT_LOCAL;
+      row["deadline_ms"] = deadline == DDS_INFINITY ? 0 : deadline / DDS_MSECS(1);
       row["type"] = std::string(endpoint->type_name);
       row["participant"] = participant;
       row["user_data"] = py::bytes(user_data);
@@ -155,6 +170,14 @@ dds_qos_t* make_qos(const Qos& qos, const std::string& user_data) {
   dds_qset_history(out, DDS_HISTORY_KEEP_LAST, qos.depth);
   dds_qset_durability(
       out, qos.transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
+  if (qos.transient_local) {
+    // Latched: a reader that joins later gets the last sample (the writer keeps one for it).
+    dds_qset_durability_service(out, 0, DDS_HISTORY_KEEP_LAST, 1, DDS_LENGTH_UNLIMITED,
+                                DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED);
+  }
+  if (qos.deadline_ms > 0) {
+    dds_qset_deadline(out, DDS_MSECS(qos.deadline_ms));
+  }
   dds_qset_ignorelocal(out, DDS_IGNORELOCAL_PARTICIPANT);
   if (!user_data.empty()) {
     dds_qset_userdata(out, user_data.data(), user_data.size());
@@ -164,24 +187,29 @@ dds_qos_t* make_qos(const Qos& qos, const std::string& user_data) {
 
 class Endpoint {
  public:
-  Endpoint(std::shared_ptr<Participant> participant, dds_entity_t entity)
-      : participant_(std::move(participant)), entity_(entity) {}
+  Endpoint(std::shared_ptr<Participant> participant, dds_entity_t entity, std::string topic)
+      : participant_(std::move(participant)), entity_(entity), topic_(std::move(topic)) {}
   ~Endpoint() { dds_delete(entity_); }
   Endpoint(const Endpoint&) = delete;
   Endpoint& operator=(const Endpoint&) = delete;
 
+  dds_entity_t entity() const { return entity_; }
+  const std::string& topic() const { return topic_; }
+
  protected:
   std::shared_ptr<Participant> participant_;
   dds_entity_t entity_;
+  std::string topic_;
 };
 
 class Writer : public Endpoint {
  public:
   Writer(const std::shared_ptr<Participant>& participant, const std::string& topic,
          const std::string& type_name, const Qos& qos, const std::string& user_data)
-      : Endpoint(participant, create(*participant, topic, type_name, qos, user_data)),
-        type_(participant->sertype(topic)),
-        topic_(topic) {}
+      : Endpoint(participant, create(*participant, topic, type_name, qos, user_data), topic),
+        type_(participant->sertype(topic)) {}
+
+  const ddsi_sertype* type() const { return type_; }
 
   void write(const py::buffer& data) {
     const py::buffer_info info = data.request();
@@ -204,6 +232,12 @@ class Writer : public Endpoint {
     return status.current_count;
   }
 
+  std::uint32_t deadlines_missed() const {
+    dds_offered_deadline_missed_status_t status{};
+    dds_get_offered_deadline_missed_status(entity_, &status);
+    return status.total_count;
+  }
+
  private:
   static dds_entity_t create(Participant& participant, const std::string& topic,
                              const std::string& type_name, const Qos& qos,
@@ -216,14 +250,13 @@ class Writer : public Endpoint {
   }
 
   const ddsi_sertype* type_;
-  std::string topic_;
 };
 
 class Reader : public Endpoint {
  public:
   Reader(const std::shared_ptr<Participant>& participant, const std::string& topic,
          const std::string& type_name, const Qos& qos)
-      : Endpoint(participant, create(*participant, topic, type_name, qos)), topic_(topic) {
+      : Endpoint(participant, create(*participant, topic, type_name, qos), topic) {
     waitset_ = checked(dds_create_waitset(participant->handle()), "cannot create a DDS waitset");
     const dds_entity_t condition =
         checked(dds_create_readcondition(entity_, DDS_ANY_STATE), "cannot create a condition");
@@ -263,6 +296,12 @@ class Reader : public Endpoint {
     return status.current_count;
   }
 
+  std::uint32_t deadlines_missed() const {
+    dds_requested_deadline_missed_status_t status{};
+    dds_get_requested_deadline_missed_status(entity_, &status);
+    return status.total_count;
+  }
+
  private:
   static dds_entity_t create(Participant& participant, const std::string& topic,
                              const std::string& type_name, const Qos& qos) {
@@ -274,32 +313,69 @@ class Reader : public Endpoint {
   }
 
   dds_return_t take_all(std::vector<std::string>& out) {
-    constexpr std::uint32_t batch = 64;
-    ddsi_serdata* samples[batch];
-    dds_sample_info_t infos[batch];
-    for (;;) {
-      const dds_return_t count = dds_takecdr(entity_, samples, batch, infos, DDS_ANY_STATE);
-      if (count < 0) {
-        return count;
-      }
-      for (dds_return_t i = 0; i < count; ++i) {
-        if (infos[i].valid_data) {
-          const std::uint32_t size = ddsi_serdata_size(samples[i]);
-          std::string bytes(size, '\0');
-          ddsi_serdata_to_ser(samples[i], 0, size, bytes.data());
-          out.push_back(std::move(bytes));
-        }
-        ddsi_serdata_unref(samples[i]);  // takecdr hands out one reference per sample
-      }
-      if (count < static_cast<dds_return_t>(batch)) {
-        return 0;
-      }
-    }
+    return take_raw_cdr(entity_, [&out](std::span<const std::byte> sample) {
+      out.emplace_back(reinterpret_cast<const char*>(sample.data()), sample.size());
+    });
   }
 
-  std::string topic_;
   dds_entity_t waitset_ = 0;
 };
+
+CdrStep::Kind step_kind(const std::string& name) {
+  static const std::map<std::string, CdrStep::Kind> kinds{{"copy", CdrStep::Kind::kCopy},
+                                                          {"bool", CdrStep::Kind::kBool},
+                                                          {"string", CdrStep::Kind::kString},
+                                                          {"empty", CdrStep::Kind::kEmpty}};
+  const auto found = kinds.find(name);
+  if (found == kinds.end()) {
+    throw std::invalid_argument("no CDR step of kind '" + name + "'");
+  }
+  return found->second;
+}
+
+CdrPlan make_plan(
+    std::string type_name, std::size_t size,
+    const std::vector<std::tuple<std::string, std::uint32_t, std::uint32_t, std::uint32_t>>&
+        steps) {
+  std::vector<CdrStep> plan;
+  for (const auto& [kind, offset, step_size, count] : steps) {
+    plan.push_back(CdrStep{step_kind(kind), offset, step_size, count});
+  }
+  return {std::move(type_name), size, std::move(plan)};
+}
+
+std::span<const std::byte> bytes_of(const py::buffer_info& info) {
+  return {static_cast<const std::byte*>(info.ptr),
+          static_cast<std::size_t>(info.size * info.itemsize)};
+}
+
+LocalTopic local_topic(const py::dict& local) {
+  LocalTopic out;
+  out.name = local["name"].cast<std::string>();
+  out.type_name = local["type_name"].cast<std::string>();
+  out.fingerprint = local["fingerprint"].cast<std::uint64_t>();
+  out.schema = local["schema"].cast<std::string>();
+  out.alignment = local["alignment"].cast<std::size_t>();
+  out.capacity = local["capacity"].cast<std::size_t>();
+  out.max_message_size = local["max_message_size"].cast<std::size_t>();
+  out.single_publisher = local["single_publisher"].cast<bool>();
+  out.namespace_name = local["namespace"].cast<std::string>();
+  return out;
+}
+
+void bind_pump(py::class_<Pump, std::unique_ptr<Pump>>& pump) {
+  pump.def("stop", &Pump::stop, py::call_guard<py::gil_scoped_release>(),
+           "Stops the thread and waits for it.")
+      .def_property_readonly("carried", &Pump::carried, "Messages carried so far.")
+      .def_property_readonly("failures", &Pump::failures, "Failures so far (each said on stderr).")
+      .def_property_readonly(
+          "broken",
+          [](const Pump& self) -> std::optional<std::string> {
+            std::string why = self.broken();
+            return why.empty() ? std::nullopt : std::optional(std::move(why));
+          },
+          "Why the thread ended on its own (a bug), or None.");
+}
 
 }  // namespace
 }  // namespace horus::dds_bridge
@@ -313,33 +389,97 @@ PYBIND11_MODULE(_dds, m) {
       .def_property_readonly("guid", &Participant::guid)
       .def("publications", &Participant::publications,
            "The publications on the domain other participants have: dicts of topic, type, "
-           "participant (GUID) and user_data (bytes).");
+           "participant (GUID), user_data (bytes), transient_local and deadline_ms (0: none).");
 
-  py::class_<Writer>(m, "Writer")
+  py::class_<Writer, std::shared_ptr<Writer>>(m, "Writer")
       .def(py::init([](const std::shared_ptr<Participant>& participant, const std::string& topic,
                        const std::string& type_name, bool reliable, std::int32_t depth,
-                       bool transient_local, const py::bytes& user_data) {
-             return std::make_unique<Writer>(participant, topic, type_name,
-                                             Qos{reliable, depth, transient_local},
+                       bool transient_local, std::int64_t deadline_ms, const py::bytes& user_data) {
+             return std::make_shared<Writer>(participant, topic, type_name,
+                                             Qos{reliable, depth, transient_local, deadline_ms},
                                              std::string(user_data));
            }),
            py::arg("participant"), py::arg("topic"), py::arg("type_name"), py::kw_only(),
            py::arg("reliable") = true, py::arg("depth") = 100, py::arg("transient_local") = false,
-           py::arg("user_data") = py::bytes())
+           py::arg("deadline_ms") = 0, py::arg("user_data") = py::bytes())
       .def("write", &Writer::write, py::arg("cdr"),
            "Writes one sample: its CDR, 4-byte encapsulation header included.")
-      .def("matched", &Writer::matched, "How many readers match this writer now.");
+      .def("matched", &Writer::matched, "How many readers match this writer now.")
+      .def("deadlines_missed", &Writer::deadlines_missed,
+           "How many times this writer wrote nothing within its deadline (deadline_ms).");
 
-  py::class_<Reader>(m, "Reader")
+  py::class_<Reader, std::shared_ptr<Reader>>(m, "Reader")
       .def(py::init([](const std::shared_ptr<Participant>& participant, const std::string& topic,
                        const std::string& type_name, bool reliable, std::int32_t depth,
-                       bool transient_local) {
-             return std::make_unique<Reader>(participant, topic, type_name,
-                                             Qos{reliable, depth, transient_local});
+                       bool transient_local, std::int64_t deadline_ms) {
+             return std::make_shared<Reader>(participant, topic, type_name,
+                                             Qos{reliable, depth, transient_local, deadline_ms});
            }),
            py::arg("participant"), py::arg("topic"), py::arg("type_name"), py::kw_only(),
-           py::arg("reliable") = true, py::arg("depth") = 100, py::arg("transient_local") = false)
+           py::arg("reliable") = true, py::arg("depth") = 100, py::arg("transient_local") = false,
+           py::arg("deadline_ms") = 0)
       .def("take", &Reader::take, py::arg("timeout"),
            "The samples received (CDR bytes, oldest first), waiting up to timeout seconds.")
-      .def("matched", &Reader::matched, "How many writers match this reader now.");
+      .def("matched", &Reader::matched, "How many writers match this reader now.")
+      .def("deadlines_missed", &Reader::deadlines_missed,
+           "How many times nothing arrived within this reader's deadline (deadline_ms).");
+
+  py::class_<CdrPlan>(m, "CdrPlan",
+                      "A POD type's CDR as steps over its struct bytes (dds_cdr.pod_plan).")
+      .def(py::init(&make_plan), py::arg("type_name"), py::arg("size"), py::arg("steps"))
+      .def(
+          "encode",
+          [](const CdrPlan& plan, const py::buffer& pod) {
+            const py::buffer_info info = pod.request();
+            const std::span<const std::byte> bytes = bytes_of(info);
+            if (bytes.size() != plan.pod_size()) {
+              throw std::invalid_argument(plan.type_name() + " is " +
+                                          std::to_string(plan.pod_size()) + " bytes, not " +
+                                          std::to_string(bytes.size()));
+            }
+            std::vector<std::byte> sample;
+            plan.encode(bytes.data(), sample);
+            return py::bytes(reinterpret_cast<const char*>(sample.data()), sample.size());
+          },
+          py::arg("pod"), "The DDS sample (CDR) of a message's POD bytes.")
+      .def(
+          "decode",
+          [](const CdrPlan& plan, const py::buffer& sample) {
+            const py::buffer_info info = sample.request();
+            std::string pod(plan.pod_size(), '\0');
+            const std::string error =
+                plan.decode(bytes_of(info), reinterpret_cast<std::byte*>(pod.data()));
+            if (!error.empty()) {
+              throw py::value_error(error);
+            }
+            return py::bytes(pod);
+          },
+          py::arg("cdr"),
+          "A message's POD bytes from a DDS sample; ValueError when it does not fit.");
+
+  py::class_<Pump, std::unique_ptr<Pump>> pump(
+      m, "Pump", "The C++ thread that carries one POD topic (stopped when deleted).");
+  bind_pump(pump);
+  m.def(
+      "export_pump",
+      [](const std::shared_ptr<Writer>& writer, const CdrPlan& plan, const py::dict& local,
+         std::string label, bool latched) -> std::unique_ptr<Pump> {
+        return std::make_unique<ExportPump>(local_topic(local), plan, writer->entity(),
+                                            writer->type(), writer->topic(), latched,
+                                            std::move(label), writer);
+      },
+      py::arg("writer"), py::arg("plan"), py::arg("local"), py::arg("label"),
+      py::arg("latched") = false,
+      "Carries the local topic `local` (horus._core.Topic's arguments as a dict, and namespace) "
+      "to `writer` on a thread of its own; failures are lines on stderr starting with `label`. "
+      "latched: first the topic's newest message (for a transient-local writer).");
+  m.def(
+      "import_pump",
+      [](const std::shared_ptr<Reader>& reader, const CdrPlan& plan, const py::dict& local,
+         std::string label) -> std::unique_ptr<Pump> {
+        return std::make_unique<ImportPump>(local_topic(local), plan, reader->entity(),
+                                            reader->topic(), std::move(label), reader);
+      },
+      py::arg("reader"), py::arg("plan"), py::arg("local"), py::arg("label"),
+      "Carries what `reader` receives into the local topic `local` on a thread of its own.");
 }

@@ -239,4 +239,8 @@ ddsi_serdata* raw_cdr_sample(const ddsi_sertype* type, const void* cdr, std::siz
   return ddsi_serdata_from_ser_iov(type, SDK_DATA, 1, &piece, size);
 }
 
+std::span<const std::byte> raw_cdr_bytes(const ddsi_serdata* sample) {
+  return {reinterpret_cast<const std::byte*>(raw(sample)->data), raw(sample)->size};
+}
+
 }  // namespace horus::dds_bridge

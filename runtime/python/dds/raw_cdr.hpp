@@ -4,6 +4,8 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <span>
 #include <string>
 
 #include "dds/dds.h"
@@ -19,5 +21,32 @@ ddsi_sertype* raw_cdr_sertype(const std::string& type_name);
 // A sample holding a copy of `size` bytes of CDR (header included), for dds_writecdr, which
 // consumes the reference.
 ddsi_serdata* raw_cdr_sample(const ddsi_sertype* type, const void* cdr, std::size_t size);
+
+// The bytes of a sample of a raw-CDR sertype (header included), valid while it is referenced.
+std::span<const std::byte> raw_cdr_bytes(const ddsi_serdata* sample);
+
+// Takes every sample `reader` (of a raw-CDR topic) holds, oldest first, calling `each` with the
+// bytes of each one with data; DDS's return code of a take that failed, else 0.
+template <class Each>
+dds_return_t take_raw_cdr(dds_entity_t reader, Each&& each) {
+  constexpr std::uint32_t kBatch = 64;
+  ddsi_serdata* samples[kBatch];
+  dds_sample_info_t infos[kBatch];
+  for (;;) {
+    const dds_return_t count = dds_takecdr(reader, samples, kBatch, infos, DDS_ANY_STATE);
+    if (count < 0) {
+      return count;
+    }
+    for (dds_return_t i = 0; i < count; ++i) {
+      if (infos[i].valid_data) {
+        each(raw_cdr_bytes(samples[i]));
+      }
+      ddsi_serdata_unref(samples[i]);  // takecdr hands out one reference per sample
+    }
+    if (count < static_cast<dds_return_t>(kBatch)) {
+      return 0;
+    }
+  }
+}
 
 }  // namespace horus::dds_bridge

@@ -86,13 +86,31 @@ class Node:
     def log_error(self, message: str) -> None: ...
     def log_debug(self, message: str) -> None: ...
 
+class Network:
+    export: list[str]
+    import_: list[str]
+    export_services: list[str]
+    import_services: list[str]
+    transient_local: list[str]
+    deadlines: dict[str, int]
+    domain: int
+    reliable: bool
+    depth: int
+    status: int
+    def __init__(self, export: Sequence[str] = ..., import_: Sequence[str] = ...,
+                 domain: int = ..., reliable: bool = ..., depth: int = ...,
+                 transient_local: Sequence[str] = ..., deadlines: dict[str, int] | None = ...,
+                 export_services: Sequence[str] = ...,
+                 import_services: Sequence[str] = ...) -> None: ...
+
 class Scheduler:
     def __init__(self, tick_rate: float = ..., rt: bool = ..., deterministic: bool = ...,
                  blackbox_mb: int = ..., watchdog_ms: float = ..., recording: bool = ...,
                  name: str | None = ..., cores: list[int] | None = ...,
                  max_deadline_misses: int | None = ..., verbose: bool = ...,
                  telemetry: str | None = ..., seed: int | None = ...,
-                 replay: str | os.PathLike[str] | None = ...) -> None: ...
+                 replay: str | os.PathLike[str] | None = ...,
+                 network: Network | None = ...) -> None: ...
     def add(self, node: Node | Any, **settings: Any) -> "Scheduler": ...
     def add_critical_node(self, name: str, timeout_ms: float) -> "Scheduler": ...
     def run(self, duration: float | None = ...) -> int: ...
@@ -131,7 +149,8 @@ def run(*nodes: Node | Any, duration: float | None = ..., tick_rate: float = ...
         rt: bool = ..., deterministic: bool = ..., blackbox_mb: int = ...,
         watchdog_ms: float = ..., recording: bool = ..., name: str | None = ...,
         cores: list[int] | None = ..., max_deadline_misses: int | None = ...,
-        verbose: bool = ..., telemetry: str | None = ...) -> int: ...
+        verbose: bool = ..., telemetry: str | None = ...,
+        network: Network | None = ...) -> int: ...
 
 class ServiceError(RuntimeError):
     kind: str

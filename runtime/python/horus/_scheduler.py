@@ -4,6 +4,7 @@ from __future__ import annotations
 import os
 
 from . import _core
+from ._network import Network
 from ._node import Node
 
 
@@ -14,6 +15,9 @@ class Scheduler:
     ("udp://HOST:PORT" or "file:///PATH") exports every node's metrics as JSON each second while
     it runs and once when run() ends. `replay` (with deterministic=True) feeds a recording into
     the nodes' topics, each message before the tick that received it (docs/recording.md).
+    `network` (a horus.Network) carries topics to and from other hosts over DDS from this
+    process, as `horus bridge` does, from construction until run() returns or the scheduler is
+    stopped; if that bridge fails, it stops the scheduler and run() returns 1.
     """
 
     def __init__(self, tick_rate: float = 1000.0, rt: bool = False, deterministic: bool = False,
@@ -21,7 +25,10 @@ class Scheduler:
                  name: str | None = None, cores: list[int] | None = None,
                  max_deadline_misses: int | None = None, verbose: bool = False,
                  telemetry: str | None = None, seed: int | None = None,
-                 replay: str | os.PathLike | None = None) -> None:
+                 replay: str | os.PathLike | None = None,
+                 network: Network | None = None) -> None:
+        if network is not None and not isinstance(network, Network):
+            raise TypeError(f"network takes a horus.Network, got {type(network).__name__}")
         if not float(tick_rate) > 0.0:
             raise ValueError(f"tick_rate must be > 0 Hz, got {tick_rate!r}")
         if watchdog_ms is None or not float(watchdog_ms) >= 0.0:
@@ -34,6 +41,9 @@ class Scheduler:
             verbose=bool(verbose), telemetry=telemetry, seed=seed, recording=bool(recording),
             replay=None if replay is None else os.fspath(replay))
         self._nodes: dict[str, object] = {}
+        self._network = network
+        if network is not None:
+            network._start(on_failure=self.stop)
 
     # -- building ---------------------------------------------------------------------------
 
@@ -70,9 +80,12 @@ class Scheduler:
     def run(self, duration: float | None = None) -> int:
         """Runs until stop(), Ctrl+C, SIGTERM, a node's request_stop() or `duration` seconds;
         shuts the nodes down in reverse order. 0, or 1 when a failure stopped it."""
-        if duration is None:
-            return self._core.run()
-        return self._core.run_for(float(duration))
+        try:
+            status = self._core.run() if duration is None else self._core.run_for(float(duration))
+        finally:
+            if self._network is not None:
+                self._network._stop(wait=True)
+        return status or (self._network.status if self._network is not None else 0)
 
     def tick_once(self, names: list[str] | None = None) -> None:
         """One cycle on this thread (only the named nodes, when given)."""
@@ -84,12 +97,16 @@ class Scheduler:
 
     def stop(self) -> None:
         self._core.stop()
+        if self._network is not None:
+            self._network._stop(wait=False)
 
     def __enter__(self) -> "Scheduler":
         return self
 
     def __exit__(self, *exc) -> None:
         self.stop()
+        if self._network is not None:
+            self._network._stop(wait=True)
 
     # -- runtime changes --------------------------------------------------------------------
 
@@ -202,13 +219,13 @@ def run(*nodes, duration: float | None = None, tick_rate: float = 1000.0, rt: bo
         deterministic: bool = False, blackbox_mb: int = 0, watchdog_ms: float = 0,
         recording: bool = False, name: str | None = None, cores: list[int] | None = None,
         max_deadline_misses: int | None = None, verbose: bool = False,
-        telemetry: str | None = None) -> int:
+        telemetry: str | None = None, network: Network | None = None) -> int:
     """Builds a Scheduler with these keywords, adds `nodes` and runs it (forever, or for
     `duration` seconds) until Ctrl+C, SIGTERM or a stop."""
     sched = Scheduler(tick_rate=tick_rate, rt=rt, deterministic=deterministic,
                       blackbox_mb=blackbox_mb, watchdog_ms=watchdog_ms, recording=recording,
                       name=name, cores=cores, max_deadline_misses=max_deadline_misses,
-                      verbose=verbose, telemetry=telemetry)
+                      verbose=verbose, telemetry=telemetry, network=network)
     for node in nodes:
         sched.add(node)
     return sched.run(duration)

@@ -1,0 +1,184 @@
+#include "pump.hpp"
+
+#include <unistd.h>
+
+#include <exception>
+#include <stdexcept>
+#include <utility>
+
+#include "raw_cdr.hpp"
+
+namespace horus::dds_bridge {
+namespace {
+
+python::ErasedTopic open_local(const LocalTopic& local, std::size_t size) {
+  TopicOptions options;
+  options.capacity = local.capacity;
+  options.max_message_size = local.max_message_size;
+  options.namespace_name = local.namespace_name;
+  options.single_publisher = local.single_publisher;
+  return {local.name,
+          python::ErasedType{local.type_name, local.fingerprint, local.schema, true, size,
+                             local.alignment},
+          options};
+}
+
+}  // namespace
+
+Pump::Pump(std::string label, std::shared_ptr<void> keep_alive)
+    : label_(std::move(label)), keep_alive_(std::move(keep_alive)) {}
+
+Pump::~Pump() { stop(); }
+
+void Pump::start(std::function<void()> loop) {
+  thread_ = std::thread([this, loop = std::move(loop)] { guarded(loop); });
+}
+
+void Pump::guarded(const std::function<void()>& work) noexcept {
+  try {
+    work();
+  } catch (const std::exception& error) {
+    {
+      const std::lock_guard lock(mutex_);
+      broken_ = error.what();
+      stopping_.store(true, std::memory_order_relaxed);
+    }
+    woken_.notify_all();
+  }
+}
+
+void Pump::stop() {
+  {
+    const std::lock_guard lock(mutex_);
+    stopping_.store(true, std::memory_order_relaxed);
+  }
+  woken_.notify_all();
+  if (thread_.joinable()) {
+    thread_.join();
+  }
+}
+
+std::string Pump::broken() const {
+  const std::lock_guard lock(mutex_);
+  return broken_;
+}
+
+void Pump::failed(const std::string& error, const char* then) {
+  const std::uint64_t count = failures_.fetch_add(1, std::memory_order_relaxed) + 1;
+  const std::string line =
+      label_ + ": " + error + " (failure " + std::to_string(count) + " of it); " + then + "\n";
+  // One write: the line stays whole beside what other threads print.
+  [[maybe_unused]] const ssize_t written = ::write(STDERR_FILENO, line.data(), line.size());
+}
+
+void Pump::pause(std::chrono::milliseconds how_long) {
+  std::unique_lock lock(mutex_);
+  woken_.wait_for(lock, how_long, [this] { return stopping(); });
+}
+
+ExportPump::ExportPump(const LocalTopic& local, CdrPlan plan, dds_entity_t writer,
+                       const ddsi_sertype* type, std::string dds_topic, bool latched,
+                       std::string label, std::shared_ptr<void> keep_alive)
+    : Pump(std::move(label), std::move(keep_alive)),
+      local_(open_local(local, plan.pod_size())),
+      plan_(std::move(plan)),
+      writer_(writer),
+      type_(type),
+      dds_topic_(std::move(dds_topic)),
+      latched_(latched) {
+  start([this] { loop(); });
+}
+
+void ExportPump::loop() {
+  // A latched topic's last message, sent before this handle opened, is what a late joiner on DDS
+  // should get; one that arrived since is taken below anyway.
+  if (latched_ && !local_.has_msg()) {
+    if (const std::ptrdiff_t size = local_.read_latest(); size >= 0) {
+      send_to_dds(static_cast<std::size_t>(size));
+    }
+  }
+  while (!stopping()) {
+    if (const std::ptrdiff_t size = local_.recv(kPoll); size >= 0) {
+      send_to_dds(static_cast<std::size_t>(size));
+    }
+  }
+}
+
+void ExportPump::send_to_dds(std::size_t size) {
+  // The handle takes only messages of the POD size: the plan's bytes are all there.
+  plan_.encode(local_.received(size).data(), sample_);
+  while (!stopping()) {
+    // dds_writecdr consumes the reference: a retry makes the sample again.
+    const dds_return_t code =
+        dds_writecdr(writer_, raw_cdr_sample(type_, sample_.data(), sample_.size()));
+    if (code >= 0) {
+      count_carried();
+      return;
+    }
+    failed("cannot write to DDS topic '" + dds_topic_ + "': " + dds_strretcode(code),
+           "writing the same message again");
+    pause();
+  }
+}
+
+ImportPump::ImportPump(const LocalTopic& local, CdrPlan plan, dds_entity_t reader,
+                       std::string dds_topic, std::string label, std::shared_ptr<void> keep_alive)
+    : Pump(std::move(label), std::move(keep_alive)),
+      local_(open_local(local, plan.pod_size())),
+      plan_(std::move(plan)),
+      reader_(reader),
+      dds_topic_(std::move(dds_topic)),
+      message_(plan_.pod_size()) {
+  start([this] { loop(); });
+  dds_listener_t* listener = dds_create_listener(this);
+  dds_lset_data_available(listener, [](dds_entity_t, void* arg) {
+    auto* pump = static_cast<ImportPump*>(arg);
+    if (!pump->stopping()) {
+      pump->guarded([pump] { pump->drain(); });
+    }
+  });
+  const dds_return_t code = dds_set_listener(reader_, listener);  // copies it
+  dds_delete_listener(listener);
+  if (code < 0) {
+    stop();  // before the members the thread uses are unwound
+    throw std::runtime_error("cannot listen on DDS topic '" + dds_topic_ +
+                             "': " + dds_strretcode(code));
+  }
+}
+
+ImportPump::~ImportPump() {
+  dds_set_listener(reader_, nullptr);  // returns once no call of the listener runs
+  stop();
+}
+
+void ImportPump::loop() {
+  // Samples that arrived before the listener was set, or that a failed take left.
+  while (!stopping()) {
+    pause(drain() ? kPoll : kRetry);
+  }
+}
+
+bool ImportPump::drain() {
+  const std::lock_guard lock(draining_);
+  const dds_return_t code =
+      take_raw_cdr(reader_, [this](std::span<const std::byte> sample) { deliver(sample); });
+  if (code < 0) {
+    failed("cannot take from DDS topic '" + dds_topic_ + "': " + dds_strretcode(code), "retrying");
+    return false;
+  }
+  return true;
+}
+
+void ImportPump::deliver(std::span<const std::byte> sample) {
+  const std::string error = plan_.decode(sample, message_.data());
+  if (!error.empty()) {
+    failed("a DDS sample does not decode: " + error, "dropped it");
+  } else if (!local_.send(message_)) {
+    failed("the local topic refused a message from DDS (no room, or a stalled publisher)",
+           "dropped it");
+  } else {
+    count_carried();
+  }
+}
+
+}  // namespace horus::dds_bridge

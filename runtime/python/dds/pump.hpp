@@ -1,0 +1,134 @@
+// The per-message path of a POD topic through the bridge, out of Python: one C++ thread per
+// carried topic. An export pump waits on the local HORUS topic, turns each message into CDR with
+// the type's CdrPlan and writes it with dds_writecdr. An import pump takes the samples with
+// dds_takecdr, turns each back into the POD struct and publishes it locally, from the reader's
+// data-available listener (in Cyclone's receive thread: no thread of its own to wake per
+// message); its thread takes what a failed take left behind.
+// Failures follow docs/dds-bridge.md "When something fails": one line on stderr per failure with
+// the topic's running count, a failed DDS write or take retried after kRetry (the same message:
+// nothing is reordered), a message that cannot be decoded or delivered dropped. The thread never
+// dies of a failure; anything else it meets (a bug) ends it and shows in broken().
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <span>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "cdr_plan.hpp"
+#include "dds/dds.h"
+#include "erased_topic.hpp"
+
+namespace horus::dds_bridge {
+
+/// What a pump opens its own handle of the local topic with (horus._core.Topic's arguments).
+struct LocalTopic {
+  std::string name;
+  std::string type_name;
+  std::uint64_t fingerprint = 0;
+  std::string schema;
+  std::size_t alignment = 1;
+  std::size_t capacity = 64;
+  std::size_t max_message_size = 0;
+  bool single_publisher = false;
+  std::string namespace_name;  // empty: HORUS_NAMESPACE
+};
+
+/// The thread, its stop, its counters and its failure lines; Export/ImportPump give it a loop.
+class Pump {
+ public:
+  static constexpr std::chrono::milliseconds kRetry{500};
+
+  Pump(const Pump&) = delete;
+  Pump& operator=(const Pump&) = delete;
+  /// Stops and joins the thread.
+  virtual ~Pump();
+
+  /// Ends the loop within about kPoll; returns once the thread has.
+  void stop();
+  std::uint64_t carried() const noexcept { return carried_.load(std::memory_order_relaxed); }
+  std::uint64_t failures() const noexcept { return failures_.load(std::memory_order_relaxed); }
+  /// Why the thread ended on its own (a bug in the bridge), or empty while it runs or stopped.
+  std::string broken() const;
+
+ protected:
+  /// How often a waiting loop looks at its stop.
+  static constexpr std::chrono::milliseconds kPoll{100};
+
+  /// `label` starts each failure line (`horus bridge: topic 'cmd_vel'`).
+  Pump(std::string label, std::shared_ptr<void> keep_alive);
+  /// Runs `loop` on the thread; each derived constructor calls it last.
+  void start(std::function<void()> loop);
+  bool stopping() const noexcept { return stopping_.load(std::memory_order_relaxed); }
+  /// One line on stderr: `<label>: <error> (failure N of it); <then>`.
+  void failed(const std::string& error, const char* then);
+  /// Sleeps `how_long`, or less when stopped.
+  void pause(std::chrono::milliseconds how_long = kRetry);
+  void count_carried() noexcept { carried_.fetch_add(1, std::memory_order_relaxed); }
+  /// Runs `work`; what it throws (a bug) goes to broken() and stops the loop.
+  void guarded(const std::function<void()>& work) noexcept;
+
+ private:
+  std::string label_;
+  std::shared_ptr<void> keep_alive_;  // the DDS endpoint the thread uses
+  std::atomic<bool> stopping_{false};
+  std::atomic<std::uint64_t> carried_{0};
+  std::atomic<std::uint64_t> failures_{0};
+  mutable std::mutex mutex_;
+  std::condition_variable woken_;
+  std::string broken_;
+  std::thread thread_;
+};
+
+/// Local topic -> DDS writer.
+class ExportPump final : public Pump {
+ public:
+  /// `latched`: first sends the topic's newest message, if it has one and nothing newer came.
+  ExportPump(const LocalTopic& local, CdrPlan plan, dds_entity_t writer, const ddsi_sertype* type,
+             std::string dds_topic, bool latched, std::string label,
+             std::shared_ptr<void> keep_alive);
+  ~ExportPump() override { stop(); }
+
+ private:
+  void loop();
+  /// Writes the message of `size` bytes the handle received, retrying a failed write.
+  void send_to_dds(std::size_t size);
+
+  python::ErasedTopic local_;
+  CdrPlan plan_;
+  dds_entity_t writer_;
+  const ddsi_sertype* type_;
+  std::string dds_topic_;
+  bool latched_;
+  std::vector<std::byte> sample_;
+};
+
+/// DDS reader -> local topic.
+class ImportPump final : public Pump {
+ public:
+  ImportPump(const LocalTopic& local, CdrPlan plan, dds_entity_t reader, std::string dds_topic,
+             std::string label, std::shared_ptr<void> keep_alive);
+  ~ImportPump() override;
+
+ private:
+  void loop();
+  /// Takes and delivers every sample the reader holds: false when the take failed (said).
+  bool drain();
+  void deliver(std::span<const std::byte> sample);
+
+  python::ErasedTopic local_;
+  CdrPlan plan_;
+  dds_entity_t reader_;
+  std::string dds_topic_;
+  std::vector<std::byte> message_;
+  std::mutex draining_;  // the listener and the thread: one take and delivery at a time, in order
+};
+
+}  // namespace horus::dds_bridge

@@ -1,0 +1,84 @@
+"""horus.Network: topics across hosts from inside a scheduler's process (docs/dds-bridge.md).
+
+The same bridge `horus bridge` runs (tools/horus/horus_bridge.py, installed beside this package)
+on a thread of this process, on Cyclone DDS through horus._dds, for the scheduler's lifetime.
+"""
+from __future__ import annotations
+
+import threading
+
+from . import _core
+
+
+def _patterns(value, what: str) -> list[str]:
+    if isinstance(value, str) or not all(isinstance(item, str) for item in value):
+        raise TypeError(f"{what} takes a list of topic name patterns, got {value!r}")
+    return list(value)
+
+
+class Network:
+    """What a scheduler carries to and from DDS, as `horus bridge` does: local topics whose name
+    matches an `export` pattern go to DDS, DDS topics matching an `import_` pattern come in.
+
+    Keywords as the command's options: domain, reliable (else best effort), depth,
+    transient_local (patterns of latched topics), deadlines ({pattern: milliseconds}),
+    export_services and import_services (service name patterns).
+    """
+
+    def __init__(self, export=(), import_=(), domain: int = 0, reliable: bool = True,
+                 depth: int = 100, transient_local=(), deadlines: dict | None = None,
+                 export_services=(), import_services=()) -> None:
+        self.export = _patterns(export, "export")
+        self.import_ = _patterns(import_, "import_")
+        self.export_services = _patterns(export_services, "export_services")
+        self.import_services = _patterns(import_services, "import_services")
+        self.transient_local = _patterns(transient_local, "transient_local")
+        if not (self.export or self.import_ or self.export_services or self.import_services):
+            raise ValueError("a Network carries nothing: give export and/or import_ patterns")
+        if isinstance(domain, bool) or not isinstance(domain, int) or not 0 <= domain <= 232:
+            raise ValueError(f"domain must be a DDS domain id (0..232), got {domain!r}")
+        if isinstance(depth, bool) or not isinstance(depth, int) or depth < 1:
+            raise ValueError(f"depth must be a whole number >= 1, got {depth!r}")
+        self.deadlines = dict(deadlines or {})
+        for pattern, milliseconds in self.deadlines.items():
+            if isinstance(milliseconds, bool) or not isinstance(milliseconds, int) \
+                    or milliseconds < 1:
+                raise ValueError(f"the deadline of {pattern!r} must be a whole number of "
+                                 f"milliseconds >= 1, got {milliseconds!r}")
+        self.domain, self.reliable, self.depth = domain, bool(reliable), depth
+        self._bridge = None
+        self._thread: threading.Thread | None = None
+        self.status = 0  # 1 once the bridge stopped on an error of its own (said on stderr)
+
+    def _start(self, on_failure) -> None:
+        """Starts the bridge's thread; `on_failure()` runs if the bridge stops on its own."""
+        try:
+            from . import _dds
+        except ImportError:
+            raise RuntimeError("horus.Network needs horus._dds: this horus was built without "
+                               "Cyclone DDS (Debian: cyclonedds-dev)") from None
+        try:
+            import horus_bridge
+        except ImportError:
+            raise RuntimeError("horus.Network needs the module horus_bridge (installed beside "
+                               "the horus package; in a build tree, tools/horus on "
+                               "PYTHONPATH)") from None
+        self._bridge = horus_bridge.Bridge(
+            _core, _dds, "", self.export, self.import_, self.domain, self.reliable, self.depth,
+            self.export_services, self.import_services, self.transient_local,
+            list(self.deadlines.items()))
+
+        def serve() -> None:
+            self.status = self._bridge.serve()
+            if self.status != 0:
+                on_failure()
+
+        self._thread = threading.Thread(target=serve, name="horus network", daemon=True)
+        self._thread.start()
+
+    def _stop(self, wait: bool) -> None:
+        """Ends the bridge (its topics and services leave DDS); `wait`: until it has."""
+        if self._bridge is not None:
+            self._bridge.stop.set()
+        if wait and self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join()
