@@ -1,0 +1,252 @@
+// `horus-remote serve`: the robot's end. Each connection that passes mutual TLS and names a
+// peer the policy knows gets a Session of its own, limited to what the policy allows that peer.
+#include <algorithm>
+#include <cstdio>
+#include <map>
+
+#include "link.hpp"
+#include "remote.hpp"
+
+namespace horus::remote {
+
+namespace {
+
+/// Outstanding calls a peer may have before its connection stops reading from it (bytes).
+constexpr std::size_t kFlowLimit = std::size_t{1} << 20;
+/// The traversal limit of a peer's messages when it may write no topic larger than this.
+constexpr std::size_t kSmallestMessageLimit = std::size_t{64} * 1024;
+/// Room for the message framing around the largest payload.
+constexpr std::size_t kFramingBytes = 4096;
+constexpr std::uint32_t kLargestQueue = 1024;
+
+std::string hex(std::uint64_t value) {
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(value));
+  return text;
+}
+
+/// A subscription of a peer: lasts while the peer holds it and its stream works.
+class SubscriptionImpl final : public wire::Subscription::Server {
+ public:
+  explicit SubscriptionImpl(kj::Own<Forwarder> forwarder)
+      : forwarder_(kj::mv(forwarder)), task_(forwarder_->run().eagerlyEvaluate([](kj::Exception&&) {
+          // The peer dropped its sink or the connection: the subscription is over either way.
+        })) {}
+
+ protected:
+  kj::Promise<void> stats(StatsContext context) override {
+    context.getResults().setSent(forwarder_->sent());
+    context.getResults().setDropped(forwarder_->dropped());
+    return kj::READY_NOW;
+  }
+
+ private:
+  kj::Own<Forwarder> forwarder_;
+  /// Declared last: cancelled before the forwarder it runs is destroyed.
+  kj::Promise<void> task_;
+};
+
+class SessionImpl final : public wire::Session::Server {
+ public:
+  SessionImpl(const ServeOptions& options, std::string peer, std::size_t message_limit)
+      : options_(options), peer_(std::move(peer)), message_limit_(message_limit) {}
+
+ protected:
+  kj::Promise<void> topics(TopicsContext context) override {
+    std::vector<TopicInfo> visible;
+    for (TopicInfo& info : list_topics(options_.namespace_name)) {
+      if (!info.type_name.empty() && info.error.empty() &&
+          (allows(Access::Read, info.name) || allows(Access::Write, info.name))) {
+        visible.push_back(std::move(info));
+      }
+    }
+    auto list = context.getResults().initTopics(static_cast<unsigned>(visible.size()));
+    for (unsigned i = 0; i < visible.size(); ++i) {
+      describe(visible[i], list[i]);
+      list[i].setMayRead(allows(Access::Read, visible[i].name));
+      list[i].setMayWrite(allows(Access::Write, visible[i].name));
+    }
+    return kj::READY_NOW;
+  }
+
+  kj::Promise<void> subscribe(SubscribeContext context) override {
+    const auto params = context.getParams();
+    const std::string name = params.getTopic();
+    if (!allows(Access::Read, name)) {
+      refuse(denied("read", name));
+    }
+    const TopicInfo info = find(name);
+    if (info.type_name != params.getType().cStr() || info.fingerprint != params.getFingerprint()) {
+      refuse("topic '" + name + "' is " + info.type_name + " (fingerprint " +
+             hex(info.fingerprint) + ") on the robot, not " + params.getType().cStr() +
+             " (fingerprint " + hex(params.getFingerprint()) + ")");
+    }
+    const std::uint32_t queue = std::clamp(params.getQueue(), 1U, kLargestQueue);
+    auto forwarder = kj::heap<Forwarder>(opened(info), params.getSink(), queue,
+                                         "topic " + name + " to " + peer_);
+    say("%s subscribed to %s", peer_.c_str(), name.c_str());
+    context.getResults().setSubscription(kj::heap<SubscriptionImpl>(kj::mv(forwarder)));
+    return kj::READY_NOW;
+  }
+
+  kj::Promise<void> publish(PublishContext context) override {
+    const TopicInfo info = topic_info(context.getParams().getInfo());
+    if (!allows(Access::Write, info.name)) {
+      refuse(denied("write", info.name));
+    }
+    if (info.max_message_size + kFramingBytes > message_limit_) {
+      refuse("topic '" + info.name + "': messages of " + std::to_string(info.max_message_size) +
+             " bytes are over this link's limit of " + std::to_string(message_limit_));
+    }
+    std::shared_ptr<python::ErasedTopic> topic = opened(info);
+    say("%s publishes to %s", peer_.c_str(), info.name.c_str());
+    context.getResults().setSink(
+        kj::heap<TopicSink>(std::move(topic), "topic " + info.name + " from " + peer_));
+    return kj::READY_NOW;
+  }
+
+ private:
+  bool allows(Access access, const std::string& name) const {
+    return options_.policy.allows(peer_, access, name);
+  }
+
+  std::string denied(const char* what, const std::string& name) const {
+    say("refused %s of topic %s to %s: not in the policy", what, name.c_str(), peer_.c_str());
+    return "peer '" + peer_ + "' may not " + what + " topic '" + name + "'";
+  }
+
+  TopicInfo find(const std::string& name) const {
+    for (TopicInfo& info : list_topics(options_.namespace_name)) {
+      if (info.name == name && !info.type_name.empty() && info.error.empty()) {
+        return std::move(info);
+      }
+    }
+    refuse("no topic '" + name + "' on the robot");
+  }
+
+  std::unique_ptr<python::ErasedTopic> opened(const TopicInfo& info) const {
+    try {
+      return open_topic(info, options_.namespace_name);
+    } catch (const std::exception& e) {
+      refuse(e.what());
+    }
+  }
+
+  const ServeOptions& options_;
+  std::string peer_;
+  std::size_t message_limit_;
+};
+
+/// One authenticated peer's RPC connection.
+struct Connection {
+  Connection(kj::Own<kj::AsyncIoStream> stream_, capnp::ReaderOptions reader,
+             kj::Own<SessionImpl> session)
+      : stream(kj::mv(stream_)),
+        network(*stream, capnp::rpc::twoparty::Side::SERVER, reader),
+        rpc(capnp::makeRpcServer(network, kj::mv(session))) {
+    rpc.setFlowLimit(kFlowLimit);
+  }
+  kj::Own<kj::AsyncIoStream> stream;
+  capnp::TwoPartyVatNetwork network;
+  capnp::RpcSystem<capnp::rpc::twoparty::VatId> rpc;
+};
+
+class Server final : public kj::TaskSet::ErrorHandler {
+ public:
+  Server(const ServeOptions& options, kj::Own<kj::ConnectionReceiver> listener,
+         kj::Maybe<kj::TlsContext&> tls)
+      : options_(options), listener_(kj::mv(listener)), tls_(tls), connections_(*this) {}
+
+  kj::Promise<void> accept_next() {
+    return listener_->acceptAuthenticated().then([this](kj::AuthenticatedStream&& stream) {
+      admit(kj::mv(stream));
+      return accept_next();
+    });
+  }
+
+  void taskFailed(kj::Exception&& exception) override {
+    say("a connection failed: %s", exception.getDescription().cStr());
+  }
+
+ private:
+  void admit(kj::AuthenticatedStream stream) {
+    const std::string address = address_of(*stream.peerIdentity);
+    kj::Promise<kj::AuthenticatedStream> secured = nullptr;
+    KJ_IF_MAYBE (tls, tls_) {
+      secured = tls->wrapServer(kj::mv(stream));
+    } else {
+      secured = kj::Promise<kj::AuthenticatedStream>(kj::mv(stream));
+    }
+    connections_.add(secured.then(
+        [this, address](kj::AuthenticatedStream&& peer) { return serve(kj::mv(peer), address); },
+        [address](kj::Exception&& exception) -> kj::Promise<void> {
+          say("refused %s (no name: it presented no certificate of our CA): %s", address.c_str(),
+              exception.getDescription().cStr());
+          return kj::READY_NOW;
+        }));
+  }
+
+  kj::Promise<void> serve(kj::AuthenticatedStream peer, const std::string& address) {
+    const std::string name =
+        tls_ == nullptr
+            ? std::string(kInsecurePeer)
+            : std::string(
+                  kj::downcast<kj::TlsPeerIdentity>(*peer.peerIdentity).getCommonName().cStr());
+    if (!options_.policy.knows(name)) {
+      say("refused %s at %s: no policy line names it", name.c_str(), address.c_str());
+      return kj::READY_NOW;
+    }
+    const std::size_t limit = message_limit(name);
+    capnp::ReaderOptions reader;
+    reader.traversalLimitInWords = limit / sizeof(capnp::word);
+    say("%s connected from %s", name.c_str(), address.c_str());
+    auto connection = kj::heap<Connection>(kj::mv(peer.stream), reader,
+                                           kj::heap<SessionImpl>(options_, name, limit));
+    return connection->network.onDisconnect().attach(kj::mv(connection)).then([name, address] {
+      say("%s at %s disconnected", name.c_str(), address.c_str());
+    });
+  }
+
+  /// The largest message `peer` may send: what its largest writable topic takes, framed.
+  std::size_t message_limit(const std::string& peer) const {
+    std::size_t largest = 0;
+    for (const TopicInfo& info : list_topics(options_.namespace_name)) {
+      if (options_.policy.allows(peer, Access::Write, info.name)) {
+        largest = std::max(largest, info.max_message_size);
+      }
+    }
+    return std::max(largest + kFramingBytes, kSmallestMessageLimit);
+  }
+
+  const ServeOptions& options_;
+  kj::Own<kj::ConnectionReceiver> listener_;
+  kj::Maybe<kj::TlsContext&> tls_;
+  kj::TaskSet connections_;
+};
+
+}  // namespace
+
+int serve(const ServeOptions& options) {
+  EventLoop loop;
+  kj::Own<kj::TlsContext> tls;
+  kj::Maybe<Credentials> credentials;
+  if (options.insecure) {
+    say("WARNING: --insecure: plain TCP, no authentication, no encryption; every peer is '%s'",
+        kInsecurePeer);
+  } else {
+    credentials = load_credentials(options.certs, options.name);
+    tls = tls_context(KJ_ASSERT_NONNULL(credentials), loop.io.provider->getTimer());
+  }
+  auto address =
+      loop.io.provider->getNetwork().parseAddress(options.listen).wait(loop.io.waitScope);
+  kj::Own<kj::ConnectionReceiver> listener = address->listen();
+  const unsigned port = listener->getPort();
+  Server server(options, kj::mv(listener),
+                tls ? kj::Maybe<kj::TlsContext&>(*tls) : kj::Maybe<kj::TlsContext&>(nullptr));
+  std::printf("serving namespace %s on port %u\n", options.namespace_name.c_str(), port);
+  std::fflush(stdout);
+  server.accept_next().exclusiveJoin(loop.until_stopped()).wait(loop.io.waitScope);
+  return 0;
+}
+
+}  // namespace horus::remote
