@@ -168,13 +168,17 @@ kj::Promise<void> TopicSink::message(MessageContext context) {
   const auto params = context.getParams();
   const capnp::Data::Reader data = params.getData();
   const python::ErasedType& type = topic_->type();
+  std::string wrong;
   if (type.is_pod && data.size() != type.size) {
-    refuse(label_ + ": a " + type.name + " is " + std::to_string(type.size) + " bytes, not " +
-           std::to_string(data.size()));
+    wrong = "a " + type.name + " is " + std::to_string(type.size) + " bytes, not " +
+            std::to_string(data.size());
+  } else if (data.size() > topic_->payload_capacity()) {
+    wrong = "a message of " + std::to_string(data.size()) + " bytes is over the topic's limit of " +
+            std::to_string(topic_->payload_capacity());
   }
-  if (data.size() > topic_->payload_capacity()) {
-    refuse(label_ + ": a message of " + std::to_string(data.size()) +
-           " bytes is over the topic's limit of " + std::to_string(topic_->payload_capacity()));
+  if (!wrong.empty()) {
+    say("%s: %s; the stream ends", label_.c_str(), wrong.c_str());
+    refuse(label_ + ": " + wrong);
   }
   topic_->send(std::span(reinterpret_cast<const std::byte*>(data.begin()), data.size()));
   ++received_;

@@ -13,8 +13,9 @@ namespace {
 
 /// Outstanding calls a peer may have before its connection stops reading from it (bytes).
 constexpr std::size_t kFlowLimit = std::size_t{1} << 20;
-/// The traversal limit of a peer's messages when it may write no topic larger than this.
-constexpr std::size_t kSmallestMessageLimit = std::size_t{64} * 1024;
+/// The traversal limit of a connection when the peer may read or write no larger topic yet:
+/// room for the topics that appear after it connected (a 1080p RGB image, 6 MB, fits).
+constexpr std::size_t kSmallestMessageLimit = std::size_t{8} << 20;
 /// Room for the message framing around the largest payload.
 constexpr std::size_t kFramingBytes = 4096;
 constexpr std::uint32_t kLargestQueue = 1024;
@@ -28,9 +29,10 @@ std::string hex(std::uint64_t value) {
 /// A subscription of a peer: lasts while the peer holds it and its stream works.
 class SubscriptionImpl final : public wire::Subscription::Server {
  public:
-  explicit SubscriptionImpl(kj::Own<Forwarder> forwarder)
-      : forwarder_(kj::mv(forwarder)), task_(forwarder_->run().eagerlyEvaluate([](kj::Exception&&) {
-          // The peer dropped its sink or the connection: the subscription is over either way.
+  SubscriptionImpl(kj::Own<Forwarder> forwarder, std::string label)
+      : forwarder_(kj::mv(forwarder)),
+        task_(forwarder_->run().eagerlyEvaluate([label](kj::Exception&& e) {
+          say("%s ended: %s", label.c_str(), e.getDescription().cStr());
         })) {}
 
  protected:
@@ -81,11 +83,12 @@ class SessionImpl final : public wire::Session::Server {
              hex(info.fingerprint) + ") on the robot, not " + params.getType().cStr() +
              " (fingerprint " + hex(params.getFingerprint()) + ")");
     }
+    check_size(info);
     const std::uint32_t queue = std::clamp(params.getQueue(), 1U, kLargestQueue);
-    auto forwarder = kj::heap<Forwarder>(opened(info), params.getSink(), queue,
-                                         "topic " + name + " to " + peer_);
+    const std::string label = "topic " + name + " to " + peer_;
+    auto forwarder = kj::heap<Forwarder>(opened(info), params.getSink(), queue, label);
     say("%s subscribed to %s", peer_.c_str(), name.c_str());
-    context.getResults().setSubscription(kj::heap<SubscriptionImpl>(kj::mv(forwarder)));
+    context.getResults().setSubscription(kj::heap<SubscriptionImpl>(kj::mv(forwarder), label));
     return kj::READY_NOW;
   }
 
@@ -94,10 +97,7 @@ class SessionImpl final : public wire::Session::Server {
     if (!allows(Access::Write, info.name)) {
       refuse(denied("write", info.name));
     }
-    if (info.max_message_size + kFramingBytes > message_limit_) {
-      refuse("topic '" + info.name + "': messages of " + std::to_string(info.max_message_size) +
-             " bytes are over this link's limit of " + std::to_string(message_limit_));
-    }
+    check_size(info);
     std::shared_ptr<python::ErasedTopic> topic = opened(info);
     say("%s publishes to %s", peer_.c_str(), info.name.c_str());
     context.getResults().setSink(
@@ -108,6 +108,15 @@ class SessionImpl final : public wire::Session::Server {
  private:
   bool allows(Access access, const std::string& name) const {
     return options_.policy.allows(peer_, access, name);
+  }
+
+  /// Cap'n Proto sends no message larger than the connection's own traversal limit either.
+  void check_size(const TopicInfo& info) const {
+    if (info.max_message_size + kFramingBytes > message_limit_) {
+      refuse("topic '" + info.name + "': messages of " + std::to_string(info.max_message_size) +
+             " bytes are over this connection's limit of " + std::to_string(message_limit_) +
+             " (set from the topics allowed when it was made: connect again)");
+    }
   }
 
   std::string denied(const char* what, const std::string& name) const {
@@ -207,11 +216,13 @@ class Server final : public kj::TaskSet::ErrorHandler {
     });
   }
 
-  /// The largest message `peer` may send: what its largest writable topic takes, framed.
+  /// The largest message of a connection with `peer` either way: what the largest topic it may
+  /// read or write takes, framed.
   std::size_t message_limit(const std::string& peer) const {
     std::size_t largest = 0;
     for (const TopicInfo& info : list_topics(options_.namespace_name)) {
-      if (options_.policy.allows(peer, Access::Write, info.name)) {
+      if (options_.policy.allows(peer, Access::Read, info.name) ||
+          options_.policy.allows(peer, Access::Write, info.name)) {
         largest = std::max(largest, info.max_message_size);
       }
     }
