@@ -1,15 +1,17 @@
 """A remote link under trouble: a robot killed and restarted mid-stream (the laptop's mirror
-resumes in order, no duplicate), and peers sending random bytes, malformed frames and oversized
-messages while another peer keeps receiving."""
+resumes in order, no duplicate), peers sending random bytes, malformed frames and oversized
+messages while another peer keeps receiving, and a peer that stops reading (its stream drops
+the oldest messages, counted and logged, the robot's memory does not grow, others go on)."""
 from __future__ import annotations
 
 import random
+import signal
 import socket
 import ssl
 import struct
 import threading
 
-from conftest import connect, free_port, serve, wait_line, wait_until
+from conftest import World, connect, free_port, serve, wait_line, wait_until
 from test_link import PUBLISHER
 
 # Prints each cmd_vel stamp as it arrives, until killed.
@@ -42,10 +44,10 @@ class Stamps:
         wait_until(lambda: len(self.seen) >= start + count, f"{count} more stamps {what}")
 
 
-def streaming(children, robot, laptop, certs, port: int = 0):
+def streaming(children, robot, laptop, certs, port: int = 0, rules=("laptop read cmd_vel",)):
     """A publisher on the robot, its server, and a laptop mirroring cmd_vel into a streamer."""
     children.python(PUBLISHER, robot.env())
-    server, port = serve(children, robot, certs, "laptop read cmd_vel", port=port)
+    server, port = serve(children, robot, certs, *rules, port=port)
     streamer = children.python(STREAMER, laptop.env())
     wait_line(streamer, "ready")
     client = connect(children, laptop, certs, port, "--import", "cmd_vel")
@@ -118,3 +120,46 @@ def test_bad_peers_leave_the_others_served(children, worlds, certs):
     assert server.poll() is None, server.errors.text()
     seen = stamps.seen
     assert all(a < b for a, b in zip(seen, seen[1:])), "out of order or duplicated"
+
+
+# 900 kB images on camera, 30 a second, until killed.
+CAMERA = """
+import time, horus
+from horus.msg import CompressedImage
+camera = horus.Topic(CompressedImage, "camera", capacity=8, max_message_size=1 << 20)
+print("ready", flush=True)
+i = 0
+while True:
+    camera.send(CompressedImage(format="rgb8", data=bytes(900_000), width=640, height=480,
+                                timestamp_ns=i))
+    i += 1
+    time.sleep(1 / 30)
+"""
+
+
+def resident_kib(process) -> int:
+    with open(f"/proc/{process.pid}/status") as status:
+        return next(int(line.split()[1]) for line in status if line.startswith("VmRSS:"))
+
+
+def test_a_peer_that_stops_reading_costs_only_its_own_stream(children, worlds, certs, tmp_path):
+    robot, laptop = worlds
+    children.python(CAMERA, robot.env())
+    server, port, _, stamps = streaming(children, robot, laptop, certs,
+                                        rules=("laptop read cmd_vel", "laptop read camera"))
+    # A second laptop takes the images, then stops (SIGSTOP): it reads nothing any more.
+    stalled_world = World(tmp_path / "shm_c")
+    stalled = connect(children, stalled_world, certs, port, "--import", "camera", "--queue", "4")
+    stalled.errors.wait_for("importing camera")
+    stalled.send_signal(signal.SIGSTOP)
+    try:
+        server.errors.wait_for("topic camera to laptop: ", limit=30)
+        line = server.errors.wait_for("messages dropped so far", limit=30)
+        assert "camera" in line
+        before = resident_kib(server)
+        # About 3 s: some 90 images (80 MB) published for the stalled peer meanwhile.
+        stamps.grow_by(300, "while a peer reads nothing")
+        assert resident_kib(server) - before < 30 * 1024, "the robot's memory grew"
+    finally:
+        stalled.send_signal(signal.SIGCONT)
+    assert server.poll() is None, server.errors.text()

@@ -108,16 +108,20 @@ void Forwarder::read_loop() {
       continue;
     }
     const std::span<std::byte> bytes = topic_->received(static_cast<std::size_t>(size));
-    std::lock_guard lock(mutex_);
-    if (queue_.size() >= queue_limit_) {
-      queue_.pop_front();
-      dropped_.fetch_add(1);
+    {
+      std::lock_guard lock(mutex_);
+      if (queue_.size() >= queue_limit_) {
+        queue_.pop_front();
+        dropped_.fetch_add(1);
+      }
+      queue_.push_back(Queued{++sequence, std::vector<std::byte>(bytes.begin(), bytes.end())});
+      if (waiter_) {
+        waiter_->fulfill();
+        waiter_ = nullptr;
+      }
     }
-    queue_.push_back(Queued{++sequence, std::vector<std::byte>(bytes.begin(), bytes.end())});
-    if (waiter_) {
-      waiter_->fulfill();
-      waiter_ = nullptr;
-    }
+    // Here, not where messages are sent: a peer that stopped reading stops the sending too.
+    report_drops();
   }
 }
 
@@ -144,7 +148,6 @@ kj::Promise<void> Forwarder::run() {
   const Queued message = std::move(queue_.front());
   queue_.pop_front();
   lock.unlock();
-  report_drops();
   auto request = sink_.messageRequest();
   request.setSequence(message.sequence);
   request.setDropped(dropped_.load());

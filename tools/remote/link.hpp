@@ -74,6 +74,7 @@ class Forwarder {
   std::atomic<bool> stopping_{false};
   std::atomic<std::uint64_t> sent_{0};
   std::atomic<std::uint64_t> dropped_{0};
+  /// The reader thread's: what report_drops() said last, and when.
   std::uint64_t reported_drops_ = 0;
   std::chrono::steady_clock::time_point last_report_{};
   /// Last: started once everything it reads is there.
