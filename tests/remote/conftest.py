@@ -139,18 +139,21 @@ def certs(tmp_path_factory) -> pathlib.Path:
     return folder
 
 
-def serve(children, world, certs, *rules: str, port: int = 0, extra: tuple = ()):
+def serve(children, world, certs, *rules: str, port: int = 0):
     """`horus remote serve` of `world` on loopback, allowing `rules`; (process, port)."""
     allow = [arg for rule in rules for arg in ("--allow", rule)]
-    process = children.start([HORUS, "remote", "serve", "--listen", f"127.0.0.1:{port}",
-                              "--certs", str(certs), "--name", "robot", *allow, *extra],
-                             world.env())
+    # --namespace given to `serve` here and to `horus` in connect(): both forms reach the tool.
+    env = dict(world.env(), HORUS_NAMESPACE="not_this_one")
+    process = children.start([HORUS, "remote", "serve", "--namespace", world.namespace,
+                              "--listen", f"127.0.0.1:{port}", "--certs", str(certs), "--name",
+                              "robot", *allow], env)
     line = wait_line(process, "serving namespace")
     return process, int(line.rsplit(" ", 1)[1])
 
 
 def connect(children, world, certs, port: int, *args: str, name: str = "laptop"):
     """`horus remote connect` from `world` to the robot on `port`."""
-    return children.start([HORUS, "remote", "connect", f"127.0.0.1:{port}", "--certs",
-                           str(certs), "--name", name, "--server-name", "robot", *args],
-                          world.env())
+    env = dict(world.env(), HORUS_NAMESPACE="not_this_one")
+    return children.start([HORUS, "--namespace", world.namespace, "remote", "connect",
+                           f"127.0.0.1:{port}", "--certs", str(certs), "--name", name,
+                           "--server-name", "robot", *args], env)
