@@ -29,6 +29,16 @@ interface Sink {
   message @0 (sequence :UInt64, dropped :UInt64, data :Data) -> stream;
 }
 
+# A live service of the robot the peer may call: the type of its request frames (the robot's
+# `<name>.request` topic) and the identity its server registered.
+struct ServiceInfo {
+  name @0 :Text;
+  request @1 :TopicInfo;
+  requestType @2 :Text;
+  responseType @3 :Text;
+  fingerprint @4 :UInt64;
+}
+
 # A subscription lasts as long as the peer holds this capability.
 interface Subscription {
   # Messages streamed and dropped so far.
@@ -47,4 +57,13 @@ interface Session {
   # A sink for `topic` on the robot, created with `info`'s type when it does not exist; a topic
   # of another type is refused, naming both.
   publish @2 (info :TopicInfo) -> (sink :Sink);
+
+  # The robot's live services the peer may call.
+  services @3 () -> (services :List(ServiceInfo));
+
+  # Hands a request frame (HORUS's own bytes, as the peer's client sent it) to the robot's
+  # server under ids of the robot's, and its response frame back; `response` is the type of the
+  # response frames. Fails when there is no live server, it dies, or `timeoutMs` passes.
+  call @4 (service :Text, request :Data, response :TopicInfo, timeoutMs :UInt32)
+      -> (response :Data);
 }

@@ -16,6 +16,8 @@ import uuid
 import pytest
 
 HORUS = os.environ.get("HORUS_CLI", "")
+GENERATOR = os.environ.get("HORUS_GEN_PROGRAM", "")
+SCHEMAS = pathlib.Path(__file__).resolve().parent / "schemas"
 
 
 class World:
@@ -119,6 +121,16 @@ def free_port() -> int:
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         return probe.getsockname()[1]
+
+
+@pytest.fixture(scope="session")
+def generated(tmp_path_factory) -> pathlib.Path:
+    """The Python of remote_test (its Scale service), generated once; the folder to import from."""
+    output = tmp_path_factory.mktemp("generated")
+    subprocess.run([GENERATOR, "generate", "--lang", "python", "--out", str(output), "-I",
+                    str(SCHEMAS), str(SCHEMAS / "remote_test" / "scale.hsrv")], check=True,
+                   capture_output=True)
+    return output / "python"
 
 
 @pytest.fixture(scope="session")

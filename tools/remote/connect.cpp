@@ -7,8 +7,10 @@
 #include <map>
 #include <set>
 
+#include "horus/service_registry.hpp"
 #include "link.hpp"
 #include "remote.hpp"
+#include "services.hpp"
 
 namespace horus::remote {
 
@@ -91,6 +93,12 @@ class Link {
           }
           return kj::joinPromises(requests.releaseAsArray());
         })
+        .then([this] { return session_.servicesRequest().send(); })
+        .then([this](capnp::Response<wire::Session::ServicesResults>&& response) {
+          for (const wire::ServiceInfo::Reader info : response.getServices()) {
+            serve_locally(info);
+          }
+        })
         .then([this] { return timer_.afterDelay(kRescanInterval); })
         .then([this] { return rescan(); });
   }
@@ -158,6 +166,34 @@ class Link {
         });
   }
 
+  /// Serves one of the robot's services here, unless a local server of its own serves it.
+  void serve_locally(wire::ServiceInfo::Reader info) {
+    const std::string name = info.getName();
+    if (services_.count(name) != 0 || refused_services_.count(name) != 0) return;
+    for (const horus::ServiceInfo& local : list_services(options_.namespace_name)) {
+      if (local.name == name && local.servers > 0) {
+        refused_services_.insert(name);
+        say("not serving %s of the robot: it has a server here (pid %u)", name.c_str(),
+            local.server_pid);
+        return;
+      }
+    }
+    try {
+      auto requests = open_topic(topic_info(info.getRequest()), options_.namespace_name);
+      wire::Sink::Client mirror = kj::heap<ServiceMirror>(session_, info, options_.namespace_name);
+      auto forwarder = kj::heap<Forwarder>(std::move(requests), kj::mv(mirror), options_.queue,
+                                           "requests of " + name + " to the robot");
+      kj::Promise<void> task = forwarder->run().eagerlyEvaluate([name](kj::Exception&& e) {
+        say("serving %s of the robot ended: %s", name.c_str(), e.getDescription().cStr());
+      });
+      services_.emplace(name, Export{kj::mv(forwarder), kj::mv(task)});
+      say("serving %s of the robot here", name.c_str());
+    } catch (const std::exception& e) {
+      refused_services_.insert(name);
+      say("cannot serve %s of the robot here: %s", name.c_str(), e.what());
+    }
+  }
+
   const ConnectOptions& options_;
   Mirrors& mirrors_;
   kj::Timer& timer_;
@@ -167,6 +203,9 @@ class Link {
   wire::Session::Client session_;
   std::map<std::string, wire::Subscription::Client> imports_;
   std::map<std::string, Export> exports_;
+  /// The robot's services served here while this connection lasts.
+  std::map<std::string, Export> services_;
+  std::set<std::string> refused_services_;
   /// Topics refused (or being asked for) on this connection: asked for again on the next.
   std::set<std::string> refused_;
 };

@@ -4,8 +4,10 @@
 #include <cstdio>
 #include <map>
 
+#include "horus/service_registry.hpp"
 #include "link.hpp"
 #include "remote.hpp"
+#include "services.hpp"
 
 namespace horus::remote {
 
@@ -19,6 +21,8 @@ constexpr std::size_t kSmallestMessageLimit = std::size_t{8} << 20;
 /// Room for the message framing around the largest payload.
 constexpr std::size_t kFramingBytes = 4096;
 constexpr std::uint32_t kLargestQueue = 1024;
+/// The longest a peer may have the robot wait for one answer of a service.
+constexpr std::uint32_t kLongestCallMs = 60000;
 
 std::string hex(std::uint64_t value) {
   char text[17];
@@ -57,7 +61,7 @@ class SessionImpl final : public wire::Session::Server {
   kj::Promise<void> topics(TopicsContext context) override {
     std::vector<TopicInfo> visible;
     for (TopicInfo& info : list_topics(options_.namespace_name)) {
-      if (!info.type_name.empty() && info.error.empty() &&
+      if (!info.type_name.empty() && info.error.empty() && !is_service_topic(info) &&
           (allows(Access::Read, info.name) || allows(Access::Write, info.name))) {
         visible.push_back(std::move(info));
       }
@@ -75,7 +79,7 @@ class SessionImpl final : public wire::Session::Server {
     const auto params = context.getParams();
     const std::string name = params.getTopic();
     if (!allows(Access::Read, name)) {
-      refuse(denied("read", name));
+      refuse(denied("read topic", name));
     }
     const TopicInfo info = find(name);
     if (info.type_name != params.getType().cStr() || info.fingerprint != params.getFingerprint()) {
@@ -92,10 +96,62 @@ class SessionImpl final : public wire::Session::Server {
     return kj::READY_NOW;
   }
 
+  kj::Promise<void> services(ServicesContext context) override {
+    const std::vector<TopicInfo> topics = list_topics(options_.namespace_name);
+    std::vector<std::pair<horus::ServiceInfo, TopicInfo>> live;
+    for (horus::ServiceInfo& service : list_services(options_.namespace_name)) {
+      const auto request = std::find_if(topics.begin(), topics.end(), [&](const TopicInfo& t) {
+        return t.name == service.name + ".request" && !t.type_name.empty();
+      });
+      if (service.servers > 0 && request != topics.end() && allows(Access::Call, service.name)) {
+        live.emplace_back(std::move(service), *request);
+      }
+    }
+    auto list = context.getResults().initServices(static_cast<unsigned>(live.size()));
+    for (unsigned i = 0; i < live.size(); ++i) {
+      const auto& [service, request] = live[i];
+      list[i].setName(service.name);
+      describe(request, list[i].initRequest());
+      list[i].setRequestType(service.request_type);
+      list[i].setResponseType(service.response_type);
+      list[i].setFingerprint(service.fingerprint);
+    }
+    return kj::READY_NOW;
+  }
+
+  kj::Promise<void> call(CallContext context) override {
+    const auto params = context.getParams();
+    const std::string name = params.getService();
+    if (!allows(Access::Call, name)) {
+      refuse(denied("call service", name));
+    }
+    std::unique_ptr<ServiceRelay>& relay = relays_[name];
+    if (!relay) {
+      const TopicInfo request = find(name + ".request");
+      try {
+        relay = std::make_unique<ServiceRelay>(name, request, topic_info(params.getResponse()),
+                                               options_.namespace_name);
+      } catch (const std::exception& e) {
+        relays_.erase(name);
+        refuse(e.what());
+      }
+    }
+    const capnp::Data::Reader frame = params.getRequest();
+    const auto timeout =
+        std::chrono::milliseconds(std::clamp(params.getTimeoutMs(), 1U, kLongestCallMs));
+    return relay
+        ->call(std::vector<std::byte>(reinterpret_cast<const std::byte*>(frame.begin()),
+                                      reinterpret_cast<const std::byte*>(frame.end())),
+               timeout)
+        .then([context](kj::Array<capnp::byte>&& answer) mutable {
+          context.getResults().setResponse(answer);
+        });
+  }
+
   kj::Promise<void> publish(PublishContext context) override {
     const TopicInfo info = topic_info(context.getParams().getInfo());
     if (!allows(Access::Write, info.name)) {
-      refuse(denied("write", info.name));
+      refuse(denied("write topic", info.name));
     }
     check_size(info);
     std::shared_ptr<python::ErasedTopic> topic = opened(info);
@@ -119,9 +175,10 @@ class SessionImpl final : public wire::Session::Server {
     }
   }
 
+  /// `what`: "read topic", "write topic" or "call service".
   std::string denied(const char* what, const std::string& name) const {
-    say("refused %s of topic %s to %s: not in the policy", what, name.c_str(), peer_.c_str());
-    return "peer '" + peer_ + "' may not " + what + " topic '" + name + "'";
+    say("refused to let %s %s %s: not in the policy", peer_.c_str(), what, name.c_str());
+    return "peer '" + peer_ + "' may not " + what + " '" + name + "'";
   }
 
   TopicInfo find(const std::string& name) const {
@@ -144,6 +201,8 @@ class SessionImpl final : public wire::Session::Server {
   const ServeOptions& options_;
   std::string peer_;
   std::size_t message_limit_;
+  /// Per service the peer called: destroyed (each thread joined) with the session.
+  std::map<std::string, std::unique_ptr<ServiceRelay>> relays_;
 };
 
 /// One authenticated peer's RPC connection.
