@@ -1,7 +1,7 @@
 """A robot's service called from a laptop's namespace across `horus remote`: the laptop's
 mirror serves it there while the link lasts (POD request frames, serialized response frames),
-the server's failure comes back as it is, a service outside the policy is not served, and a
-lost link ends a call with an error, never a hang."""
+the server's failure comes back as it is, a service outside the policy is not served, and the
+robot's server gone or the link lost ends a call with an error, never a wait for its timeout."""
 from __future__ import annotations
 
 import os
@@ -25,7 +25,8 @@ while True:
 
 # calls: five calls and a failing one, printing what each gave.
 # none: whether a server shows up within 3 s.
-# after-outage: one call, printing the error's class (or the answer).
+# once: one call, printing the error's class or the answer; answer: the same once a server is
+# there (up to 20 s).
 CLIENT = """
 import sys, horus
 from remote_test import Scale, ScaleRequest
@@ -43,6 +44,8 @@ if mode == "calls":
 elif mode == "none":
     print("server", client.wait_for_server(3), flush=True)
 else:
+    if mode == "answer":
+        client.wait_for_server(20)
     try:
         answer = client.call(ScaleRequest(value=1.0, factor=2.0), timeout=20)
         print("answer", answer.product, flush=True)
@@ -66,7 +69,8 @@ def client_lines(children, world, generated, mode: str) -> list[str]:
 
 def test_service_called_across_the_link(children, worlds, certs, generated):
     robot, laptop = worlds
-    wait_line(children.python(SERVER, env_with(robot, generated)), "ready")
+    robot_server = children.python(SERVER, env_with(robot, generated))
+    wait_line(robot_server, "ready")
     server, port = serve(children, robot, certs, "laptop call Scale")
     link = connect(children, laptop, certs, port)
     lines = client_lines(children, laptop, generated, "calls")
@@ -75,10 +79,20 @@ def test_service_called_across_the_link(children, worlds, certs, generated):
     assert lines[6].startswith("error ServiceFailed") and "a factor of 0" in lines[6]
     link.errors.wait_for("serving Scale of the robot here")
 
+    # The robot's server gone: a call from the laptop ends with an error, not its timeout.
+    robot_server.kill()
+    robot_server.wait()
+    error = client_lines(children, laptop, generated, "once")[0]
+    assert error in ("error TransportError", "error NoServerError"), error
+    robot_server = children.python(SERVER, env_with(robot, generated))
+    wait_line(robot_server, "ready")
+    assert client_lines(children, laptop, generated, "answer")[0] == "answer 2.0"
+
     # The link lost: the laptop's mirror withdraws, so a call ends with an error, not a hang.
     server.kill()
     link.errors.wait_for("trying again")
-    assert client_lines(children, laptop, generated, "after-outage")[0].startswith("error ")
+    error = client_lines(children, laptop, generated, "once")[0]
+    assert error in ("error TransportError", "error NoServerError"), error
 
 
 def test_service_outside_the_policy_is_not_served(children, worlds, certs, generated):

@@ -95,8 +95,18 @@ class Link {
         })
         .then([this] { return session_.servicesRequest().send(); })
         .then([this](capnp::Response<wire::Session::ServicesResults>&& response) {
+          std::set<std::string> live;
           for (const wire::ServiceInfo::Reader info : response.getServices()) {
+            live.insert(info.getName());
             serve_locally(info);
+          }
+          for (auto it = services_.begin(); it != services_.end();) {
+            if (live.count(it->first) != 0) {
+              ++it;
+              continue;
+            }
+            say("%s has no server on the robot any more: no longer served here", it->first.c_str());
+            it = services_.erase(it);
           }
         })
         .then([this] { return timer_.afterDelay(kRescanInterval); })

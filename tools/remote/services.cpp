@@ -238,6 +238,10 @@ ServiceMirror::~ServiceMirror() noexcept(false) {
 
 void ServiceMirror::taskFailed(kj::Exception&& exception) {
   say("a call of %s on the robot failed: %s", service_.c_str(), exception.getDescription().cStr());
+  // Registered anew, as a restarted server: the caller of the failed call (and any other
+  // waiting one) ends with a transport error at its next liveness check, not at its timeout.
+  registered_.server_instance = detail::new_service_endpoint_id();
+  registration_.send(registered_);
 }
 
 ServiceMirror::Reply* ServiceMirror::reply_topic(std::uint64_t index) {
