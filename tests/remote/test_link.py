@@ -180,3 +180,23 @@ def test_peer_of_another_ca_is_refused(children, worlds, certs):
 def test_peer_outside_the_policy_is_refused(children, worlds, certs):
     line = refused(children, worlds, certs, name="stranger")
     assert "refused stranger at 127.0.0.1:" in line
+
+
+def test_insecure_link_only_when_both_sides_ask_and_both_warn(children, worlds, certs):
+    robot, laptop = worlds
+    children.python(PUBLISHER, robot.env())
+    server = children.start([HORUS, "remote", "serve", "--insecure", "--listen", "127.0.0.1:0",
+                             "--allow", "insecure read cmd_vel"], robot.env())
+    port = int(wait_line(server, "serving namespace").rsplit(" ", 1)[1])
+    server.errors.wait_for("WARNING: --insecure")
+    receiver = children.python(SUBSCRIBER, laptop.env(), str(COUNT), "cmd_vel")
+    wait_line(receiver, "ready")
+    client = children.start([HORUS, "remote", "connect", f"127.0.0.1:{port}", "--insecure",
+                             "--import", "*"], laptop.env())
+    client.errors.wait_for("WARNING: --insecure")
+    assert_consecutive(sequences(receiver)["cmd_vel"])
+    server.errors.wait_for("insecure connected from 127.0.0.1:")
+    # A peer that speaks TLS to it is not let in: nothing falls back to plain TCP silently.
+    secure = connect(children, laptop, certs, port, "--import", "*")
+    secure.errors.wait_for("connection to")
+    assert "importing" not in secure.errors.text()
