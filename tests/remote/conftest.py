@@ -29,7 +29,9 @@ class World:
         self.namespace = f"remote_{uuid.uuid4().hex[:12]}"
 
     def env(self) -> dict:
-        return dict(os.environ, HORUS_SHM_DIR=str(self.root), HORUS_NAMESPACE=self.namespace)
+        # XDG_RUNTIME_DIR: horus-remote's status files go with the rest of the world.
+        return dict(os.environ, HORUS_SHM_DIR=str(self.root), HORUS_NAMESPACE=self.namespace,
+                    XDG_RUNTIME_DIR=str(self.root))
 
 
 @pytest.fixture

@@ -4,14 +4,16 @@ messages while another peer keeps receiving, and a peer that stops reading (its 
 the oldest messages, counted and logged, the robot's memory does not grow, others go on)."""
 from __future__ import annotations
 
+import json
 import random
 import signal
 import socket
 import ssl
 import struct
+import subprocess
 import threading
 
-from conftest import World, connect, free_port, serve, wait_line, wait_until
+from conftest import HORUS, World, connect, free_port, serve, wait_line, wait_until
 from test_link import PUBLISHER
 
 # Prints each cmd_vel stamp as it arrives, until killed.
@@ -137,6 +139,12 @@ while True:
 """
 
 
+def status(world) -> list[dict]:
+    listed = subprocess.run([HORUS, "remote", "status", "--json"], env=world.env(),
+                            capture_output=True, text=True, check=True)
+    return json.loads(listed.stdout)
+
+
 def resident_kib(process) -> int:
     with open(f"/proc/{process.pid}/status") as status:
         return next(int(line.split()[1]) for line in status if line.startswith("VmRSS:"))
@@ -156,6 +164,14 @@ def test_a_peer_that_stops_reading_costs_only_its_own_stream(children, worlds, c
         server.errors.wait_for("topic camera to laptop: ", limit=30)
         line = server.errors.wait_for("messages dropped so far", limit=30)
         assert "camera" in line
+        # `horus remote status` shows the same streams and counts (its file is a second old
+        # at most).
+        def dropping():
+            streams = {row["stream"]: row for row in status(robot)}
+            camera = streams.get("topic camera to laptop", {"dropped": 0})
+            return camera["dropped"] > 0 and streams
+        streams = wait_until(dropping, "the drops in horus remote status")
+        assert streams["topic cmd_vel to laptop"]["sent"] > 0
         before = resident_kib(server)
         # About 3 s: some 90 images (80 MB) published for the stalled peer meanwhile.
         stamps.grow_by(300, "while a peer reads nothing")

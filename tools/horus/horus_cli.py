@@ -887,6 +887,42 @@ def remote_keygen(args) -> int:
     return EXIT_OK
 
 
+def remote_status(args) -> int:
+    """The streams of the namespace's horus-remote processes, from the status file each writes
+    every second (tools/remote: status_path)."""
+    namespace = args.namespace or _core().current_namespace()
+    runtime = os.environ.get("XDG_RUNTIME_DIR")
+    folder = os.path.join(runtime, "horus-remote") if runtime else f"/tmp/horus-remote-{os.getuid()}"
+    rows = []
+    for name in sorted(os.listdir(folder)) if os.path.isdir(folder) else []:
+        prefix, _, pid = name.removesuffix(".json").rpartition(".")
+        if prefix != namespace or not name.endswith(".json") or not pid.isdigit():
+            continue
+        try:
+            os.kill(int(pid), 0)
+        except ProcessLookupError:  # a process killed before it could remove its file
+            os.remove(os.path.join(folder, name))
+            continue
+        except PermissionError:
+            pass
+        try:
+            with open(os.path.join(folder, name)) as file:
+                status = json.load(file)
+        except (OSError, ValueError):
+            continue
+        rows += [{"pid": status["pid"], "role": status["role"], **stream}
+                 for stream in status["streams"]]
+
+    def render(rows):
+        if not rows:
+            print(f"no horus remote streams in namespace '{namespace}'")
+            return
+        _table(["PID", "ROLE", "STREAM", "SENT", "DROPPED"],
+               [[r["pid"], r["role"], r["stream"], r["sent"], r["dropped"]] for r in rows])
+    _emit(rows, args.json, render)
+    return EXIT_OK
+
+
 def remote_link(args) -> int:
     # The namespace reaches horus-remote through HORUS_NAMESPACE, which main() set.
     try:
@@ -1076,6 +1112,8 @@ def build_parser() -> argparse.ArgumentParser:
                  "it per NAME (the certificate's name)", remote_keygen, json_output=False)
     sub.add_argument("folder", metavar="DIR")
     sub.add_argument("names", metavar="NAME", nargs="+")
+    action(remote, "status", "the streams of this namespace's horus remote processes: messages "
+           "sent and dropped (latest wins on a slow link)", remote_status)
     for name, help_text in (("serve", "serve this namespace to authenticated peers (runs "
                                       "horus-remote serve; --help lists its options)"),
                             ("connect", "mirror a robot's topics here and send ours to it (runs "

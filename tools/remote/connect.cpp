@@ -283,7 +283,7 @@ int connect(const ConnectOptions& options) {
   }
   Client client(options, loop,
                 tls ? kj::Maybe<kj::TlsContext&>(*tls) : kj::Maybe<kj::TlsContext&>(nullptr));
-  client.run().exclusiveJoin(loop.until_stopped()).wait(loop.io.waitScope);
+  loop.run_until_stopped(client.run(), options.namespace_name, "connect");
   return 0;
 }
 

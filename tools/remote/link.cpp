@@ -1,7 +1,14 @@
 #include "link.hpp"
 
+#include "horus/detail/json_string.hpp"
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <cstdarg>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -27,6 +34,10 @@ std::string read_file(const std::string& path, const std::string& hint) {
   text << file.rdbuf();
   return text.str();
 }
+
+/// The live forwarders of this process, for its status file.
+std::mutex forwarders_mutex;
+std::vector<const Forwarder*> forwarders;
 
 }  // namespace
 
@@ -88,9 +99,16 @@ Forwarder::Forwarder(std::unique_ptr<python::ErasedTopic> topic, wire::Sink::Cli
       sink_(std::move(sink)),
       queue_limit_(queue_limit),
       label_(std::move(label)),
-      reader_([this] { read_loop(); }) {}
+      reader_([this] { read_loop(); }) {
+  std::lock_guard lock(forwarders_mutex);
+  forwarders.push_back(this);
+}
 
 Forwarder::~Forwarder() {
+  {
+    std::lock_guard lock(forwarders_mutex);
+    forwarders.erase(std::find(forwarders.begin(), forwarders.end(), this));
+  }
   stopping_.store(true);
   reader_.join();
   if (dropped_.load() != 0) {
@@ -207,6 +225,36 @@ kj::Own<kj::TlsContext> tls_context(const Credentials& credentials, kj::Timer& t
   options.timer = timer;
   options.acceptTimeout = kHandshakeTimeout;
   return kj::heap<kj::TlsContext>(kj::mv(options));
+}
+
+std::string status_path(const std::string& namespace_name) {
+  const char* runtime = std::getenv("XDG_RUNTIME_DIR");
+  const std::string folder = runtime != nullptr && *runtime != '\0'
+                                 ? std::string(runtime) + "/horus-remote"
+                                 : "/tmp/horus-remote-" + std::to_string(::getuid());
+  ::mkdir(folder.c_str(), 0700);
+  return folder + "/" + namespace_name + "." + std::to_string(::getpid()) + ".json";
+}
+
+void write_status(const std::string& path, const char* role) {
+  std::string text =
+      "{\"pid\": " + std::to_string(::getpid()) + ", \"role\": \"" + role + "\", \"streams\": [";
+  {
+    std::lock_guard lock(forwarders_mutex);
+    for (const Forwarder* forwarder : forwarders) {
+      if (text.back() != '[') text += ", ";
+      text += "{\"stream\": " + detail::json_string(forwarder->label()) +
+              ", \"sent\": " + std::to_string(forwarder->sent()) +
+              ", \"dropped\": " + std::to_string(forwarder->dropped()) + "}";
+    }
+  }
+  text += "]}\n";
+  const std::string partial = path + ".partial";
+  if (std::FILE* file = std::fopen(partial.c_str(), "w")) {
+    std::fputs(text.c_str(), file);
+    std::fclose(file);
+    std::rename(partial.c_str(), path.c_str());
+  }
 }
 
 std::string address_of(kj::PeerIdentity& identity) {

@@ -54,6 +54,7 @@ class Forwarder {
   kj::Promise<void> run();
   std::uint64_t sent() const noexcept { return sent_.load(); }
   std::uint64_t dropped() const noexcept { return dropped_.load(); }
+  const std::string& label() const noexcept { return label_; }
 
  private:
   struct Queued {
@@ -80,6 +81,14 @@ class Forwarder {
   /// Last: started once everything it reads is there.
   std::thread reader_;
 };
+
+/// Where a horus-remote process of `namespace_name` says how its streams are doing (`horus remote
+/// status` reads it): $XDG_RUNTIME_DIR/horus-remote/, else /tmp/horus-remote-UID/, one
+/// NAMESPACE.PID.json per process.
+std::string status_path(const std::string& namespace_name);
+/// Writes the status file of this process (`role`: serve or connect): every live Forwarder's
+/// label, messages sent and dropped. Replaced whole (a reader never sees half of it).
+void write_status(const std::string& path, const char* role);
 
 /// Writes what a peer streams into a local topic: POD messages of exactly the type's size,
 /// serialized ones no larger than a slot; anything else ends the stream with the reason.

@@ -22,6 +22,8 @@ namespace horus::remote {
 namespace {
 
 constexpr unsigned kDefaultQueue = 64;
+/// How often the status file (`horus remote status`) is written.
+constexpr auto kStatusInterval = 1 * kj::SECONDS;
 
 kj::AsyncIoContext set_up_async_io() {
   // Before any thread starts: the signals stay blocked in every thread but kj's event loop.
@@ -58,9 +60,17 @@ int usage(std::FILE* out, int status) {
 
 EventLoop::EventLoop() : io(set_up_async_io()) {}
 
-kj::Promise<void> EventLoop::until_stopped() {
-  return io.unixEventPort.onSignal(SIGINT).ignoreResult().exclusiveJoin(
+void EventLoop::run_until_stopped(kj::Promise<void> work, const std::string& namespace_name,
+                                  const char* role) {
+  const std::string path = status_path(namespace_name);
+  kj::Function<kj::Promise<void>()> report = [&]() -> kj::Promise<void> {
+    write_status(path, role);
+    return io.provider->getTimer().afterDelay(kStatusInterval).then([&] { return report(); });
+  };
+  kj::Promise<void> stopped = io.unixEventPort.onSignal(SIGINT).ignoreResult().exclusiveJoin(
       io.unixEventPort.onSignal(SIGTERM).ignoreResult());
+  work.exclusiveJoin(kj::mv(stopped)).exclusiveJoin(report()).wait(io.waitScope);
+  std::remove(path.c_str());
 }
 
 namespace {

@@ -41,8 +41,10 @@ struct ConnectOptions {
 struct EventLoop {
   EventLoop();
   kj::AsyncIoContext io;
-  /// Resolves at SIGINT or SIGTERM.
-  kj::Promise<void> until_stopped();
+  /// Resolves at SIGINT or SIGTERM, or when `work` ends; meanwhile the status file of this
+  /// process (`role`: serve or connect) is written every second, and removed at the end.
+  void run_until_stopped(kj::Promise<void> work, const std::string& namespace_name,
+                         const char* role);
 };
 
 int serve(const ServeOptions& options);

@@ -315,7 +315,7 @@ int serve(const ServeOptions& options) {
                 tls ? kj::Maybe<kj::TlsContext&>(*tls) : kj::Maybe<kj::TlsContext&>(nullptr));
   std::printf("serving namespace %s on port %u\n", options.namespace_name.c_str(), port);
   std::fflush(stdout);
-  server.accept_next().exclusiveJoin(loop.until_stopped()).wait(loop.io.waitScope);
+  loop.run_until_stopped(server.accept_next(), options.namespace_name, "serve");
   return 0;
 }
 
