@@ -31,17 +31,25 @@ double seconds(kj::Duration duration) {
   return static_cast<double>(duration / kj::MILLISECONDS) / 1e3;
 }
 
-/// What outlives a connection: the local topics the robot's are mirrored into, so that their
-/// subscribers see one topic across reconnects.
-struct Mirrors {
-  std::map<std::string, std::shared_ptr<python::ErasedTopic>> imported;
-};
-
-/// A topic streaming to the robot.
+/// A topic streaming to the robot (or a service's requests into its mirror).
 struct Export {
   kj::Own<Forwarder> forwarder;
   /// Declared last: cancelled before the forwarder it runs is destroyed.
   kj::Promise<void> task;
+};
+
+/// One of the robot's services served here; `mirror` lives as long as `requests` streams into it.
+struct Served {
+  ServiceMirror* mirror;
+  Export requests;
+};
+
+/// What outlives a connection: the local topics the robot's are mirrored into, so that their
+/// subscribers see one topic across reconnects, and the services served here, so that a call
+/// during an outage ends with a transport error rather than finding no server.
+struct Mirrors {
+  std::map<std::string, std::shared_ptr<python::ErasedTopic>> imported;
+  std::map<std::string, Served> served;
 };
 
 /// One connection to the robot and the streams it carries; all of them end with it.
@@ -55,7 +63,14 @@ class Link {
         stream_(kj::mv(stream)),
         network_(*stream_, capnp::rpc::twoparty::Side::CLIENT),
         rpc_(capnp::makeRpcClient(network_)),
-        session_(bootstrap()) {}
+        session_(bootstrap()) {
+    for (auto& [name, served] : mirrors_.served) served.mirror->connect(session_);
+  }
+  Link(const Link&) = delete;
+  Link& operator=(const Link&) = delete;
+  ~Link() {
+    for (auto& [name, served] : mirrors_.served) served.mirror->connect(std::nullopt);
+  }
 
   /// Until the connection ends (resolved) or fails (rejected).
   kj::Promise<void> run() { return rescan().exclusiveJoin(network_.onDisconnect()); }
@@ -100,13 +115,13 @@ class Link {
             live.insert(info.getName());
             serve_locally(info);
           }
-          for (auto it = services_.begin(); it != services_.end();) {
+          for (auto it = mirrors_.served.begin(); it != mirrors_.served.end();) {
             if (live.count(it->first) != 0) {
               ++it;
               continue;
             }
             say("%s has no server on the robot any more: no longer served here", it->first.c_str());
-            it = services_.erase(it);
+            it = mirrors_.served.erase(it);
           }
         })
         .then([this] { return timer_.afterDelay(kRescanInterval); })
@@ -179,7 +194,7 @@ class Link {
   /// Serves one of the robot's services here, unless a local server of its own serves it.
   void serve_locally(wire::ServiceInfo::Reader info) {
     const std::string name = info.getName();
-    if (services_.count(name) != 0 || refused_services_.count(name) != 0) return;
+    if (mirrors_.served.count(name) != 0 || refused_services_.count(name) != 0) return;
     for (const horus::ServiceInfo& local : list_services(options_.namespace_name)) {
       if (local.name == name && local.servers > 0) {
         refused_services_.insert(name);
@@ -190,13 +205,15 @@ class Link {
     }
     try {
       auto requests = open_topic(topic_info(info.getRequest()), options_.namespace_name);
-      wire::Sink::Client mirror = kj::heap<ServiceMirror>(session_, info, options_.namespace_name);
+      auto mirror = kj::heap<ServiceMirror>(info, options_.namespace_name);
+      ServiceMirror* serving = mirror.get();
+      serving->connect(session_);
       auto forwarder = kj::heap<Forwarder>(std::move(requests), kj::mv(mirror), options_.queue,
                                            "requests of " + name + " to the robot");
       kj::Promise<void> task = forwarder->run().eagerlyEvaluate([name](kj::Exception&& e) {
         say("serving %s of the robot ended: %s", name.c_str(), e.getDescription().cStr());
       });
-      services_.emplace(name, Export{kj::mv(forwarder), kj::mv(task)});
+      mirrors_.served.emplace(name, Served{serving, Export{kj::mv(forwarder), kj::mv(task)}});
       say("serving %s of the robot here", name.c_str());
     } catch (const std::exception& e) {
       refused_services_.insert(name);
@@ -213,8 +230,7 @@ class Link {
   wire::Session::Client session_;
   std::map<std::string, wire::Subscription::Client> imports_;
   std::map<std::string, Export> exports_;
-  /// The robot's services served here while this connection lasts.
-  std::map<std::string, Export> services_;
+  /// The robot's services not served here on this connection (a local server has them).
   std::set<std::string> refused_services_;
   /// Topics refused (or being asked for) on this connection: asked for again on the next.
   std::set<std::string> refused_;

@@ -208,10 +208,8 @@ ServiceRelay::Outcome ServiceRelay::ask(const Job& job) {
   }
 }
 
-ServiceMirror::ServiceMirror(wire::Session::Client session, wire::ServiceInfo::Reader info,
-                             const std::string& namespace_name)
-    : session_(kj::mv(session)),
-      service_(info.getName()),
+ServiceMirror::ServiceMirror(wire::ServiceInfo::Reader info, const std::string& namespace_name)
+    : service_(info.getName()),
       namespace_name_(namespace_name),
       request_pod_(info.getRequest().getIsPod()),
       registration_(detail::registration_topic(service_),
@@ -264,7 +262,11 @@ kj::Promise<void> ServiceMirror::message(MessageContext context) {
   if (!ids || (*ids)[0] == 0) return kj::READY_NOW;  // not a frame, or a stopping server's wake-up
   const Reply* reply = reply_topic((*ids)[2]);
   if (reply == nullptr) return kj::READY_NOW;
-  auto request = session_.callRequest();
+  if (!session_) {
+    calls_.add(KJ_EXCEPTION(DISCONNECTED, "the link to the robot is down"));
+    return kj::READY_NOW;
+  }
+  auto request = session_->callRequest();
   request.setService(service_);
   request.setRequest(data);
   describe(reply->info, request.initResponse());

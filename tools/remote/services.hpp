@@ -78,13 +78,16 @@ class ServiceRelay {
 };
 
 /// The peer's end of one of the robot's services: registered as its server in the local
-/// namespace while the connection lasts (withdrawn at its end, so waiting local clients fail as
-/// with a server that stopped). A Forwarder streams the local request frames into it.
+/// namespace until the robot has no server for it any more (then withdrawn). A Forwarder streams
+/// the local request frames into it. A call that fails, also while no connection to the robot
+/// is up, makes it register anew, as a restarted server: its caller ends with a transport error.
 class ServiceMirror final : public wire::Sink::Server, public kj::TaskSet::ErrorHandler {
  public:
-  ServiceMirror(wire::Session::Client session, wire::ServiceInfo::Reader info,
-                const std::string& namespace_name);
+  ServiceMirror(wire::ServiceInfo::Reader info, const std::string& namespace_name);
   ~ServiceMirror() noexcept(false);
+
+  /// The session calls go to from now on; none while the connection is down.
+  void connect(std::optional<wire::Session::Client> session) { session_ = std::move(session); }
 
   void taskFailed(kj::Exception&& exception) override;
 
@@ -100,7 +103,7 @@ class ServiceMirror final : public wire::Sink::Server, public kj::TaskSet::Error
   /// The reply topic `index` (opened the first time), or none when it does not exist.
   Reply* reply_topic(std::uint64_t index);
 
-  wire::Session::Client session_;
+  std::optional<wire::Session::Client> session_;
   std::string service_;
   std::string namespace_name_;
   bool request_pod_;
