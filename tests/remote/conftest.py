@@ -153,9 +153,12 @@ def certs(tmp_path_factory) -> pathlib.Path:
     return folder
 
 
-def serve(children, world, certs, *rules: str, port: int = 0):
-    """`horus remote serve` of `world` on loopback, allowing `rules`; (process, port)."""
+def serve(children, world, certs, *rules: str, port: int = 0, policy=None):
+    """`horus remote serve` of `world` on loopback, allowing `rules` (and the lines of the file
+    `policy`); (process, port)."""
     allow = [arg for rule in rules for arg in ("--allow", rule)]
+    if policy is not None:
+        allow += ["--policy", str(policy)]
     # --namespace given to `serve` here and to `horus` in connect(): both forms reach the tool.
     env = dict(world.env(), HORUS_NAMESPACE="not_this_one")
     process = children.start([HORUS, "remote", "serve", "--namespace", world.namespace,

@@ -106,11 +106,13 @@ def test_keygen_makes_private_keys_and_names_certificates(certs):
     assert certificate.subject.rfc4514_string() == "CN=laptop"
 
 
-def test_topics_mirrored_in_order_and_export_allowed_or_refused(children, worlds, certs):
+def test_topics_mirrored_in_order_and_export_allowed_or_refused(children, worlds, certs,
+                                                                tmp_path):
     robot, laptop = worlds
     children.python(PUBLISHER, robot.env())
-    server, port = serve(children, robot, certs, "laptop read cmd_vel", "laptop read generic",
-                         "laptop write goal")
+    policy = tmp_path / "policy"
+    policy.write_text("# what the laptop may do\nlaptop read generic\n\nlaptop  write  goal\n")
+    server, port = serve(children, robot, certs, "laptop read cmd_vel", policy=policy)
     receiver = children.python(SUBSCRIBER, laptop.env(), str(COUNT), "cmd_vel", "generic")
     wait_line(receiver, "ready")
     children.python(LAPTOP_PUBLISHER, laptop.env())
@@ -131,6 +133,16 @@ def test_topics_mirrored_in_order_and_export_allowed_or_refused(children, worlds
     assert "secret" not in topic_names(laptop)
     assert "private" not in topic_names(robot)
     server.errors.wait_for("refused to let laptop write topic private")
+
+
+def test_bad_arguments_exit_two_naming_the_problem_first(worlds):
+    for args in (["serve", "--listen", "127.0.0.1:0", "--insecure", "--allow", "laptop peek *"],
+                 ["serve", "--insecure"], ["connect", "--insecure"],
+                 ["connect", "127.0.0.1:1"]):
+        result = subprocess.run([HORUS, "remote", *args], env=worlds[0].env(),
+                                capture_output=True, text=True)
+        assert result.returncode == 2, (args, result.stderr)
+        assert result.stderr.splitlines()[0].startswith("horus-remote: "), result.stderr
 
 
 def test_type_mismatch_is_refused_naming_both_types(children, worlds, certs):

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 
@@ -107,7 +108,11 @@ int run(int argc, char** argv) {
     } else if (command == "serve" && arg == "--listen") {
       serving.listen = value();
     } else if (command == "serve" && arg == "--allow") {
-      serving.policy.add(value(), "--allow");
+      try {
+        serving.policy.add(value(), "--allow");
+      } catch (const std::invalid_argument& e) {
+        usage_error(e.what());
+      }
     } else if (command == "serve" && arg == "--policy") {
       serving.policy.load(value());
     } else if (command == "connect" && arg == "--server-name") {
