@@ -1,10 +1,11 @@
 """A remote link under trouble: a robot killed and restarted mid-stream (the laptop's mirror
-resumes in order, no duplicate), peers sending random bytes, malformed frames and oversized
-messages while another peer keeps receiving, and a peer that stops reading (its stream drops
+resumes in order, no duplicate), peers sending random bytes, malformed frames, oversized
+messages and floods of calls while another peer keeps receiving, and a peer that stops reading (its stream drops
 the oldest messages, counted and logged, the robot's memory does not grow, others go on)."""
 from __future__ import annotations
 
 import json
+import os
 import random
 import signal
 import socket
@@ -179,3 +180,20 @@ def test_a_peer_that_stops_reading_costs_only_its_own_stream(children, worlds, c
     finally:
         stalled.send_signal(signal.SIGCONT)
     assert server.poll() is None, server.errors.text()
+
+
+FLOOD_PEER = os.environ.get("HORUS_REMOTE_FLOOD_PEER", "")  # flood_peer.cpp
+
+
+def test_a_flood_of_calls_leaves_the_others_served(children, worlds, certs):
+    robot, laptop = worlds
+    server, port, _, stamps = streaming(children, robot, laptop, certs)
+    flood = children.start([FLOOD_PEER, str(port), str(certs)], laptop.env())
+    wait_line(flood, "flooding")
+    before = resident_kib(server)
+    stamps.grow_by(200, "while a peer floods the robot with calls")
+    assert flood.poll() is None, flood.errors.text()  # the flood went on all along
+    assert server.poll() is None, server.errors.text()
+    assert resident_kib(server) - before < 50 * 1024, "the robot's memory grew with the flood"
+    seen = stamps.seen
+    assert all(a < b for a, b in zip(seen, seen[1:])), "out of order or duplicated"

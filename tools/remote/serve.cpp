@@ -13,8 +13,9 @@ namespace horus::remote {
 
 namespace {
 
-/// Outstanding calls a peer may have before its connection stops reading from it (bytes).
-constexpr std::size_t kFlowLimit = std::size_t{1} << 20;
+/// Outstanding calls a peer may have before its connection stops reading from it: 256 KiB of
+/// call messages (Cap'n Proto counts words).
+constexpr std::size_t kFlowLimitWords = (std::size_t{256} << 10) / sizeof(capnp::word);
 /// The traversal limit of a connection when the peer may read or write no larger topic yet:
 /// room for the topics that appear after it connected (a 1080p RGB image, 6 MB, fits).
 constexpr std::size_t kSmallestMessageLimit = std::size_t{8} << 20;
@@ -23,6 +24,10 @@ constexpr std::size_t kFramingBytes = 4096;
 constexpr std::uint32_t kLargestQueue = 1024;
 /// The longest a peer may have the robot wait for one answer of a service.
 constexpr std::uint32_t kLongestCallMs = 60000;
+/// A peer's calls (not its streams) run at most this often on average, after a burst of
+/// kCallBurst / kCallSpacing calls.
+constexpr kj::Duration kCallSpacing = 1 * kj::MILLISECONDS;
+constexpr kj::Duration kCallBurst = 100 * kj::MILLISECONDS;
 
 std::string hex(std::uint64_t value) {
   char text[17];
@@ -54,11 +59,20 @@ class SubscriptionImpl final : public wire::Subscription::Server {
 
 class SessionImpl final : public wire::Session::Server {
  public:
-  SessionImpl(const ServeOptions& options, std::string peer, std::size_t message_limit)
-      : options_(options), peer_(std::move(peer)), message_limit_(message_limit) {}
+  SessionImpl(const ServeOptions& options, std::string peer, std::size_t message_limit,
+              kj::Timer& timer)
+      : options_(options),
+        peer_(std::move(peer)),
+        message_limit_(message_limit),
+        timer_(timer),
+        next_call_(timer.now()) {}
 
  protected:
   kj::Promise<void> topics(TopicsContext context) override {
+    return throttle().then([this, context]() mutable { return answer_topics(context); });
+  }
+
+  kj::Promise<void> answer_topics(TopicsContext context) {
     std::vector<TopicInfo> visible;
     for (TopicInfo& info : list_topics(options_.namespace_name)) {
       if (!info.type_name.empty() && info.error.empty() && !is_service_topic(info) &&
@@ -76,6 +90,10 @@ class SessionImpl final : public wire::Session::Server {
   }
 
   kj::Promise<void> subscribe(SubscribeContext context) override {
+    return throttle().then([this, context]() mutable { return answer_subscribe(context); });
+  }
+
+  kj::Promise<void> answer_subscribe(SubscribeContext context) {
     const auto params = context.getParams();
     const std::string name = params.getTopic();
     if (!allows(Access::Read, name)) {
@@ -97,6 +115,10 @@ class SessionImpl final : public wire::Session::Server {
   }
 
   kj::Promise<void> services(ServicesContext context) override {
+    return throttle().then([this, context]() mutable { return answer_services(context); });
+  }
+
+  kj::Promise<void> answer_services(ServicesContext context) {
     const std::vector<TopicInfo> topics = list_topics(options_.namespace_name);
     std::vector<std::pair<horus::ServiceInfo, TopicInfo>> live;
     for (horus::ServiceInfo& service : list_services(options_.namespace_name)) {
@@ -120,6 +142,10 @@ class SessionImpl final : public wire::Session::Server {
   }
 
   kj::Promise<void> call(CallContext context) override {
+    return throttle().then([this, context]() mutable { return answer_call(context); });
+  }
+
+  kj::Promise<void> answer_call(CallContext context) {
     const auto params = context.getParams();
     const std::string name = params.getService();
     if (!allows(Access::Call, name)) {
@@ -149,6 +175,10 @@ class SessionImpl final : public wire::Session::Server {
   }
 
   kj::Promise<void> publish(PublishContext context) override {
+    return throttle().then([this, context]() mutable { return answer_publish(context); });
+  }
+
+  kj::Promise<void> answer_publish(PublishContext context) {
     const TopicInfo info = topic_info(context.getParams().getInfo());
     if (!allows(Access::Write, info.name)) {
       refuse(denied("write topic", info.name));
@@ -162,6 +192,16 @@ class SessionImpl final : public wire::Session::Server {
   }
 
  private:
+  /// Spaces a peer's calls kCallSpacing apart once it has used its burst: a flood of calls waits
+  /// (and, past the flow limit, is not even read) instead of taking the event loop from the
+  /// other peers.
+  kj::Promise<void> throttle() {
+    const kj::TimePoint now = timer_.now();
+    next_call_ = std::max(next_call_, now - kCallBurst) + kCallSpacing;
+    if (next_call_ <= now) return kj::READY_NOW;
+    return timer_.atTime(next_call_);
+  }
+
   bool allows(Access access, const std::string& name) const {
     return options_.policy.allows(peer_, access, name);
   }
@@ -201,6 +241,9 @@ class SessionImpl final : public wire::Session::Server {
   const ServeOptions& options_;
   std::string peer_;
   std::size_t message_limit_;
+  kj::Timer& timer_;
+  /// When this peer's next call may run (throttle()).
+  kj::TimePoint next_call_;
   /// Per service the peer called: destroyed (each thread joined) with the session.
   std::map<std::string, std::unique_ptr<ServiceRelay>> relays_;
 };
@@ -212,7 +255,7 @@ struct Connection {
       : stream(kj::mv(stream_)),
         network(*stream, capnp::rpc::twoparty::Side::SERVER, reader),
         rpc(capnp::makeRpcServer(network, kj::mv(session))) {
-    rpc.setFlowLimit(kFlowLimit);
+    rpc.setFlowLimit(kFlowLimitWords);
   }
   kj::Own<kj::AsyncIoStream> stream;
   capnp::TwoPartyVatNetwork network;
@@ -222,8 +265,12 @@ struct Connection {
 class Server final : public kj::TaskSet::ErrorHandler {
  public:
   Server(const ServeOptions& options, kj::Own<kj::ConnectionReceiver> listener,
-         kj::Maybe<kj::TlsContext&> tls)
-      : options_(options), listener_(kj::mv(listener)), tls_(tls), connections_(*this) {}
+         kj::Maybe<kj::TlsContext&> tls, kj::Timer& timer)
+      : options_(options),
+        listener_(kj::mv(listener)),
+        tls_(tls),
+        timer_(timer),
+        connections_(*this) {}
 
   kj::Promise<void> accept_next() {
     return listener_->acceptAuthenticated().then([this](kj::AuthenticatedStream&& stream) {
@@ -269,7 +316,7 @@ class Server final : public kj::TaskSet::ErrorHandler {
     reader.traversalLimitInWords = limit / sizeof(capnp::word);
     say("%s connected from %s", name.c_str(), address.c_str());
     auto connection = kj::heap<Connection>(kj::mv(peer.stream), reader,
-                                           kj::heap<SessionImpl>(options_, name, limit));
+                                           kj::heap<SessionImpl>(options_, name, limit, timer_));
     return connection->network.onDisconnect().attach(kj::mv(connection)).then([name, address] {
       say("%s at %s disconnected", name.c_str(), address.c_str());
     });
@@ -291,6 +338,7 @@ class Server final : public kj::TaskSet::ErrorHandler {
   const ServeOptions& options_;
   kj::Own<kj::ConnectionReceiver> listener_;
   kj::Maybe<kj::TlsContext&> tls_;
+  kj::Timer& timer_;
   kj::TaskSet connections_;
 };
 
@@ -312,7 +360,8 @@ int serve(const ServeOptions& options) {
   kj::Own<kj::ConnectionReceiver> listener = address->listen();
   const unsigned port = listener->getPort();
   Server server(options, kj::mv(listener),
-                tls ? kj::Maybe<kj::TlsContext&>(*tls) : kj::Maybe<kj::TlsContext&>(nullptr));
+                tls ? kj::Maybe<kj::TlsContext&>(*tls) : kj::Maybe<kj::TlsContext&>(nullptr),
+                loop.io.provider->getTimer());
   std::printf("serving namespace %s on port %u\n", options.namespace_name.c_str(), port);
   std::fflush(stdout);
   loop.run_until_stopped(server.accept_next(), options.namespace_name, "serve");
