@@ -16,6 +16,8 @@ EXIT_OK, EXIT_NOT_FOUND, EXIT_USAGE = 0, 1, 2
 
 # Filled in by the launcher (bin/horus) with the horus-blackbox beside it.
 BLACKBOX_PROGRAM = os.environ.get("HORUS_BLACKBOX_PROGRAM", "horus-blackbox")
+# And with the horus-remote beside it (`horus remote serve|connect`).
+REMOTE_PROGRAM = os.environ.get("HORUS_REMOTE_PROGRAM", "horus-remote")
 
 # The installed schemas `horus msg` describes (set by the launcher, as is HORUS_GEN_PROGRAM, the
 # schema compiler dynamic_types runs).
@@ -954,6 +956,61 @@ def bridge(args) -> int:
     return bridge.run()
 
 
+def remote_keygen(args) -> int:
+    from horus_remote_keys import keygen
+    try:
+        refused = keygen(args.folder, args.names)
+    except (OSError, ValueError) as error:
+        raise CommandFailed(str(error)) from None
+    if refused:
+        raise CommandFailed("; ".join(refused))
+    return EXIT_OK
+
+
+def remote_status(args) -> int:
+    """The streams of the namespace's horus-remote processes, from the status file each writes
+    every second (tools/remote: status_path)."""
+    namespace = args.namespace or _core().current_namespace()
+    runtime = os.environ.get("XDG_RUNTIME_DIR")
+    folder = os.path.join(runtime, "horus-remote") if runtime else f"/tmp/horus-remote-{os.getuid()}"
+    rows = []
+    for name in sorted(os.listdir(folder)) if os.path.isdir(folder) else []:
+        prefix, _, pid = name.removesuffix(".json").rpartition(".")
+        if prefix != namespace or not name.endswith(".json") or not pid.isdigit():
+            continue
+        try:
+            os.kill(int(pid), 0)
+        except ProcessLookupError:  # a process killed before it could remove its file
+            os.remove(os.path.join(folder, name))
+            continue
+        except PermissionError:
+            pass
+        try:
+            with open(os.path.join(folder, name)) as file:
+                status = json.load(file)
+        except (OSError, ValueError):
+            continue
+        rows += [{"pid": status["pid"], "role": status["role"], **stream}
+                 for stream in status["streams"]]
+
+    def render(rows):
+        if not rows:
+            print(f"no horus remote streams in namespace '{namespace}'")
+            return
+        _table(["PID", "ROLE", "STREAM", "SENT", "DROPPED"],
+               [[r["pid"], r["role"], r["stream"], r["sent"], r["dropped"]] for r in rows])
+    _emit(rows, args.json, render)
+    return EXIT_OK
+
+
+def remote_link(args) -> int:
+    # The namespace reaches horus-remote through HORUS_NAMESPACE, which main() set.
+    try:
+        os.execvp(REMOTE_PROGRAM, [REMOTE_PROGRAM, args.action, *args.remote_args])
+    except OSError as error:
+        raise CommandFailed(f"cannot run {REMOTE_PROGRAM}: {error.strerror}") from None
+
+
 def completion(args) -> int:
     parser = args.root_parser
     commands = parser._subparsers._group_actions[0].choices  # noqa: SLF001 (argparse has no API)
@@ -1135,6 +1192,24 @@ def build_parser() -> argparse.ArgumentParser:
                           "deadline is said on stderr (default: none; an importing bridge "
                           "follows the writer)")
     sub.set_defaults(handler=bridge)
+
+    remote = group("remote", "reach a robot from afar over Cap'n Proto RPC with mutual TLS "
+                             "(docs/remote.md)")
+    sub = action(remote, "keygen", "make a CA in DIR (once) and a key and certificate signed by "
+                 "it per NAME (the certificate's name)", remote_keygen, json_output=False)
+    sub.add_argument("folder", metavar="DIR")
+    sub.add_argument("names", metavar="NAME", nargs="+")
+    action(remote, "status", "the streams of this namespace's horus remote processes: messages "
+           "sent and dropped (latest wins on a slow link)", remote_status)
+    for name, help_text in (("serve", "serve this namespace to authenticated peers (runs "
+                                      "horus-remote serve; --help lists its options)"),
+                            ("connect", "mirror a robot's topics here and send ours to it (runs "
+                                        "horus-remote connect; --help lists its options)")):
+        # '+' as the prefix: every argument, options too, goes to horus-remote as it is.
+        sub = remote.add_parser(name, help=help_text, description=help_text, prefix_chars="+",
+                                add_help=False)
+        sub.add_argument("remote_args", nargs=argparse.REMAINDER)
+        sub.set_defaults(handler=remote_link)
 
     sub = commands.add_parser("completion", help="print the bash completion script",
                               description="Print the bash completion script: "

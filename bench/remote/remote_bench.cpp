@@ -1,0 +1,208 @@
+// bench/remote: the processes run.sh starts.
+//
+//   rpc-serve CERTS             a Cap'n Proto RPC echo on 127.0.0.1 (prints "port N"), TLS as
+//                               horus-remote's (the robot's certificate)
+//   rpc-ping PORT CERTS COUNT   COUNT echoes of a CmdVel's bytes to it (the laptop's certificate)
+//   topic-echo                  sends back each CmdVel of topic ping on topic pong
+//   topic-ping COUNT            COUNT CmdVels on ping, each waiting for its pong
+//   stream-publish SECONDS      CmdVel on cmd_vel at 1 kHz, a 640x480 RGB image on camera at 30 Hz
+//   stream-count SECONDS        the rates cmd_vel and camera arrive at, from the first message on
+//
+// The pings print "<name> p50 P99 mean" in microseconds, the counter "<topic> RATE" in hertz.
+#include <capnp/rpc-twoparty.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <numeric>
+#include <string>
+#include <string_view>
+#include <thread>
+#include <vector>
+
+#include "echo.capnp.h"
+#include "horus/msg/cmd_vel.hpp"
+#include "horus/msg/compressed_image.hpp"
+#include "horus/topic.hpp"
+#include "link.hpp"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr int kWarmUp = 500;
+constexpr auto kPongWait = std::chrono::seconds(2);
+constexpr std::uint32_t kWidth = 640;
+constexpr std::uint32_t kHeight = 480;
+
+horus::TopicOptions camera_options() {
+  horus::TopicOptions options;
+  options.capacity = 8;
+  options.max_message_size = std::size_t{1} << 20;
+  return options;
+}
+
+void report(const char* name, std::vector<double> micros) {
+  std::sort(micros.begin(), micros.end());
+  const double mean =
+      std::accumulate(micros.begin(), micros.end(), 0.0) / static_cast<double>(micros.size());
+  std::printf("%s %.1f %.1f %.1f\n", name, micros[micros.size() / 2],
+              micros[micros.size() * 99 / 100], mean);
+}
+
+double micros_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::micro>(Clock::now() - start).count();
+}
+
+class EchoImpl final : public Echo::Server {
+ protected:
+  kj::Promise<void> echo(EchoContext context) override {
+    context.getResults().setData(context.getParams().getData());
+    return kj::READY_NOW;
+  }
+};
+
+int rpc_serve(const std::string& certs) {
+  auto io = kj::setupAsyncIo();
+  const auto credentials = horus::remote::load_credentials(certs, "robot");
+  auto tls = horus::remote::tls_context(credentials, io.provider->getTimer());
+  auto address = io.provider->getNetwork().parseAddress("127.0.0.1:0").wait(io.waitScope);
+  auto port = address->listen();
+  std::printf("port %u\n", port->getPort());
+  std::fflush(stdout);
+  auto secured = tls->wrapPort(kj::mv(port));
+  capnp::TwoPartyServer server(kj::heap<EchoImpl>());
+  server.listen(*secured).wait(io.waitScope);
+  return 0;
+}
+
+int rpc_ping(const std::string& port, const std::string& certs, int count) {
+  auto io = kj::setupAsyncIo();
+  const auto credentials = horus::remote::load_credentials(certs, "laptop");
+  auto tls = horus::remote::tls_context(credentials, io.provider->getTimer());
+  auto address = io.provider->getNetwork().parseAddress("127.0.0.1:" + port).wait(io.waitScope);
+  auto stream = tls->wrapClient(address->connect().wait(io.waitScope), "robot").wait(io.waitScope);
+  capnp::TwoPartyClient client(*stream);
+  auto echo = client.bootstrap().castAs<Echo>();
+  const std::vector<capnp::byte> bytes(sizeof(horus::msg::CmdVel), 7);
+  std::vector<double> micros;
+  for (int i = 0; i < kWarmUp + count; ++i) {
+    const auto start = Clock::now();
+    auto request = echo.echoRequest();
+    request.setData(kj::arrayPtr(bytes.data(), bytes.size()));
+    request.send().wait(io.waitScope);
+    if (i >= kWarmUp) micros.push_back(micros_since(start));
+  }
+  report("rpc_echo", std::move(micros));
+  return 0;
+}
+
+int topic_echo() {
+  horus::Topic<horus::msg::CmdVel> ping("ping");
+  horus::Topic<horus::msg::CmdVel> pong("pong");
+  for (;;) {
+    if (const auto message = ping.recv(std::chrono::seconds(1))) pong.send(*message);
+  }
+}
+
+int topic_ping(int count) {
+  horus::Topic<horus::msg::CmdVel> ping("ping");
+  horus::Topic<horus::msg::CmdVel> pong("pong");
+  std::vector<double> micros;
+  std::uint64_t stamp = 0;
+  int lost = 0;
+  // Until the link carries both ways, pings go unanswered: they are part of the warm-up.
+  for (int answered = 0; answered < kWarmUp + count;) {
+    horus::msg::CmdVel message;
+    message.stamp_nanos = ++stamp;
+    const auto start = Clock::now();
+    ping.send(message);
+    bool back = false;
+    while (!back && Clock::now() - start < kPongWait) {
+      const auto answer = pong.recv(kPongWait);
+      back = answer && answer->stamp_nanos == stamp;
+    }
+    if (!back) {
+      lost += answered > 0;
+      continue;
+    }
+    if (answered++ >= kWarmUp) micros.push_back(micros_since(start));
+  }
+  report("link_round_trip", std::move(micros));
+  if (lost > 0) std::fprintf(stderr, "topic-ping: %d pings unanswered after the warm-up\n", lost);
+  return 0;
+}
+
+int stream_publish(double seconds) {
+  horus::Topic<horus::msg::CmdVel> cmd_vel("cmd_vel");
+  horus::Topic<horus::msg::CompressedImage> camera("camera", camera_options());
+  horus::msg::CompressedImage image;
+  image.format = "rgb8";
+  image.width = kWidth;
+  image.height = kHeight;
+  image.data.assign(std::size_t{kWidth} * kHeight * 3, 128);
+  const auto start = Clock::now();
+  auto next = start;
+  for (std::uint64_t tick = 0; Clock::now() - start < std::chrono::duration<double>(seconds);
+       ++tick) {
+    horus::msg::CmdVel message;
+    message.stamp_nanos = tick;
+    cmd_vel.send(message);
+    if (tick % 33 == 0) camera.send(image);
+    next += std::chrono::milliseconds(1);
+    std::this_thread::sleep_until(next);
+  }
+  return 0;
+}
+
+int stream_count(double seconds) {
+  horus::Topic<horus::msg::CmdVel> cmd_vel("cmd_vel");
+  horus::Topic<horus::msg::CompressedImage> camera("camera", camera_options());
+  std::uint64_t commands = 0;
+  std::uint64_t images = 0;
+  Clock::time_point first{};
+  while (first == Clock::time_point{} ||
+         Clock::now() - first < std::chrono::duration<double>(seconds)) {
+    bool idle = true;
+    if (cmd_vel.try_recv()) {
+      ++commands;
+      idle = false;
+    }
+    if (const auto image = camera.try_recv(); image && image->data.size() == kWidth * kHeight * 3) {
+      ++images;
+      idle = false;
+    }
+    if (!idle && first == Clock::time_point{}) first = Clock::now();
+    if (idle) std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+  const double elapsed = std::chrono::duration<double>(Clock::now() - first).count();
+  std::printf("cmd_vel %.1f\ncamera %.1f\n", static_cast<double>(commands) / elapsed,
+              static_cast<double>(images) / elapsed);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::vector<std::string> args(argv + 1, argv + argc);
+  try {
+    if (args.size() == 2 && args[0] == "rpc-serve") return rpc_serve(args[1]);
+    if (args.size() == 4 && args[0] == "rpc-ping") {
+      return rpc_ping(args[1], args[2], std::atoi(args[3].c_str()));
+    }
+    if (args.size() == 1 && args[0] == "topic-echo") return topic_echo();
+    if (args.size() == 2 && args[0] == "topic-ping") return topic_ping(std::atoi(args[1].c_str()));
+    if (args.size() == 2 && args[0] == "stream-publish")
+      return stream_publish(std::atof(args[1].c_str()));
+    if (args.size() == 2 && args[0] == "stream-count")
+      return stream_count(std::atof(args[1].c_str()));
+  } catch (const kj::Exception& e) {
+    std::fprintf(stderr, "horus_remote_bench: %s\n", e.getDescription().cStr());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "horus_remote_bench: %s\n", e.what());
+    return 1;
+  }
+  std::fprintf(stderr, "usage: see the top of bench/remote/remote_bench.cpp\n");
+  return 2;
+}

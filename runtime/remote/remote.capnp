@@ -1,0 +1,69 @@
+# The remote link of HORUS (`horus remote`, tools/remote/): what a peer outside the robot's LAN
+# sees once TLS has authenticated it. The bootstrap capability of a connection is its Session,
+# made for the peer's certificate name and limited by the server's policy for that name.
+@0xfcc427978d17cc8c;
+
+$import "/capnp/c++.capnp".namespace("horus::remote::wire");
+
+struct TopicInfo {
+  name @0 :Text;
+  type @1 :Text;
+  fingerprint @2 :UInt64;
+  # The canonical schema text of the type (what a topic segment stores).
+  schema @3 :Text;
+  isPod @4 :Bool;
+  # Payload bytes per slot: the exact size of a POD message, the limit of a serialized one.
+  maxMessageSize @5 :UInt32;
+  capacity @6 :UInt32;
+  # What the peer may do with the topic (Session.topics sets them; elsewhere unused).
+  mayRead @7 :Bool;
+  mayWrite @8 :Bool;
+}
+
+# Where messages of one topic go: the robot streams a subscription into the peer's Sink, the
+# peer streams what it publishes into the robot's. Each message is HORUS's own bytes (a POD's
+# bytes, or the serialized encoding). Dropping the capability ends the stream.
+interface Sink {
+  # `sequence`: the message's ticket on the sending side's topic; `dropped`: messages the
+  # sender left out so far because this stream was slower than the publisher (latest wins).
+  message @0 (sequence :UInt64, dropped :UInt64, data :Data) -> stream;
+}
+
+# A live service of the robot the peer may call: the type of its request frames (the robot's
+# `<name>.request` topic) and the identity its server registered.
+struct ServiceInfo {
+  name @0 :Text;
+  request @1 :TopicInfo;
+  requestType @2 :Text;
+  responseType @3 :Text;
+  fingerprint @4 :UInt64;
+}
+
+# A subscription lasts as long as the peer holds this capability.
+interface Subscription {
+  # Messages streamed and dropped so far.
+  stats @0 () -> (sent :UInt64, dropped :UInt64);
+}
+
+interface Session {
+  # The topics of the robot's namespace the peer may read or write, with their types.
+  topics @0 () -> (topics :List(TopicInfo));
+
+  # Streams `topic` into `sink`, at most `queue` messages behind (latest wins beyond that).
+  # `type` and `fingerprint` are what the peer expects: another type is refused, naming both.
+  subscribe @1 (topic :Text, type :Text, fingerprint :UInt64, sink :Sink, queue :UInt32)
+      -> (subscription :Subscription);
+
+  # A sink for `topic` on the robot, created with `info`'s type when it does not exist; a topic
+  # of another type is refused, naming both.
+  publish @2 (info :TopicInfo) -> (sink :Sink);
+
+  # The robot's live services the peer may call.
+  services @3 () -> (services :List(ServiceInfo));
+
+  # Hands a request frame (HORUS's own bytes, as the peer's client sent it) to the robot's
+  # server under ids of the robot's, and its response frame back; `response` is the type of the
+  # response frames. Fails when there is no live server, it dies, or `timeoutMs` passes.
+  call @4 (service :Text, request :Data, response :TopicInfo, timeoutMs :UInt32)
+      -> (response :Data);
+}

@@ -1,0 +1,214 @@
+"""`horus remote`: a robot's namespace (A) reached from a laptop's (B) over loopback TCP with
+mutual TLS. Topics mirrored A->B in order (POD and serialized), exported B->A where the policy
+allows it, and every refusal (no certificate, another CA, a name outside the policy, a topic
+outside it) made before any message flows and logged with the peer's address and name."""
+from __future__ import annotations
+
+import os
+import stat
+import subprocess
+
+from conftest import HORUS, connect, serve, wait_line
+
+COUNT = 40
+RING = "capacity = 512\n"
+
+# Publishes an increasing sequence on cmd_vel (POD), generic (serialized) and secret (never
+# allowed), 100 a second, until killed.
+PUBLISHER = RING + """
+import time, horus
+from horus.msg import CmdVel, GenericMessage
+cmd_vel = horus.Topic(CmdVel, "cmd_vel", capacity=capacity)
+generic = horus.Topic(GenericMessage, "generic", capacity=capacity)
+secret = horus.Topic(CmdVel, "secret", capacity=capacity)
+print("ready", flush=True)
+i = 0
+while True:
+    cmd_vel.send(CmdVel(stamp_nanos=i, linear=0.5 * i, angular=-1.0))
+    generic.send(GenericMessage(data=bytes([i % 256]) * 100, metadata=f"n{i}"))
+    secret.send(CmdVel(stamp_nanos=i))
+    i += 1
+    time.sleep(0.01)
+"""
+
+# Prints the first COUNT messages of each topic it is given: "<topic> <seq> ..." (-1: a message
+# whose content does not match its number).
+SUBSCRIBER = RING + """
+import sys, time, horus
+from horus.msg import CmdVel, GenericMessage
+count = int(sys.argv[1])
+def generic_key(m):
+    number = int(m.metadata[1:])
+    return number, m.data == bytes([number % 256]) * 100
+wanted = {"cmd_vel": (CmdVel, lambda m: (m.stamp_nanos, m.linear == 0.5 * m.stamp_nanos)),
+          "goal": (CmdVel, lambda m: (m.stamp_nanos, m.linear == 0.5 * m.stamp_nanos)),
+          "generic": (GenericMessage, generic_key)}
+topics = {name: (horus.Topic(wanted[name][0], name, capacity=capacity), wanted[name][1])
+          for name in sys.argv[2:]}
+print("ready", flush=True)
+got = {name: [] for name in topics}
+while any(len(seen) < count for seen in got.values()):
+    idle = True
+    for name, (topic, key) in topics.items():
+        message = topic.try_recv()
+        if message is not None and len(got[name]) < count:
+            idle = False
+            number, intact = key(message)
+            got[name].append(number if intact else -1)
+    if idle:
+        time.sleep(0.001)
+for name, seen in got.items():
+    print(name, *seen, flush=True)
+"""
+
+# B's own topics: goal (exported when allowed) and private (whose export the robot refuses).
+LAPTOP_PUBLISHER = RING + """
+import time, horus
+from horus.msg import CmdVel
+goal = horus.Topic(CmdVel, "goal", capacity=capacity)
+private = horus.Topic(CmdVel, "private", capacity=capacity)
+print("ready", flush=True)
+i = 0
+while True:
+    goal.send(CmdVel(stamp_nanos=i, linear=0.5 * i))
+    private.send(CmdVel(stamp_nanos=i))
+    i += 1
+    time.sleep(0.01)
+"""
+
+
+def sequences(process) -> dict[str, list[int]]:
+    out, _ = process.communicate(timeout=60)
+    assert process.returncode == 0, process.errors.text()
+    return {name: [int(n) for n in numbers] for name, *numbers in
+            (line.split() for line in out.splitlines() if line and line != "ready")}
+
+
+def assert_consecutive(seen: list[int]) -> None:
+    assert len(seen) == COUNT
+    assert seen == list(range(seen[0], seen[0] + COUNT)), seen
+
+
+def topic_names(world) -> list[str]:
+    listed = subprocess.run([HORUS, "topic", "list"], env=world.env(), capture_output=True,
+                            text=True, check=True)
+    return listed.stdout.split()
+
+
+def test_keygen_makes_private_keys_and_names_certificates(certs):
+    for name in ("ca", "robot", "laptop"):
+        assert stat.S_IMODE(os.stat(certs / f"{name}.key").st_mode) == 0o600
+    subject = subprocess.run([HORUS, "remote", "keygen", str(certs), "laptop"],
+                             capture_output=True, text=True)
+    assert subject.returncode == 1 and "laptop.crt exists" in subject.stderr
+    from cryptography import x509
+    certificate = x509.load_pem_x509_certificate((certs / "laptop.crt").read_bytes())
+    assert certificate.subject.rfc4514_string() == "CN=laptop"
+
+
+def test_topics_mirrored_in_order_and_export_allowed_or_refused(children, worlds, certs,
+                                                                tmp_path):
+    robot, laptop = worlds
+    children.python(PUBLISHER, robot.env())
+    policy = tmp_path / "policy"
+    policy.write_text("# what the laptop may do\nlaptop read generic\n\nlaptop  write  goal\n")
+    server, port = serve(children, robot, certs, "laptop read cmd_vel", policy=policy)
+    receiver = children.python(SUBSCRIBER, laptop.env(), str(COUNT), "cmd_vel", "generic")
+    wait_line(receiver, "ready")
+    children.python(LAPTOP_PUBLISHER, laptop.env())
+    at_robot = children.python(SUBSCRIBER, robot.env(), str(COUNT), "goal")
+    wait_line(at_robot, "ready")
+    client = connect(children, laptop, certs, port, "--import", "*", "--export", "goal",
+                     "--export", "private", "--queue", "1000")
+    wait_line(client, "connected to")
+
+    mirrored = sequences(receiver)
+    assert_consecutive(mirrored["cmd_vel"])
+    assert_consecutive(mirrored["generic"])
+    assert_consecutive(sequences(at_robot)["goal"])
+
+    # Only what the policy lets the laptop read is offered; what it may not write never
+    # reaches the robot's namespace.
+    client.errors.wait_for("the robot refused private")
+    assert "secret" not in topic_names(laptop)
+    assert "private" not in topic_names(robot)
+    server.errors.wait_for("refused to let laptop write topic private")
+
+
+def test_bad_arguments_exit_two_naming_the_problem_first(worlds):
+    for args in (["serve", "--listen", "127.0.0.1:0", "--insecure", "--allow", "laptop peek *"],
+                 ["serve", "--insecure"], ["connect", "--insecure"],
+                 ["connect", "127.0.0.1:1"]):
+        result = subprocess.run([HORUS, "remote", *args], env=worlds[0].env(),
+                                capture_output=True, text=True)
+        assert result.returncode == 2, (args, result.stderr)
+        assert result.stderr.splitlines()[0].startswith("horus-remote: "), result.stderr
+
+
+def test_type_mismatch_is_refused_naming_both_types(children, worlds, certs):
+    robot, laptop = worlds
+    children.python(PUBLISHER, robot.env())
+    serve_process, port = serve(children, robot, certs, "laptop read *")
+    # The laptop has its own cmd_vel of another type: mirroring into it is refused.
+    clash = children.python(RING + """
+import horus
+from horus.msg import GenericMessage
+topic = horus.Topic(GenericMessage, "cmd_vel", capacity=capacity)
+print("ready", flush=True)
+import time
+time.sleep(60)
+""", laptop.env())
+    wait_line(clash, "ready")
+    client = connect(children, laptop, certs, port, "--import", "cmd_vel")
+    line = client.errors.wait_for("cannot import cmd_vel")
+    assert "GenericMessage" in line and "CmdVel" in line
+
+
+def refused(children, worlds, certs, *connect_args, name: str = "laptop", folder=None):
+    """Connects a peer the robot must refuse; the robot's log line about it."""
+    robot, laptop = worlds
+    children.python(PUBLISHER, robot.env())
+    server, port = serve(children, robot, certs, "laptop read *")
+    client = connect(children, laptop, folder or certs, port, "--import", "*", *connect_args,
+                     name=name)
+    line = server.errors.wait_for("refused")
+    client.errors.wait_for("connection to")
+    assert "importing" not in client.errors.text()
+    assert "cmd_vel" not in topic_names(laptop)
+    assert "127.0.0.1:" in line
+    return line
+
+
+def test_peer_without_certificate_is_refused(children, worlds, certs):
+    line = refused(children, worlds, certs, "--insecure")
+    assert "no certificate of our CA" in line
+
+
+def test_peer_of_another_ca_is_refused(children, worlds, certs):
+    line = refused(children, worlds, certs, name="intruder", folder=certs.parent / "intruder")
+    assert "no certificate of our CA" in line
+
+
+def test_peer_outside_the_policy_is_refused(children, worlds, certs):
+    line = refused(children, worlds, certs, name="stranger")
+    assert "refused stranger at 127.0.0.1:" in line
+
+
+def test_insecure_link_only_when_both_sides_ask_and_both_warn(children, worlds, certs):
+    robot, laptop = worlds
+    children.python(PUBLISHER, robot.env())
+    server = children.start([HORUS, "remote", "serve", "--insecure", "--listen", "127.0.0.1:0",
+                             "--allow", "insecure read cmd_vel"], robot.env())
+    port = int(wait_line(server, "serving namespace").rsplit(" ", 1)[1])
+    server.errors.wait_for("WARNING: --insecure")
+    receiver = children.python(SUBSCRIBER, laptop.env(), str(COUNT), "cmd_vel")
+    wait_line(receiver, "ready")
+    client = children.start([HORUS, "remote", "connect", f"127.0.0.1:{port}", "--insecure",
+                             "--import", "*"], laptop.env())
+    client.errors.wait_for("WARNING: --insecure")
+    assert_consecutive(sequences(receiver)["cmd_vel"])
+    server.errors.wait_for("insecure connected from 127.0.0.1:")
+    # A peer that speaks TLS to it is not let in: nothing falls back to plain TCP silently.
+    secure = connect(children, laptop, certs, port, "--import", "*")
+    secure.errors.wait_for("connection to")
+    assert "importing" not in secure.errors.text()

@@ -1,0 +1,306 @@
+// `horus-remote connect`: the far end (a laptop). Mirrors the robot's topics matching --import
+// into the local namespace and streams local topics matching --export to the robot, over one
+// connection that is made again, with backoff, whenever it ends.
+#include <fnmatch.h>
+
+#include <algorithm>
+#include <map>
+#include <set>
+
+#include "horus/service_registry.hpp"
+#include "link.hpp"
+#include "remote.hpp"
+#include "services.hpp"
+
+namespace horus::remote {
+
+namespace {
+
+/// How often a connection looks for topics that appeared since (on the robot and here).
+constexpr auto kRescanInterval = 1 * kj::SECONDS;
+constexpr auto kFirstBackoff = 200 * kj::MILLISECONDS;
+constexpr auto kLongestBackoff = 5 * kj::SECONDS;
+
+bool matches_any(const std::vector<std::string>& patterns, const std::string& name) {
+  return std::any_of(patterns.begin(), patterns.end(), [&](const std::string& pattern) {
+    return fnmatch(pattern.c_str(), name.c_str(), 0) == 0;
+  });
+}
+
+double seconds(kj::Duration duration) {
+  return static_cast<double>(duration / kj::MILLISECONDS) / 1e3;
+}
+
+/// A topic streaming to the robot (or a service's requests into its mirror).
+struct Export {
+  kj::Own<Forwarder> forwarder;
+  /// Declared last: cancelled before the forwarder it runs is destroyed.
+  kj::Promise<void> task;
+};
+
+/// One of the robot's services served here; `mirror` lives as long as `requests` streams into it.
+struct Served {
+  ServiceMirror* mirror;
+  Export requests;
+};
+
+/// What outlives a connection: the local topics the robot's are mirrored into, so that their
+/// subscribers see one topic across reconnects, and the services served here, so that a call
+/// during an outage ends with a transport error rather than finding no server.
+struct Mirrors {
+  std::map<std::string, std::shared_ptr<python::ErasedTopic>> imported;
+  std::map<std::string, Served> served;
+};
+
+/// One connection to the robot and the streams it carries; all of them end with it.
+class Link {
+ public:
+  Link(const ConnectOptions& options, Mirrors& mirrors, kj::Timer& timer,
+       kj::Own<kj::AsyncIoStream> stream)
+      : options_(options),
+        mirrors_(mirrors),
+        timer_(timer),
+        stream_(kj::mv(stream)),
+        network_(*stream_, capnp::rpc::twoparty::Side::CLIENT),
+        rpc_(capnp::makeRpcClient(network_)),
+        session_(bootstrap()) {
+    for (auto& [name, served] : mirrors_.served) served.mirror->connect(session_);
+  }
+  Link(const Link&) = delete;
+  Link& operator=(const Link&) = delete;
+  ~Link() {
+    for (auto& [name, served] : mirrors_.served) served.mirror->connect(std::nullopt);
+  }
+
+  /// Until the connection ends (resolved) or fails (rejected).
+  kj::Promise<void> run() { return rescan().exclusiveJoin(network_.onDisconnect()); }
+
+ private:
+  wire::Session::Client bootstrap() {
+    capnp::word scratch[4] = {};
+    capnp::MallocMessageBuilder message(scratch);
+    auto robot = message.getRoot<capnp::rpc::twoparty::VatId>();
+    robot.setSide(capnp::rpc::twoparty::Side::SERVER);
+    return rpc_.bootstrap(robot).castAs<wire::Session>();
+  }
+
+  bool settled(const std::string& name) const {
+    return imports_.count(name) != 0 || exports_.count(name) != 0 || refused_.count(name) != 0;
+  }
+
+  kj::Promise<void> rescan() {
+    return session_.topicsRequest()
+        .send()
+        .then([this](capnp::Response<wire::Session::TopicsResults>&& response) {
+          kj::Vector<kj::Promise<void>> requests;
+          for (const wire::TopicInfo::Reader info : response.getTopics()) {
+            const std::string name = info.getName();
+            if (info.getMayRead() && matches_any(options_.imports, name) && !settled(name)) {
+              requests.add(import(topic_info(info)));
+            }
+          }
+          for (const TopicInfo& info : list_topics(options_.namespace_name)) {
+            if (!info.type_name.empty() && info.error.empty() &&
+                matches_any(options_.exports, info.name) &&
+                mirrors_.imported.count(info.name) == 0 && !settled(info.name)) {
+              requests.add(export_topic(info));
+            }
+          }
+          return kj::joinPromises(requests.releaseAsArray());
+        })
+        .then([this] { return session_.servicesRequest().send(); })
+        .then([this](capnp::Response<wire::Session::ServicesResults>&& response) {
+          std::set<std::string> live;
+          for (const wire::ServiceInfo::Reader info : response.getServices()) {
+            live.insert(info.getName());
+            serve_locally(info);
+          }
+          for (auto it = mirrors_.served.begin(); it != mirrors_.served.end();) {
+            if (live.count(it->first) != 0) {
+              ++it;
+              continue;
+            }
+            say("%s has no server on the robot any more: no longer served here", it->first.c_str());
+            it = mirrors_.served.erase(it);
+          }
+        })
+        .then([this] { return timer_.afterDelay(kRescanInterval); })
+        .then([this] { return rescan(); });
+  }
+
+  kj::Promise<void> import(const TopicInfo& remote) {
+    const std::string name = remote.name;
+    std::shared_ptr<python::ErasedTopic>& local = mirrors_.imported[name];
+    if (!local) {
+      try {
+        local = open_topic(remote, options_.namespace_name);
+      } catch (const std::exception& e) {
+        mirrors_.imported.erase(name);
+        refused_.insert(name);
+        say("cannot import %s: %s", name.c_str(), e.what());
+        return kj::READY_NOW;
+      }
+    }
+    // The robot checks the local topic's type against its own: both ends check.
+    auto request = session_.subscribeRequest();
+    request.setTopic(name);
+    request.setType(local->type().name);
+    request.setFingerprint(local->type().fingerprint);
+    request.setSink(kj::heap<TopicSink>(local, "topic " + name + " from the robot"));
+    request.setQueue(options_.queue);
+    refused_.insert(name);  // until the answer: asked once per connection
+    return request.send().then(
+        [this, name](capnp::Response<wire::Session::SubscribeResults>&& response) {
+          refused_.erase(name);
+          imports_.emplace(name, response.getSubscription());
+          say("importing %s", name.c_str());
+        },
+        [this, name](kj::Exception&& refusal) {
+          mirrors_.imported.erase(name);
+          say("the robot refused to send %s: %s", name.c_str(), refusal.getDescription().cStr());
+        });
+  }
+
+  kj::Promise<void> export_topic(const TopicInfo& local) {
+    const std::string name = local.name;
+    std::unique_ptr<python::ErasedTopic> topic;
+    try {
+      topic = open_topic(local, options_.namespace_name);
+    } catch (const std::exception& e) {
+      refused_.insert(name);
+      say("cannot export %s: %s", name.c_str(), e.what());
+      return kj::READY_NOW;
+    }
+    auto request = session_.publishRequest();
+    describe(local, request.initInfo());
+    refused_.insert(name);
+    return request.send().then(
+        [this, name, topic = std::move(topic)](
+            capnp::Response<wire::Session::PublishResults>&& response) mutable {
+          refused_.erase(name);
+          auto forwarder = kj::heap<Forwarder>(std::move(topic), response.getSink(), options_.queue,
+                                               "topic " + name + " to the robot");
+          kj::Promise<void> task = forwarder->run().eagerlyEvaluate([name](kj::Exception&& e) {
+            say("export of %s ended: %s", name.c_str(), e.getDescription().cStr());
+          });
+          exports_.emplace(name, Export{kj::mv(forwarder), kj::mv(task)});
+          say("exporting %s", name.c_str());
+        },
+        [name](kj::Exception&& refusal) {
+          say("the robot refused %s: %s", name.c_str(), refusal.getDescription().cStr());
+        });
+  }
+
+  /// Serves one of the robot's services here, unless a local server of its own serves it.
+  void serve_locally(wire::ServiceInfo::Reader info) {
+    const std::string name = info.getName();
+    if (mirrors_.served.count(name) != 0 || refused_services_.count(name) != 0) return;
+    for (const horus::ServiceInfo& local : list_services(options_.namespace_name)) {
+      if (local.name == name && local.servers > 0) {
+        refused_services_.insert(name);
+        say("not serving %s of the robot: it has a server here (pid %u)", name.c_str(),
+            local.server_pid);
+        return;
+      }
+    }
+    try {
+      auto requests = open_topic(topic_info(info.getRequest()), options_.namespace_name);
+      auto mirror = kj::heap<ServiceMirror>(info, options_.namespace_name);
+      ServiceMirror* serving = mirror.get();
+      serving->connect(session_);
+      auto forwarder = kj::heap<Forwarder>(std::move(requests), kj::mv(mirror), options_.queue,
+                                           "requests of " + name + " to the robot");
+      kj::Promise<void> task = forwarder->run().eagerlyEvaluate([name](kj::Exception&& e) {
+        say("serving %s of the robot ended: %s", name.c_str(), e.getDescription().cStr());
+      });
+      mirrors_.served.emplace(name, Served{serving, Export{kj::mv(forwarder), kj::mv(task)}});
+      say("serving %s of the robot here", name.c_str());
+    } catch (const std::exception& e) {
+      refused_services_.insert(name);
+      say("cannot serve %s of the robot here: %s", name.c_str(), e.what());
+    }
+  }
+
+  const ConnectOptions& options_;
+  Mirrors& mirrors_;
+  kj::Timer& timer_;
+  kj::Own<kj::AsyncIoStream> stream_;
+  capnp::TwoPartyVatNetwork network_;
+  capnp::RpcSystem<capnp::rpc::twoparty::VatId> rpc_;
+  wire::Session::Client session_;
+  std::map<std::string, wire::Subscription::Client> imports_;
+  std::map<std::string, Export> exports_;
+  /// The robot's services not served here on this connection (a local server has them).
+  std::set<std::string> refused_services_;
+  /// Topics refused (or being asked for) on this connection: asked for again on the next.
+  std::set<std::string> refused_;
+};
+
+class Client {
+ public:
+  Client(const ConnectOptions& options, EventLoop& loop, kj::Maybe<kj::TlsContext&> tls)
+      : options_(options), loop_(loop), tls_(tls) {}
+
+  /// Connects, and connects again with backoff whenever the connection ends; never resolves.
+  kj::Promise<void> run() {
+    return attempt()
+        .then([] { return std::string("the robot closed it"); },
+              [](kj::Exception&& failure) { return std::string(failure.getDescription().cStr()); })
+        .then([this](std::string reason) {
+          const kj::Duration delay = backoff_;
+          backoff_ = std::min(backoff_ * 2, kLongestBackoff);
+          say("connection to %s ended (%s); trying again in %.1f s", options_.address.c_str(),
+              reason.c_str(), seconds(delay));
+          return loop_.io.provider->getTimer().afterDelay(delay);
+        })
+        .then([this] { return run(); });
+  }
+
+ private:
+  kj::Promise<void> attempt() {
+    return loop_.io.provider->getNetwork()
+        .parseAddress(options_.address)
+        .then([](kj::Own<kj::NetworkAddress>&& address) { return address->connect(); })
+        .then([this](kj::Own<kj::AsyncIoStream>&& stream) {
+          KJ_IF_MAYBE (tls, tls_) {
+            return tls->wrapClient(kj::mv(stream), options_.server_name);
+          }
+          return kj::Promise<kj::Own<kj::AsyncIoStream>>(kj::mv(stream));
+        })
+        .then([this](kj::Own<kj::AsyncIoStream>&& stream) {
+          backoff_ = kFirstBackoff;
+          std::printf("connected to %s\n", options_.address.c_str());
+          std::fflush(stdout);
+          auto link =
+              kj::heap<Link>(options_, mirrors_, loop_.io.provider->getTimer(), kj::mv(stream));
+          Link& running = *link;
+          return running.run().attach(kj::mv(link));
+        });
+  }
+
+  const ConnectOptions& options_;
+  EventLoop& loop_;
+  kj::Maybe<kj::TlsContext&> tls_;
+  Mirrors mirrors_;
+  kj::Duration backoff_ = kFirstBackoff;
+};
+
+}  // namespace
+
+int connect(const ConnectOptions& options) {
+  EventLoop loop;
+  kj::Own<kj::TlsContext> tls;
+  kj::Maybe<Credentials> credentials;
+  if (options.insecure) {
+    say("WARNING: --insecure: plain TCP, no authentication, no encryption");
+  } else {
+    credentials = load_credentials(options.certs, options.name);
+    tls = tls_context(KJ_ASSERT_NONNULL(credentials), loop.io.provider->getTimer());
+  }
+  Client client(options, loop,
+                tls ? kj::Maybe<kj::TlsContext&>(*tls) : kj::Maybe<kj::TlsContext&>(nullptr));
+  loop.run_until_stopped(client.run(), options.namespace_name, "connect");
+  return 0;
+}
+
+}  // namespace horus::remote

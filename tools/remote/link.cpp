@@ -1,0 +1,267 @@
+#include "link.hpp"
+
+#include "horus/detail/json_string.hpp"
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdarg>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+
+namespace horus::remote {
+
+namespace {
+
+/// How long the reader thread waits on its topic before looking whether it should stop.
+constexpr auto kReaderWakeUp = std::chrono::milliseconds(100);
+/// At most one drop report per stream in this interval.
+constexpr auto kDropReportInterval = std::chrono::seconds(5);
+/// A peer that connects but never finishes the TLS handshake is dropped after this.
+constexpr auto kHandshakeTimeout = 10 * kj::SECONDS;
+
+std::string read_file(const std::string& path, const std::string& hint) {
+  std::ifstream file(path);
+  if (!file) {
+    throw std::runtime_error("cannot read " + path + hint);
+  }
+  std::ostringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+/// The live forwarders of this process, for its status file.
+std::mutex forwarders_mutex;
+std::vector<const Forwarder*> forwarders;
+
+}  // namespace
+
+void say(const char* format, ...) {
+  std::va_list arguments;
+  va_start(arguments, format);
+  std::string line = "horus-remote: ";
+  char text[1024];
+  std::vsnprintf(text, sizeof text, format, arguments);
+  va_end(arguments);
+  line += text;
+  line += '\n';
+  std::fputs(line.c_str(), stderr);
+}
+
+void refuse(const std::string& text) {
+  kj::throwFatalException(
+      kj::Exception(kj::Exception::Type::FAILED, __FILE__, __LINE__, kj::heapString(text)));
+}
+
+void describe(const TopicInfo& info, wire::TopicInfo::Builder out) {
+  out.setName(info.name);
+  out.setType(info.type_name);
+  out.setFingerprint(info.fingerprint);
+  out.setSchema(info.schema);
+  out.setIsPod(info.is_pod);
+  out.setMaxMessageSize(static_cast<std::uint32_t>(info.max_message_size));
+  out.setCapacity(static_cast<std::uint32_t>(info.capacity));
+}
+
+TopicInfo topic_info(wire::TopicInfo::Reader info) {
+  TopicInfo out;
+  out.name = info.getName();
+  out.type_name = info.getType();
+  out.fingerprint = info.getFingerprint();
+  out.schema = info.getSchema();
+  out.is_pod = info.getIsPod();
+  out.max_message_size = info.getMaxMessageSize();
+  out.capacity = info.getCapacity();
+  return out;
+}
+
+std::unique_ptr<python::ErasedTopic> open_topic(const TopicInfo& info,
+                                                const std::string& namespace_name) {
+  TopicOptions options;
+  options.capacity = info.capacity;
+  options.max_message_size = info.max_message_size;
+  options.namespace_name = namespace_name;
+  return std::make_unique<python::ErasedTopic>(
+      info.name,
+      python::ErasedType{info.type_name, info.fingerprint, info.schema, info.is_pod,
+                         info.is_pod ? info.max_message_size : 0, 1},
+      options);
+}
+
+Forwarder::Forwarder(std::unique_ptr<python::ErasedTopic> topic, wire::Sink::Client sink,
+                     std::size_t queue_limit, std::string label)
+    : topic_(std::move(topic)),
+      sink_(std::move(sink)),
+      queue_limit_(queue_limit),
+      label_(std::move(label)),
+      reader_([this] { read_loop(); }) {
+  std::lock_guard lock(forwarders_mutex);
+  forwarders.push_back(this);
+}
+
+Forwarder::~Forwarder() {
+  {
+    std::lock_guard lock(forwarders_mutex);
+    forwarders.erase(std::find(forwarders.begin(), forwarders.end(), this));
+  }
+  stopping_.store(true);
+  reader_.join();
+  if (dropped_.load() != 0) {
+    say("%s: ended after %llu messages sent, %llu dropped", label_.c_str(),
+        static_cast<unsigned long long>(sent_.load()),
+        static_cast<unsigned long long>(dropped_.load()));
+  }
+}
+
+void Forwarder::read_loop() {
+  std::uint64_t sequence = 0;
+  while (!stopping_.load()) {
+    const std::ptrdiff_t size = topic_->recv(kReaderWakeUp);
+    if (size < 0) {
+      continue;
+    }
+    const std::span<std::byte> bytes = topic_->received(static_cast<std::size_t>(size));
+    {
+      std::lock_guard lock(mutex_);
+      if (queue_.size() >= queue_limit_) {
+        queue_.pop_front();
+        dropped_.fetch_add(1);
+      }
+      queue_.push_back(Queued{++sequence, std::vector<std::byte>(bytes.begin(), bytes.end())});
+      if (waiter_) {
+        waiter_->fulfill();
+        waiter_ = nullptr;
+      }
+    }
+    // Here, not where messages are sent: a peer that stopped reading stops the sending too.
+    report_drops();
+  }
+}
+
+void Forwarder::report_drops() {
+  const std::uint64_t dropped = dropped_.load();
+  const auto now = std::chrono::steady_clock::now();
+  if (dropped == reported_drops_ || now - last_report_ < kDropReportInterval) {
+    return;
+  }
+  say("%s: %llu messages dropped so far (the link is slower than the publisher; latest wins)",
+      label_.c_str(), static_cast<unsigned long long>(dropped));
+  reported_drops_ = dropped;
+  last_report_ = now;
+}
+
+kj::Promise<void> Forwarder::run() {
+  std::unique_lock lock(mutex_);
+  if (queue_.empty()) {
+    auto next = kj::newPromiseAndCrossThreadFulfiller<void>();
+    waiter_ = kj::mv(next.fulfiller);
+    lock.unlock();
+    return next.promise.then([this] { return run(); });
+  }
+  const Queued message = std::move(queue_.front());
+  queue_.pop_front();
+  lock.unlock();
+  auto request = sink_.messageRequest();
+  request.setSequence(message.sequence);
+  request.setDropped(dropped_.load());
+  request.setData(kj::arrayPtr(reinterpret_cast<const capnp::byte*>(message.bytes.data()),
+                               message.bytes.size()));
+  sent_.fetch_add(1);
+  return request.send().then([this] { return run(); });
+}
+
+TopicSink::TopicSink(std::shared_ptr<python::ErasedTopic> topic, std::string label)
+    : topic_(std::move(topic)), label_(std::move(label)) {}
+
+TopicSink::~TopicSink() noexcept(false) {
+  if (dropped_ != 0) {
+    say("%s: ended after %llu messages received, %llu dropped by the sender", label_.c_str(),
+        static_cast<unsigned long long>(received_), static_cast<unsigned long long>(dropped_));
+  }
+}
+
+kj::Promise<void> TopicSink::message(MessageContext context) {
+  const auto params = context.getParams();
+  const capnp::Data::Reader data = params.getData();
+  const python::ErasedType& type = topic_->type();
+  std::string wrong;
+  if (type.is_pod && data.size() != type.size) {
+    wrong = "a " + type.name + " is " + std::to_string(type.size) + " bytes, not " +
+            std::to_string(data.size());
+  } else if (data.size() > topic_->payload_capacity()) {
+    wrong = "a message of " + std::to_string(data.size()) + " bytes is over the topic's limit of " +
+            std::to_string(topic_->payload_capacity());
+  }
+  if (!wrong.empty()) {
+    say("%s: %s; the stream ends", label_.c_str(), wrong.c_str());
+    refuse(label_ + ": " + wrong);
+  }
+  topic_->send(std::span(reinterpret_cast<const std::byte*>(data.begin()), data.size()));
+  ++received_;
+  dropped_ = params.getDropped();
+  return kj::READY_NOW;
+}
+
+Credentials load_credentials(const std::string& folder, const std::string& name) {
+  const std::string hint = " (make it with: horus remote keygen " + folder + " " + name + ")";
+  const std::string authority = read_file(folder + "/ca.crt", hint);
+  const std::string certificate = read_file(folder + "/" + name + ".crt", hint);
+  const std::string key = read_file(folder + "/" + name + ".key", hint);
+  return Credentials{kj::TlsCertificate(authority),
+                     kj::TlsKeypair{kj::TlsPrivateKey(key), kj::TlsCertificate(certificate)}};
+}
+
+kj::Own<kj::TlsContext> tls_context(const Credentials& credentials, kj::Timer& timer) {
+  kj::TlsContext::Options options;
+  options.useSystemTrustStore = false;
+  options.verifyClients = true;
+  options.trustedCertificates = kj::arrayPtr(&credentials.authority, 1);
+  options.defaultKeypair = credentials.own;
+  options.timer = timer;
+  options.acceptTimeout = kHandshakeTimeout;
+  return kj::heap<kj::TlsContext>(kj::mv(options));
+}
+
+std::string status_path(const std::string& namespace_name) {
+  const char* runtime = std::getenv("XDG_RUNTIME_DIR");
+  const std::string folder = runtime != nullptr && *runtime != '\0'
+                                 ? std::string(runtime) + "/horus-remote"
+                                 : "/tmp/horus-remote-" + std::to_string(::getuid());
+  ::mkdir(folder.c_str(), 0700);
+  return folder + "/" + namespace_name + "." + std::to_string(::getpid()) + ".json";
+}
+
+void write_status(const std::string& path, const char* role) {
+  std::string text =
+      "{\"pid\": " + std::to_string(::getpid()) + ", \"role\": \"" + role + "\", \"streams\": [";
+  {
+    std::lock_guard lock(forwarders_mutex);
+    for (const Forwarder* forwarder : forwarders) {
+      if (text.back() != '[') text += ", ";
+      text += "{\"stream\": " + detail::json_string(forwarder->label()) +
+              ", \"sent\": " + std::to_string(forwarder->sent()) +
+              ", \"dropped\": " + std::to_string(forwarder->dropped()) + "}";
+    }
+  }
+  text += "]}\n";
+  const std::string partial = path + ".partial";
+  if (std::FILE* file = std::fopen(partial.c_str(), "w")) {
+    std::fputs(text.c_str(), file);
+    std::fclose(file);
+    std::rename(partial.c_str(), path.c_str());
+  }
+}
+
+std::string address_of(kj::PeerIdentity& identity) {
+  if (auto* tls = dynamic_cast<kj::TlsPeerIdentity*>(&identity)) {
+    return tls->getNetworkIdentity().toString().cStr();
+  }
+  return identity.toString().cStr();
+}
+
+}  // namespace horus::remote

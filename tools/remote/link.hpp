@@ -1,0 +1,123 @@
+// What both ends of a remote link share: topics opened by their recorded type, the forwarder
+// that streams a local topic into a peer's Sink, the Sink that writes into a local topic, the
+// TLS context made from a certificate folder, and the log.
+#pragma once
+
+#include <capnp/rpc-twoparty.h>
+#include <kj/async-io.h>
+#include <kj/compat/tls.h>
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "erased_topic.hpp"
+#include "horus/topic_registry.hpp"
+#include "remote.capnp.h"
+
+namespace horus::remote {
+
+/// One line on stderr, "horus-remote: ...".
+[[gnu::format(printf, 1, 2)]] void say(const char* format, ...);
+
+/// Fails the current RPC call with `text` as the whole message the peer sees.
+[[noreturn]] void refuse(const std::string& text);
+
+/// The topic as its segment records it, for the wire.
+void describe(const TopicInfo& info, wire::TopicInfo::Builder out);
+/// The topic a TopicInfo of the wire describes (no counters).
+TopicInfo topic_info(wire::TopicInfo::Reader info);
+/// Opens (or creates) `info.name` in `namespace_name` with the type and sizes of `info`; throws
+/// horus::Error naming both types when the topic exists with another.
+std::unique_ptr<python::ErasedTopic> open_topic(const TopicInfo& info,
+                                                const std::string& namespace_name);
+
+/// Streams the messages of a local topic into a peer's Sink: a thread waits on the topic and
+/// queues at most `queue_limit` messages (the oldest dropped beyond that: latest wins when the
+/// link is slower than the publisher); the event loop sends them with Cap'n Proto's streaming
+/// flow control, so a slow peer holds the queue at its bound, never more.
+class Forwarder {
+ public:
+  Forwarder(std::unique_ptr<python::ErasedTopic> topic, wire::Sink::Client sink,
+            std::size_t queue_limit, std::string label);
+  Forwarder(const Forwarder&) = delete;
+  Forwarder& operator=(const Forwarder&) = delete;
+  ~Forwarder();
+
+  /// Sends until the sink fails (the peer dropped it, or the connection ended).
+  kj::Promise<void> run();
+  std::uint64_t sent() const noexcept { return sent_.load(); }
+  std::uint64_t dropped() const noexcept { return dropped_.load(); }
+  const std::string& label() const noexcept { return label_; }
+
+ private:
+  struct Queued {
+    std::uint64_t sequence;
+    std::vector<std::byte> bytes;
+  };
+  void read_loop();
+  void report_drops();
+
+  std::unique_ptr<python::ErasedTopic> topic_;
+  wire::Sink::Client sink_;
+  std::size_t queue_limit_;
+  std::string label_;
+  std::mutex mutex_;
+  std::deque<Queued> queue_;
+  /// Set while the event loop waits for the reader thread's next message.
+  kj::Own<kj::CrossThreadPromiseFulfiller<void>> waiter_;
+  std::atomic<bool> stopping_{false};
+  std::atomic<std::uint64_t> sent_{0};
+  std::atomic<std::uint64_t> dropped_{0};
+  /// The reader thread's: what report_drops() said last, and when.
+  std::uint64_t reported_drops_ = 0;
+  std::chrono::steady_clock::time_point last_report_{};
+  /// Last: started once everything it reads is there.
+  std::thread reader_;
+};
+
+/// Where a horus-remote process of `namespace_name` says how its streams are doing (`horus remote
+/// status` reads it): $XDG_RUNTIME_DIR/horus-remote/, else /tmp/horus-remote-UID/, one
+/// NAMESPACE.PID.json per process.
+std::string status_path(const std::string& namespace_name);
+/// Writes the status file of this process (`role`: serve or connect): every live Forwarder's
+/// label, messages sent and dropped. Replaced whole (a reader never sees half of it).
+void write_status(const std::string& path, const char* role);
+
+/// Writes what a peer streams into a local topic: POD messages of exactly the type's size,
+/// serialized ones no larger than a slot; anything else ends the stream with the reason.
+class TopicSink final : public wire::Sink::Server {
+ public:
+  TopicSink(std::shared_ptr<python::ErasedTopic> topic, std::string label);
+  ~TopicSink() noexcept(false);
+
+ protected:
+  kj::Promise<void> message(MessageContext context) override;
+
+ private:
+  std::shared_ptr<python::ErasedTopic> topic_;
+  std::string label_;
+  std::uint64_t received_ = 0;
+  std::uint64_t dropped_ = 0;
+};
+
+/// The certificate folder of `horus remote keygen`: DIR/ca.crt and DIR/NAME.{crt,key}.
+struct Credentials {
+  kj::TlsCertificate authority;
+  kj::TlsKeypair own;
+};
+/// Throws std::runtime_error naming the missing or unreadable file.
+Credentials load_credentials(const std::string& folder, const std::string& name);
+/// Mutual TLS trusting only the folder's CA: a peer must present a certificate it signed.
+kj::Own<kj::TlsContext> tls_context(const Credentials& credentials, kj::Timer& timer);
+
+/// "HOST:PORT" of a peer's stream, or of its TLS connection's underlying one.
+std::string address_of(kj::PeerIdentity& identity);
+
+}  // namespace horus::remote

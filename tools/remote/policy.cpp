@@ -1,0 +1,71 @@
+#include "policy.hpp"
+
+#include <fnmatch.h>
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace horus::remote {
+
+namespace {
+
+bool glob_matches(const std::string& pattern, const std::string& name) {
+  return fnmatch(pattern.c_str(), name.c_str(), 0) == 0;
+}
+
+}  // namespace
+
+void Policy::add(std::string_view line, const std::string& where) {
+  std::istringstream words{std::string(line)};
+  std::string peer;
+  std::string access;
+  std::string pattern;
+  std::string extra;
+  words >> peer >> access >> pattern;
+  if (pattern.empty() || (words >> extra)) {
+    throw std::invalid_argument(where + ": '" + std::string(line) +
+                                "' is not 'PEER read|write|call PATTERN'");
+  }
+  Access kind = Access::Read;
+  if (access == "read") {
+    kind = Access::Read;
+  } else if (access == "write") {
+    kind = Access::Write;
+  } else if (access == "call") {
+    kind = Access::Call;
+  } else {
+    throw std::invalid_argument(where + ": '" + access + "' is not read, write or call");
+  }
+  rules_.push_back(Rule{peer, kind, pattern});
+}
+
+void Policy::load(const std::string& path) {
+  std::ifstream file(path);
+  if (!file) {
+    throw std::invalid_argument("cannot read the policy file " + path);
+  }
+  std::string line;
+  for (int number = 1; std::getline(file, line); ++number) {
+    const auto first = line.find_first_not_of(" \t");
+    if (first == std::string::npos || line[first] == '#') {
+      continue;
+    }
+    add(line, path + ":" + std::to_string(number));
+  }
+}
+
+bool Policy::knows(const std::string& peer) const {
+  return std::any_of(rules_.begin(), rules_.end(),
+                     [&](const Rule& rule) { return glob_matches(rule.peer, peer); });
+}
+
+bool Policy::allows(const std::string& peer, Access access, const std::string& name) const {
+  return std::any_of(rules_.begin(), rules_.end(), [&](const Rule& rule) {
+    return rule.access == access && glob_matches(rule.peer, peer) &&
+           glob_matches(rule.pattern, name);
+  });
+}
+
+}  // namespace horus::remote

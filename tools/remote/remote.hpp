@@ -1,0 +1,53 @@
+// horus-remote's commands and the event loop they run on.
+#pragma once
+
+#include <kj/async-io.h>
+#include <kj/async-unix.h>
+
+#include <string>
+#include <vector>
+
+#include "policy.hpp"
+
+namespace horus::remote {
+
+/// The name the policy knows every peer of an --insecure server by.
+inline constexpr const char* kInsecurePeer = "insecure";
+
+struct ServeOptions {
+  std::string listen;
+  std::string certs;
+  std::string name;
+  std::string namespace_name;
+  Policy policy;
+  bool insecure = false;
+};
+
+struct ConnectOptions {
+  std::string address;
+  std::string certs;
+  std::string name;
+  /// The name in the robot's certificate (default: the host of `address`).
+  std::string server_name;
+  std::string namespace_name;
+  std::vector<std::string> imports;
+  std::vector<std::string> exports;
+  /// Messages each stream may fall behind before the oldest are dropped.
+  unsigned queue = 0;
+  bool insecure = false;
+};
+
+/// Kj's event loop, with SIGINT and SIGTERM turned into events (blocked in every thread).
+struct EventLoop {
+  EventLoop();
+  kj::AsyncIoContext io;
+  /// Resolves at SIGINT or SIGTERM, or when `work` ends; meanwhile the status file of this
+  /// process (`role`: serve or connect) is written every second, and removed at the end.
+  void run_until_stopped(kj::Promise<void> work, const std::string& namespace_name,
+                         const char* role);
+};
+
+int serve(const ServeOptions& options);
+int connect(const ConnectOptions& options);
+
+}  // namespace horus::remote

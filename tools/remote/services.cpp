@@ -1,0 +1,287 @@
+#include "services.hpp"
+
+#include <unistd.h>
+
+#include <cstring>
+#include <utility>
+
+#include "horus/detail/service_channel.hpp"
+
+namespace horus::remote {
+
+namespace {
+
+/// How long a peer's mirror lets the robot wait for its server (the local client's own timeout
+/// ends its wait sooner when it is shorter).
+constexpr std::uint32_t kCallTimeoutMs = 10000;
+
+TopicOptions namespace_options(const std::string& namespace_name) {
+  TopicOptions options;
+  options.namespace_name = namespace_name;
+  return options;
+}
+
+std::string response_topic(const std::string& service) { return service + ".response"; }
+
+/// A MessagePack unsigned integer at `at`: its value and where the next element starts.
+std::optional<std::pair<std::uint64_t, std::size_t>> read_unsigned(std::span<const std::byte> bytes,
+                                                                   std::size_t at) {
+  if (at >= bytes.size()) return std::nullopt;
+  const auto first = static_cast<std::uint8_t>(bytes[at]);
+  if (first <= 0x7f) return std::pair{std::uint64_t{first}, at + 1};
+  std::size_t width = 0;
+  switch (first) {
+    case 0xcc:
+      width = 1;
+      break;
+    case 0xcd:
+      width = 2;
+      break;
+    case 0xce:
+      width = 4;
+      break;
+    case 0xcf:
+      width = 8;
+      break;
+    default:
+      return std::nullopt;
+  }
+  if (at + 1 + width > bytes.size()) return std::nullopt;
+  std::uint64_t value = 0;
+  for (std::size_t i = 0; i < width; ++i) {
+    value = (value << 8) | static_cast<std::uint8_t>(bytes[at + 1 + i]);
+  }
+  return std::pair{value, at + 1 + width};
+}
+
+constexpr std::size_t kPodIdsBytes = 3 * sizeof(std::uint64_t);
+constexpr std::uint8_t kFixArray = 0x90;
+
+bool is_fixarray(std::span<const std::byte> frame) {
+  return !frame.empty() && (static_cast<std::uint8_t>(frame[0]) & 0xf0) == kFixArray;
+}
+
+}  // namespace
+
+bool is_service_topic(const TopicInfo& info) {
+  const std::string_view type = info.type_name;
+  return type.starts_with(detail::kRequestFrameName) ||
+         type.starts_with(detail::kResponseFrameName) || type == "horus.ServiceRegistration";
+}
+
+std::optional<std::array<std::uint64_t, 3>> frame_ids(std::span<const std::byte> frame, bool pod) {
+  std::array<std::uint64_t, 3> ids{};
+  if (pod) {
+    if (frame.size() < kPodIdsBytes) return std::nullopt;
+    std::memcpy(ids.data(), frame.data(), kPodIdsBytes);
+    return ids;
+  }
+  if (!is_fixarray(frame)) return std::nullopt;
+  std::size_t at = 1;
+  for (std::uint64_t& id : ids) {
+    const auto value = read_unsigned(frame, at);
+    if (!value) return std::nullopt;
+    id = value->first;
+    at = value->second;
+  }
+  return ids;
+}
+
+std::vector<std::byte> with_ids(std::span<const std::byte> frame, bool pod,
+                                std::span<const std::uint64_t> ids) {
+  if (pod) {
+    std::vector<std::byte> out(frame.begin(), frame.end());
+    std::memcpy(out.data(), ids.data(), std::min(ids.size_bytes(), out.size()));
+    return out;
+  }
+  std::size_t rest = 1;
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    rest = read_unsigned(frame, rest).value_or(std::pair{0, frame.size()}).second;
+  }
+  std::vector<std::byte> out{frame[0]};
+  for (const std::uint64_t id : ids) {
+    out.push_back(std::byte{0xcf});
+    for (int shift = 56; shift >= 0; shift -= 8) {
+      out.push_back(static_cast<std::byte>((id >> shift) & 0xff));
+    }
+  }
+  out.insert(out.end(), frame.begin() + static_cast<std::ptrdiff_t>(rest), frame.end());
+  return out;
+}
+
+ServiceRelay::ServiceRelay(const std::string& service, const TopicInfo& request,
+                           const TopicInfo& response, const std::string& namespace_name)
+    : service_(service),
+      client_id_(detail::new_service_endpoint_id()),
+      reply_index_(detail::free_reply_index(response_topic(service), namespace_name)),
+      requests_(open_topic(request, namespace_name)),
+      replies_([&] {
+        TopicInfo reply = response;
+        reply.name = detail::reply_topic(response_topic(service), reply_index_);
+        return open_topic(reply, namespace_name);
+      }()),
+      registration_(detail::registration_topic(service),
+                    detail::registration_options(namespace_options(namespace_name))),
+      worker_([this] { work(); }) {}
+
+ServiceRelay::~ServiceRelay() {
+  stopping_.store(true);
+  wake_.notify_one();
+  worker_.join();
+}
+
+kj::Promise<kj::Array<capnp::byte>> ServiceRelay::call(std::vector<std::byte> frame,
+                                                       std::chrono::milliseconds timeout) {
+  auto outcome = std::make_shared<Outcome>();
+  auto done = kj::newPromiseAndCrossThreadFulfiller<void>();
+  {
+    std::lock_guard lock(mutex_);
+    jobs_.push_back(Job{std::move(frame), timeout, outcome, kj::mv(done.fulfiller)});
+  }
+  wake_.notify_one();
+  return done.promise.then([outcome]() {
+    if (!outcome->failure.empty()) refuse(outcome->failure);
+    return kj::heapArray(reinterpret_cast<const capnp::byte*>(outcome->answer.data()),
+                         outcome->answer.size());
+  });
+}
+
+void ServiceRelay::work() {
+  replies_->try_recv();  // a subscriber now: free_reply_index counts the index as taken
+  for (;;) {
+    Job job;
+    {
+      std::unique_lock lock(mutex_);
+      wake_.wait(lock, [&] { return stopping_.load() || !jobs_.empty(); });
+      if (stopping_.load()) return;
+      job = std::move(jobs_.front());
+      jobs_.pop_front();
+    }
+    *job.outcome = ask(job);
+    job.done->fulfill();
+  }
+}
+
+std::optional<std::string> ServiceRelay::server_missing(std::uint64_t instance) {
+  const std::optional<detail::ServiceRegistration> current = registration_.read_latest();
+  if (!current || current->server_pid == 0) {
+    return "the server of " + service_ + " on the robot stopped before answering";
+  }
+  if (current->server_instance != instance) {
+    return "the server of " + service_ + " on the robot was restarted; the request was lost";
+  }
+  if (detail::server_process_gone(current->server_pid)) {
+    return "the server of " + service_ + " on the robot died before answering";
+  }
+  return std::nullopt;
+}
+
+ServiceRelay::Outcome ServiceRelay::ask(const Job& job) {
+  const std::optional<detail::ServiceRegistration> current = registration_.read_latest();
+  if (!current || current->server_pid == 0 || detail::server_process_gone(current->server_pid)) {
+    return {{}, "no server for " + service_ + " on the robot"};
+  }
+  const std::uint64_t request_id = ++last_request_;
+  const std::array<std::uint64_t, 3> ids{client_id_, request_id, reply_index_};
+  if (!requests_->send(with_ids(job.frame, requests_->type().is_pod, ids))) {
+    return {{}, "the robot's request topic of " + service_ + " refused the request"};
+  }
+  const auto deadline = std::chrono::steady_clock::now() + job.timeout;
+  for (;;) {
+    const auto now = std::chrono::steady_clock::now();
+    if (now >= deadline || stopping_.load()) {
+      return {{},
+              "no answer from " + service_ + " on the robot within " +
+                  std::to_string(job.timeout.count()) + " ms"};
+    }
+    const std::ptrdiff_t size = replies_->recv(
+        std::min<std::chrono::nanoseconds>(deadline - now, detail::kServerCheckInterval));
+    if (size >= 0) {
+      const std::span<std::byte> answer = replies_->received(static_cast<std::size_t>(size));
+      const auto answered = frame_ids(answer, replies_->type().is_pod);
+      if (answered && (*answered)[0] == client_id_ && (*answered)[1] == request_id) {
+        return {std::vector<std::byte>(answer.begin(), answer.end()), {}};
+      }
+    } else if (auto missing = server_missing(current->server_instance)) {
+      return {{}, *missing};
+    }
+  }
+}
+
+ServiceMirror::ServiceMirror(wire::ServiceInfo::Reader info, const std::string& namespace_name)
+    : service_(info.getName()),
+      namespace_name_(namespace_name),
+      request_pod_(info.getRequest().getIsPod()),
+      registration_(detail::registration_topic(service_),
+                    detail::registration_options(namespace_options(namespace_name))),
+      calls_(*this) {
+  registered_.server_instance = detail::new_service_endpoint_id();
+  registered_.fingerprint = info.getFingerprint();
+  registered_.request_type = std::string_view(info.getRequestType().cStr());
+  registered_.response_type = std::string_view(info.getResponseType().cStr());
+  registered_.server_pid = static_cast<std::uint64_t>(::getpid());
+  registration_.send(registered_);
+}
+
+ServiceMirror::~ServiceMirror() noexcept(false) {
+  // Withdrawn as a stopping server withdraws: local clients waiting on it fail at once.
+  const std::optional<detail::ServiceRegistration> current = registration_.read_latest();
+  if (current && current->server_instance == registered_.server_instance) {
+    detail::ServiceRegistration withdrawn = registered_;
+    withdrawn.server_instance = 0;
+    withdrawn.server_pid = 0;
+    registration_.send(withdrawn);
+  }
+}
+
+void ServiceMirror::taskFailed(kj::Exception&& exception) {
+  say("a call of %s on the robot failed: %s", service_.c_str(), exception.getDescription().cStr());
+  // Registered anew, as a restarted server: the caller of the failed call (and any other
+  // waiting one) ends with a transport error at its next liveness check, not at its timeout.
+  registered_.server_instance = detail::new_service_endpoint_id();
+  registration_.send(registered_);
+}
+
+ServiceMirror::Reply* ServiceMirror::reply_topic(std::uint64_t index) {
+  if (const auto known = replies_.find(index); known != replies_.end()) return &known->second;
+  const std::string name = detail::reply_topic(response_topic(service_), index);
+  for (TopicInfo& info : list_topics(namespace_name_)) {
+    if (info.name == name && !info.type_name.empty() && info.error.empty()) {
+      auto topic = open_topic(info, namespace_name_);
+      return &replies_.emplace(index, Reply{std::move(info), std::move(topic)}).first->second;
+    }
+  }
+  return nullptr;  // the client's reply topic is gone: nobody waits for an answer
+}
+
+kj::Promise<void> ServiceMirror::message(MessageContext context) {
+  const capnp::Data::Reader data = context.getParams().getData();
+  const std::span<const std::byte> frame(reinterpret_cast<const std::byte*>(data.begin()),
+                                         data.size());
+  const auto ids = frame_ids(frame, request_pod_);
+  if (!ids || (*ids)[0] == 0) return kj::READY_NOW;  // not a frame, or a stopping server's wake-up
+  const Reply* reply = reply_topic((*ids)[2]);
+  if (reply == nullptr) return kj::READY_NOW;
+  if (!session_) {
+    calls_.add(KJ_EXCEPTION(DISCONNECTED, "the link to the robot is down"));
+    return kj::READY_NOW;
+  }
+  auto request = session_->callRequest();
+  request.setService(service_);
+  request.setRequest(data);
+  describe(reply->info, request.initResponse());
+  request.setTimeoutMs(kCallTimeoutMs);
+  calls_.add(request.send().then([this, client = (*ids)[0], id = (*ids)[1], index = (*ids)[2]](
+                                     capnp::Response<wire::Session::CallResults>&& response) {
+    Reply* back = reply_topic(index);
+    if (back == nullptr) return;
+    const capnp::Data::Reader answer = response.getResponse();
+    const std::array<std::uint64_t, 2> caller{client, id};
+    back->topic->send(
+        with_ids(std::span(reinterpret_cast<const std::byte*>(answer.begin()), answer.size()),
+                 back->topic->type().is_pod, caller));
+  }));
+  return kj::READY_NOW;
+}
+
+}  // namespace horus::remote

@@ -1,0 +1,116 @@
+// Services across the link. The frames a client and a server exchange (horus/detail/
+// service_frame.hpp) cross as they are; only their ids change hands: the robot's relay sends a
+// peer's request to its server under the relay's own client id and reply topic, and the peer's
+// mirror, a server in the peer's namespace, answers its local client under the client's ids.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "horus/detail/service_frame.hpp"
+#include "horus/topic.hpp"
+#include "link.hpp"
+
+namespace horus::remote {
+
+/// Whether a topic carries a service's frames or registration rather than messages of its own.
+bool is_service_topic(const TopicInfo& info);
+
+/// The first three ids of a frame (request: client, request, reply topic; response: client,
+/// request, status); empty when the bytes are not a frame. POD frames hold them as u64 at
+/// offsets 0, 8, 16 (a response's status as u32), serialized ones as the first elements of a
+/// MessagePack array.
+std::optional<std::array<std::uint64_t, 3>> frame_ids(std::span<const std::byte> frame, bool pod);
+/// The frame with its first ids replaced by `ids` (at most three).
+std::vector<std::byte> with_ids(std::span<const std::byte> frame, bool pod,
+                                std::span<const std::uint64_t> ids);
+
+/// The robot's end of one service for one peer: a thread that sends each request to the live
+/// server and waits for its answer on a reply topic of its own.
+class ServiceRelay {
+ public:
+  ServiceRelay(const std::string& service, const TopicInfo& request, const TopicInfo& response,
+               const std::string& namespace_name);
+  ServiceRelay(const ServiceRelay&) = delete;
+  ServiceRelay& operator=(const ServiceRelay&) = delete;
+  ~ServiceRelay();
+
+  /// The server's response frame to `frame`, or a failure naming why there is none.
+  kj::Promise<kj::Array<capnp::byte>> call(std::vector<std::byte> frame,
+                                           std::chrono::milliseconds timeout);
+
+ private:
+  /// The server's answer, or why there is none (written by the worker before it says done).
+  struct Outcome {
+    std::vector<std::byte> answer;
+    std::string failure;
+  };
+  struct Job {
+    std::vector<std::byte> frame;
+    std::chrono::milliseconds timeout{};
+    std::shared_ptr<Outcome> outcome;
+    kj::Own<kj::CrossThreadPromiseFulfiller<void>> done;
+  };
+  void work();
+  Outcome ask(const Job& job);
+  std::optional<std::string> server_missing(std::uint64_t instance);
+
+  std::string service_;
+  std::uint64_t client_id_;
+  std::uint64_t reply_index_;
+  std::unique_ptr<python::ErasedTopic> requests_;
+  std::unique_ptr<python::ErasedTopic> replies_;
+  Topic<detail::ServiceRegistration> registration_;
+  std::uint64_t last_request_ = 0;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<Job> jobs_;
+  std::atomic<bool> stopping_{false};
+  /// Last: started once everything it uses is there.
+  std::thread worker_;
+};
+
+/// The peer's end of one of the robot's services: registered as its server in the local
+/// namespace until the robot has no server for it any more (then withdrawn). A Forwarder streams
+/// the local request frames into it. A call that fails, also while no connection to the robot
+/// is up, makes it register anew, as a restarted server: its caller ends with a transport error.
+class ServiceMirror final : public wire::Sink::Server, public kj::TaskSet::ErrorHandler {
+ public:
+  ServiceMirror(wire::ServiceInfo::Reader info, const std::string& namespace_name);
+  ~ServiceMirror() noexcept(false);
+
+  /// The session calls go to from now on; none while the connection is down.
+  void connect(std::optional<wire::Session::Client> session) { session_ = std::move(session); }
+
+  void taskFailed(kj::Exception&& exception) override;
+
+ protected:
+  kj::Promise<void> message(MessageContext context) override;
+
+ private:
+  /// A local client's reply topic, where its answers go.
+  struct Reply {
+    TopicInfo info;
+    std::unique_ptr<python::ErasedTopic> topic;
+  };
+  /// The reply topic `index` (opened the first time), or none when it does not exist.
+  Reply* reply_topic(std::uint64_t index);
+
+  std::optional<wire::Session::Client> session_;
+  std::string service_;
+  std::string namespace_name_;
+  bool request_pod_;
+  detail::ServiceRegistration registered_;
+  Topic<detail::ServiceRegistration> registration_;
+  std::map<std::uint64_t, Reply> replies_;
+  kj::TaskSet calls_;
+};
+
+}  // namespace horus::remote
