@@ -48,7 +48,7 @@ struct Served {
 /// subscribers see one topic across reconnects, and the services served here, so that a call
 /// during an outage ends with a transport error rather than finding no server.
 struct Mirrors {
-  std::map<std::string, std::shared_ptr<python::ErasedTopic>> imported;
+  std::map<std::string, std::shared_ptr<detail::ErasedTopic>> imported;
   std::map<std::string, Served> served;
 };
 
@@ -130,7 +130,7 @@ class Link {
 
   kj::Promise<void> import(const TopicInfo& remote) {
     const std::string name = remote.name;
-    std::shared_ptr<python::ErasedTopic>& local = mirrors_.imported[name];
+    std::shared_ptr<detail::ErasedTopic>& local = mirrors_.imported[name];
     if (!local) {
       try {
         local = open_topic(remote, options_.namespace_name);
@@ -163,7 +163,7 @@ class Link {
 
   kj::Promise<void> export_topic(const TopicInfo& local) {
     const std::string name = local.name;
-    std::unique_ptr<python::ErasedTopic> topic;
+    std::unique_ptr<detail::ErasedTopic> topic;
     try {
       topic = open_topic(local, options_.namespace_name);
     } catch (const std::exception& e) {

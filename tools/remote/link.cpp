@@ -80,20 +80,20 @@ TopicInfo topic_info(wire::TopicInfo::Reader info) {
   return out;
 }
 
-std::unique_ptr<python::ErasedTopic> open_topic(const TopicInfo& info,
+std::unique_ptr<detail::ErasedTopic> open_topic(const TopicInfo& info,
                                                 const std::string& namespace_name) {
   TopicOptions options;
   options.capacity = info.capacity;
   options.max_message_size = info.max_message_size;
   options.namespace_name = namespace_name;
-  return std::make_unique<python::ErasedTopic>(
+  return std::make_unique<detail::ErasedTopic>(
       info.name,
-      python::ErasedType{info.type_name, info.fingerprint, info.schema, info.is_pod,
+      detail::ErasedType{info.type_name, info.fingerprint, info.schema, info.is_pod,
                          info.is_pod ? info.max_message_size : 0, 1},
       options);
 }
 
-Forwarder::Forwarder(std::unique_ptr<python::ErasedTopic> topic, wire::Sink::Client sink,
+Forwarder::Forwarder(std::unique_ptr<detail::ErasedTopic> topic, wire::Sink::Client sink,
                      std::size_t queue_limit, std::string label)
     : topic_(std::move(topic)),
       sink_(std::move(sink)),
@@ -175,7 +175,7 @@ kj::Promise<void> Forwarder::run() {
   return request.send().then([this] { return run(); });
 }
 
-TopicSink::TopicSink(std::shared_ptr<python::ErasedTopic> topic, std::string label)
+TopicSink::TopicSink(std::shared_ptr<detail::ErasedTopic> topic, std::string label)
     : topic_(std::move(topic)), label_(std::move(label)) {}
 
 TopicSink::~TopicSink() noexcept(false) {
@@ -188,7 +188,7 @@ TopicSink::~TopicSink() noexcept(false) {
 kj::Promise<void> TopicSink::message(MessageContext context) {
   const auto params = context.getParams();
   const capnp::Data::Reader data = params.getData();
-  const python::ErasedType& type = topic_->type();
+  const detail::ErasedType& type = topic_->type();
   std::string wrong;
   if (type.is_pod && data.size() != type.size) {
     wrong = "a " + type.name + " is " + std::to_string(type.size) + " bytes, not " +

@@ -17,7 +17,7 @@
 #include <thread>
 #include <vector>
 
-#include "erased_topic.hpp"
+#include "horus/detail/erased_topic.hpp"
 #include "horus/topic_registry.hpp"
 #include "remote.capnp.h"
 
@@ -35,7 +35,7 @@ void describe(const TopicInfo& info, wire::TopicInfo::Builder out);
 TopicInfo topic_info(wire::TopicInfo::Reader info);
 /// Opens (or creates) `info.name` in `namespace_name` with the type and sizes of `info`; throws
 /// horus::Error naming both types when the topic exists with another.
-std::unique_ptr<python::ErasedTopic> open_topic(const TopicInfo& info,
+std::unique_ptr<detail::ErasedTopic> open_topic(const TopicInfo& info,
                                                 const std::string& namespace_name);
 
 /// Streams the messages of a local topic into a peer's Sink: a thread waits on the topic and
@@ -44,7 +44,7 @@ std::unique_ptr<python::ErasedTopic> open_topic(const TopicInfo& info,
 /// flow control, so a slow peer holds the queue at its bound, never more.
 class Forwarder {
  public:
-  Forwarder(std::unique_ptr<python::ErasedTopic> topic, wire::Sink::Client sink,
+  Forwarder(std::unique_ptr<detail::ErasedTopic> topic, wire::Sink::Client sink,
             std::size_t queue_limit, std::string label);
   Forwarder(const Forwarder&) = delete;
   Forwarder& operator=(const Forwarder&) = delete;
@@ -64,7 +64,7 @@ class Forwarder {
   void read_loop();
   void report_drops();
 
-  std::unique_ptr<python::ErasedTopic> topic_;
+  std::unique_ptr<detail::ErasedTopic> topic_;
   wire::Sink::Client sink_;
   std::size_t queue_limit_;
   std::string label_;
@@ -94,14 +94,14 @@ void write_status(const std::string& path, const char* role);
 /// serialized ones no larger than a slot; anything else ends the stream with the reason.
 class TopicSink final : public wire::Sink::Server {
  public:
-  TopicSink(std::shared_ptr<python::ErasedTopic> topic, std::string label);
+  TopicSink(std::shared_ptr<detail::ErasedTopic> topic, std::string label);
   ~TopicSink() noexcept(false);
 
  protected:
   kj::Promise<void> message(MessageContext context) override;
 
  private:
-  std::shared_ptr<python::ErasedTopic> topic_;
+  std::shared_ptr<detail::ErasedTopic> topic_;
   std::string label_;
   std::uint64_t received_ = 0;
   std::uint64_t dropped_ = 0;

@@ -184,7 +184,7 @@ class SessionImpl final : public wire::Session::Server {
       refuse(denied("write topic", info.name));
     }
     check_size(info);
-    std::shared_ptr<python::ErasedTopic> topic = opened(info);
+    std::shared_ptr<detail::ErasedTopic> topic = opened(info);
     say("%s publishes to %s", peer_.c_str(), info.name.c_str());
     context.getResults().setSink(
         kj::heap<TopicSink>(std::move(topic), "topic " + info.name + " from " + peer_));
@@ -230,7 +230,7 @@ class SessionImpl final : public wire::Session::Server {
     refuse("no topic '" + name + "' on the robot");
   }
 
-  std::unique_ptr<python::ErasedTopic> opened(const TopicInfo& info) const {
+  std::unique_ptr<detail::ErasedTopic> opened(const TopicInfo& info) const {
     try {
       return open_topic(info, options_.namespace_name);
     } catch (const std::exception& e) {

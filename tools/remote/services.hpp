@@ -65,8 +65,8 @@ class ServiceRelay {
   std::string service_;
   std::uint64_t client_id_;
   std::uint64_t reply_index_;
-  std::unique_ptr<python::ErasedTopic> requests_;
-  std::unique_ptr<python::ErasedTopic> replies_;
+  std::unique_ptr<detail::ErasedTopic> requests_;
+  std::unique_ptr<detail::ErasedTopic> replies_;
   Topic<detail::ServiceRegistration> registration_;
   std::uint64_t last_request_ = 0;
   std::mutex mutex_;
@@ -98,7 +98,7 @@ class ServiceMirror final : public wire::Sink::Server, public kj::TaskSet::Error
   /// A local client's reply topic, where its answers go.
   struct Reply {
     TopicInfo info;
-    std::unique_ptr<python::ErasedTopic> topic;
+    std::unique_ptr<detail::ErasedTopic> topic;
   };
   /// The reply topic `index` (opened the first time), or none when it does not exist.
   Reply* reply_topic(std::uint64_t index);

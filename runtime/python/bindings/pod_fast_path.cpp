@@ -24,12 +24,14 @@
 #include <vector>
 
 #include "bindings.hpp"
-#include "erased_topic.hpp"
+#include "horus/detail/erased_topic.hpp"
 #include "horus/error.hpp"
 
 namespace py = pybind11;
 
 namespace horus::python {
+
+using detail::ErasedTopic;
 
 namespace {
 

@@ -5,13 +5,16 @@
 #include <memory>
 
 #include "bindings.hpp"
-#include "erased_topic.hpp"
+#include "horus/detail/erased_topic.hpp"
 #include "horus/error.hpp"
 #include "horus/topic_registry.hpp"
 
 namespace py = pybind11;
 
 namespace horus::python {
+
+using detail::ErasedTopic;
+using detail::ErasedType;
 
 namespace {
 

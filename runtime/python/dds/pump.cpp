@@ -11,14 +11,14 @@
 namespace horus::dds_bridge {
 namespace {
 
-python::ErasedTopic open_local(const LocalTopic& local, std::size_t size) {
+detail::ErasedTopic open_local(const LocalTopic& local, std::size_t size) {
   TopicOptions options;
   options.capacity = local.capacity;
   options.max_message_size = local.max_message_size;
   options.namespace_name = local.namespace_name;
   options.single_publisher = local.single_publisher;
   return {local.name,
-          python::ErasedType{local.type_name, local.fingerprint, local.schema, true, size,
+          detail::ErasedType{local.type_name, local.fingerprint, local.schema, true, size,
                              local.alignment},
           options};
 }

@@ -24,7 +24,7 @@
 
 #include "cdr_plan.hpp"
 #include "dds/dds.h"
-#include "erased_topic.hpp"
+#include "horus/detail/erased_topic.hpp"
 
 namespace horus::dds_bridge {
 
@@ -101,7 +101,7 @@ class ExportPump final : public Pump {
   /// Writes the message of `size` bytes the handle received, retrying a failed write.
   void send_to_dds(std::size_t size);
 
-  python::ErasedTopic local_;
+  detail::ErasedTopic local_;
   CdrPlan plan_;
   dds_entity_t writer_;
   const ddsi_sertype* type_;
@@ -123,7 +123,7 @@ class ImportPump final : public Pump {
   bool drain();
   void deliver(std::span<const std::byte> sample);
 
-  python::ErasedTopic local_;
+  detail::ErasedTopic local_;
   CdrPlan plan_;
   dds_entity_t reader_;
   std::string dds_topic_;

@@ -1,11 +1,11 @@
-#include "erased_topic.hpp"
+#include "horus/detail/erased_topic.hpp"
 
 #include <cstring>
 #include <utility>
 
 #include "horus/detail/message_count.hpp"
 
-namespace horus::python {
+namespace horus::detail {
 
 ErasedTopic::ErasedTopic(std::string name, ErasedType type, const TopicOptions& options)
     : name_(std::move(name)),
@@ -115,4 +115,4 @@ std::ptrdiff_t ErasedTopic::read_latest() noexcept {
   return length;
 }
 
-}  // namespace horus::python
+}  // namespace horus::detail

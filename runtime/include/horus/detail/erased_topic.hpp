@@ -1,6 +1,7 @@
-// horus::python::ErasedTopic: horus::Topic<T> with the type known only at run time (a Python
-// message class), moving bytes. Both run their slots through detail::TopicEndpoint, so a Python
-// handle and a C++ Topic<T> handle share one segment as two C++ handles would.
+// horus::detail::ErasedTopic: horus::Topic<T> with the type known only at run time (a Python
+// message class, a topic the DDS bridge or the remote link carries), moving bytes. Both run their
+// slots through detail::TopicEndpoint, so an erased handle and a C++ Topic<T> handle share one
+// segment as two C++ handles would.
 #pragma once
 
 #include <chrono>
@@ -14,7 +15,7 @@
 #include "horus/detail/topic_endpoint.hpp"
 #include "horus/topic.hpp"
 
-namespace horus::python {
+namespace horus::detail {
 
 /// The identity of a message type as the Python class carries it (`T.__horus__`); owns its text.
 struct ErasedType {
@@ -81,4 +82,4 @@ class ErasedTopic {
   bool loaned_ = false;
 };
 
-}  // namespace horus::python
+}  // namespace horus::detail
