@@ -102,15 +102,17 @@ class TickLog {
   };
 
   std::array<TickEntry, kCapacity> entries_{};
-  std::array<Watched, kWatched> watched_{};
+  // What the tick path touches, on the producer's lines; what only the consumer (and watch(),
+  // rarely) writes, on the consumer's.
+  alignas(64) std::atomic<std::uint64_t> head_{0};
+  std::atomic<std::uint64_t> dropped_{0};
   std::atomic<std::size_t> watched_count_{0};
   std::array<std::uint64_t, kWatched>
       start_received_{};  // the producer's, between note_start and push
   std::uint8_t start_watched_ = 0;
-  alignas(64) std::atomic<std::uint64_t> head_{0};
-  std::atomic<std::uint64_t> dropped_{0};
   std::atomic<bool> active_{true};
   alignas(64) std::atomic<std::uint64_t> tail_{0};
+  std::array<Watched, kWatched> watched_{};
 };
 
 }  // namespace horus::detail
