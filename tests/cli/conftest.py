@@ -5,11 +5,10 @@ import os
 import pathlib
 import shutil
 import subprocess
-import sys
-import time
 import uuid
 
 import pytest
+from processes import Children
 
 
 HORUS = os.environ.get("HORUS_CLI", "")
@@ -37,39 +36,10 @@ def run_horus(*args: str, timeout: float = 30) -> subprocess.CompletedProcess:
     return subprocess.run([HORUS, *args], capture_output=True, text=True, timeout=timeout)
 
 
-class Children:
-    """Processes a test starts, killed at its end."""
-
-    def __init__(self) -> None:
-        self.processes: list[subprocess.Popen] = []
-
-    def python(self, code: str) -> subprocess.Popen:
-        """A Python process that prints "ready" once its set-up is done, then runs on."""
-        process = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
-                                   stderr=subprocess.PIPE, text=True)
-        self.processes.append(process)
-        return process
-
-    def program(self, *argv: str) -> subprocess.Popen:
-        """A program whose stdin stays open until the test ends (the service peer serves
-        until it closes)."""
-        process = subprocess.Popen(list(argv), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                   stderr=subprocess.PIPE, text=True)
-        self.processes.append(process)
-        return process
-
-    def kill_all(self) -> None:
-        for process in self.processes:
-            if process.poll() is None:
-                process.kill()
-            process.communicate()
-
-
 @pytest.fixture
 def children():
-    spawned = Children()
-    yield spawned
-    spawned.kill_all()
+    with Children() as spawned:
+        yield spawned
 
 
 def wait_ready(process: subprocess.Popen, word: str = "ready") -> None:
@@ -78,16 +48,6 @@ def wait_ready(process: subprocess.Popen, word: str = "ready") -> None:
     if line.strip() != word:
         process.kill()
         raise AssertionError(f"child failed: {line!r} {process.communicate()[1]}")
-
-
-def wait_until(predicate, what: str, limit: float = 10.0):
-    deadline = time.monotonic() + limit
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(0.05)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 # The user package `cli_user` (Pose: POD, Route: serialized, Shift: a service), which the command

@@ -11,7 +11,8 @@ import subprocess
 import sys
 import time
 
-from conftest import HORUS, run_horus, wait_ready, wait_until
+from conftest import HORUS, run_horus, wait_ready
+from processes import wait_until
 
 PUBLISH_CMDVEL = """
 import time, horus

@@ -9,7 +9,8 @@ import json
 import os
 import subprocess
 
-from conftest import HORUS, run_horus, wait_ready, wait_until
+from conftest import HORUS, run_horus, wait_ready
+from processes import wait_until
 
 
 def _echo_json(topic: str) -> dict:

@@ -7,7 +7,8 @@ import os
 import subprocess
 from pathlib import Path
 
-from conftest import run_horus, wait_ready, wait_until
+from conftest import run_horus, wait_ready
+from processes import wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
 NODE_FILES = [ROOT / "tests" / "schemas" / "test_nodes" / name for name in ("talker.hnode", "listener.hnode")]

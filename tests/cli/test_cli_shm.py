@@ -5,7 +5,8 @@ from __future__ import annotations
 import json
 import os
 
-from conftest import run_horus, wait_ready, wait_until
+from conftest import run_horus, wait_ready
+from processes import wait_until
 
 LOGGING_SCHEDULER = """
 import horus

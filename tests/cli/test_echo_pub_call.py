@@ -8,7 +8,8 @@ import os
 import subprocess
 import uuid
 
-from conftest import run_horus, wait_ready, wait_until
+from conftest import run_horus, wait_ready
+from processes import wait_until
 
 USER_PROCESS = """
 import sys, time

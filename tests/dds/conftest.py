@@ -5,13 +5,11 @@ from __future__ import annotations
 import os
 import pathlib
 import random
-import shutil
 import subprocess
 import sys
-import time
-import uuid
 
 import pytest
+from processes import Children, two_worlds
 
 HERE = pathlib.Path(__file__).resolve().parent
 SCHEMAS = HERE / "schemas"
@@ -32,82 +30,17 @@ def dds_domain(monkeypatch, tmp_path) -> int:
     return random.randrange(1, 230)
 
 
-class World:
-    """A HORUS namespace under a shared-memory root of its own: what one host would have."""
-
-    def __init__(self, root: pathlib.Path) -> None:
-        root.mkdir(mode=0o700)
-        self.root = root
-        self.namespace = f"dds_{uuid.uuid4().hex[:12]}"
-
-    def env(self, **extra: str) -> dict:
-        env = dict(os.environ, HORUS_SHM_DIR=str(self.root), HORUS_NAMESPACE=self.namespace)
-        env.update(extra)
-        return env
-
-
 @pytest.fixture
 def worlds(tmp_path):
     """Two namespaces, A and B, that share no memory: only a bridge joins them."""
-    made = (World(tmp_path / "shm_a"), World(tmp_path / "shm_b"))
-    yield made
-    for world in made:
-        shutil.rmtree(world.root, ignore_errors=True)
-
-
-class Children:
-    """Processes a test starts, killed at its end."""
-
-    def __init__(self) -> None:
-        self.processes: list[subprocess.Popen] = []
-
-    def start(self, argv: list[str], env: dict | None = None) -> subprocess.Popen:
-        process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                   env=env)
-        self.processes.append(process)
-        return process
-
-    def python(self, code: str, env: dict | None = None, *args: str) -> subprocess.Popen:
-        return self.start([sys.executable, "-c", code, *args], env)
-
-    def kill_all(self) -> None:
-        for process in self.processes:
-            if process.poll() is None:
-                process.kill()
-            process.communicate()
+    with two_worlds(tmp_path) as made:
+        yield made
 
 
 @pytest.fixture
 def children():
-    spawned = Children()
-    yield spawned
-    spawned.kill_all()
-
-
-def wait_line(process: subprocess.Popen, expected: str) -> None:
-    """Reads the child's lines until one starts with `expected`; fails with what it said if it
-    ends first."""
-    seen = []
-    while True:
-        line = process.stdout.readline()
-        if not line:
-            process.kill()
-            _, errors = process.communicate()
-            raise AssertionError(f"expected a line {expected!r}, the child said {seen} and "
-                                 f"{errors.strip()!r}")
-        seen.append(line.rstrip())
-        if line.startswith(expected):
-            return
-
-
-def wait_until(predicate, what: str, limit: float = 20.0):
-    deadline = time.monotonic() + limit
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(0.05)
-    raise AssertionError(f"timed out waiting for {what}")
+    with Children() as spawned:
+        yield spawned
 
 
 def horus_gen(*args: str) -> None:

@@ -8,7 +8,7 @@ import subprocess
 
 import pytest
 
-from conftest import wait_line
+from processes import wait_line
 
 HORUS = os.environ.get("HORUS_CLI", "")
 COUNT = 40

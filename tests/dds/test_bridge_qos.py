@@ -6,7 +6,7 @@ from __future__ import annotations
 import re
 import threading
 
-from conftest import wait_line, wait_until
+from processes import wait_line, wait_until
 from test_bridge import HOLDER, PUBLISHER, bridge, python_env
 
 # Sends one message on `latched`, then keeps the topic open.

@@ -9,7 +9,7 @@ import threading
 
 import pytest
 
-from conftest import wait_line, wait_until
+from processes import wait_line, wait_until
 from test_bridge import PUBLISHER, bridge, python_env
 
 # Prints each cmd_vel stamp as it arrives, until killed.

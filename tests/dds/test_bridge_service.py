@@ -8,7 +8,7 @@ import signal
 
 import pytest
 
-from conftest import wait_line
+from processes import wait_line
 from test_bridge import bridge, python_env
 
 # Serves dds_test.Scale until killed; a factor of 0 is the handler's failure.

@@ -8,7 +8,7 @@ import numpy
 import pytest
 
 import dds_cdr
-from conftest import wait_line, wait_until
+from processes import wait_line, wait_until
 from horus import _dds
 from horus.msg import CmdVel
 

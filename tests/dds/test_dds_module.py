@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import struct
 
-from conftest import wait_until
+from processes import wait_until
 from horus import _dds
 
 TYPE = "horus::msg::dds_::CmdVel_"

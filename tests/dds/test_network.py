@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from conftest import wait_line
+from processes import wait_line
 from test_bridge import COUNT, assert_in_order, python_env
 
 # Publishes cmd_vel from a node at 100 Hz, exporting it through the scheduler's Network.

@@ -8,7 +8,8 @@ import os
 import stat
 import subprocess
 
-from conftest import HORUS, connect, serve, wait_line
+from conftest import HORUS, connect, serve
+from processes import wait_line
 
 COUNT = 40
 RING = "capacity = 512\n"

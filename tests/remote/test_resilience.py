@@ -14,7 +14,8 @@ import struct
 import subprocess
 import threading
 
-from conftest import HORUS, World, connect, free_port, serve, wait_line, wait_until
+from conftest import HORUS, connect, free_port, serve
+from processes import World, wait_line, wait_until
 from test_link import PUBLISHER
 
 # Prints each cmd_vel stamp as it arrives, until killed.

@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import os
 
-from conftest import connect, free_port, serve, wait_line
+from conftest import connect, free_port, serve
+from processes import wait_line
 
 # Serves remote_test.Scale until killed; a factor of 0 is the handler's failure.
 SERVER = """
