@@ -20,7 +20,6 @@ def _load(name: str, *path: str):
 cli_fixtures = _load("cli_fixtures", "..", "cli", "conftest.py")
 namespace = cli_fixtures.namespace
 children = cli_fixtures.children
-wait_until = cli_fixtures.wait_until
 # Every CRC (the summary's too) and index of a file, read by PyPI mcap (tests/python/runtime).
 check_file = _load("mcap_check", "..", "python", "runtime", "mcap_check.py").check_file
 

@@ -16,7 +16,7 @@ import horus
 from horus import Node, Scheduler
 from horus.msg import ImageDescriptor
 
-from conftest import wait_until
+from processes import wait_until
 from test_record import export_validated, run_horus
 from test_record_sessions import start_recording, subscribers
 

@@ -18,7 +18,8 @@ from horus.msg import CmdVel, CompressedImage
 
 import horus_mcap
 
-from conftest import check_file, wait_until
+from conftest import check_file
+from processes import wait_until
 from test_record import SUBSCRIBER, cmd_vels, export_validated, run_horus, write_recording
 
 HORUS = os.environ.get("HORUS_CLI", "")
