@@ -8,6 +8,7 @@ import subprocess
 
 import pytest
 
+from peer_scripts import RECEIVE_IN_ORDER
 from processes import wait_line
 
 HORUS = os.environ.get("HORUS_CLI", "")
@@ -59,23 +60,7 @@ count = int(sys.argv[1])
 wanted = {"cmd_vel": (CmdVel, lambda m: (m.stamp_nanos, m.linear == 0.5 * m.stamp_nanos)),
           "kinds": (Kinds, lambda m: (m.big, m.name == f"n{m.big}" and m.values == [m.big])),
           "pods": (Pods, lambda m: (m.seq, m == pods(m.seq)))}
-topics = {name: (horus.Topic(wanted[name][0], name, capacity=capacity), wanted[name][1])
-          for name in sys.argv[2:]}
-print("ready", flush=True)
-got = {name: [] for name in topics}
-while any(len(seen) < count for seen in got.values()):
-    idle = True
-    for name, (topic, key) in topics.items():
-        message = topic.try_recv()
-        if message is not None and len(got[name]) < count:
-            idle = False
-            number, intact = key(message)
-            got[name].append(number if intact else -1)
-    if idle:
-        time.sleep(0.001)
-for name, seen in got.items():
-    print(name, *seen, flush=True)
-"""
+""" + RECEIVE_IN_ORDER
 
 
 def python_env(world, generated) -> dict:

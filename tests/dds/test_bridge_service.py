@@ -8,23 +8,11 @@ import signal
 
 import pytest
 
+from peer_scripts import scale_server
 from processes import wait_line
 from test_bridge import bridge, python_env
 
-# Serves dds_test.Scale until killed; a factor of 0 is the handler's failure.
-SERVER = """
-import time, horus
-from dds_test import Scale, ScaleResponse
-def handle(request):
-    if request.factor == 0:
-        raise ValueError("a factor of 0")
-    return ScaleResponse(product=request.value * request.factor,
-                         note=f"{request.value:g} times {request.factor:g}")
-server = horus.ServiceServer(Scale, handle)
-print("ready", flush=True)
-while True:
-    time.sleep(1)
-"""
+SERVER = scale_server("dds_test")
 
 # call: waits for a server, makes five calls and a failing one, printing what each gave.
 # once: one call, printing the error's class and kind (or the answer).

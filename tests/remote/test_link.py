@@ -9,6 +9,7 @@ import stat
 import subprocess
 
 from conftest import HORUS, connect, serve
+from peer_scripts import RECEIVE_IN_ORDER
 from processes import wait_line
 
 COUNT = 40
@@ -44,23 +45,7 @@ def generic_key(m):
 wanted = {"cmd_vel": (CmdVel, lambda m: (m.stamp_nanos, m.linear == 0.5 * m.stamp_nanos)),
           "goal": (CmdVel, lambda m: (m.stamp_nanos, m.linear == 0.5 * m.stamp_nanos)),
           "generic": (GenericMessage, generic_key)}
-topics = {name: (horus.Topic(wanted[name][0], name, capacity=capacity), wanted[name][1])
-          for name in sys.argv[2:]}
-print("ready", flush=True)
-got = {name: [] for name in topics}
-while any(len(seen) < count for seen in got.values()):
-    idle = True
-    for name, (topic, key) in topics.items():
-        message = topic.try_recv()
-        if message is not None and len(got[name]) < count:
-            idle = False
-            number, intact = key(message)
-            got[name].append(number if intact else -1)
-    if idle:
-        time.sleep(0.001)
-for name, seen in got.items():
-    print(name, *seen, flush=True)
-"""
+""" + RECEIVE_IN_ORDER
 
 # B's own topics: goal (exported when allowed) and private (whose export the robot refuses).
 LAPTOP_PUBLISHER = RING + """

@@ -8,22 +8,10 @@ from __future__ import annotations
 import os
 
 from conftest import connect, free_port, serve
+from peer_scripts import scale_server
 from processes import wait_line
 
-# Serves remote_test.Scale until killed; a factor of 0 is the handler's failure.
-SERVER = """
-import time, horus
-from remote_test import Scale, ScaleResponse
-def handle(request):
-    if request.factor == 0:
-        raise ValueError("a factor of 0")
-    return ScaleResponse(product=request.value * request.factor,
-                         note=f"{request.value:g} times {request.factor:g}")
-server = horus.ServiceServer(Scale, handle)
-print("ready", flush=True)
-while True:
-    time.sleep(1)
-"""
+SERVER = scale_server("remote_test")
 
 # calls: five calls and a failing one, printing what each gave.
 # none: whether a server shows up within 3 s.
