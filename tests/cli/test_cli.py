@@ -114,6 +114,18 @@ def test_windows_rates_timeouts_and_counts_must_be_above_zero():
             and "above 0" in result.stderr, (args, result.stderr)
 
 
+def test_offsets_and_refresh_intervals_are_bounded():
+    # A negative offset into a recording, an end before the start, or a refresh with no pause.
+    for args, error in ((["record", "replay", "x.mcap", "--start", "-1"], "argument --start: needs a number of 0 or more"),
+                        (["record", "replay", "x.mcap", "--end", "inf"], "argument --end: needs a number of 0 or more"),
+                        (["record", "replay", "x.mcap", "--start", "2", "--end", "1"],
+                         "--end 1 is before --start 2: nothing to replay"),
+                        (["monitor", "--interval", "0.001"], "argument --interval: needs at least 0.1 seconds")):
+        result = run_horus(*args)
+        assert result.returncode == 2, (args, result)
+        assert result.stderr.count("\n") == 1 and error in result.stderr, (args, result.stderr)
+
+
 def test_an_unexpected_failure_is_one_internal_error_line(tmp_path):
     # A schema compiler that prints something other than JSON: nothing the command expects.
     generator = tmp_path / "horus-gen"

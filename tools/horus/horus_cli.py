@@ -38,6 +38,26 @@ def positive_float(text: str) -> float:
     return value
 
 
+def non_negative_float(text: str) -> float:
+    """An argparse type: a finite number of 0 or more (an offset into a recording)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = None
+    if value is None or not 0 <= value < float("inf"):
+        raise argparse.ArgumentTypeError(f"needs a number of 0 or more, got {text!r}")
+    return value
+
+
+def refresh_interval(text: str) -> float:
+    """An argparse type: seconds between screen refreshes, at least 0.1 (curses waits for keys in
+    whole milliseconds; shorter would redraw without pause and take a CPU)."""
+    value = positive_float(text)
+    if value < 0.1:
+        raise argparse.ArgumentTypeError(f"needs at least 0.1 seconds, got {text!r}")
+    return value
+
+
 def positive_int(text: str) -> int:
     """An argparse type: a whole number above 0 (a count of 0 would mean forever)."""
     try:
@@ -950,7 +970,7 @@ def bridge(args) -> int:
         bridge = horus_bridge.Bridge(_core(), _dds, args.namespace, args.export, args.imports,
                                      args.domain, not args.best_effort, args.depth,
                                      args.export_service, args.import_service,
-                                     args.transient_local, deadlines)
+                                     args.transient_local, deadlines, args.service_timeout)
     except RuntimeError as error:
         raise CommandFailed(str(error)) from None
     return bridge.run()
@@ -1152,8 +1172,8 @@ def build_parser() -> argparse.ArgumentParser:
                               description="A live terminal view of the namespace's nodes (rate, "
                                           "tick time, misses, health) and topics (rate, "
                                           "bandwidth), until q or Ctrl+C.", parents=[common])
-    sub.add_argument("--interval", type=positive_float, default=1.0,
-                     help="seconds between refreshes (default 1)")
+    sub.add_argument("--interval", type=refresh_interval, default=1.0,
+                     help="seconds between refreshes (default 1, at least 0.1)")
     sub.set_defaults(handler=monitor)
 
     sub = commands.add_parser("blackbox", help="print a scheduler flight-recorder file",
@@ -1191,6 +1211,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="topics that must carry a message every MS milliseconds; each missed "
                           "deadline is said on stderr (default: none; an importing bridge "
                           "follows the writer)")
+    sub.add_argument("--service-timeout", type=positive_float, default=10.0, metavar="SECONDS",
+                     help="how long an exported service's local server has to answer a call "
+                          "from DDS (default 10); the caller then gets Timeout")
     sub.set_defaults(handler=bridge)
 
     remote = group("remote", "reach a robot from afar over Cap'n Proto RPC with mutual TLS "

@@ -21,7 +21,8 @@ import time
 import horus_mcap as mcap
 from horus_mcap import MSGPACK_ENCODING, POD_ENCODING, POOL_ENCODING, TICKS_TOPIC
 from horus_cli import (EXIT_NOT_FOUND, EXIT_OK, EXIT_USAGE, SCHEMA_DIR, CommandFailed,
-                       _described_types, _emit, _Parser, _table, positive_float, positive_int)
+                       _described_types, _emit, _Parser, _table, non_negative_float, positive_float,
+                       positive_int)
 
 
 # The standalone recorder, set by the launcher (bin/horus) to the horus-record beside it.
@@ -313,6 +314,9 @@ def _selected(message: mcap.Message, first: int, start: float | None, end: float
 
 
 def replay(args) -> int:
+    if args.start is not None and args.end is not None and args.end < args.start:
+        raise CommandFailed(f"--end {args.end:g} is before --start {args.start:g}: nothing to replay",
+                            EXIT_USAGE)
     path = resolve(args.file)
     wanted = {t for t in args.topics.split(",") if t} if args.topics else None
     # A first walk finds the channels, each one's first message time and largest message (a
@@ -476,9 +480,9 @@ def _replay_arguments(sub: argparse.ArgumentParser) -> None:
                      help="speed factor (default 1: as recorded; 2: twice as fast)")
     sub.add_argument("--loop", action="store_true", help="start again at the end, until Ctrl+C")
     sub.add_argument("--topics", metavar="A,B", help="only these topics")
-    sub.add_argument("--start", type=float, metavar="S",
+    sub.add_argument("--start", type=non_negative_float, metavar="S",
                      help="from S seconds after the first message")
-    sub.add_argument("--end", type=float, metavar="S",
+    sub.add_argument("--end", type=non_negative_float, metavar="S",
                      help="up to S seconds after the first message")
     sub.add_argument("--capacity", type=positive_int, default=64,
                      help="slots of topics the replay creates (default 64)")
