@@ -3,9 +3,15 @@
 //   horus_dds_service_peer call   waits up to 30 s for a server, calls Scale(3, 2.5) and prints
 //                                 "answer PRODUCT NOTE", or "error KIND MESSAGE"
 //   horus_dds_service_peer once   calls Scale(1, 2) at once (2 s timeout) and prints the same
+//   horus_dds_service_peer kinds  waits for a server, then (20 s timeouts) calls Scale(1, 99),
+//                                 Scale(1, -1) (3 s later: the server is done with the first)
+//                                 and Scale(1, 2), printing each result the same way (with
+//                                 test_bridge_service.py's SERVER_WITH_KINDS: a remote Timeout,
+//                                 an answer that stops the server, a remote NoServer)
 #include <chrono>
 #include <cstdio>
 #include <string>
+#include <thread>
 
 #include <dds_test/scale.hpp>
 #include <horus/service.hpp>
@@ -14,19 +20,38 @@ namespace {
 
 using namespace std::chrono_literals;
 
+void print(const horus::ServiceResult<dds_test::ScaleResponse>& answer) {
+  if (answer) {
+    std::printf("answer %g %s\n", answer->product, answer->note.c_str());
+  } else {
+    std::printf("error %s %s\n", std::string(horus::to_string(answer.error().kind())).c_str(),
+                answer.error().message().c_str());
+  }
+  std::fflush(stdout);
+}
+
 int call(bool wait) {
   horus::ServiceClient<dds_test::Scale> client;
   if (wait && !client.wait_for_server(30s)) {
     std::fprintf(stderr, "no server came\n");
     return 1;
   }
-  const auto answer = wait ? client.call(dds_test::ScaleRequest{3.0, 2.5}, 20s)
-                           : client.call(dds_test::ScaleRequest{1.0, 2.0}, 2s);
-  if (answer) {
-    std::printf("answer %g %s\n", answer->product, answer->note.c_str());
-  } else {
-    std::printf("error %s %s\n", std::string(horus::to_string(answer.error().kind())).c_str(),
-                answer.error().message().c_str());
+  print(wait ? client.call(dds_test::ScaleRequest{3.0, 2.5}, 20s)
+             : client.call(dds_test::ScaleRequest{1.0, 2.0}, 2s));
+  return 0;
+}
+
+int kinds() {
+  horus::ServiceClient<dds_test::Scale> client;
+  if (!client.wait_for_server(30s)) {
+    std::fprintf(stderr, "no server came\n");
+    return 1;
+  }
+  for (const double factor : {99.0, -1.0, 2.0}) {
+    print(client.call(dds_test::ScaleRequest{1.0, factor}, 20s));
+    if (factor == 99.0) {
+      std::this_thread::sleep_for(3s);
+    }
   }
   return 0;
 }
@@ -38,6 +63,9 @@ int main(int argc, char** argv) {
   if (role == "call" || role == "once") {
     return call(role == "call");
   }
-  std::fprintf(stderr, "usage: %s call | once\n", argv[0]);
+  if (role == "kinds") {
+    return kinds();
+  }
+  std::fprintf(stderr, "usage: %s call | once | kinds\n", argv[0]);
   return 2;
 }

@@ -52,6 +52,7 @@ RESCAN_S = 0.5
 RETRY_S = 0.5  # after a failed DDS write or take, or a failing local topic
 LOCAL_CAPACITY = 64  # the geometry a topic the bridge creates gets (as `horus topic pub`'s)
 LOCAL_MAX_MESSAGE = 16 * 1024
+SERVICE_TIMEOUT_S = 10.0  # how long an exporting bridge waits for its local server, by default
 
 
 class BridgeError(Exception):
@@ -126,7 +127,8 @@ class Bridge:
     def __init__(self, core, dds, namespace: str, exports: list[str], imports: list[str],
                  domain: int, reliable: bool, depth: int, service_exports: list[str] = (),
                  service_imports: list[str] = (), latched: list[str] = (),
-                 deadlines: list[tuple[str, int]] = ()) -> None:
+                 deadlines: list[tuple[str, int]] = (),
+                 service_timeout: float = SERVICE_TIMEOUT_S, ros2_types: bool = False) -> None:
         self.core, self.dds, self.namespace = core, dds, namespace
         self.exports, self.imports = exports, imports
         self.qos = {"reliable": reliable, "depth": depth}
@@ -142,7 +144,8 @@ class Bridge:
         self.threads: list[threading.Thread] = []
         self.pumps: dict[str, object] = {}  # POD topic name -> its horus._dds pump
         self.done: set[str] = set()  # local topic names exported or imported (or refused)
-        self.services = Services(self, list(service_exports), list(service_imports))
+        self.services = Services(self, list(service_exports), list(service_imports),
+                                 service_timeout)
 
     @staticmethod
     def _matches(name: str, patterns: list[str]) -> bool:
@@ -422,11 +425,12 @@ class Bridge:
 # CDR body; a reply repeats its request's header. The raw CDR API gives no sample identity to
 # write, so the header is in the data. A call the server side could not answer (HORUS's failure,
 # no server, a timeout there) is replied with the sequence number negated and a CDR string
-# saying why instead of the response (a ROS 2 client ignores it, and times out).
+# "<kind>: <text>" (the ServiceError's) instead of the response (a ROS 2 client ignores it, and
+# times out); the importing side raises that kind to its caller.
 
 SERVICE_REQUEST, SERVICE_REPLY = "rq/", "rr/"
-REMOTE_CALL_TIMEOUT_S = 10.0  # how long an exporting bridge waits for its local server
 PROXY_TIMEOUT_S = 30.0  # how long an importing bridge's proxy waits for a reply over DDS
+MATCH_WAIT_S = 5.0  # how long a new proxy waits for its request writer to match the server side
 _HEADER = struct.Struct("<Qq")
 
 
@@ -450,10 +454,6 @@ def _failure_body(text: str) -> bytes:
 def _failure_text(cdr: bytes) -> str:
     (length,) = struct.unpack_from("<I", cdr, 4)
     return cdr[8:8 + length - 1].decode("utf-8", "replace")
-
-
-class RemoteServiceError(Exception):
-    """The server side's answer to a call was a failure (its text says which)."""
 
 
 def _service(name: str, request, response, fingerprint: int):
@@ -487,9 +487,11 @@ class Services:
     """The service half of a bridge: exported services (a local server answers calls from DDS)
     and imported ones (a local proxy server forwards calls to DDS), by pattern."""
 
-    def __init__(self, bridge: "Bridge", exports: list[str], imports: list[str]) -> None:
+    def __init__(self, bridge: "Bridge", exports: list[str], imports: list[str],
+                 timeout: float) -> None:
         self.bridge = bridge
         self.exports, self.imports = exports, imports
+        self.timeout = timeout  # seconds an exported service's local server has to answer
         self.carried: dict[str, threading.Event] = {}  # service name -> its stop
         self.proxies: dict[str, object] = {}  # imported service name -> its ServiceServer
         self.refused: set[str] = set()
@@ -604,8 +606,8 @@ class Services:
                         continue
                     try:
                         reply = _with_header(
-                            responses.encode(client.call(request, REMOTE_CALL_TIMEOUT_S)),
-                            caller, sequence)
+                            responses.encode(client.call(request, self.timeout)), caller,
+                            sequence)
                     except ServiceError as error:
                         reply = _with_header(_failure_body(f"{error.kind}: {error}"), caller,
                                              -sequence)
@@ -662,14 +664,19 @@ class Services:
         reader = dds.Reader(participant, publication["topic"], response_type, **qos)
         stop = threading.Event()
         proxy = _Proxy(service, writer, reader, stop)
-        self.proxies[name] = ServiceServer(service, proxy.call)
+        self.proxies[name] = ServiceServer(service, proxy.call, forward_errors=True)
         self.carried[name] = stop
         _say(f"importing service '{name}' from {SERVICE_REPLY}{name}Reply ({response_type})")
 
 
 class _Proxy:
     """The handler of an imported service's local server: each call goes to DDS as a request
-    with this proxy's id and the next sequence number, and waits for the reply repeating them."""
+    with this proxy's id and the next sequence number, and waits for the reply repeating them.
+    A failure reply is raised as the ServiceError of its kind, which the local server (with
+    forward_errors) hands the caller as that kind: NoServer, Timeout, Transport as they were on
+    the server's host, a handler's failure as ServiceFailed. When the exporting side's request
+    reader goes (its server left, so it withdrew the service) a call waiting for it gets NoServer
+    at once, as it would from that side a moment earlier."""
 
     def __init__(self, service, writer, reader, stop: threading.Event) -> None:
         self.service, self.writer, self.reader, self.stop = service, writer, reader, stop
@@ -677,17 +684,53 @@ class _Proxy:
         self.responses = dds_cdr.CdrCodec(service.Response)
         self.caller = random.getrandbits(64)
         self.sequence = 0
+        self.server_seen = False  # whether the exporting side's request reader ever matched
+
+    def _wait_for_server(self) -> bool:
+        """Whether the exporting side's request reader matches the request writer, waiting for
+        it a moment after the proxy started (a request written before would be lost)."""
+        deadline = time.monotonic() + (0 if self.server_seen else MATCH_WAIT_S)
+        while not self.writer.matched():
+            if self.server_seen or time.monotonic() >= deadline or self.stop.is_set():
+                return False
+            time.sleep(0.01)
+        self.server_seen = True
+        return True
 
     def call(self, request):
+        from horus import NoServerError, ServiceTimeout, TransportError
+
+        left = NoServerError(f"the server of {self.service.name} left the DDS side")
+        if not self._wait_for_server():
+            raise left
         self.sequence += 1
-        self.writer.write(_with_header(self.requests.encode(request), self.caller, self.sequence))
+        try:
+            self.writer.write(_with_header(self.requests.encode(request), self.caller,
+                                           self.sequence))
+        except RuntimeError as error:
+            raise TransportError(f"the request did not go out on DDS: {error}") from None
         deadline = time.monotonic() + PROXY_TIMEOUT_S
         while not self.stop.is_set() and time.monotonic() < deadline:
+            if not self.writer.matched():
+                raise left
             for sample in self.reader.take(0.05):
                 caller, sequence, cdr = _split_header(sample)
                 if caller != self.caller or abs(sequence) != self.sequence:
                     continue  # another caller's reply, or a late one to a call that timed out
                 if sequence < 0:
-                    raise RemoteServiceError(f"on the server's host: {_failure_text(cdr)}")
+                    raise _remote_error(_failure_text(cdr))
                 return self.responses.decode(cdr)
-        raise RemoteServiceError(f"no reply over DDS within {PROXY_TIMEOUT_S:g} s")
+        raise ServiceTimeout(f"no reply over DDS within {PROXY_TIMEOUT_S:g} s")
+
+
+def _remote_error(text: str):
+    """The ServiceError of a failure reply's "<kind>: <text>" (ServiceFailed for a kind this
+    side does not know)."""
+    from horus import NoServerError, ServiceFailed, ServiceTimeout, TransportError
+
+    kind, _, detail = text.partition(": ")
+    errors = {error.kind: error
+              for error in (ServiceFailed, NoServerError, ServiceTimeout, TransportError)}
+    if kind not in errors:
+        return ServiceFailed(f"on the server's host: {text}")
+    return errors[kind](f"on the server's host: {detail}")

@@ -96,12 +96,15 @@ class Network:
     domain: int
     reliable: bool
     depth: int
+    service_timeout: float
+    ros2_types: bool
     status: int
     def __init__(self, export: Sequence[str] = ..., import_: Sequence[str] = ...,
                  domain: int = ..., reliable: bool = ..., depth: int = ...,
                  transient_local: Sequence[str] = ..., deadlines: dict[str, int] | None = ...,
                  export_services: Sequence[str] = ...,
-                 import_services: Sequence[str] = ...) -> None: ...
+                 import_services: Sequence[str] = ..., service_timeout: float = ...,
+                 ros2_types: bool = ...) -> None: ...
 
 class Scheduler:
     def __init__(self, tick_rate: float = ..., rt: bool = ..., deterministic: bool = ...,
@@ -175,7 +178,8 @@ class ServiceServer(Generic[Req, Res]):
     instance: int
     requests: int
     failures: int
-    def __init__(self, service: Any, handler: Callable[[Req], Res]) -> None: ...
+    def __init__(self, service: Any, handler: Callable[[Req], Res],
+                 forward_errors: bool = ...) -> None: ...
     def stop(self) -> None: ...
     def __enter__(self) -> "ServiceServer[Req, Res]": ...
     def __exit__(self, *exc: object) -> None: ...

@@ -22,12 +22,15 @@ class Network:
 
     Keywords as the command's options: domain, reliable (else best effort), depth,
     transient_local (patterns of latched topics), deadlines ({pattern: milliseconds}),
-    export_services and import_services (service name patterns).
+    export_services and import_services (service name patterns), service_timeout (seconds an
+    exported service's server has to answer), ros2_types (standard types with a ROS 2 twin
+    cross as that twin, --ros2-types).
     """
 
     def __init__(self, export=(), import_=(), domain: int = 0, reliable: bool = True,
                  depth: int = 100, transient_local=(), deadlines: dict | None = None,
-                 export_services=(), import_services=()) -> None:
+                 export_services=(), import_services=(), service_timeout: float = 10.0,
+                 ros2_types: bool = False) -> None:
         self.export = _patterns(export, "export")
         self.import_ = _patterns(import_, "import_")
         self.export_services = _patterns(export_services, "export_services")
@@ -45,7 +48,12 @@ class Network:
                     or milliseconds < 1:
                 raise ValueError(f"the deadline of {pattern!r} must be a whole number of "
                                  f"milliseconds >= 1, got {milliseconds!r}")
+        if isinstance(service_timeout, bool) or not isinstance(service_timeout, (int, float)) \
+                or not service_timeout > 0:
+            raise ValueError(f"service_timeout must be a number of seconds > 0, got "
+                             f"{service_timeout!r}")
         self.domain, self.reliable, self.depth = domain, bool(reliable), depth
+        self.service_timeout, self.ros2_types = float(service_timeout), bool(ros2_types)
         self._bridge = None
         self._thread: threading.Thread | None = None
         self.status = 0  # 1 once the bridge stopped on an error of its own (said on stderr)
@@ -66,7 +74,7 @@ class Network:
         self._bridge = horus_bridge.Bridge(
             _core, _dds, "", self.export, self.import_, self.domain, self.reliable, self.depth,
             self.export_services, self.import_services, self.transient_local,
-            list(self.deadlines.items()))
+            list(self.deadlines.items()), self.service_timeout, self.ros2_types)
 
         def serve() -> None:
             self.status = self._bridge.serve()

@@ -15,6 +15,8 @@ from . import _core
 
 _CHECK_INTERVAL = 0.010  # as kServerCheckInterval: how late a dead server is noticed at worst
 _IDLE_WAKE = 0.2  # how often an idle server thread looks at its stop flag
+# A frame's status (horus/detail/service_frame.hpp): a handler's answer is OK or FAILED; a
+# forwarding server (ServiceServer(forward_errors=True)) answers with its own call's error kind.
 _STATUS_OK, _STATUS_FAILED = 0, 1
 _POD_ERROR_CAPACITY = 236
 _MAX_REPLY_COLLISIONS = 8
@@ -44,6 +46,11 @@ class TransportError(ServiceError):
 
 class ServiceFailed(ServiceError):
     kind = "service_failed"
+
+
+_STATUS_OF_KIND = {"service_failed": _STATUS_FAILED, "no_server": 2, "timeout": 3, "transport": 4}
+_ERROR_OF_STATUS = {_STATUS_OF_KIND[error.kind]: error
+                    for error in (ServiceFailed, NoServerError, ServiceTimeout, TransportError)}
 
 
 def _fnv1a(text: str) -> int:
@@ -267,7 +274,7 @@ class ServiceClient:
             if client_id != self.client_id or answered != request_id:
                 continue  # a stale answer to a call that timed out
             if status != _STATUS_OK:
-                raise ServiceFailed(error)
+                raise _ERROR_OF_STATUS.get(status, ServiceFailed)(error)
             return payload
 
     def _check_server(self, instance: int) -> None:
@@ -303,15 +310,19 @@ class ServiceClient:
 
 class ServiceServer:
     """Serves a generated service with `handler(request) -> response` on a thread of its own;
-    an exception from the handler is the client's ServiceFailed with its text. Registering fails
+    an exception from the handler is the client's ServiceFailed with its text; with
+    `forward_errors`, a ServiceError the handler raises reaches the client as its own kind (a
+    handler that forwards each call to another server: the DDS bridge's stand-in for a remote
+    service). Registering fails
     (HorusError) while another live server serves the service. stop() (or leaving a `with`
     block) finishes the request in hand and withdraws the registration."""
 
-    def __init__(self, service, handler) -> None:
+    def __init__(self, service, handler, forward_errors: bool = False) -> None:
         if not callable(handler):
             raise TypeError(f"ServiceServer({service.name}) needs a callable handler")
         self.service = service
         self._handler = handler
+        self._forward_errors = forward_errors
         self._request = _Frame(service.Request, response=False)
         self._response = _Frame(service.Response, response=True)
         self._incoming = self._request.open(service.request_topic)
@@ -356,7 +367,11 @@ class ServiceServer:
                 raise TypeError(f"the handler returned {type(response).__name__}, not "
                                 f"{self.service.Response.__name__}")
         except Exception as failure:  # noqa: BLE001 - every failure goes back to the caller
-            status, error = _STATUS_FAILED, f"the handler raised: {type(failure).__name__}: {failure}"
+            if self._forward_errors and isinstance(failure, ServiceError):
+                status, error = _STATUS_OF_KIND[failure.kind], str(failure)
+            else:
+                status = _STATUS_FAILED
+                error = f"the handler raised: {type(failure).__name__}: {failure}"
             response = self.service.Response()
             self.failures += 1
         self.requests += 1

@@ -12,6 +12,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <unordered_map>
 #include <utility>
@@ -250,7 +251,17 @@ class ServiceChannel {
   }
 
   static ServiceResult<Response> to_result(ResponseFrame&& frame) {
-    return response_of(std::move(frame)).into_result();
+    const auto text = [&frame] { return std::string(std::string_view(frame.error)); };
+    switch (frame.status) {
+      case kStatusNoServer:
+        return ServiceError::no_server(text());
+      case kStatusTimeout:
+        return ServiceError::timeout(text());
+      case kStatusTransport:
+        return ServiceError::transport(text());
+      default:
+        return response_of(std::move(frame)).into_result();
+    }
   }
 
  private:

@@ -47,9 +47,15 @@ inline constexpr std::string_view kResponseFrameFieldsSerialized =
     " {\n  client_id: u64,\n  request_id: u64,\n  status: u32,\n  error: String,\n  payload: ";
 inline constexpr std::string_view kSchemaClose = ",\n}\n";
 
-/// ServiceResponseFrame::status.
+/// ServiceResponseFrame::status. A server answers Ok or Failed; a server that forwards calls to
+/// another one (the DDS bridge's stand-in for a remote service) answers a call that found no
+/// server there, or none in time, or lost its answer, with that kind, so the caller sees the
+/// kind it would see calling the remote server itself.
 inline constexpr std::uint32_t kStatusOk = 0;
 inline constexpr std::uint32_t kStatusFailed = 1;
+inline constexpr std::uint32_t kStatusNoServer = 2;
+inline constexpr std::uint32_t kStatusTimeout = 3;
+inline constexpr std::uint32_t kStatusTransport = 4;
 
 /// The error text a POD response frame holds (sized so that the payload starts at byte 256).
 inline constexpr std::size_t kPodErrorCapacity = 236;
