@@ -62,8 +62,26 @@ interface Session {
   services @3 () -> (services :List(ServiceInfo));
 
   # Hands a request frame (HORUS's own bytes, as the peer's client sent it) to the robot's
-  # server under ids of the robot's, and its response frame back; `response` is the type of the
-  # response frames. Fails when there is no live server, it dies, or `timeoutMs` passes.
+  # server under ids of the robot's, and its response frame back (`response` of the params: the
+  # type of the response frames). A call the robot's server did not answer has an empty
+  # `response` and a `failure` saying why, of the kind a client on the robot would have got.
   call @4 (service :Text, request :Data, response :TopicInfo, timeoutMs :UInt32)
-      -> (response :Data);
+      -> (response :Data, failure :CallFailure);
+}
+
+# Why the robot's server gave no answer to a call; `text` as a client on the robot would read it.
+struct CallFailure {
+  kind @0 :Kind;
+  text @1 :Text;
+
+  enum Kind {
+    # Answered (the failure is unset).
+    none @0;
+    # No server of the service on the robot.
+    noServer @1;
+    # No answer within the call's timeout.
+    timeout @2;
+    # The request or its answer was lost (the server died, stopped or was restarted).
+    transport @3;
+  }
 }

@@ -2,10 +2,14 @@
 mirror serves it there while the link lasts (POD request frames, serialized response frames),
 the server's failure comes back as it is, a service outside the policy is not served, and the
 robot's server gone or the link lost ends a call with an error (a TransportError during an
-outage), never a wait for its timeout, and calls are answered again once the link is back."""
+outage), never a wait for its timeout, and calls are answered again once the link is back.
+A call the robot's server does not answer reaches the laptop's caller with the kind and text a
+caller on the robot would get: NoServerError, ServiceTimeout, TransportError."""
 from __future__ import annotations
 
 import os
+import signal
+import sys
 
 from conftest import connect, free_port, serve
 from peer_scripts import scale_server
@@ -41,6 +45,54 @@ else:
         print("answer", answer.product, flush=True)
     except horus.ServiceError as error:
         print("error", type(error).__name__, flush=True)
+"""
+
+
+# A Scale server that sleeps -factor seconds before answering a negative factor (printing
+# "handling" as it starts), and stops (withdraws) at a line on stdin.
+STOPPABLE_SERVER = """
+import sys, time, horus
+from remote_test import Scale, ScaleResponse
+def handle(request):
+    print("handling", flush=True)
+    if request.factor == 0:
+        raise ValueError("a factor of 0")
+    if request.factor < 0:
+        time.sleep(-request.factor)
+    return ScaleResponse(product=request.value * request.factor, note="")
+server = horus.ServiceServer(Scale, handle)
+print("ready", flush=True)
+sys.stdin.readline()
+server.stop()
+print("stopped", flush=True)
+sys.stdin.readline()
+"""
+
+# Calls Scale once per line "VALUE FACTOR TIMEOUT" on stdin, printing the answer or the error's
+# class and text; a line "answered" calls until a call is answered (the laptop serves the
+# service again), printing "answered".
+CALLER = """
+import sys, time, horus
+from remote_test import Scale, ScaleRequest
+client = horus.ServiceClient(Scale)
+print("server", client.wait_for_server(30), flush=True)
+for line in sys.stdin:
+    if line.strip() == "answered":
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline:
+            try:
+                client.call(ScaleRequest(value=1.0, factor=1.0), timeout=5)
+                break
+            except (horus.NoServerError, horus.TransportError):
+                time.sleep(0.05)
+        print("answered", flush=True)
+        continue
+    value, factor, timeout = map(float, line.split())
+    try:
+        answer = client.call(ScaleRequest(value=value, factor=factor), timeout=timeout)
+        print("answer", answer.product, flush=True)
+    except horus.ServiceError as error:
+        print("error", type(error).__name__, error, flush=True)
 """
 
 
@@ -95,3 +147,71 @@ def test_service_outside_the_policy_is_not_served(children, worlds, certs, gener
     _, port = serve(children, robot, certs, "laptop read *")
     connect(children, laptop, certs, port)
     assert client_lines(children, laptop, generated, "none") == ["server False"]
+
+
+
+def talking(children, code: str, env: dict):
+    """A Python child running `code` whose stdin the test writes lines to."""
+    return children.start([sys.executable, "-c", code], env, keep_stdin=True)
+
+
+def ask(caller, line: str) -> str:
+    caller.stdin.write(line + "\n")
+    caller.stdin.flush()
+    return wait_line(caller, "")
+
+
+def test_unanswered_calls_reach_the_caller_with_their_kind(children, worlds, certs, generated):
+    robot, laptop = worlds
+    robot_server = talking(children, STOPPABLE_SERVER, env_with(robot, generated))
+    wait_line(robot_server, "ready")
+    server, port = serve(children, robot, certs, "laptop call Scale", port=free_port())
+    link = connect(children, laptop, certs, port)
+    caller = talking(children, CALLER, env_with(laptop, generated))
+    assert wait_line(caller, "server") == "server True"
+
+    assert ask(caller, "1 0 20") == "error ServiceFailed the handler raised: ValueError: a factor of 0"
+
+    # The robot's relay waits 10 s for its server: the caller's 20 s are not spent.
+    assert ask(caller, "1 -12 20") == (
+        "error ServiceTimeout no answer from Scale on the robot within 10000 ms")
+
+    # The robot's server dies in the middle of a call.
+    caller.stdin.write("1 -30 20\n")
+    caller.stdin.flush()
+    for _ in range(3):  # the failed call's, the one that timed out, this one
+        wait_line(robot_server, "handling")
+    robot_server.send_signal(signal.SIGKILL)
+    died = wait_line(caller, "")
+    # The laptop may have withdrawn its stand-in (the robot has no live server) before the
+    # robot's reason came: the kind is the same, the text the laptop's own.
+    assert died.startswith("error TransportError the server of Scale "), died
+    assert died.endswith("died before answering") or died.endswith("stopped before answering")
+
+    # The robot's server stopped while the laptop still serves the service: the robot's
+    # NoServer reaches the caller. Asked the moment it stopped, before the laptop's next look at
+    # the robot's services (every second), which withdraws the stand-in; a call after that finds
+    # no server on the laptop itself, also a NoServerError, with the laptop's text.
+    texts = []
+    for _ in range(3):
+        robot_server = talking(children, STOPPABLE_SERVER, env_with(robot, generated))
+        wait_line(robot_server, "ready")
+        assert ask(caller, "answered") == "answered"
+        assert ask(caller, "2 3 20") == "answer 6.0"
+        robot_server.stdin.write("stop\n")
+        robot_server.stdin.flush()
+        wait_line(robot_server, "stopped")
+        answer = ask(caller, "2 3 20")
+        assert answer.startswith("error NoServerError no server for Scale "), answer
+        texts.append(answer)
+        if answer == "error NoServerError no server for Scale on the robot":
+            break
+    assert texts[-1] == "error NoServerError no server for Scale on the robot", texts
+
+    # The link lost: the caller's TransportError names it.
+    robot_server = talking(children, STOPPABLE_SERVER, env_with(robot, generated))
+    wait_line(robot_server, "ready")
+    assert ask(caller, "answered") == "answered"
+    server.kill()
+    link.errors.wait_for("trying again")
+    assert ask(caller, "2 3 20") == "error TransportError the link to the robot is down"

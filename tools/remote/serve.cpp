@@ -153,9 +153,16 @@ class SessionImpl final : public wire::Session::Server {
     }
     std::unique_ptr<ServiceRelay>& relay = relays_[name];
     if (!relay) {
-      const TopicInfo request = find(name + ".request");
+      const std::optional<TopicInfo> request = existing(name + ".request");
+      if (!request) {  // no server ever ran here
+        relays_.erase(name);
+        auto failure = context.getResults().initFailure();
+        failure.setKind(wire::CallFailure::Kind::NO_SERVER);
+        failure.setText("no server for " + name + " on the robot");
+        return kj::READY_NOW;
+      }
       try {
-        relay = std::make_unique<ServiceRelay>(name, request, topic_info(params.getResponse()),
+        relay = std::make_unique<ServiceRelay>(name, *request, topic_info(params.getResponse()),
                                                options_.namespace_name);
       } catch (const std::exception& e) {
         relays_.erase(name);
@@ -169,8 +176,16 @@ class SessionImpl final : public wire::Session::Server {
         ->call(std::vector<std::byte>(reinterpret_cast<const std::byte*>(frame.begin()),
                                       reinterpret_cast<const std::byte*>(frame.end())),
                timeout)
-        .then([context](kj::Array<capnp::byte>&& answer) mutable {
-          context.getResults().setResponse(answer);
+        .then([context](ServiceRelay::Outcome&& outcome) mutable {
+          auto results = context.getResults();
+          if (outcome.kind != wire::CallFailure::Kind::NONE) {
+            auto failure = results.initFailure();
+            failure.setKind(outcome.kind);
+            failure.setText(outcome.failure);
+            return;
+          }
+          results.setResponse(kj::arrayPtr(
+              reinterpret_cast<const capnp::byte*>(outcome.answer.data()), outcome.answer.size()));
         });
   }
 
@@ -221,12 +236,17 @@ class SessionImpl final : public wire::Session::Server {
     return "peer '" + peer_ + "' may not " + what + " '" + name + "'";
   }
 
-  TopicInfo find(const std::string& name) const {
+  std::optional<TopicInfo> existing(const std::string& name) const {
     for (TopicInfo& info : list_topics(options_.namespace_name)) {
       if (info.name == name && !info.type_name.empty() && info.error.empty()) {
         return std::move(info);
       }
     }
+    return std::nullopt;
+  }
+
+  TopicInfo find(const std::string& name) const {
+    if (std::optional<TopicInfo> info = existing(name)) return std::move(*info);
     refuse("no topic '" + name + "' on the robot");
   }
 

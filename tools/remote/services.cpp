@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "horus/detail/service_channel.hpp"
+#include "zero_message.hpp"
 
 namespace horus::remote {
 
@@ -14,6 +15,8 @@ namespace {
 /// How long a peer's mirror lets the robot wait for its server (the local client's own timeout
 /// ends its wait sooner when it is shorter).
 constexpr std::uint32_t kCallTimeoutMs = 10000;
+
+using Kind = wire::CallFailure::Kind;
 
 TopicOptions namespace_options(const std::string& namespace_name) {
   TopicOptions options;
@@ -61,6 +64,55 @@ bool is_fixarray(std::span<const std::byte> frame) {
   return !frame.empty() && (static_cast<std::uint8_t>(frame[0]) & 0xf0) == kFixArray;
 }
 
+void put_u64(std::vector<std::byte>& out, std::uint64_t value) {
+  out.push_back(std::byte{0xcf});
+  for (int shift = 56; shift >= 0; shift -= 8) {
+    out.push_back(static_cast<std::byte>((value >> shift) & 0xff));
+  }
+}
+
+/// A MessagePack str.
+void put_text(std::vector<std::byte>& out, std::string_view text) {
+  const std::size_t size = text.size();
+  if (size < 32) {
+    out.push_back(static_cast<std::byte>(0xa0 | size));
+  } else if (size < 256) {
+    out.insert(out.end(), {std::byte{0xd9}, static_cast<std::byte>(size)});
+  } else if (size < 65536) {
+    out.insert(out.end(), {std::byte{0xda}, static_cast<std::byte>(size >> 8),
+                           static_cast<std::byte>(size & 0xff)});
+  } else {
+    out.push_back(std::byte{0xdb});
+    for (int shift = 24; shift >= 0; shift -= 8) {
+      out.push_back(static_cast<std::byte>((size >> shift) & 0xff));
+    }
+  }
+  const auto* bytes = reinterpret_cast<const std::byte*>(text.data());
+  out.insert(out.end(), bytes, bytes + size);
+}
+
+/// `text` cut to at most `limit` bytes at a UTF-8 character boundary (as detail::set_error cuts).
+std::string_view cut(std::string_view text, std::size_t limit) {
+  std::size_t size = std::min(text.size(), limit);
+  while (size > 0 && size < text.size() &&
+         (static_cast<unsigned char>(text[size]) & 0xC0U) == 0x80U) {
+    --size;
+  }
+  return text.substr(0, size);
+}
+
+/// The response frame status of a failure's kind.
+std::uint32_t status_of(Kind kind) {
+  switch (kind) {
+    case Kind::NO_SERVER:
+      return detail::kStatusNoServer;
+    case Kind::TIMEOUT:
+      return detail::kStatusTimeout;
+    default:
+      return detail::kStatusTransport;
+  }
+}
+
 }  // namespace
 
 bool is_service_topic(const TopicInfo& info) {
@@ -99,14 +151,34 @@ std::vector<std::byte> with_ids(std::span<const std::byte> frame, bool pod,
     rest = read_unsigned(frame, rest).value_or(std::pair{0, frame.size()}).second;
   }
   std::vector<std::byte> out{frame[0]};
-  for (const std::uint64_t id : ids) {
-    out.push_back(std::byte{0xcf});
-    for (int shift = 56; shift >= 0; shift -= 8) {
-      out.push_back(static_cast<std::byte>((id >> shift) & 0xff));
-    }
-  }
+  for (const std::uint64_t id : ids) put_u64(out, id);
   out.insert(out.end(), frame.begin() + static_cast<std::ptrdiff_t>(rest), frame.end());
   return out;
+}
+
+std::vector<std::byte> failure_frame(const TopicInfo& frame_type, std::uint64_t client_id,
+                                     std::uint64_t request_id, std::uint32_t status,
+                                     std::string_view text) {
+  if (frame_type.is_pod) {
+    // {client_id: u64, request_id: u64, status: u32, error: string<236>, payload} at 0, 8, 16, 20
+    std::vector<std::byte> frame(frame_type.max_message_size);
+    const std::string_view error = cut(text, detail::kPodErrorCapacity);
+    std::memcpy(frame.data(), &client_id, sizeof client_id);
+    std::memcpy(frame.data() + 8, &request_id, sizeof request_id);
+    std::memcpy(frame.data() + 16, &status, sizeof status);
+    std::memcpy(frame.data() + 20, error.data(), error.size());
+    return frame;
+  }
+  // The zero frame is [0, 0, 0, "", payload]: its payload follows those five bytes.
+  constexpr std::size_t kZeroHead = 5;
+  const std::vector<std::byte> zero = zero_message(frame_type.schema, frame_type.type_name);
+  std::vector<std::byte> frame{zero.front()};
+  put_u64(frame, client_id);
+  put_u64(frame, request_id);
+  put_u64(frame, status);
+  put_text(frame, text);
+  frame.insert(frame.end(), zero.begin() + kZeroHead, zero.end());
+  return frame;
 }
 
 ServiceRelay::ServiceRelay(const std::string& service, const TopicInfo& request,
@@ -130,8 +202,8 @@ ServiceRelay::~ServiceRelay() {
   worker_.join();
 }
 
-kj::Promise<kj::Array<capnp::byte>> ServiceRelay::call(std::vector<std::byte> frame,
-                                                       std::chrono::milliseconds timeout) {
+kj::Promise<ServiceRelay::Outcome> ServiceRelay::call(std::vector<std::byte> frame,
+                                                      std::chrono::milliseconds timeout) {
   auto outcome = std::make_shared<Outcome>();
   auto done = kj::newPromiseAndCrossThreadFulfiller<void>();
   {
@@ -139,11 +211,7 @@ kj::Promise<kj::Array<capnp::byte>> ServiceRelay::call(std::vector<std::byte> fr
     jobs_.push_back(Job{std::move(frame), timeout, outcome, kj::mv(done.fulfiller)});
   }
   wake_.notify_one();
-  return done.promise.then([outcome]() {
-    if (!outcome->failure.empty()) refuse(outcome->failure);
-    return kj::heapArray(reinterpret_cast<const capnp::byte*>(outcome->answer.data()),
-                         outcome->answer.size());
-  });
+  return done.promise.then([outcome]() { return std::move(*outcome); });
 }
 
 void ServiceRelay::work() {
@@ -162,35 +230,52 @@ void ServiceRelay::work() {
   }
 }
 
-std::optional<std::string> ServiceRelay::server_missing(std::uint64_t instance) {
+// The kinds and texts of a local client's (detail::ServiceChannel), naming the robot.
+std::optional<ServiceRelay::Outcome> ServiceRelay::server_missing(std::uint64_t instance) {
   const std::optional<detail::ServiceRegistration> current = registration_.read_latest();
   if (!current || current->server_pid == 0) {
-    return "the server of " + service_ + " on the robot stopped before answering";
+    return Outcome{{},
+                   Kind::TRANSPORT,
+                   "the server of " + service_ + " on the robot stopped before answering"};
   }
   if (current->server_instance != instance) {
-    return "the server of " + service_ + " on the robot was restarted; the request was lost";
+    return Outcome{
+        {},
+        Kind::TRANSPORT,
+        "the server of " + service_ + " on the robot was restarted; the request was lost"};
   }
   if (detail::server_process_gone(current->server_pid)) {
-    return "the server of " + service_ + " on the robot died before answering";
+    return Outcome{{},
+                   Kind::TRANSPORT,
+                   "the server of " + service_ + " on the robot (pid " +
+                       std::to_string(current->server_pid) + ") died before answering"};
   }
   return std::nullopt;
 }
 
 ServiceRelay::Outcome ServiceRelay::ask(const Job& job) {
   const std::optional<detail::ServiceRegistration> current = registration_.read_latest();
-  if (!current || current->server_pid == 0 || detail::server_process_gone(current->server_pid)) {
-    return {{}, "no server for " + service_ + " on the robot"};
+  if (!current || current->server_pid == 0) {
+    return {{}, Kind::NO_SERVER, "no server for " + service_ + " on the robot"};
+  }
+  if (detail::server_process_gone(current->server_pid)) {
+    return {{},
+            Kind::TRANSPORT,
+            "the server of " + service_ + " on the robot (pid " +
+                std::to_string(current->server_pid) + ") died"};
   }
   const std::uint64_t request_id = ++last_request_;
   const std::array<std::uint64_t, 3> ids{client_id_, request_id, reply_index_};
   if (!requests_->send(with_ids(job.frame, requests_->type().is_pod, ids))) {
-    return {{}, "the robot's request topic of " + service_ + " refused the request"};
+    return {
+        {}, Kind::TRANSPORT, "the robot's request topic of " + service_ + " refused the request"};
   }
   const auto deadline = std::chrono::steady_clock::now() + job.timeout;
   for (;;) {
     const auto now = std::chrono::steady_clock::now();
     if (now >= deadline || stopping_.load()) {
       return {{},
+              Kind::TIMEOUT,
               "no answer from " + service_ + " on the robot within " +
                   std::to_string(job.timeout.count()) + " ms"};
     }
@@ -200,10 +285,10 @@ ServiceRelay::Outcome ServiceRelay::ask(const Job& job) {
       const std::span<std::byte> answer = replies_->received(static_cast<std::size_t>(size));
       const auto answered = frame_ids(answer, replies_->type().is_pod);
       if (answered && (*answered)[0] == client_id_ && (*answered)[1] == request_id) {
-        return {std::vector<std::byte>(answer.begin(), answer.end()), {}};
+        return {std::vector<std::byte>(answer.begin(), answer.end()), Kind::NONE, {}};
       }
     } else if (auto missing = server_missing(current->server_instance)) {
-      return {{}, *missing};
+      return std::move(*missing);
     }
   }
 }
@@ -236,10 +321,15 @@ ServiceMirror::~ServiceMirror() noexcept(false) {
 
 void ServiceMirror::taskFailed(kj::Exception&& exception) {
   say("a call of %s on the robot failed: %s", service_.c_str(), exception.getDescription().cStr());
-  // Registered anew, as a restarted server: the caller of the failed call (and any other
-  // waiting one) ends with a transport error at its next liveness check, not at its timeout.
-  registered_.server_instance = detail::new_service_endpoint_id();
-  registration_.send(registered_);
+}
+
+void ServiceMirror::fail(const std::array<std::uint64_t, 3>& ids, std::uint32_t status,
+                         std::string_view text) {
+  say("a call of %s on the robot failed: %.*s", service_.c_str(), static_cast<int>(text.size()),
+      text.data());
+  if (Reply* back = reply_topic(ids[2])) {
+    back->topic->send(failure_frame(back->info, ids[0], ids[1], status, text));
+  }
 }
 
 ServiceMirror::Reply* ServiceMirror::reply_topic(std::uint64_t index) {
@@ -263,7 +353,7 @@ kj::Promise<void> ServiceMirror::message(MessageContext context) {
   const Reply* reply = reply_topic((*ids)[2]);
   if (reply == nullptr) return kj::READY_NOW;
   if (!session_) {
-    calls_.add(KJ_EXCEPTION(DISCONNECTED, "the link to the robot is down"));
+    fail(*ids, detail::kStatusTransport, "the link to the robot is down");
     return kj::READY_NOW;
   }
   auto request = session_->callRequest();
@@ -271,16 +361,28 @@ kj::Promise<void> ServiceMirror::message(MessageContext context) {
   request.setRequest(data);
   describe(reply->info, request.initResponse());
   request.setTimeoutMs(kCallTimeoutMs);
-  calls_.add(request.send().then([this, client = (*ids)[0], id = (*ids)[1], index = (*ids)[2]](
-                                     capnp::Response<wire::Session::CallResults>&& response) {
-    Reply* back = reply_topic(index);
-    if (back == nullptr) return;
-    const capnp::Data::Reader answer = response.getResponse();
-    const std::array<std::uint64_t, 2> caller{client, id};
-    back->topic->send(
-        with_ids(std::span(reinterpret_cast<const std::byte*>(answer.begin()), answer.size()),
-                 back->topic->type().is_pod, caller));
-  }));
+  calls_.add(request.send().then(
+      [this, ids = *ids](capnp::Response<wire::Session::CallResults>&& response) {
+        if (response.hasFailure() && response.getFailure().getKind() != Kind::NONE) {
+          const auto failure = response.getFailure();
+          fail(ids, status_of(failure.getKind()), failure.getText().cStr());
+          return;
+        }
+        Reply* back = reply_topic(ids[2]);
+        if (back == nullptr) return;
+        const capnp::Data::Reader answer = response.getResponse();
+        const std::array<std::uint64_t, 2> caller{ids[0], ids[1]};
+        back->topic->send(
+            with_ids(std::span(reinterpret_cast<const std::byte*>(answer.begin()), answer.size()),
+                     back->topic->type().is_pod, caller));
+      },
+      [this, ids = *ids](kj::Exception&& failure) {
+        fail(ids, detail::kStatusTransport,
+             (failure.getType() == kj::Exception::Type::DISCONNECTED
+                  ? "the link to the robot was lost: "
+                  : "the robot refused the call: ") +
+                 std::string(failure.getDescription().cStr()));
+      }));
   return kj::READY_NOW;
 }
 

@@ -32,35 +32,45 @@ std::optional<std::array<std::uint64_t, 3>> frame_ids(std::span<const std::byte>
 std::vector<std::byte> with_ids(std::span<const std::byte> frame, bool pod,
                                 std::span<const std::uint64_t> ids);
 
+/// The response frame a server elsewhere would have sent to say it gave no answer: `status` one
+/// of detail::kStatusNoServer, kStatusTimeout, kStatusTransport, `text` the error (cut as a POD
+/// frame cuts it). `frame_type` is the response frames' topic (its schema gives a serialized
+/// frame's payload, written with every field zero).
+std::vector<std::byte> failure_frame(const TopicInfo& frame_type, std::uint64_t client_id,
+                                     std::uint64_t request_id, std::uint32_t status,
+                                     std::string_view text);
+
 /// The robot's end of one service for one peer: a thread that sends each request to the live
 /// server and waits for its answer on a reply topic of its own.
 class ServiceRelay {
  public:
+  /// The server's response frame, or why there is none (`kind` none: answered).
+  struct Outcome {
+    std::vector<std::byte> answer;
+    wire::CallFailure::Kind kind = wire::CallFailure::Kind::NONE;
+    std::string failure;
+  };
+
   ServiceRelay(const std::string& service, const TopicInfo& request, const TopicInfo& response,
                const std::string& namespace_name);
   ServiceRelay(const ServiceRelay&) = delete;
   ServiceRelay& operator=(const ServiceRelay&) = delete;
   ~ServiceRelay();
 
-  /// The server's response frame to `frame`, or a failure naming why there is none.
-  kj::Promise<kj::Array<capnp::byte>> call(std::vector<std::byte> frame,
-                                           std::chrono::milliseconds timeout);
+  /// The server's response frame to `frame`, or why there is none.
+  kj::Promise<Outcome> call(std::vector<std::byte> frame, std::chrono::milliseconds timeout);
 
  private:
-  /// The server's answer, or why there is none (written by the worker before it says done).
-  struct Outcome {
-    std::vector<std::byte> answer;
-    std::string failure;
-  };
   struct Job {
     std::vector<std::byte> frame;
     std::chrono::milliseconds timeout{};
+    /// Written by the worker before it says done.
     std::shared_ptr<Outcome> outcome;
     kj::Own<kj::CrossThreadPromiseFulfiller<void>> done;
   };
   void work();
   Outcome ask(const Job& job);
-  std::optional<std::string> server_missing(std::uint64_t instance);
+  std::optional<Outcome> server_missing(std::uint64_t instance);
 
   std::string service_;
   std::uint64_t client_id_;
@@ -79,8 +89,9 @@ class ServiceRelay {
 
 /// The peer's end of one of the robot's services: registered as its server in the local
 /// namespace until the robot has no server for it any more (then withdrawn). A Forwarder streams
-/// the local request frames into it. A call that fails, also while no connection to the robot
-/// is up, makes it register anew, as a restarted server: its caller ends with a transport error.
+/// the local request frames into it. A call the robot's server did not answer is answered here
+/// with the robot's reason and its kind (no server, timeout, transport); one that the link lost,
+/// also while no connection to the robot is up, with a transport error naming the link.
 class ServiceMirror final : public wire::Sink::Server, public kj::TaskSet::ErrorHandler {
  public:
   ServiceMirror(wire::ServiceInfo::Reader info, const std::string& namespace_name);
@@ -102,6 +113,8 @@ class ServiceMirror final : public wire::Sink::Server, public kj::TaskSet::Error
   };
   /// The reply topic `index` (opened the first time), or none when it does not exist.
   Reply* reply_topic(std::uint64_t index);
+  /// Answers the caller (`ids`: client, request, reply topic) with a failure of `status`.
+  void fail(const std::array<std::uint64_t, 3>& ids, std::uint32_t status, std::string_view text);
 
   std::optional<wire::Session::Client> session_;
   std::string service_;
