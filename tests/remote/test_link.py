@@ -198,3 +198,56 @@ def test_insecure_link_only_when_both_sides_ask_and_both_warn(children, worlds, 
     secure = connect(children, laptop, certs, port, "--import", "*")
     secure.errors.wait_for("connection to")
     assert "importing" not in secure.errors.text()
+
+
+BIG = 10 << 20  # over the 8 MiB a connection reads at first
+
+# Publishes on `sys.argv[1]` (a topic it makes now, with room for BIG-byte messages) a BIG-byte
+# GenericMessage a few times a second, every byte the message's number modulo 256.
+BIG_PUBLISHER = f"BIG = {BIG}\n" + """
+import sys, time, horus
+from horus.msg import GenericMessage
+topic = horus.Topic(GenericMessage, sys.argv[1], capacity=4, max_message_size=BIG + 4096)
+print("ready", flush=True)
+i = 0
+while True:
+    topic.send(GenericMessage(data=bytes([i % 256]) * BIG, metadata=f"n{i}"))
+    i += 1
+    time.sleep(0.2)
+"""
+
+# Prints the numbers of the first 3 messages of `sys.argv[1]` (-1 for one not BIG bytes of its
+# number).
+BIG_SUBSCRIBER = f"BIG = {BIG}\n" + """
+import sys, time, horus
+from horus.msg import GenericMessage
+topic = horus.Topic(GenericMessage, sys.argv[1], capacity=4, max_message_size=BIG + 4096)
+seen = []
+while len(seen) < 3:
+    message = topic.recv(timeout=30)
+    assert message is not None, "nothing came"
+    number = int(message.metadata[1:])
+    seen.append(number if message.data == bytes([number % 256]) * BIG else -1)
+print(*seen, flush=True)
+"""
+
+
+def test_topics_larger_than_the_first_limit_made_after_connecting(children, worlds, certs):
+    robot, laptop = worlds
+    _, port = serve(children, robot, certs, "laptop read big_*", "laptop write big_goal")
+    client = connect(children, laptop, certs, port, "--import", "big_*", "--export", "big_goal")
+    wait_line(client, "connected to")
+    # Both topics appear only now, after the connection was made with its first limit.
+    wait_line(children.python(BIG_PUBLISHER, robot.env(), "big_camera"), "ready")
+    wait_line(children.python(BIG_PUBLISHER, laptop.env(), "big_goal"), "ready")
+    client.errors.wait_for("importing big_camera")
+    client.errors.wait_for("exporting big_goal")
+    for world, name in ((laptop, "big_camera"), (robot, "big_goal")):
+        receiver = children.python(BIG_SUBSCRIBER, world.env(), name)
+        out, _ = receiver.communicate(timeout=90)
+        assert receiver.returncode == 0, receiver.errors.text()
+        numbers = [int(n) for n in out.split()]
+        assert len(numbers) == 3 and -1 not in numbers, numbers
+        assert numbers == sorted(set(numbers)), numbers
+    assert "disconnected" not in client.errors.text()
+    assert "trying again" not in client.errors.text()

@@ -61,15 +61,17 @@ class Link {
         mirrors_(mirrors),
         timer_(timer),
         stream_(kj::mv(stream)),
-        network_(*stream_, capnp::rpc::twoparty::Side::CLIENT),
+        messages_(*stream_),
+        network_(messages_, capnp::rpc::twoparty::Side::CLIENT,
+                 LimitedMessageStream::network_options()),
         rpc_(capnp::makeRpcClient(network_)),
         session_(bootstrap()) {
-    for (auto& [name, served] : mirrors_.served) served.mirror->connect(session_);
+    for (auto& [name, served] : mirrors_.served) served.mirror->connect(session_, &messages_);
   }
   Link(const Link&) = delete;
   Link& operator=(const Link&) = delete;
   ~Link() {
-    for (auto& [name, served] : mirrors_.served) served.mirror->connect(std::nullopt);
+    for (auto& [name, served] : mirrors_.served) served.mirror->connect(std::nullopt, nullptr);
   }
 
   /// Until the connection ends (resolved) or fails (rejected).
@@ -141,6 +143,7 @@ class Link {
         return kj::READY_NOW;
       }
     }
+    messages_.make_room(local->payload_capacity());
     // The robot checks the local topic's type against its own: both ends check.
     auto request = session_.subscribeRequest();
     request.setTopic(name);
@@ -207,7 +210,7 @@ class Link {
       auto requests = open_topic(topic_info(info.getRequest()), options_.namespace_name);
       auto mirror = kj::heap<ServiceMirror>(info, options_.namespace_name);
       ServiceMirror* serving = mirror.get();
-      serving->connect(session_);
+      serving->connect(session_, &messages_);
       auto forwarder = kj::heap<Forwarder>(std::move(requests), kj::mv(mirror), options_.queue,
                                            "requests of " + name + " to the robot");
       kj::Promise<void> task = forwarder->run().eagerlyEvaluate([name](kj::Exception&& e) {
@@ -225,6 +228,8 @@ class Link {
   Mirrors& mirrors_;
   kj::Timer& timer_;
   kj::Own<kj::AsyncIoStream> stream_;
+  /// Raised before a topic or service whose messages would not fit is asked for.
+  LimitedMessageStream messages_;
   capnp::TwoPartyVatNetwork network_;
   capnp::RpcSystem<capnp::rpc::twoparty::VatId> rpc_;
   wire::Session::Client session_;

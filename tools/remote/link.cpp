@@ -39,7 +39,27 @@ std::string read_file(const std::string& path, const std::string& hint) {
 std::mutex forwarders_mutex;
 std::vector<const Forwarder*> forwarders;
 
+/// Room for the message framing around the largest payload.
+constexpr std::size_t kFramingBytes = 4096;
+
 }  // namespace
+
+void LimitedMessageStream::make_room(std::size_t payload_bytes) {
+  limit_words_ = std::max(limit_words_, (payload_bytes + kFramingBytes) / sizeof(capnp::word) + 1);
+}
+
+kj::Promise<kj::Maybe<capnp::MessageReaderAndFds>> LimitedMessageStream::tryReadMessage(
+    kj::ArrayPtr<kj::AutoCloseFd> fd_space, capnp::ReaderOptions options,
+    kj::ArrayPtr<capnp::word> scratch_space) {
+  options.traversalLimitInWords = limit_words_;
+  return inner_.tryReadMessage(fd_space, options, scratch_space);
+}
+
+capnp::ReaderOptions LimitedMessageStream::network_options() {
+  capnp::ReaderOptions options;
+  options.traversalLimitInWords = kLargestMessageWords;
+  return options;
+}
 
 void say(const char* format, ...) {
   std::va_list arguments;

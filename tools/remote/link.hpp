@@ -23,6 +23,52 @@
 
 namespace horus::remote {
 
+/// The message stream of a connection, whose limit on the messages it reads (Cap'n Proto's
+/// traversal limit) can be raised after it connected: TwoPartyVatNetwork keeps the ReaderOptions
+/// it was made with for its whole life. Each end raises its own limit before it asks for a
+/// topic or service whose messages would not fit (the robot only for what the policy lets the
+/// peer write or call), so a larger message ends no connection and a small one cannot be
+/// made into a flood of large ones. The network itself is given kLargestMessageWords, the
+/// largest message it may send.
+class LimitedMessageStream final : public capnp::MessageStream {
+ public:
+  /// The limit of a connection at first: topics of up to about 8 MiB need no raise (a 1080p
+  /// RGB image, 6 MB, fits).
+  static constexpr std::size_t kFirstLimitBytes = std::size_t{8} << 20;
+  /// What a TwoPartyVatNetwork over this stream is made with: it refuses to send larger
+  /// messages (a topic's messages are at most 4 GiB, the wire's UInt32, plus framing).
+  static constexpr std::size_t kLargestMessageWords =
+      (std::size_t{1} << 32) / sizeof(capnp::word) + 1024;
+
+  explicit LimitedMessageStream(kj::AsyncIoStream& stream) : inner_(stream) {}
+
+  /// Makes sure messages with `payload_bytes` of payload are read from now on.
+  void make_room(std::size_t payload_bytes);
+  std::size_t limit_bytes() const noexcept { return limit_words_ * sizeof(capnp::word); }
+
+  kj::Promise<kj::Maybe<capnp::MessageReaderAndFds>> tryReadMessage(
+      kj::ArrayPtr<kj::AutoCloseFd> fd_space, capnp::ReaderOptions options,
+      kj::ArrayPtr<capnp::word> scratch_space) override;
+  kj::Promise<void> writeMessage(
+      kj::ArrayPtr<const int> fds,
+      kj::ArrayPtr<const kj::ArrayPtr<const capnp::word>> segments) override {
+    return inner_.writeMessage(fds, segments);
+  }
+  kj::Promise<void> writeMessages(
+      kj::ArrayPtr<kj::ArrayPtr<const kj::ArrayPtr<const capnp::word>>> messages) override {
+    return inner_.writeMessages(messages);
+  }
+  kj::Maybe<int> getSendBufferSize() override { return inner_.getSendBufferSize(); }
+  kj::Promise<void> end() override { return inner_.end(); }
+
+  /// What a TwoPartyVatNetwork over this stream is made with.
+  static capnp::ReaderOptions network_options();
+
+ private:
+  capnp::AsyncIoMessageStream inner_;
+  std::size_t limit_words_ = kFirstLimitBytes / sizeof(capnp::word);
+};
+
 /// One line on stderr, "horus-remote: ...".
 [[gnu::format(printf, 1, 2)]] void say(const char* format, ...);
 

@@ -16,11 +16,6 @@ namespace {
 /// Outstanding calls a peer may have before its connection stops reading from it: 256 KiB of
 /// call messages (Cap'n Proto counts words).
 constexpr std::size_t kFlowLimitWords = (std::size_t{256} << 10) / sizeof(capnp::word);
-/// The traversal limit of a connection when the peer may read or write no larger topic yet:
-/// room for the topics that appear after it connected (a 1080p RGB image, 6 MB, fits).
-constexpr std::size_t kSmallestMessageLimit = std::size_t{8} << 20;
-/// Room for the message framing around the largest payload.
-constexpr std::size_t kFramingBytes = 4096;
 constexpr std::uint32_t kLargestQueue = 1024;
 /// The longest a peer may have the robot wait for one answer of a service.
 constexpr std::uint32_t kLongestCallMs = 60000;
@@ -59,11 +54,11 @@ class SubscriptionImpl final : public wire::Subscription::Server {
 
 class SessionImpl final : public wire::Session::Server {
  public:
-  SessionImpl(const ServeOptions& options, std::string peer, std::size_t message_limit,
+  SessionImpl(const ServeOptions& options, std::string peer, LimitedMessageStream& messages,
               kj::Timer& timer)
       : options_(options),
         peer_(std::move(peer)),
-        message_limit_(message_limit),
+        messages_(messages),
         timer_(timer),
         next_call_(timer.now()) {}
 
@@ -105,7 +100,6 @@ class SessionImpl final : public wire::Session::Server {
              hex(info.fingerprint) + ") on the robot, not " + params.getType().cStr() +
              " (fingerprint " + hex(params.getFingerprint()) + ")");
     }
-    check_size(info);
     const std::uint32_t queue = std::clamp(params.getQueue(), 1U, kLargestQueue);
     const std::string label = "topic " + name + " to " + peer_;
     auto forwarder = kj::heap<Forwarder>(opened(info), params.getSink(), queue, label);
@@ -126,6 +120,8 @@ class SessionImpl final : public wire::Session::Server {
         return t.name == service.name + ".request" && !t.type_name.empty();
       });
       if (service.servers > 0 && request != topics.end() && allows(Access::Call, service.name)) {
+        // Its requests arrive in calls, read before they are looked at.
+        messages_.make_room(request->max_message_size);
         live.emplace_back(std::move(service), *request);
       }
     }
@@ -198,8 +194,8 @@ class SessionImpl final : public wire::Session::Server {
     if (!allows(Access::Write, info.name)) {
       refuse(denied("write topic", info.name));
     }
-    check_size(info);
     std::shared_ptr<detail::ErasedTopic> topic = opened(info);
+    messages_.make_room(topic->payload_capacity());
     say("%s publishes to %s", peer_.c_str(), info.name.c_str());
     context.getResults().setSink(
         kj::heap<TopicSink>(std::move(topic), "topic " + info.name + " from " + peer_));
@@ -219,15 +215,6 @@ class SessionImpl final : public wire::Session::Server {
 
   bool allows(Access access, const std::string& name) const {
     return options_.policy.allows(peer_, access, name);
-  }
-
-  /// Cap'n Proto sends no message larger than the connection's own traversal limit either.
-  void check_size(const TopicInfo& info) const {
-    if (info.max_message_size + kFramingBytes > message_limit_) {
-      refuse("topic '" + info.name + "': messages of " + std::to_string(info.max_message_size) +
-             " bytes are over this connection's limit of " + std::to_string(message_limit_) +
-             " (set from the topics allowed when it was made: connect again)");
-    }
   }
 
   /// `what`: "read topic", "write topic" or "call service".
@@ -260,7 +247,8 @@ class SessionImpl final : public wire::Session::Server {
 
   const ServeOptions& options_;
   std::string peer_;
-  std::size_t message_limit_;
+  /// The connection's: raised for what this peer may write or call.
+  LimitedMessageStream& messages_;
   kj::Timer& timer_;
   /// When this peer's next call may run (throttle()).
   kj::TimePoint next_call_;
@@ -270,14 +258,17 @@ class SessionImpl final : public wire::Session::Server {
 
 /// One authenticated peer's RPC connection.
 struct Connection {
-  Connection(kj::Own<kj::AsyncIoStream> stream_, capnp::ReaderOptions reader,
-             kj::Own<SessionImpl> session)
+  Connection(kj::Own<kj::AsyncIoStream> stream_, const ServeOptions& options,
+             const std::string& peer, kj::Timer& timer)
       : stream(kj::mv(stream_)),
-        network(*stream, capnp::rpc::twoparty::Side::SERVER, reader),
-        rpc(capnp::makeRpcServer(network, kj::mv(session))) {
+        messages(*stream),
+        network(messages, capnp::rpc::twoparty::Side::SERVER,
+                LimitedMessageStream::network_options()),
+        rpc(capnp::makeRpcServer(network, kj::heap<SessionImpl>(options, peer, messages, timer))) {
     rpc.setFlowLimit(kFlowLimitWords);
   }
   kj::Own<kj::AsyncIoStream> stream;
+  LimitedMessageStream messages;
   capnp::TwoPartyVatNetwork network;
   capnp::RpcSystem<capnp::rpc::twoparty::VatId> rpc;
 };
@@ -331,28 +322,11 @@ class Server final : public kj::TaskSet::ErrorHandler {
       say("refused %s at %s: no policy line names it", name.c_str(), address.c_str());
       return kj::READY_NOW;
     }
-    const std::size_t limit = message_limit(name);
-    capnp::ReaderOptions reader;
-    reader.traversalLimitInWords = limit / sizeof(capnp::word);
     say("%s connected from %s", name.c_str(), address.c_str());
-    auto connection = kj::heap<Connection>(kj::mv(peer.stream), reader,
-                                           kj::heap<SessionImpl>(options_, name, limit, timer_));
+    auto connection = kj::heap<Connection>(kj::mv(peer.stream), options_, name, timer_);
     return connection->network.onDisconnect().attach(kj::mv(connection)).then([name, address] {
       say("%s at %s disconnected", name.c_str(), address.c_str());
     });
-  }
-
-  /// The largest message of a connection with `peer` either way: what the largest topic it may
-  /// read or write takes, framed.
-  std::size_t message_limit(const std::string& peer) const {
-    std::size_t largest = 0;
-    for (const TopicInfo& info : list_topics(options_.namespace_name)) {
-      if (options_.policy.allows(peer, Access::Read, info.name) ||
-          options_.policy.allows(peer, Access::Write, info.name)) {
-        largest = std::max(largest, info.max_message_size);
-      }
-    }
-    return std::max(largest + kFramingBytes, kSmallestMessageLimit);
   }
 
   const ServeOptions& options_;

@@ -356,6 +356,7 @@ kj::Promise<void> ServiceMirror::message(MessageContext context) {
     fail(*ids, detail::kStatusTransport, "the link to the robot is down");
     return kj::READY_NOW;
   }
+  messages_->make_room(reply->topic->payload_capacity());
   auto request = session_->callRequest();
   request.setService(service_);
   request.setRequest(data);

@@ -97,8 +97,12 @@ class ServiceMirror final : public wire::Sink::Server, public kj::TaskSet::Error
   ServiceMirror(wire::ServiceInfo::Reader info, const std::string& namespace_name);
   ~ServiceMirror() noexcept(false);
 
-  /// The session calls go to from now on; none while the connection is down.
-  void connect(std::optional<wire::Session::Client> session) { session_ = std::move(session); }
+  /// The session calls go to from now on, and its connection's stream (raised to fit the
+  /// answers); none while the connection is down.
+  void connect(std::optional<wire::Session::Client> session, LimitedMessageStream* messages) {
+    session_ = std::move(session);
+    messages_ = messages;
+  }
 
   void taskFailed(kj::Exception&& exception) override;
 
@@ -117,6 +121,7 @@ class ServiceMirror final : public wire::Sink::Server, public kj::TaskSet::Error
   void fail(const std::array<std::uint64_t, 3>& ids, std::uint32_t status, std::string_view text);
 
   std::optional<wire::Session::Client> session_;
+  LimitedMessageStream* messages_ = nullptr;
   std::string service_;
   std::string namespace_name_;
   bool request_pod_;
