@@ -251,3 +251,60 @@ def test_topics_larger_than_the_first_limit_made_after_connecting(children, worl
         assert numbers == sorted(set(numbers)), numbers
     assert "disconnected" not in client.errors.text()
     assert "trying again" not in client.errors.text()
+
+
+# Publishes on camera a 640x480 RGB image 30 times a second, numbered by its timestamp, whose
+# pixels are a pattern shifted by its number.
+IMAGE_PUBLISHER = """
+import time, horus, numpy
+camera = horus.Topic(horus.Image, "camera")
+base = numpy.arange(480 * 640 * 3, dtype=numpy.uint32).reshape(480, 640, 3)
+print("ready", flush=True)
+i = 0
+while True:
+    image = horus.Image.from_numpy(((base + i) % 251).astype(numpy.uint8), horus.ImageEncoding.Rgb8)
+    image.timestamp_ns = i
+    image.frame_id = "camera_link"
+    camera.send(image)
+    i += 1
+    time.sleep(1 / 30)
+"""
+
+# Prints the numbers of the first 20 images on camera (-1 for one whose pixels, size, encoding
+# or frame are not its number's), then the first and last pixel bytes of the last.
+IMAGE_SUBSCRIBER = """
+import horus, numpy
+camera = horus.Topic(horus.Image, "camera")
+base = numpy.arange(480 * 640 * 3, dtype=numpy.uint32).reshape(480, 640, 3)
+seen = []
+while len(seen) < 20:
+    image = camera.recv(timeout=30)
+    assert image is not None, "no image came"
+    number = image.timestamp_ns
+    pixels = numpy.asarray(image)
+    intact = (image.width, image.height, image.encoding, image.frame_id) == (
+        640, 480, horus.ImageEncoding.Rgb8, "camera_link") and numpy.array_equal(
+        pixels.reshape(480, 640, 3), (base + number) % 251)
+    seen.append(number if intact else -1)
+print(*seen, flush=True)
+flat = pixels.reshape(-1)
+print(number, int(flat[0]), int(flat[-1]), flush=True)
+"""
+
+
+def test_images_mirrored_with_their_pixels(children, worlds, certs):
+    robot, laptop = worlds
+    wait_line(children.python(IMAGE_PUBLISHER, robot.env()), "ready")
+    _, port = serve(children, robot, certs, "laptop read camera")
+    client = connect(children, laptop, certs, port, "--import", "camera")
+    client.errors.wait_for("importing camera")
+    receiver = children.python(IMAGE_SUBSCRIBER, laptop.env())
+    out, _ = receiver.communicate(timeout=90)
+    assert receiver.returncode == 0, receiver.errors.text()
+    numbers_line, pixels_line = out.splitlines()
+    numbers = [int(n) for n in numbers_line.split()]
+    assert -1 not in numbers, numbers
+    # In order, none twice (a slow link drops images, latest wins; it never repeats them).
+    assert numbers == sorted(set(numbers)), numbers
+    number, first, last = (int(n) for n in pixels_line.split())
+    assert (first, last) == (number % 251, (480 * 640 * 3 - 1 + number) % 251)

@@ -143,13 +143,15 @@ class Link {
         return kj::READY_NOW;
       }
     }
-    messages_.make_room(local->payload_capacity());
+    auto sink =
+        kj::heap<TopicSink>(local, "topic " + name + " from the robot", options_.namespace_name);
+    messages_.make_room(sink->largest_message());
     // The robot checks the local topic's type against its own: both ends check.
     auto request = session_.subscribeRequest();
     request.setTopic(name);
     request.setType(local->type().name);
     request.setFingerprint(local->type().fingerprint);
-    request.setSink(kj::heap<TopicSink>(local, "topic " + name + " from the robot"));
+    request.setSink(kj::mv(sink));
     request.setQueue(options_.queue);
     refused_.insert(name);  // until the answer: asked once per connection
     return request.send().then(
@@ -181,8 +183,9 @@ class Link {
         [this, name, topic = std::move(topic)](
             capnp::Response<wire::Session::PublishResults>&& response) mutable {
           refused_.erase(name);
-          auto forwarder = kj::heap<Forwarder>(std::move(topic), response.getSink(), options_.queue,
-                                               "topic " + name + " to the robot");
+          auto forwarder =
+              kj::heap<Forwarder>(std::move(topic), response.getSink(), options_.queue,
+                                  "topic " + name + " to the robot", options_.namespace_name);
           kj::Promise<void> task = forwarder->run().eagerlyEvaluate([name](kj::Exception&& e) {
             say("export of %s ended: %s", name.c_str(), e.getDescription().cStr());
           });
@@ -211,8 +214,9 @@ class Link {
       auto mirror = kj::heap<ServiceMirror>(info, options_.namespace_name);
       ServiceMirror* serving = mirror.get();
       serving->connect(session_, &messages_);
-      auto forwarder = kj::heap<Forwarder>(std::move(requests), kj::mv(mirror), options_.queue,
-                                           "requests of " + name + " to the robot");
+      auto forwarder =
+          kj::heap<Forwarder>(std::move(requests), kj::mv(mirror), options_.queue,
+                              "requests of " + name + " to the robot", options_.namespace_name);
       kj::Promise<void> task = forwarder->run().eagerlyEvaluate([name](kj::Exception&& e) {
         say("serving %s of the robot ended: %s", name.c_str(), e.getDescription().cStr());
       });

@@ -1,6 +1,7 @@
 #include "link.hpp"
 
 #include "horus/detail/json_string.hpp"
+#include "horus/tensor_pool.hpp"
 
 #include <sys/stat.h>
 #include <unistd.h>
@@ -41,6 +42,15 @@ std::vector<const Forwarder*> forwarders;
 
 /// Room for the message framing around the largest payload.
 constexpr std::size_t kFramingBytes = 4096;
+
+/// The frames of a topic's type, when it is pool-backed. `keep`: how many frames made again
+/// hold their blocks (as many as the topic's ring gives out).
+std::unique_ptr<detail::PoolFrames> pool_frames(const detail::ErasedTopic& topic,
+                                                const std::string& namespace_name,
+                                                std::size_t keep) {
+  return detail::make_pool_frames(topic.type().name, topic.type().fingerprint, namespace_name,
+                                  keep);
+}
 
 }  // namespace
 
@@ -114,8 +124,9 @@ std::unique_ptr<detail::ErasedTopic> open_topic(const TopicInfo& info,
 }
 
 Forwarder::Forwarder(std::unique_ptr<detail::ErasedTopic> topic, wire::Sink::Client sink,
-                     std::size_t queue_limit, std::string label)
+                     std::size_t queue_limit, std::string label, const std::string& namespace_name)
     : topic_(std::move(topic)),
+      frames_(pool_frames(*topic_, namespace_name, 1)),
       sink_(std::move(sink)),
       queue_limit_(queue_limit),
       label_(std::move(label)),
@@ -146,13 +157,26 @@ void Forwarder::read_loop() {
       continue;
     }
     const std::span<std::byte> bytes = topic_->received(static_cast<std::size_t>(size));
+    std::vector<std::byte> message;
+    if (frames_) {
+      const std::size_t recorded =
+          frames_->record(bytes.data(), bytes.size(), [&message](std::size_t room) {
+            message.resize(room);
+            return reinterpret_cast<std::uint8_t*>(message.data());
+          });
+      // 0: the block was freed or reused since (a local subscriber would refuse it too).
+      if (recorded == 0) continue;
+      message.resize(recorded);
+    } else {
+      message.assign(bytes.begin(), bytes.end());
+    }
     {
       std::lock_guard lock(mutex_);
       if (queue_.size() >= queue_limit_) {
         queue_.pop_front();
         dropped_.fetch_add(1);
       }
-      queue_.push_back(Queued{++sequence, std::vector<std::byte>(bytes.begin(), bytes.end())});
+      queue_.push_back(Queued{++sequence, std::move(message)});
       if (waiter_) {
         waiter_->fulfill();
         waiter_ = nullptr;
@@ -195,8 +219,18 @@ kj::Promise<void> Forwarder::run() {
   return request.send().then([this] { return run(); });
 }
 
-TopicSink::TopicSink(std::shared_ptr<detail::ErasedTopic> topic, std::string label)
-    : topic_(std::move(topic)), label_(std::move(label)) {}
+TopicSink::TopicSink(std::shared_ptr<detail::ErasedTopic> topic, std::string label,
+                     const std::string& namespace_name)
+    : topic_(std::move(topic)),
+      frames_(pool_frames(*topic_, namespace_name, topic_->capacity())),
+      label_(std::move(label)),
+      largest_message_(topic_->payload_capacity()) {
+  if (frames_) {
+    TensorPoolOptions options;
+    options.namespace_name = namespace_name;
+    largest_message_ += TensorPool::open("default", options).block_size();
+  }
+}
 
 TopicSink::~TopicSink() noexcept(false) {
   if (dropped_ != 0) {
@@ -209,8 +243,17 @@ kj::Promise<void> TopicSink::message(MessageContext context) {
   const auto params = context.getParams();
   const capnp::Data::Reader data = params.getData();
   const detail::ErasedType& type = topic_->type();
+  std::span<const std::byte> message(reinterpret_cast<const std::byte*>(data.begin()), data.size());
   std::string wrong;
-  if (type.is_pod && data.size() != type.size) {
+  if (frames_) {
+    try {
+      message = frames_->replay(std::span(data.begin(), data.size()));
+      if (message.empty()) wrong = "a malformed frame of " + type.name;
+    } catch (const Error& e) {  // the pool has no free block: this frame is lost, as on a drop
+      say("%s: %s", label_.c_str(), e.what());
+      return kj::READY_NOW;
+    }
+  } else if (type.is_pod && data.size() != type.size) {
     wrong = "a " + type.name + " is " + std::to_string(type.size) + " bytes, not " +
             std::to_string(data.size());
   } else if (data.size() > topic_->payload_capacity()) {
@@ -221,7 +264,7 @@ kj::Promise<void> TopicSink::message(MessageContext context) {
     say("%s: %s; the stream ends", label_.c_str(), wrong.c_str());
     refuse(label_ + ": " + wrong);
   }
-  topic_->send(std::span(reinterpret_cast<const std::byte*>(data.begin()), data.size()));
+  topic_->send(message);
   ++received_;
   dropped_ = params.getDropped();
   return kj::READY_NOW;

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "horus/detail/erased_topic.hpp"
+#include "horus/detail/pool_frames.hpp"
 #include "horus/topic_registry.hpp"
 #include "remote.capnp.h"
 
@@ -87,11 +88,13 @@ std::unique_ptr<detail::ErasedTopic> open_topic(const TopicInfo& info,
 /// Streams the messages of a local topic into a peer's Sink: a thread waits on the topic and
 /// queues at most `queue_limit` messages (the oldest dropped beyond that: latest wins when the
 /// link is slower than the publisher); the event loop sends them with Cap'n Proto's streaming
-/// flow control, so a slow peer holds the queue at its bound, never more.
+/// flow control, so a slow peer holds the queue at its bound, never more. A frame of a
+/// pool-backed type (Image, DepthImage, PointCloud, Tensor) of `namespace_name` is queued as
+/// the recorder keeps it: its descriptor and the data of its block, copied as it is read.
 class Forwarder {
  public:
   Forwarder(std::unique_ptr<detail::ErasedTopic> topic, wire::Sink::Client sink,
-            std::size_t queue_limit, std::string label);
+            std::size_t queue_limit, std::string label, const std::string& namespace_name);
   Forwarder(const Forwarder&) = delete;
   Forwarder& operator=(const Forwarder&) = delete;
   ~Forwarder();
@@ -111,6 +114,8 @@ class Forwarder {
   void report_drops();
 
   std::unique_ptr<detail::ErasedTopic> topic_;
+  /// Set for a pool-backed type.
+  std::unique_ptr<detail::PoolFrames> frames_;
   wire::Sink::Client sink_;
   std::size_t queue_limit_;
   std::string label_;
@@ -137,18 +142,28 @@ std::string status_path(const std::string& namespace_name);
 void write_status(const std::string& path, const char* role);
 
 /// Writes what a peer streams into a local topic: POD messages of exactly the type's size,
-/// serialized ones no larger than a slot; anything else ends the stream with the reason.
+/// serialized ones no larger than a slot; anything else ends the stream with the reason. A
+/// frame of a pool-backed type (a descriptor and its data, as a Forwarder sends it) is made
+/// again in a block of the "default" pool of `namespace_name`, as a replay makes it, and its
+/// descriptor published.
 class TopicSink final : public wire::Sink::Server {
  public:
-  TopicSink(std::shared_ptr<detail::ErasedTopic> topic, std::string label);
+  TopicSink(std::shared_ptr<detail::ErasedTopic> topic, std::string label,
+            const std::string& namespace_name);
   ~TopicSink() noexcept(false);
+
+  /// The largest message this sink reads: a slot's payload, or a descriptor and a block of
+  /// the pool the frames are made again in.
+  std::size_t largest_message() const noexcept { return largest_message_; }
 
  protected:
   kj::Promise<void> message(MessageContext context) override;
 
  private:
   std::shared_ptr<detail::ErasedTopic> topic_;
+  std::unique_ptr<detail::PoolFrames> frames_;
   std::string label_;
+  std::size_t largest_message_;
   std::uint64_t received_ = 0;
   std::uint64_t dropped_ = 0;
 };

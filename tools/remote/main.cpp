@@ -165,6 +165,8 @@ int run(int argc, char** argv) {
 }  // namespace horus::remote
 
 int main(int argc, char** argv) {
+  // Frames of pool-backed topics cross with their data (link.hpp: Forwarder, TopicSink).
+  horus::detail::enable_pool_frames();
   try {
     return horus::remote::run(argc, argv);
   } catch (const kj::Exception& e) {

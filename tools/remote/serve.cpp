@@ -102,7 +102,8 @@ class SessionImpl final : public wire::Session::Server {
     }
     const std::uint32_t queue = std::clamp(params.getQueue(), 1U, kLargestQueue);
     const std::string label = "topic " + name + " to " + peer_;
-    auto forwarder = kj::heap<Forwarder>(opened(info), params.getSink(), queue, label);
+    auto forwarder =
+        kj::heap<Forwarder>(opened(info), params.getSink(), queue, label, options_.namespace_name);
     say("%s subscribed to %s", peer_.c_str(), name.c_str());
     context.getResults().setSubscription(kj::heap<SubscriptionImpl>(kj::mv(forwarder), label));
     return kj::READY_NOW;
@@ -194,11 +195,11 @@ class SessionImpl final : public wire::Session::Server {
     if (!allows(Access::Write, info.name)) {
       refuse(denied("write topic", info.name));
     }
-    std::shared_ptr<detail::ErasedTopic> topic = opened(info);
-    messages_.make_room(topic->payload_capacity());
+    auto sink = kj::heap<TopicSink>(opened(info), "topic " + info.name + " from " + peer_,
+                                    options_.namespace_name);
+    messages_.make_room(sink->largest_message());
     say("%s publishes to %s", peer_.c_str(), info.name.c_str());
-    context.getResults().setSink(
-        kj::heap<TopicSink>(std::move(topic), "topic " + info.name + " from " + peer_));
+    context.getResults().setSink(kj::mv(sink));
     return kj::READY_NOW;
   }
 
