@@ -74,16 +74,17 @@ def kinds_class(generated):
 
 @pytest.fixture(scope="session")
 def dds_peer(generated, tmp_path_factory) -> str:
-    """dds_peer.c built with idlc's C of the emitted IDL (as a Cyclone user would build it)."""
-    idl = generated / "idl"
+    """dds_peer.c built with idlc's C of the emitted IDL and of ROS 2's messages (ros2_idl/), as
+    a Cyclone user would build it."""
     build = tmp_path_factory.mktemp("dds_peer")
     sources = [str(HERE / "dds_peer.c")]
-    for path in sorted(idl.rglob("*.idl")):
-        folder = build / path.parent.relative_to(idl)
-        folder.mkdir(parents=True, exist_ok=True)
-        subprocess.run(["idlc", "-I", str(idl), str(path)], cwd=folder, check=True,
-                       capture_output=True)
-        sources.append(str(folder / (path.stem + ".c")))
+    for idl in (generated / "idl", HERE / "ros2_idl"):
+        for path in sorted(idl.rglob("*.idl")):
+            folder = build / path.parent.relative_to(idl)
+            folder.mkdir(parents=True, exist_ok=True)
+            subprocess.run(["idlc", "-I", str(idl), str(path)], cwd=folder, check=True,
+                           capture_output=True)
+            sources.append(str(folder / (path.stem + ".c")))
     program = build / "dds_peer"
     subprocess.run(["cc", "-O1", "-Wall", "-DDDS_NDEBUG", "-I", str(build), "-o", str(program),
                     *sources, "-lddsc"], check=True, capture_output=True)

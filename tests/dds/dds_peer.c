@@ -1,8 +1,13 @@
-/* A plain Cyclone DDS program built with idlc from the IDL horus-gen emits (the tests build it),
-   standing in for a ROS 2 node: it knows nothing of HORUS but the IDL.
+/* A plain Cyclone DDS program built with idlc from the IDL horus-gen emits and from ROS 2's
+   messages as hand-written IDL (ros2_idl/; the tests build it), standing in for a ROS 2 node: it
+   knows nothing of HORUS but the IDL.
      dds_peer read-cmdvel DOMAIN N   prints N horus.msg.CmdVel samples of rt/cmd_vel, one a line
      dds_peer read-kinds DOMAIN N    prints N dds_test.Kinds samples of rt/kinds
      dds_peer write-kinds DOMAIN     writes one known Kinds sample once a reader matches
+     dds_peer read-twist DOMAIN N    prints N geometry_msgs/msg/Twist samples of rt/cmd_vel
+     dds_peer write-twist DOMAIN     writes one known Twist on rt/cmd_vel once a reader matches
+     dds_peer read-imu DOMAIN N      prints N sensor_msgs/msg/Imu samples of rt/imu
+     dds_peer write-imu DOMAIN       writes one known Imu on rt/imu once a reader matches
    It prints "ready" once its reader or writer exists; a timeout (20 s) is exit status 1. */
 #include <inttypes.h>
 #include <stdio.h>
@@ -11,7 +16,9 @@
 
 #include "dds/dds.h"
 #include "dds_test/Kinds.h"
+#include "geometry_msgs/msg/Twist.h"
 #include "horus/msg/CmdVel.h"
+#include "sensor_msgs/msg/Imu.h"
 
 static dds_qos_t *reliable(void)
 {
@@ -56,6 +63,36 @@ static void print_kinds(const void *sample)
   printf(" last=%u\n", s->last);
 }
 
+static void print_twist(const void *sample)
+{
+  const geometry_msgs_msg_dds__Twist_ *s = sample;
+  printf("linear=%g,%g,%g angular=%g,%g,%g\n", s->linear.x, s->linear.y, s->linear.z,
+         s->angular.x, s->angular.y, s->angular.z);
+}
+
+static void print_numbers(const char *name, const double *values, int count)
+{
+  printf(" %s=", name);
+  for (int i = 0; i < count; i++) printf("%s%g", i ? "," : "", values[i]);
+}
+
+static void print_imu(const void *sample)
+{
+  const sensor_msgs_msg_dds__Imu_ *s = sample;
+  printf("sec=%d nanosec=%u frame_id=%s", s->header.stamp.sec, s->header.stamp.nanosec,
+         s->header.frame_id);
+  printf(" orientation=%g,%g,%g,%g", s->orientation.x, s->orientation.y, s->orientation.z,
+         s->orientation.w);
+  print_numbers("orientation_covariance", s->orientation_covariance, 9);
+  printf(" angular_velocity=%g,%g,%g", s->angular_velocity.x, s->angular_velocity.y,
+         s->angular_velocity.z);
+  print_numbers("angular_velocity_covariance", s->angular_velocity_covariance, 9);
+  printf(" linear_acceleration=%g,%g,%g", s->linear_acceleration.x, s->linear_acceleration.y,
+         s->linear_acceleration.z);
+  print_numbers("linear_acceleration_covariance", s->linear_acceleration_covariance, 9);
+  printf("\n");
+}
+
 static int read_samples(dds_entity_t participant, const dds_topic_descriptor_t *type,
                         const char *name, int count, void (*print)(const void *))
 {
@@ -87,9 +124,11 @@ static int read_samples(dds_entity_t participant, const dds_topic_descriptor_t *
   return 0;
 }
 
-static int write_kinds(dds_entity_t participant)
+/* Writes `sample` once a reader matches, and waits until it has it. */
+static int write_sample(dds_entity_t participant, const dds_topic_descriptor_t *type,
+                        const char *name, const void *sample)
 {
-  dds_entity_t topic = dds_create_topic(participant, &dds_test_dds__Kinds__desc, "rt/kinds", NULL, NULL);
+  dds_entity_t topic = dds_create_topic(participant, type, name, NULL, NULL);
   dds_qos_t *qos = reliable();
   dds_entity_t writer = dds_create_writer(participant, topic, qos, NULL);
   dds_delete_qos(qos);
@@ -103,6 +142,35 @@ static int write_kinds(dds_entity_t participant)
     dds_get_publication_matched_status(writer, &matched);
   }
   if (matched.current_count == 0) { fprintf(stderr, "no reader matched\n"); return 1; }
+  dds_return_t code = dds_write(writer, sample);
+  if (code < 0) { fprintf(stderr, "write: %s\n", dds_strretcode(code)); return 1; }
+  /* Reliable delivery completes before the participant goes away. */
+  dds_wait_for_acks(writer, DDS_SECS(10));
+  return 0;
+}
+
+static int write_twist(dds_entity_t participant)
+{
+  geometry_msgs_msg_dds__Twist_ s = { .linear = { 1.5, 0.25, 0 }, .angular = { 0, 0, -0.75 } };
+  return write_sample(participant, &geometry_msgs_msg_dds__Twist__desc, "rt/cmd_vel", &s);
+}
+
+static int write_imu(dds_entity_t participant)
+{
+  sensor_msgs_msg_dds__Imu_ s = {
+    .header = { .stamp = { 12, 345 }, .frame_id = "imu_link" },
+    .orientation = { 0, 0, 0.6, 0.8 },
+    .orientation_covariance = { 1, 0, 0, 0, 2, 0, 0, 0, 3 },
+    .angular_velocity = { 0.1, -0.2, 0.3 },
+    .angular_velocity_covariance = { -1 },
+    .linear_acceleration = { 0, 0, 9.81 },
+    .linear_acceleration_covariance = { 0.5, 0, 0, 0, 0.5, 0, 0, 0, 0.5 },
+  };
+  return write_sample(participant, &sensor_msgs_msg_dds__Imu__desc, "rt/imu", &s);
+}
+
+static int write_kinds(dds_entity_t participant)
+{
   uint8_t blob[] = { 1, 2, 3 };
   float values[] = { 0.5f, -2.0f };
   dds_test_dds__Inner_ inners[] = { { true, 1.25 }, { false, -3.5 } };
@@ -122,16 +190,17 @@ static int write_kinds(dds_entity_t participant)
     .points = { ._length = 1, ._maximum = 1, ._buffer = points },
     .last = 255,
   };
-  dds_return_t code = dds_write(writer, &s);
-  if (code < 0) { fprintf(stderr, "write: %s\n", dds_strretcode(code)); return 1; }
-  /* Reliable delivery completes before the participant goes away. */
-  dds_wait_for_acks(writer, DDS_SECS(10));
-  return 0;
+  return write_sample(participant, &dds_test_dds__Kinds__desc, "rt/kinds", &s);
 }
 
 int main(int argc, char **argv)
 {
-  if (argc < 3) { fprintf(stderr, "usage: dds_peer read-cmdvel|read-kinds|write-kinds DOMAIN [N]\n"); return 2; }
+  if (argc < 3)
+  {
+    fprintf(stderr, "usage: dds_peer read-cmdvel|read-kinds|write-kinds|read-twist|write-twist|"
+                    "read-imu|write-imu DOMAIN [N]\n");
+    return 2;
+  }
   dds_entity_t participant = dds_create_participant((dds_domainid_t) atoi(argv[2]), NULL, NULL);
   if (participant < 0) { fprintf(stderr, "participant: %s\n", dds_strretcode(participant)); return 1; }
   int count = argc > 3 ? atoi(argv[3]) : 1;
@@ -142,6 +211,15 @@ int main(int argc, char **argv)
     status = read_samples(participant, &dds_test_dds__Kinds__desc, "rt/kinds", count, print_kinds);
   else if (strcmp(argv[1], "write-kinds") == 0)
     status = write_kinds(participant);
+  else if (strcmp(argv[1], "read-twist") == 0)
+    status = read_samples(participant, &geometry_msgs_msg_dds__Twist__desc, "rt/cmd_vel", count,
+                          print_twist);
+  else if (strcmp(argv[1], "write-twist") == 0)
+    status = write_twist(participant);
+  else if (strcmp(argv[1], "read-imu") == 0)
+    status = read_samples(participant, &sensor_msgs_msg_dds__Imu__desc, "rt/imu", count, print_imu);
+  else if (strcmp(argv[1], "write-imu") == 0)
+    status = write_imu(participant);
   dds_delete(participant);
   return status;
 }

@@ -158,4 +158,4 @@ def test_a_remote_timeout_and_a_remote_no_server_reach_the_caller_as_those_kinds
     else:
         assert timeout == "error Timeout on the server's host: no answer from Scale in time", lines
         assert no_server.startswith("error NoServer "), lines
-    assert answer == "answer -1", lines
+    assert answer.rstrip() == "answer -1", lines  # C++ prints the (empty) note too

@@ -22,12 +22,15 @@ to a multiple of 4 as Cyclone DDS pads it. Reading takes big-endian CDR too.
 
 For a POD type, pod_plan(cls) gives the same mapping as steps over the struct bytes, for
 horus._dds.CdrPlan: the bridge's C++ threads then carry the type with no Python per message.
+
+CdrWriter and CdrReader write and read a sample member by member, for types that are not a
+generated class's (ros2_types: ROS 2's twins of standard types).
 """
 from __future__ import annotations
 
 import struct
 
-__all__ = ["CdrCodec", "pod_plan"]
+__all__ = ["CdrCodec", "CdrReader", "CdrWriter", "pod_plan"]
 
 _CDR_BE, _CDR_LE = b"\x00\x00", b"\x00\x01"
 
@@ -39,30 +42,37 @@ class CdrCodec:
         self.cls = cls
 
     def encode(self, message) -> bytes:
-        out = bytearray()
-        _write_message(out, message)
-        padding = -len(out) % 4
-        out += bytes(padding)
-        return _CDR_LE + bytes((0, padding)) + bytes(out)
+        writer = CdrWriter()
+        _write_message(writer.out, message)
+        return writer.sample()
 
     def decode(self, data) -> object:
-        data = bytes(data)
-        if len(data) < 4:
-            raise ValueError(f"a CDR sample of {len(data)} bytes has no encapsulation header")
-        scheme = data[:2]
-        if scheme not in (_CDR_LE, _CDR_BE):
-            raise ValueError(f"encapsulation {scheme.hex()} is not plain CDR (XCDR1): the writer's "
-                             "type is not a @final struct of the IDL horus-gen emits")
-        reader = _Reader(data[4:], "<" if scheme == _CDR_LE else ">")
-        try:
-            message = _read_message(reader, self.cls)
-            # Up to 3 bytes pad a sample to a multiple of 4; more is not this type.
-            if len(reader.data) - reader.position > 3:
-                raise ValueError(f"{len(reader.data) - reader.position} bytes are left over")
-        except (struct.error, ValueError) as error:
-            raise ValueError(f"a CDR sample does not decode as {self.cls.__horus__.name}: "
-                             f"{error}") from None
-        return message
+        return CdrReader.read_sample(data, self.cls.__horus__.name,
+                                     lambda reader: _read_message(reader, self.cls))
+
+
+class CdrWriter:
+    """A sample's body, member by member; sample() adds the encapsulation and the padding."""
+
+    def __init__(self) -> None:
+        self.out = bytearray()
+
+    def number(self, fmt: str, value) -> None:
+        """One number of struct format `fmt` ("d", "f", "I", "i", "Q", ...) at its alignment."""
+        _put(self.out, fmt, struct.calcsize(fmt), value)
+
+    def numbers(self, fmt: str, values) -> None:
+        """An array of numbers (no count), or a sequence's elements after count()."""
+        size = struct.calcsize(fmt)
+        _align(self.out, size)
+        self.out += struct.pack(f"<{len(values)}{fmt}", *values)
+
+    def string(self, text: str) -> None:
+        _write_string(self.out, text)
+
+    def sample(self) -> bytes:
+        padding = -len(self.out) % 4
+        return _CDR_LE + bytes((0, padding)) + bytes(self.out) + bytes(padding)
 
 
 # -- the plan of a POD type --------------------------------------------------------------------
@@ -180,11 +190,48 @@ def _write(out: bytearray, codec, value) -> None:
 
 # -- reading --------------------------------------------------------------------------------------
 
-class _Reader:
+class CdrReader:
+    """A sample's body, member by member (read_sample gives one to a reading function)."""
+
     __slots__ = ("data", "position", "order")
 
     def __init__(self, data: bytes, order: str) -> None:
         self.data, self.position, self.order = data, 0, order
+
+    @staticmethod
+    def read_sample(data, type_name: str, read):
+        """`read(reader)` over the body of the CDR sample `data`; ValueError naming `type_name`
+        when the bytes do not fit."""
+        data = bytes(data)
+        if len(data) < 4:
+            raise ValueError(f"a CDR sample of {len(data)} bytes has no encapsulation header")
+        scheme = data[:2]
+        if scheme not in (_CDR_LE, _CDR_BE):
+            raise ValueError(f"encapsulation {scheme.hex()} is not plain CDR (XCDR1): the writer's "
+                             "type is not a @final struct of the IDL horus-gen emits")
+        reader = CdrReader(data[4:], "<" if scheme == _CDR_LE else ">")
+        try:
+            value = read(reader)
+            # Up to 3 bytes pad a sample to a multiple of 4; more is not this type.
+            if len(reader.data) - reader.position > 3:
+                raise ValueError(f"{len(reader.data) - reader.position} bytes are left over")
+        except (struct.error, ValueError) as error:
+            raise ValueError(f"a CDR sample does not decode as {type_name}: {error}") from None
+        return value
+
+    def number(self, fmt: str):
+        return self.take(fmt, struct.calcsize(fmt))
+
+    def numbers(self, fmt: str, count: int) -> tuple:
+        size = struct.calcsize(fmt)
+        self.position += -self.position % min(size, 8)
+        return struct.unpack(f"{self.order}{count}{fmt}", self.raw(count * size))
+
+    def string(self) -> str:
+        size = self.count()
+        if size == 0:
+            raise ValueError(f"a string at offset {self.position - 4} has length 0 (no NUL)")
+        return self.raw(size)[:-1].decode("utf-8")
 
     def take(self, fmt: str, size: int):
         self.position += -self.position % min(size, 8)
@@ -208,7 +255,7 @@ class _Reader:
         return value
 
 
-def _read_message(reader: _Reader, cls):
+def _read_message(reader: CdrReader, cls):
     info = cls.__horus__
     message = cls()
     if not info.fields:
@@ -219,7 +266,7 @@ def _read_message(reader: _Reader, cls):
     return message
 
 
-def _read(reader: _Reader, codec):
+def _read(reader: CdrReader, codec):
     kind = type(codec).__name__
     if kind == "Bool":
         return reader.take("B", 1) != 0
@@ -229,10 +276,7 @@ def _read(reader: _Reader, codec):
         number = reader.take(codec.base.fmt, codec.base.size)
         return codec.members.get(number, number)
     if kind in ("Str", "FixedStr"):
-        size = reader.count()
-        if size == 0:
-            raise ValueError(f"a string at offset {reader.position - 4} has length 0 (no NUL)")
-        return reader.raw(size)[:-1].decode("utf-8")
+        return reader.string()
     if kind == "Bytes":
         return reader.raw(reader.count())
     if kind == "NumArray":

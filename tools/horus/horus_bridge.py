@@ -19,7 +19,8 @@ the type's dds_cdr.pod_plan), else a Python thread; topics are looked for again 
 
 --transient-local topics are latched (the exporting side sends the newest message when it starts,
 its writer keeps the last one for late readers); --deadline topics say each missed deadline on
-stderr with a count. An importing reader takes the QoS its writer offers unless a pattern of its
+stderr with a count. --ros2-types topics of a standard type with a ROS 2 twin (ros2_types) cross
+as that twin, both ways; a topic it names whose type has none is refused. An importing reader takes the QoS its writer offers unless a pattern of its
 own names the topic.
 
 Failures of a carried topic never end its thread: a DDS write or take that fails, a message that
@@ -46,6 +47,7 @@ import types
 
 import dds_cdr
 import dynamic_types
+import ros2_types
 
 PREFIX = "rt/"  # ROS 2's prefix of topic names on DDS
 RESCAN_S = 0.5
@@ -117,6 +119,11 @@ def _local_topic(name: str, type_name: str, fingerprint: int, schema: str, capac
             "single_publisher": single_publisher}
 
 
+def _codec(cls, twin):
+    """What a Python thread carries the topic with: the twin's mapping, or the type's own CDR."""
+    return ros2_types.TwinCodec(twin, cls) if twin else dds_cdr.CdrCodec(cls)
+
+
 def _open_local(core, local: dict, cls):
     info = cls.__horus__
     return core.Topic(is_pod=info.is_pod, size=info.size if info.is_pod else 0,
@@ -128,11 +135,12 @@ class Bridge:
                  domain: int, reliable: bool, depth: int, service_exports: list[str] = (),
                  service_imports: list[str] = (), latched: list[str] = (),
                  deadlines: list[tuple[str, int]] = (),
-                 service_timeout: float = SERVICE_TIMEOUT_S, ros2_types: bool = False) -> None:
+                 service_timeout: float = SERVICE_TIMEOUT_S, ros2: list[str] = ()) -> None:
         self.core, self.dds, self.namespace = core, dds, namespace
         self.exports, self.imports = exports, imports
         self.qos = {"reliable": reliable, "depth": depth}
         self.latched = list(latched)  # patterns of transient-local topics
+        self.ros2 = list(ros2)  # patterns of topics that cross as ROS 2 twins
         self.deadlines = list(deadlines)  # (pattern, milliseconds), the first match counts
         self.watched: dict[str, list] = {}  # topic -> [endpoint, deadline ms, misses said]
         self.domain = domain
@@ -227,26 +235,37 @@ class Bridge:
             except (BridgeError, RuntimeError) as error:
                 _complain(f"cannot export topic '{name}': {error}")
 
+    def _twin(self, name: str, type_name: str) -> ros2_types.Twin | None:
+        """The ROS 2 twin a topic crosses as: --ros2-types names it (and its type has one)."""
+        if not self._matches(name, self.ros2):
+            return None
+        twin = ros2_types.twin_of(type_name)
+        if twin is None:
+            raise BridgeError(f"--ros2-types names it, but {type_name} has no ROS 2 twin (those "
+                              f"with one: {', '.join(t.horus for t in ros2_types.TWINS)})")
+        return twin
+
     def _export(self, topic: dict) -> None:
         name, type_name = topic["name"], topic["type_name"]
         cls = self.types.load(type_name, topic["schema"], topic["fingerprint"])
-        dds_type = self.types.dds_name(type_name, topic["schema"])
+        twin = self._twin(name, type_name)
+        dds_type = twin.dds_type if twin else self.types.dds_name(type_name, topic["schema"])
         local = _local_topic(name, type_name, topic["fingerprint"], topic["schema"],
                              topic["capacity"], topic["max_message_size"],
                              topic["single_publisher"])
         qos = self._topic_qos(name)
         writer = self.dds.Writer(self.participant, PREFIX + name, dds_type,
                                  user_data=_identity(topic), **qos)
-        if cls.__horus__.is_pod:
+        if cls.__horus__.is_pod and not twin:
             self._pump(self.dds.export_pump, writer, cls, local, latched=qos["transient_local"])
         else:
             self._spawn(f"topic '{name}'", self._pump_export, name,
-                        _open_local(self.core, local, cls), cls, writer, qos["transient_local"])
+                        _open_local(self.core, local, cls), cls, _codec(cls, twin), writer,
+                        qos["transient_local"])
         self._watch_deadline(name, writer, qos)
         _say(f"exporting '{name}' ({type_name}) as {PREFIX}{name} ({dds_type})")
 
-    def _pump_export(self, name: str, local, cls, writer, latched: bool) -> None:
-        codec = dds_cdr.CdrCodec(cls)
+    def _pump_export(self, name: str, local, cls, codec, writer, latched: bool) -> None:
         what = f"topic '{name}'"
         # A latched topic's newest message from before this handle, for late joiners on DDS.
         first = local.read_latest() if latched and not local.has_msg() else None
@@ -290,12 +309,12 @@ class Bridge:
             try:
                 ready = self._import(name, publication)
                 if ready is not None:
-                    reader, cls, local, qos = ready
-                    if cls.__horus__.is_pod:
+                    reader, cls, local, qos, twin = ready
+                    if cls.__horus__.is_pod and not twin:
                         self._pump(self.dds.import_pump, reader, cls, local)
                     else:
-                        self._spawn(f"topic '{name}'", self._pump_import, name, reader, cls,
-                                    _open_local(self.core, local, cls))
+                        self._spawn(f"topic '{name}'", self._pump_import, name, reader,
+                                    _codec(cls, twin), _open_local(self.core, local, cls))
                     self._watch_deadline(name, reader, qos)
             except (BridgeError, RuntimeError) as error:
                 self.done.add(name)
@@ -307,9 +326,11 @@ class Bridge:
                      f"({cls.__horus__.name})")
 
     def _import(self, name: str, publication: dict):
-        """The (reader, class, local topic, QoS) of an import; None when the type is not known
-        yet (a plain DDS writer, and no local topic of that name)."""
+        """The (reader, class, local topic, QoS, ROS 2 twin or None) of an import; None when the
+        type is not known yet (a plain DDS writer, and no local topic of that name)."""
         remote = json.loads(publication["user_data"]) if publication["user_data"] else None
+        twins = (ros2_types.twins_of_dds_type(publication["type"])
+                 if self._matches(name, self.ros2) else [])
         local = next((t for t in self.core.list_topics(self.namespace)
                       if t["name"] == name and t["type_name"]), None)
         if local is not None:
@@ -326,9 +347,17 @@ class Bridge:
             type_name, fingerprint, schema = (remote["type"], int(remote["fingerprint"], 16),
                                               remote["schema"])
             capacity, max_message = LOCAL_CAPACITY, LOCAL_MAX_MESSAGE
+        elif twins:  # a ROS 2 node's: its first twin (horus.msg, from the Python path)
+            meta = getattr(_imported_class(twins[0].horus), "__horus__", None)
+            if meta is None:
+                raise BridgeError(f"{twins[0].horus}, the twin of {publication['type']}, is not "
+                                  "on the Python path (horus.msg)")
+            type_name, fingerprint, schema = meta.name, meta.fingerprint, meta.schema
+            capacity, max_message = LOCAL_CAPACITY, LOCAL_MAX_MESSAGE
         else:
             return None
-        dds_type = self.types.dds_name(type_name, schema)
+        twin = self._twin(name, type_name)
+        dds_type = twin.dds_type if twin else self.types.dds_name(type_name, schema)
         if dds_type != publication["type"]:
             raise BridgeError(f"the local topic has type {type_name} ({dds_type} on DDS), DDS "
                               f"carries {publication['type']}")
@@ -336,10 +365,9 @@ class Bridge:
         local = _local_topic(name, type_name, fingerprint, schema, capacity, max_message, False)
         qos = self._topic_qos(name, publication)
         reader = self.dds.Reader(self.participant, publication["topic"], dds_type, **qos)
-        return reader, cls, local, qos
+        return reader, cls, local, qos, twin
 
-    def _pump_import(self, name: str, reader, cls, local) -> None:
-        codec = dds_cdr.CdrCodec(cls)
+    def _pump_import(self, name: str, reader, codec, local) -> None:
         what = f"topic '{name}'"
         while not self.stop.is_set():
             try:

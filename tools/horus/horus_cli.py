@@ -970,7 +970,8 @@ def bridge(args) -> int:
         bridge = horus_bridge.Bridge(_core(), _dds, args.namespace, args.export, args.imports,
                                      args.domain, not args.best_effort, args.depth,
                                      args.export_service, args.import_service,
-                                     args.transient_local, deadlines, args.service_timeout)
+                                     args.transient_local, deadlines, args.service_timeout,
+                                     args.ros2_types)
     except RuntimeError as error:
         raise CommandFailed(str(error)) from None
     return bridge.run()
@@ -1214,6 +1215,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("--service-timeout", type=positive_float, default=10.0, metavar="SECONDS",
                      help="how long an exported service's local server has to answer a call "
                           "from DDS (default 10); the caller then gets Timeout")
+    sub.add_argument("--ros2-types", action="append", default=[], metavar="PATTERN",
+                     help="topics that cross as their standard type's ROS 2 twin (CmdVel as "
+                          "geometry_msgs/msg/Twist, Imu, LaserScan, Odometry, ...), both ways")
     sub.set_defaults(handler=bridge)
 
     remote = group("remote", "reach a robot from afar over Cap'n Proto RPC with mutual TLS "

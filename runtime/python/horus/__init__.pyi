@@ -97,14 +97,14 @@ class Network:
     reliable: bool
     depth: int
     service_timeout: float
-    ros2_types: bool
+    ros2_types: list[str]
     status: int
     def __init__(self, export: Sequence[str] = ..., import_: Sequence[str] = ...,
                  domain: int = ..., reliable: bool = ..., depth: int = ...,
                  transient_local: Sequence[str] = ..., deadlines: dict[str, int] | None = ...,
                  export_services: Sequence[str] = ...,
                  import_services: Sequence[str] = ..., service_timeout: float = ...,
-                 ros2_types: bool = ...) -> None: ...
+                 ros2_types: Sequence[str] = ...) -> None: ...
 
 class Scheduler:
     def __init__(self, tick_rate: float = ..., rt: bool = ..., deterministic: bool = ...,

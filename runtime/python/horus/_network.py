@@ -23,19 +23,20 @@ class Network:
     Keywords as the command's options: domain, reliable (else best effort), depth,
     transient_local (patterns of latched topics), deadlines ({pattern: milliseconds}),
     export_services and import_services (service name patterns), service_timeout (seconds an
-    exported service's server has to answer), ros2_types (standard types with a ROS 2 twin
-    cross as that twin, --ros2-types).
+    exported service's server has to answer), ros2_types (patterns of topics that cross as their
+    standard type's ROS 2 twin, --ros2-types).
     """
 
     def __init__(self, export=(), import_=(), domain: int = 0, reliable: bool = True,
                  depth: int = 100, transient_local=(), deadlines: dict | None = None,
                  export_services=(), import_services=(), service_timeout: float = 10.0,
-                 ros2_types: bool = False) -> None:
+                 ros2_types=()) -> None:
         self.export = _patterns(export, "export")
         self.import_ = _patterns(import_, "import_")
         self.export_services = _patterns(export_services, "export_services")
         self.import_services = _patterns(import_services, "import_services")
         self.transient_local = _patterns(transient_local, "transient_local")
+        self.ros2_types = _patterns(ros2_types, "ros2_types")
         if not (self.export or self.import_ or self.export_services or self.import_services):
             raise ValueError("a Network carries nothing: give export and/or import_ patterns")
         if isinstance(domain, bool) or not isinstance(domain, int) or not 0 <= domain <= 232:
@@ -53,7 +54,7 @@ class Network:
             raise ValueError(f"service_timeout must be a number of seconds > 0, got "
                              f"{service_timeout!r}")
         self.domain, self.reliable, self.depth = domain, bool(reliable), depth
-        self.service_timeout, self.ros2_types = float(service_timeout), bool(ros2_types)
+        self.service_timeout = float(service_timeout)
         self._bridge = None
         self._thread: threading.Thread | None = None
         self.status = 0  # 1 once the bridge stopped on an error of its own (said on stderr)

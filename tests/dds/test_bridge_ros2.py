@@ -1,0 +1,149 @@
+"""`horus bridge --ros2-types`: standard types cross as their ROS 2 twins (CmdVel as
+geometry_msgs/msg/Twist, Imu as sensor_msgs/msg/Imu), read and written by a plain Cyclone DDS
+program built with idlc from ROS 2's messages as IDL (ros2_idl/, dds_peer.c), and between two
+bridges; a topic the option names whose type has no twin is refused in one line."""
+from __future__ import annotations
+
+import ast
+
+from processes import wait_line
+from test_bridge import COUNT, PUBLISHER, assert_in_order, bridge, python_env
+
+# Holds `name` open with `type` and prints the first message's fields as a dict of numbers and
+# lists (for ast.literal_eval).
+HOLDER = """
+import sys, horus, importlib
+package, _, short = sys.argv[2].rpartition(".")
+cls = getattr(importlib.import_module(package), short)
+topic = horus.Topic(cls, sys.argv[1])
+print("ready", flush=True)
+message = topic.recv(timeout=60)
+print({name: getattr(getattr(message, name), "tolist", lambda: getattr(message, name))()
+       for name in cls.__horus__.fields}, flush=True)
+"""
+
+# Publishes one known Imu on `imu` twice a second until killed.
+IMU_PUBLISHER = """
+import time, horus
+from horus.msg import Imu
+topic = horus.Topic(Imu, "imu")
+print("ready", flush=True)
+while True:
+    topic.send(Imu(orientation=[0, 0, 0.6, 0.8], orientation_covariance=[1, 0, 0, 0, 2, 0, 0, 0, 3],
+                   angular_velocity=[0.1, -0.2, 0.3], angular_velocity_covariance=[-1] + [0] * 8,
+                   linear_acceleration=[0, 0, 9.81],
+                   linear_acceleration_covariance=[0.5, 0, 0, 0, 0.5, 0, 0, 0, 0.5],
+                   timestamp_ns=12_000_000_345))
+    time.sleep(0.5)
+"""
+
+# The Imu above as dds_peer prints it (and writes it, with frame_id "imu_link").
+IMU_FIELDS = ("orientation=0,0,0.6,0.8 orientation_covariance=1,0,0,0,2,0,0,0,3 "
+              "angular_velocity=0.1,-0.2,0.3 angular_velocity_covariance=-1,0,0,0,0,0,0,0,0 "
+              "linear_acceleration=0,0,9.81 "
+              "linear_acceleration_covariance=0.5,0,0,0,0.5,0,0,0,0.5")
+
+
+def test_a_ros2_node_reads_cmd_vel_as_geometry_msgs_twist(
+        dds_domain, worlds, children, generated, dds_peer):
+    source = worlds[0]
+    publisher = children.python(PUBLISHER, python_env(source, generated))
+    wait_line(publisher, "ready")
+    peer = children.start([dds_peer, "read-twist", str(dds_domain), str(COUNT)])
+    wait_line(peer, "ready")
+    exporter = bridge(children, source, generated, dds_domain, "--export", "cmd_vel",
+                      "--ros2-types", "cmd_*")
+    assert wait_line(exporter, "exporting") == (
+        "exporting 'cmd_vel' (horus.msg.CmdVel) as rt/cmd_vel (geometry_msgs::msg::dds_::Twist_)")
+    out, errors = peer.communicate(timeout=60)
+    assert peer.returncode == 0, errors
+    # CmdVel(linear=0.5 i, angular=-1): linear.x and angular.z, the rest 0.
+    fields = [dict(field.split("=") for field in line.split()) for line in out.splitlines()]
+    assert all(f["angular"] == "0,0,-1" for f in fields), out
+    linear = [f["linear"].split(",") for f in fields]
+    assert all(rest == ["0", "0"] for _, *rest in linear), out
+    assert_in_order("rt/cmd_vel", [round(float(x) * 2) for x, *_ in linear])
+
+
+def test_a_ros2_node_writes_geometry_msgs_twist_into_cmd_vel(
+        dds_domain, worlds, children, generated, dds_peer):
+    target = worlds[1]
+    holder = children.python(HOLDER, python_env(target, generated), "cmd_vel", "horus.msg.CmdVel")
+    wait_line(holder, "ready")
+    bridge(children, target, generated, dds_domain, "--import", "cmd_vel", "--ros2-types", "*")
+    peer = children.start([dds_peer, "write-twist", str(dds_domain)])
+    out, errors = holder.communicate(timeout=60)
+    assert holder.returncode == 0, errors
+    message = ast.literal_eval(out)
+    # Twist(linear (1.5, 0.25, 0), angular (0, 0, -0.75)): y and the roll and pitch rates have no
+    # place in CmdVel; the stamp is the time it arrived.
+    assert (message["linear"], message["angular"]) == (1.5, -0.75), out
+    assert message["stamp_nanos"] > 0, out
+    peer.communicate(timeout=30)
+    assert peer.returncode == 0
+
+
+def test_a_ros2_node_reads_imu_as_sensor_msgs_imu(
+        dds_domain, worlds, children, generated, dds_peer):
+    source = worlds[0]
+    publisher = children.python(IMU_PUBLISHER, python_env(source, generated))
+    wait_line(publisher, "ready")
+    peer = children.start([dds_peer, "read-imu", str(dds_domain), "1"])
+    wait_line(peer, "ready")
+    bridge(children, source, generated, dds_domain, "--export", "imu", "--ros2-types", "imu")
+    out, errors = peer.communicate(timeout=60)
+    assert peer.returncode == 0, errors
+    assert out.strip() == f"sec=12 nanosec=345 frame_id= {IMU_FIELDS}", out
+
+
+def test_a_ros2_node_writes_sensor_msgs_imu_into_imu(
+        dds_domain, worlds, children, generated, dds_peer):
+    target = worlds[1]
+    # No local topic: the bridge makes `imu` of the twin's HORUS type, horus.msg.Imu.
+    bridge(children, target, generated, dds_domain, "--import", "imu", "--ros2-types", "imu")
+    reader = children.python(HOLDER, python_env(target, generated), "imu", "horus.msg.Imu")
+    wait_line(reader, "ready")
+    peer = children.start([dds_peer, "write-imu", str(dds_domain)])
+    out, errors = reader.communicate(timeout=60)
+    assert reader.returncode == 0, errors
+    # Every field as written; the frame "imu_link" has no place in HORUS's Imu.
+    assert ast.literal_eval(out) == {
+        "orientation": [0, 0, 0.6, 0.8], "orientation_covariance": [1, 0, 0, 0, 2, 0, 0, 0, 3],
+        "angular_velocity": [0.1, -0.2, 0.3], "angular_velocity_covariance": [-1] + [0] * 8,
+        "linear_acceleration": [0, 0, 9.81],
+        "linear_acceleration_covariance": [0.5, 0, 0, 0, 0.5, 0, 0, 0, 0.5],
+        "timestamp_ns": 12_000_000_345}, out
+    peer.communicate(timeout=30)
+    assert peer.returncode == 0
+
+
+def test_two_bridges_carry_cmd_vel_as_twist_between_namespaces(
+        dds_domain, worlds, children, generated):
+    source, target = worlds
+    holder = children.python(HOLDER, python_env(target, generated), "cmd_vel", "horus.msg.CmdVel")
+    wait_line(holder, "ready")
+    publisher = children.python(PUBLISHER, python_env(source, generated))
+    wait_line(publisher, "ready")
+    importer = bridge(children, target, generated, dds_domain, "--import", "*",
+                      "--ros2-types", "cmd_vel")
+    bridge(children, source, generated, dds_domain, "--export", "cmd_vel",
+           "--ros2-types", "cmd_vel")
+    assert wait_line(importer, "importing") == (
+        "importing rt/cmd_vel (geometry_msgs::msg::dds_::Twist_) as 'cmd_vel' (horus.msg.CmdVel)")
+    out, errors = holder.communicate(timeout=60)
+    assert holder.returncode == 0, errors
+    message = ast.literal_eval(out)
+    assert message["linear"] == 0.5 * round(message["linear"] * 2) and message["angular"] == -1.0
+
+
+def test_a_type_without_a_ros2_twin_is_refused_naming_it(
+        dds_domain, worlds, children, generated):
+    source = worlds[0]
+    publisher = children.python(PUBLISHER, python_env(source, generated))
+    wait_line(publisher, "ready")
+    exporter = bridge(children, source, generated, dds_domain, "--export", "kinds",
+                      "--ros2-types", "*")
+    line = exporter.stderr.readline()
+    assert line.startswith("horus bridge: cannot export topic 'kinds': --ros2-types names it, "
+                           "but dds_test.Kinds has no ROS 2 twin (those with one: "
+                           "horus.msg.CmdVel, "), line
