@@ -8,6 +8,7 @@
 #include "horus/literals.hpp"
 #include "horus/log.hpp"
 #include "horus/msgpack.hpp"
+#include "horus/network.hpp"
 #include "horus/node.hpp"
 #include "horus/run.hpp"
 #include "horus/scheduler.hpp"

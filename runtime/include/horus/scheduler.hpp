@@ -25,6 +25,7 @@
 #include "horus/error.hpp"
 #include "horus/failure_policy.hpp"
 #include "horus/miss.hpp"
+#include "horus/network.hpp"
 #include "horus/node.hpp"
 #include "horus/node_metrics.hpp"
 #include "horus/node_state.hpp"
@@ -166,6 +167,17 @@ class SchedulerConfig {
     return *this;
   }
 
+  /// Carry topics and services to and from other hosts over Cyclone DDS (docs/dds-bridge.md):
+  /// the scheduler runs `horus bridge` with these options, in its namespace, as a child process
+  /// from its construction until run() ends (or it is destroyed). A bridge that fails stops the
+  /// scheduler, and run() returns 1. The Scheduler's constructor throws horus::Error for an
+  /// invalid Network and when `horus` cannot be found or started ($HORUS_BRIDGE_PROGRAM, else
+  /// <prefix>/bin/horus, `horus` on PATH, the build tree's bin/horus).
+  SchedulerConfig& network(Network n) {
+    network_ = std::move(n);
+    return *this;
+  }
+
   Rate tick_rate() const { return tick_rate_; }
   bool rt() const { return rt_; }
   bool deterministic() const { return deterministic_; }
@@ -185,6 +197,7 @@ class SchedulerConfig {
   bool handle_signals() const { return handle_signals_; }
   bool recording() const { return recording_; }
   const std::filesystem::path& replay() const { return replay_; }
+  const std::optional<Network>& network() const { return network_; }
 
  private:
   Rate tick_rate_ = Rate::hz(1000.0);
@@ -206,6 +219,7 @@ class SchedulerConfig {
   bool handle_signals_ = true;
   bool recording_ = false;
   std::filesystem::path replay_;
+  std::optional<Network> network_;
 };
 
 /// A node's scheduling settings as given to the builder (unset optionals are derived at start-up).

@@ -124,6 +124,7 @@ void SchedulerImpl::finish() noexcept {
     shutdown_all();
     finished_ = true;
   }
+  if (network_) network_->end();
 }
 
 }  // namespace horus::detail

@@ -65,6 +65,7 @@ int SchedulerImpl::run(std::optional<std::int64_t> duration_ns) {
     purge_removed();
     check_signal();
     shutdown_all();
+    if (network_) network_->end();
     {
       std::lock_guard lock(mutex_);
       finished_ = true;

@@ -115,6 +115,15 @@ SchedulerImpl::SchedulerImpl(SchedulerConfig config)
   } catch (const Error& e) {
     log(LogLevel::Warn, "not announced to `horus node list`: %s", e.what());
   }
+  if (config_.network()) {
+    try {
+      network_ = std::make_unique<BridgeProcess>(
+          *config_.network(), current_namespace(),
+          [this](const std::string& failure) { request_stop(failure, true); });
+    } catch (const Error& e) {
+      throw Error(where + "network: " + e.what());
+    }
+  }
 }
 
 SchedulerImpl::~SchedulerImpl() {

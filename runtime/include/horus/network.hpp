@@ -1,0 +1,37 @@
+// horus::Network: topics and services across hosts over Cyclone DDS from a scheduler, as
+// `horus bridge` carries them (docs/dds-bridge.md); the C++ twin of Python's horus.Network.
+//
+//   horus::Scheduler sched{horus::SchedulerConfig{}.network(
+//       {.export_ = {"cmd_*", "odom"}, .import_ = {"map"}, .domain = 7})};
+#pragma once
+
+#include <chrono>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace horus {
+
+/// The options of `horus bridge`, named and ordered as horus.Network's keywords. Nothing crosses
+/// that no pattern names (shell-style globs). The scheduler validates them when it is made and
+/// runs `horus bridge` with them as a child process (docs/dds-bridge.md, "From C++").
+/// (Every field has an initializer, `{}` included, so that designated initializers may leave any
+/// out without -Wmissing-field-initializers.)
+struct Network {
+  std::vector<std::string> export_{};  // local topics written to DDS (`export` is a C++ keyword)
+  std::vector<std::string> import_{};  // DDS topics rt/<name> published into local topics <name>
+  int domain = 0;                      // the DDS domain id, 0..232; both sides use the same one
+  bool reliable = true;                // false: best-effort DDS endpoints
+  int depth = 100;                     // the DDS history of each writer and reader, at least 1
+  std::vector<std::string> transient_local{};  // latched topics (a late reader gets the last one)
+  /// Topics that should carry a message at least this often (the first matching pattern counts);
+  /// each half second in which one missed it is a line on stderr.
+  std::vector<std::pair<std::string, std::chrono::milliseconds>> deadlines{};
+  std::vector<std::string> export_services{};  // local services served on DDS
+  std::vector<std::string> import_services{};  // services a bridge elsewhere exports
+  /// How long an exported service's local server has to answer a call from DDS (then Timeout).
+  std::chrono::duration<double> service_timeout{10.0};
+  std::vector<std::string> ros2_types{};  // topics that cross as their standard type's ROS 2 twin
+};
+
+}  // namespace horus
