@@ -262,6 +262,17 @@ def test_an_empty_message_gets_ros2s_placeholder_member(everything):
         "uint8 structure_needs_at_least_one_member;")
 
 
+def test_a_pool_block_crosses_dds_as_the_data_it_holds(tmp_path):
+    # The descriptors of pool-backed types: the DDS bridge sends the block's bytes in its place.
+    root = generate(tmp_path, [str(ROOT / "schemas")], [str(ROOT / "schemas/horus/msg/vision.hmsg")])
+    members = [line.strip() for line in body((root / "horus/msg/ImageDescriptor.idl").read_text(),
+                                             "ImageDescriptor_").splitlines()
+               if not line.strip().startswith("//")]
+    assert members == ["uint32 width;", "uint32 height;", "::horus::msg::dds_::ImageEncoding_ encoding;",
+                       "uint8 channels;", "uint32 step;", "uint64 data_size;", "sequence<uint8> data;",
+                       "string<32> frame_id;", "uint64 timestamp_ns;"]
+
+
 def test_idl_refuses_no_name_it_renames_instead():
     assert idl.KEYWORDS == frozenset()
     assert [idl.identifier(n) for n in ("module", "Module", "MAP", "x", "_x", "dds_")] == [
@@ -282,7 +293,8 @@ def c_name(model, qualified: str) -> str:
 
 def same_layout_in_c(model, qualified: str) -> bool:
     """A POD message whose C struct from idlc has the HORUS layout: numbers, bools, enums, fixed
-    arrays of them and such messages (IDL strings are pointers in C, and HORUS's are inline)."""
+    arrays of them and such messages (IDL strings are pointers in C, and HORUS's are inline; a
+    PoolBlock is a sequence of the block's data)."""
     found = model.types[qualified]
     if not isinstance(found, Message) or not found.is_pod:
         return False
@@ -291,7 +303,7 @@ def same_layout_in_c(model, qualified: str) -> bool:
         if isinstance(t, FixedArray):
             return plain(t.element)
         if isinstance(t, MessageRef):
-            return same_layout_in_c(model, t.qualified)
+            return t.qualified != idl.POOL_BLOCK and same_layout_in_c(model, t.qualified)
         return isinstance(t, (Primitive, EnumRef))
     return all(plain(f.type) for f in found.fields)
 

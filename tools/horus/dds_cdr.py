@@ -25,12 +25,17 @@ horus._dds.CdrPlan: the bridge's C++ threads then carry the type with no Python 
 
 CdrWriter and CdrReader write and read a sample member by member, for types that are not a
 generated class's (ros2_types: ROS 2's twins of standard types).
+
+A pool-backed type's descriptor (Image's ImageDescriptor, ...) crosses with the data of the block
+it names in place of its PoolBlock field, a sequence<uint8> as the IDL says: PoolCodec(cls)
+encodes horus._dds.PoolFrames.record's bytes (the descriptor, its block zeroed, then the data)
+and decodes a sample back to such bytes for PoolFrames.replay.
 """
 from __future__ import annotations
 
 import struct
 
-__all__ = ["CdrCodec", "CdrReader", "CdrWriter", "pod_plan"]
+__all__ = ["CdrCodec", "CdrReader", "CdrWriter", "PoolCodec", "pod_plan"]
 
 _CDR_BE, _CDR_LE = b"\x00\x00", b"\x00\x01"
 
@@ -49,6 +54,50 @@ class CdrCodec:
     def decode(self, data) -> object:
         return CdrReader.read_sample(data, self.cls.__horus__.name,
                                      lambda reader: _read_message(reader, self.cls))
+
+
+class PoolCodec:
+    """Frames of a pool-backed type: a descriptor and its block's data, to CDR and back."""
+
+    POOL_BLOCK = "horus.msg.PoolBlock"
+
+    def __init__(self, cls) -> None:
+        info = cls.__horus__
+        self.cls, self.size = cls, info.size
+        self.block = next((name for name, codec in zip(info.fields, info.codecs)
+                           if type(codec).__name__ == "Nested"
+                           and codec.cls.__horus__.name == self.POOL_BLOCK), None)
+        if self.block is None:
+            raise TypeError(f"{info.name} has no {self.POOL_BLOCK} field: it is no pool descriptor")
+
+    def encode(self, recorded: bytes) -> bytes:
+        """The sample of a recorded frame: the descriptor's `size` bytes, then the data."""
+        message = self.cls.from_bytes(recorded[:self.size])
+        info = self.cls.__horus__
+        writer = CdrWriter()
+        for name, codec in zip(info.fields, info.codecs):
+            if name == self.block:
+                data = recorded[self.size:]
+                writer.number("I", len(data))
+                writer.out += data
+            else:
+                _write(writer.out, codec, getattr(message, name))
+        return writer.sample()
+
+    def decode(self, data) -> bytes:
+        """The recorded frame of a sample (its block zeroed); ValueError when it does not fit."""
+        info = self.cls.__horus__
+
+        def read(reader: CdrReader) -> bytes:
+            message, block_data = self.cls(), b""
+            for name, codec in zip(info.fields, info.codecs):
+                if name == self.block:
+                    block_data = reader.raw(reader.count())
+                else:
+                    setattr(message, name, _read(reader, codec))
+            return message.to_bytes() + block_data
+
+        return CdrReader.read_sample(data, info.name, read)
 
 
 class CdrWriter:

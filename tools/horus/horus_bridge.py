@@ -20,7 +20,10 @@ the type's dds_cdr.pod_plan), else a Python thread; topics are looked for again 
 --transient-local topics are latched (the exporting side sends the newest message when it starts,
 its writer keeps the last one for late readers); --deadline topics say each missed deadline on
 stderr with a count. --ros2-types topics of a standard type with a ROS 2 twin (ros2_types) cross
-as that twin, both ways; a topic it names whose type has none is refused. An importing reader takes the QoS its writer offers unless a pattern of its
+as that twin, both ways; a topic it names whose type has none is refused. A pool-backed topic
+(Image, DepthImage, PointCloud, Tensor: descriptors of tensor pool blocks) crosses with its
+blocks' data (horus._dds.PoolFrames, dds_cdr.PoolCodec); the importing side fills a block of its
+own namespace's default pool and publishes the descriptor naming it. An importing reader takes the QoS its writer offers unless a pattern of its
 own names the topic.
 
 Failures of a carried topic never end its thread: a DDS write or take that fails, a message that
@@ -54,6 +57,7 @@ RESCAN_S = 0.5
 RETRY_S = 0.5  # after a failed DDS write or take, or a failing local topic
 LOCAL_CAPACITY = 64  # the geometry a topic the bridge creates gets (as `horus topic pub`'s)
 LOCAL_MAX_MESSAGE = 16 * 1024
+POOL_CAPACITY = 4  # a pool topic the bridge creates: as horus.Topic(Image, ...)'s, each a block held
 SERVICE_TIMEOUT_S = 10.0  # how long an exporting bridge waits for its local server, by default
 
 
@@ -119,9 +123,44 @@ def _local_topic(name: str, type_name: str, fingerprint: int, schema: str, capac
             "single_publisher": single_publisher}
 
 
-def _codec(cls, twin):
-    """What a Python thread carries the topic with: the twin's mapping, or the type's own CDR."""
-    return ros2_types.TwinCodec(twin, cls) if twin else dds_cdr.CdrCodec(cls)
+class _MessageCarrier:
+    """A topic's messages between their local bytes and CDR: the type's own, or its twin's."""
+
+    def __init__(self, cls, codec) -> None:
+        self.cls, self.codec = cls, codec
+
+    def to_dds(self, data: bytes) -> bytes:
+        return self.codec.encode(self.cls.from_bytes(data))
+
+    def to_local(self, cdr: bytes) -> bytes:
+        return self.codec.decode(cdr).to_bytes()
+
+
+class _PoolCarrier:
+    """A pool-backed topic's descriptors: out with their blocks' data, in as a block of this
+    namespace's default pool, filled (`frames`: horus._dds.PoolFrames)."""
+
+    def __init__(self, cls, frames) -> None:
+        self.codec, self.frames = dds_cdr.PoolCodec(cls), frames
+
+    def to_dds(self, data: bytes) -> bytes:
+        recorded = self.frames.record(data)
+        if recorded is None:
+            raise ValueError("its pool block was freed or reused before the bridge read it")
+        return self.codec.encode(recorded)
+
+    def to_local(self, cdr: bytes) -> bytes:
+        descriptor = self.frames.replay(self.codec.decode(cdr))
+        if descriptor is None:
+            raise ValueError("its data does not fit its descriptor")
+        return descriptor
+
+
+def _carrier(cls, twin, frames):
+    """What a Python thread carries a topic with."""
+    if frames is not None:
+        return _PoolCarrier(cls, frames)
+    return _MessageCarrier(cls, ros2_types.TwinCodec(twin, cls) if twin else dds_cdr.CdrCodec(cls))
 
 
 def _open_local(core, local: dict, cls):
@@ -256,16 +295,23 @@ class Bridge:
         qos = self._topic_qos(name)
         writer = self.dds.Writer(self.participant, PREFIX + name, dds_type,
                                  user_data=_identity(topic), **qos)
-        if cls.__horus__.is_pod and not twin:
+        frames = self._pool_frames(local)
+        if cls.__horus__.is_pod and not twin and frames is None:
             self._pump(self.dds.export_pump, writer, cls, local, latched=qos["transient_local"])
         else:
             self._spawn(f"topic '{name}'", self._pump_export, name,
-                        _open_local(self.core, local, cls), cls, _codec(cls, twin), writer,
+                        _open_local(self.core, local, cls), _carrier(cls, twin, frames), writer,
                         qos["transient_local"])
         self._watch_deadline(name, writer, qos)
         _say(f"exporting '{name}' ({type_name}) as {PREFIX}{name} ({dds_type})")
 
-    def _pump_export(self, name: str, local, cls, codec, writer, latched: bool) -> None:
+    def _pool_frames(self, local: dict):
+        """horus._dds.PoolFrames of a pool-backed topic (holding as many blocks as its ring has
+        slots), None for any other."""
+        return self.dds.pool_frames(local["type_name"], local["fingerprint"],
+                                    self.namespace or "", local["capacity"])
+
+    def _pump_export(self, name: str, local, carrier, writer, latched: bool) -> None:
         what = f"topic '{name}'"
         # A latched topic's newest message from before this handle, for late joiners on DDS.
         first = local.read_latest() if latched and not local.has_msg() else None
@@ -282,7 +328,7 @@ class Bridge:
             if data is None:
                 continue
             try:
-                cdr = codec.encode(cls.from_bytes(data))
+                cdr = carrier.to_dds(data)
             except RETRIABLE as error:
                 self._failed(what, f"a message does not encode as CDR: {error}", "dropped it")
                 continue
@@ -310,11 +356,13 @@ class Bridge:
                 ready = self._import(name, publication)
                 if ready is not None:
                     reader, cls, local, qos, twin = ready
-                    if cls.__horus__.is_pod and not twin:
+                    frames = self._pool_frames(local)
+                    if cls.__horus__.is_pod and not twin and frames is None:
                         self._pump(self.dds.import_pump, reader, cls, local)
                     else:
                         self._spawn(f"topic '{name}'", self._pump_import, name, reader,
-                                    _codec(cls, twin), _open_local(self.core, local, cls))
+                                    _carrier(cls, twin, frames),
+                                    _open_local(self.core, local, cls))
                     self._watch_deadline(name, reader, qos)
             except (BridgeError, RuntimeError) as error:
                 self.done.add(name)
@@ -346,14 +394,14 @@ class Bridge:
         elif remote is not None:
             type_name, fingerprint, schema = (remote["type"], int(remote["fingerprint"], 16),
                                               remote["schema"])
-            capacity, max_message = LOCAL_CAPACITY, LOCAL_MAX_MESSAGE
+            capacity, max_message = None, LOCAL_MAX_MESSAGE
         elif twins:  # a ROS 2 node's: its first twin (horus.msg, from the Python path)
             meta = getattr(_imported_class(twins[0].horus), "__horus__", None)
             if meta is None:
                 raise BridgeError(f"{twins[0].horus}, the twin of {publication['type']}, is not "
                                   "on the Python path (horus.msg)")
             type_name, fingerprint, schema = meta.name, meta.fingerprint, meta.schema
-            capacity, max_message = LOCAL_CAPACITY, LOCAL_MAX_MESSAGE
+            capacity, max_message = None, LOCAL_MAX_MESSAGE
         else:
             return None
         twin = self._twin(name, type_name)
@@ -362,12 +410,15 @@ class Bridge:
             raise BridgeError(f"the local topic has type {type_name} ({dds_type} on DDS), DDS "
                               f"carries {publication['type']}")
         cls = self.types.load(type_name, schema, fingerprint)
+        if capacity is None:  # the bridge creates the topic
+            pool = self.dds.pool_frames(type_name, fingerprint, self.namespace or "", 1)
+            capacity = LOCAL_CAPACITY if pool is None else POOL_CAPACITY
         local = _local_topic(name, type_name, fingerprint, schema, capacity, max_message, False)
         qos = self._topic_qos(name, publication)
         reader = self.dds.Reader(self.participant, publication["topic"], dds_type, **qos)
         return reader, cls, local, qos, twin
 
-    def _pump_import(self, name: str, reader, codec, local) -> None:
+    def _pump_import(self, name: str, reader, carrier, local) -> None:
         what = f"topic '{name}'"
         while not self.stop.is_set():
             try:
@@ -378,12 +429,15 @@ class Bridge:
                 continue
             for cdr in received:
                 try:
-                    message = codec.decode(cdr)
-                except RETRIABLE as error:
+                    data = carrier.to_local(cdr)
+                except ValueError as error:
                     self._failed(what, f"a DDS sample does not decode: {error}", "dropped it")
                     continue
+                except RETRIABLE as error:
+                    self._failed(what, f"a DDS sample cannot be made here: {error}", "dropped it")
+                    continue
                 try:
-                    delivered = local.send(message.to_bytes())
+                    delivered = local.send(data)
                 except RETRIABLE as error:
                     self._failed(what, f"the local topic failed: {error}", "dropped the message")
                     continue

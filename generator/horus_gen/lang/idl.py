@@ -8,6 +8,10 @@ as `<Service>_Request_` and `<Service>_Response_`, as ROS 2 names them) under `i
 (ROS 2's DDS type names: `a::b::dds_::Name_`). Constants, with the type's HORUS name and fingerprint,
 are in the module `<Name>_Constants` beside the struct, as ROS 2 puts a message's constants.
 
+A field of type horus.msg.PoolBlock (the block of a tensor pool a descriptor of Image, DepthImage,
+PointCloud or Tensor names) is `sequence<uint8> data` instead: a block means nothing on another
+host, so the DDS bridge sends the block's bytes in its place (docs/dds-bridge.md, "Pool types").
+
 IDL has no enums ROS 2 uses and no optional: an enum is a typedef of its underlying integer
 (`Name_`) with one constant per variant in `<Name>_Constants`; `Option<T>` is `sequence<T, 1>`.
 Names IDL reserves (its keywords compare without case) get a trailing underscore, as rosidl does,
@@ -45,6 +49,9 @@ PRIMITIVES = {"bool": "boolean", "u8": "uint8", "u16": "uint16", "u32": "uint32"
 
 # ROS 2's member of a message without fields (IDL 3.5 structs cannot be empty; rosidl adds it).
 EMPTY_MEMBER = "structure_needs_at_least_one_member"
+
+# A tensor pool's block: on DDS, the data it holds (`sequence<uint8> data`).
+POOL_BLOCK = "horus.msg.PoolBlock"
 
 
 def reserved(name: str) -> str | None:
@@ -117,6 +124,11 @@ class Member:
     name: str
     dims: str  # "[3][4]" for fixed arrays
     comment: tuple[str, ...]
+
+
+POOL_DATA = Member("sequence<uint8>", "data", "", (
+    "The data of the pool block the descriptor names (its block here: a block means nothing on",
+    "another host, so its bytes cross instead).", "[B]"))
 
 
 @dataclass(frozen=True)
@@ -252,8 +264,13 @@ def struct_of(model: Model, message: Message) -> Struct:
     typedefs: list[Typedef] = []
     members = []
     fields = message.fields
-    member_names = unique([identifier(f.name) for f in fields], {name})
-    for f, member in zip(fields, member_names):
+    pool_field = [isinstance(f.type, MessageRef) and f.type.qualified == POOL_BLOCK for f in fields]
+    member_names = unique([POOL_DATA.name if pool else identifier(f.name)
+                           for f, pool in zip(fields, pool_field)], {name})
+    for f, member, pool in zip(fields, member_names, pool_field):
+        if pool:
+            members.append(Member(POOL_DATA.spec, member, "", POOL_DATA.comment))
+            continue
         spec, dims = spell(model, f.type, typedefs, identifier(f"{base}__{f.name}"))
         members.append(Member(spec, member, dims, _comment(f.docs, f.unit)))
     if not members:

@@ -2,7 +2,9 @@
 // A participant on a domain; writers and readers of (DDS topic name, DDS type name) whose samples
 // are CDR the caller encodes and decodes; the publications discovered. Every endpoint ignores
 // those of its own participant, so a bridge never reads back what it wrote. For POD topics, a
-// CdrPlan and the pumps (pump.hpp) that carry a topic between HORUS and DDS with no Python.
+// CdrPlan and the pumps (pump.hpp) that carry a topic between HORUS and DDS with no Python. For
+// pool-backed topics (Image, ...), the runtime's PoolFrames: a descriptor's block read out, and a
+// block of this namespace's pool filled in, as the recorder and its replay do.
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
@@ -18,6 +20,7 @@
 #include <vector>
 
 #include "cdr_plan.hpp"
+#include "horus/detail/pool_frames.hpp"
 #include "pump.hpp"
 #include "raw_cdr.hpp"
 
@@ -377,6 +380,45 @@ void bind_pump(py::class_<Pump, std::unique_ptr<Pump>>& pump) {
           "Why the thread ended on its own (a bug), or None.");
 }
 
+py::object pool_frames(const std::string& type_name, std::uint64_t fingerprint,
+                       const std::string& namespace_name, std::size_t keep) {
+  std::unique_ptr<detail::PoolFrames> frames =
+      detail::make_pool_frames(type_name, fingerprint, namespace_name, keep);
+  return frames ? py::cast(std::move(frames)) : py::none();
+}
+
+py::object record_frame(detail::PoolFrames& frames, const py::buffer& descriptor) {
+  const py::buffer_info info = descriptor.request();
+  const std::span<const std::byte> bytes = bytes_of(info);
+  std::string recorded;
+  std::size_t size = 0;
+  {
+    const py::gil_scoped_release unlocked;
+    size = frames.record(bytes.data(), bytes.size(), [&recorded](std::size_t wanted) {
+      recorded.resize(wanted);
+      return reinterpret_cast<std::uint8_t*>(recorded.data());
+    });
+  }
+  if (size == 0) {
+    return py::none();
+  }
+  return py::bytes(recorded.data(), size);
+}
+
+py::object replay_frame(detail::PoolFrames& frames, const py::buffer& recorded) {
+  const py::buffer_info info = recorded.request();
+  std::span<const std::byte> descriptor;
+  {
+    const py::gil_scoped_release unlocked;
+    descriptor = frames.replay({static_cast<const std::uint8_t*>(info.ptr),
+                                static_cast<std::size_t>(info.size * info.itemsize)});
+  }
+  if (descriptor.empty()) {
+    return py::none();
+  }
+  return py::bytes(reinterpret_cast<const char*>(descriptor.data()), descriptor.size());
+}
+
 }  // namespace
 }  // namespace horus::dds_bridge
 
@@ -460,6 +502,22 @@ PYBIND11_MODULE(_dds, m) {
   py::class_<Pump, std::unique_ptr<Pump>> pump(
       m, "Pump", "The C++ thread that carries one POD topic (stopped when deleted).");
   bind_pump(pump);
+  horus::detail::enable_pool_frames();
+  py::class_<horus::detail::PoolFrames>(
+      m, "PoolFrames",
+      "The frames of a pool-backed topic (Image, DepthImage, PointCloud, Tensor): its "
+      "descriptors with the data of their blocks (horus/detail/pool_frames.hpp).")
+      .def("record", &record_frame, py::arg("descriptor"),
+           "The descriptor (its block zeroed) followed by the data of the block it names, or "
+           "None when the block was freed or reused since, or is of another pool.")
+      .def("replay", &replay_frame, py::arg("recorded"),
+           "What record() gave, made again in a block of this namespace's default pool: the "
+           "descriptor naming it (held until `keep` more were made), or None when malformed; "
+           "RuntimeError when the pool has no block to give.");
+  m.def("pool_frames", &pool_frames, py::arg("type_name"), py::arg("fingerprint"),
+        py::arg("namespace"), py::arg("keep"),
+        "The PoolFrames of a pool-backed type in a namespace (empty: the current one), or None "
+        "for any other type.");
   m.def(
       "export_pump",
       [](const std::shared_ptr<Writer>& writer, const CdrPlan& plan, const py::dict& local,
