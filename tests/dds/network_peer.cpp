@@ -2,7 +2,8 @@
 //
 //   horus_dds_network_peer export DOMAIN        publishes cmd_vel (CmdVel, stamp_nanos = i,
 //                                               linear = i / 2) at 100 Hz, exported to DDS,
-//                                               until SIGTERM; exits with run()'s status
+//                                               until SIGINT or SIGTERM; exits with run()'s
+//                                               status
 //   horus_dds_network_peer import DOMAIN COUNT  imports cmd_vel, prints "seen S1 S2 ..." (-1 for
 //                                               altered content) after COUNT messages
 //   horus_dds_network_peer options DOMAIN       every Network field set, runs until stopped
