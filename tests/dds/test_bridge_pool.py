@@ -15,6 +15,7 @@ COUNT = 20
 
 # The i-th image: 6x8 RGB, every byte a function of i and its place.
 PIXELS = """
+import numpy
 def pixels(i):
     return ((numpy.arange(6 * 8 * 3, dtype=numpy.uint32) * 7 + i) % 251).astype(
         numpy.uint8).reshape(6, 8, 3)

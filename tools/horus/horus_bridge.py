@@ -2,7 +2,8 @@
 (docs/dds-bridge.md).
 
     horus bridge --export 'cmd_*' --import 'odom' [--domain N] [--best-effort] [--depth N]
-                 [--transient-local PATTERN] [--deadline PATTERN=MS]
+                 [--transient-local PATTERN] [--deadline PATTERN=MS] [--ros2-types PATTERN]
+                 [--export-service PATTERN] [--import-service PATTERN] [--service-timeout S]
 
 A local topic whose name matches an --export pattern is written to the DDS topic `rt/<name>`
 in CDR (dds_cdr) under its DDS type name (`horus-gen describe`'s dds_type, ROS 2's naming); its
