@@ -50,16 +50,17 @@ def horus_gen(*args: str) -> None:
 @pytest.fixture(scope="session")
 def generated(tmp_path_factory) -> pathlib.Path:
     """Python (python/) of dds_test (schemas/: messages, POD ones, a service), and IDL (idl/) of it and of
-    horus.msg's geometry, generated once. One run per language: a run removes what an earlier one
+    horus.msg's geometry and vision (Image's descriptor), generated once. One run per language: a run removes what an earlier one
     left in its --out."""
     output = tmp_path_factory.mktemp("generated")
     kinds = [str(SCHEMAS / "dds_test" / name)
              for name in ("kinds.hmsg", "pod.hmsg", "scale.hsrv")]
     horus_gen("generate", "--lang", "python", "--out", str(output / "py"), "-I", str(SCHEMAS),
               *kinds)
-    geometry = str(pathlib.Path(HORUS_SCHEMAS) / "horus" / "msg" / "geometry.hmsg")
+    standard = [str(pathlib.Path(HORUS_SCHEMAS) / "horus" / "msg" / name)
+                for name in ("geometry.hmsg", "vision.hmsg")]
     horus_gen("generate", "--lang", "idl", "--out", str(output / "dds"), "-I", str(SCHEMAS), "-I",
-              HORUS_SCHEMAS, *kinds, geometry)
+              HORUS_SCHEMAS, *kinds, *standard)
     (output / "py" / "python").rename(output / "python")
     (output / "dds" / "idl").rename(output / "idl")
     return output

@@ -8,6 +8,10 @@
      dds_peer write-twist DOMAIN     writes one known Twist on rt/cmd_vel once a reader matches
      dds_peer read-imu DOMAIN N      prints N sensor_msgs/msg/Imu samples of rt/imu
      dds_peer write-imu DOMAIN       writes one known Imu on rt/imu once a reader matches
+     dds_peer read-scan DOMAIN N     prints N sensor_msgs/msg/LaserScan samples of rt/scan
+     dds_peer write-scan DOMAIN      writes one known LaserScan (100 ranges) on rt/scan
+     dds_peer read-image DOMAIN N    prints N horus.msg.ImageDescriptor samples (with the image's
+                                     data, as the bridge sends a pool type) of rt/camera
    It prints "ready" once its reader or writer exists; a timeout (20 s) is exit status 1. */
 #include <inttypes.h>
 #include <stdio.h>
@@ -18,7 +22,9 @@
 #include "dds_test/Kinds.h"
 #include "geometry_msgs/msg/Twist.h"
 #include "horus/msg/CmdVel.h"
+#include "horus/msg/ImageDescriptor.h"
 #include "sensor_msgs/msg/Imu.h"
+#include "sensor_msgs/msg/LaserScan.h"
 
 static dds_qos_t *reliable(void)
 {
@@ -90,6 +96,35 @@ static void print_imu(const void *sample)
   printf(" linear_acceleration=%g,%g,%g", s->linear_acceleration.x, s->linear_acceleration.y,
          s->linear_acceleration.z);
   print_numbers("linear_acceleration_covariance", s->linear_acceleration_covariance, 9);
+  printf("\n");
+}
+
+static void print_floats(const char *name, const dds_sequence_float *values)
+{
+  printf(" %s=", name);
+  for (uint32_t i = 0; i < values->_length; i++) printf("%s%g", i ? "," : "", values->_buffer[i]);
+}
+
+static void print_scan(const void *sample)
+{
+  const sensor_msgs_msg_dds__LaserScan_ *s = sample;
+  printf("sec=%d nanosec=%u frame_id=%s angles=%g,%g,%g times=%g,%g range=%g,%g",
+         s->header.stamp.sec, s->header.stamp.nanosec, s->header.frame_id, s->angle_min,
+         s->angle_max, s->angle_increment, s->time_increment, s->scan_time, s->range_min,
+         s->range_max);
+  print_floats("ranges", &s->ranges);
+  print_floats("intensities", &s->intensities);
+  printf("\n");
+}
+
+/* The image's bytes as hex: the test compares them with the pixels it published. */
+static void print_image(const void *sample)
+{
+  const horus_msg_dds__ImageDescriptor_ *s = sample;
+  printf("width=%u height=%u encoding=%u channels=%u step=%u data_size=%" PRIu64
+         " frame_id=%s timestamp_ns=%" PRIu64 " data=", s->width, s->height, s->encoding,
+         s->channels, s->step, s->data_size, s->frame_id, s->timestamp_ns);
+  for (uint32_t i = 0; i < s->data._length; i++) printf("%02x", s->data._buffer[i]);
   printf("\n");
 }
 
@@ -169,6 +204,21 @@ static int write_imu(dds_entity_t participant)
   return write_sample(participant, &sensor_msgs_msg_dds__Imu__desc, "rt/imu", &s);
 }
 
+static int write_scan(dds_entity_t participant)
+{
+  float ranges[100];
+  for (int i = 0; i < 100; i++) ranges[i] = 0.25f * (float) i;
+  float intensities[] = { 7, 8 };
+  sensor_msgs_msg_dds__LaserScan_ s = {
+    .header = { .stamp = { 3, 500 }, .frame_id = "laser" },
+    .angle_min = -1.5f, .angle_max = 1.5f, .angle_increment = 0.03125f,
+    .time_increment = 0.001f, .scan_time = 0.125f, .range_min = 0.5f, .range_max = 20.0f,
+    .ranges = { ._length = 100, ._maximum = 100, ._buffer = ranges },
+    .intensities = { ._length = 2, ._maximum = 2, ._buffer = intensities },
+  };
+  return write_sample(participant, &sensor_msgs_msg_dds__LaserScan__desc, "rt/scan", &s);
+}
+
 static int write_kinds(dds_entity_t participant)
 {
   uint8_t blob[] = { 1, 2, 3 };
@@ -198,7 +248,7 @@ int main(int argc, char **argv)
   if (argc < 3)
   {
     fprintf(stderr, "usage: dds_peer read-cmdvel|read-kinds|write-kinds|read-twist|write-twist|"
-                    "read-imu|write-imu DOMAIN [N]\n");
+                    "read-imu|write-imu|read-scan|write-scan|read-image DOMAIN [N]\n");
     return 2;
   }
   dds_entity_t participant = dds_create_participant((dds_domainid_t) atoi(argv[2]), NULL, NULL);
@@ -220,6 +270,14 @@ int main(int argc, char **argv)
     status = read_samples(participant, &sensor_msgs_msg_dds__Imu__desc, "rt/imu", count, print_imu);
   else if (strcmp(argv[1], "write-imu") == 0)
     status = write_imu(participant);
+  else if (strcmp(argv[1], "read-scan") == 0)
+    status = read_samples(participant, &sensor_msgs_msg_dds__LaserScan__desc, "rt/scan", count,
+                          print_scan);
+  else if (strcmp(argv[1], "write-scan") == 0)
+    status = write_scan(participant);
+  else if (strcmp(argv[1], "read-image") == 0)
+    status = read_samples(participant, &horus_msg_dds__ImageDescriptor__desc, "rt/camera", count,
+                          print_image);
   dds_delete(participant);
   return status;
 }

@@ -1,11 +1,13 @@
 """`horus bridge --ros2-types`: standard types cross as their ROS 2 twins (CmdVel as
-geometry_msgs/msg/Twist, Imu as sensor_msgs/msg/Imu), read and written by a plain Cyclone DDS
+geometry_msgs/msg/Twist, Imu as sensor_msgs/msg/Imu, LaserScan as sensor_msgs/msg/LaserScan),
+read and written by a plain Cyclone DDS
 program built with idlc from ROS 2's messages as IDL (ros2_idl/, dds_peer.c), and between two
 bridges; a topic the option names whose type has no twin is refused in one line."""
 from __future__ import annotations
 
 import ast
 
+import pytest
 from processes import wait_line
 from test_bridge import COUNT, PUBLISHER, assert_in_order, bridge, python_env
 
@@ -113,6 +115,55 @@ def test_a_ros2_node_writes_sensor_msgs_imu_into_imu(
         "linear_acceleration": [0, 0, 9.81],
         "linear_acceleration_covariance": [0.5, 0, 0, 0, 0.5, 0, 0, 0, 0.5],
         "timestamp_ns": 12_000_000_345}, out
+    peer.communicate(timeout=30)
+    assert peer.returncode == 0
+
+
+# Publishes one known LaserScan on `scan` twice a second until killed.
+SCAN_PUBLISHER = """
+import time, horus
+from horus.msg import LaserScan
+topic = horus.Topic(LaserScan, "scan")
+print("ready", flush=True)
+while True:
+    topic.send(LaserScan(ranges=[i % 4 for i in range(360)], angle_min=-1, angle_max=1,
+                         angle_increment=0.5, time_increment=0.25, scan_time=0.125, range_min=0.5,
+                         range_max=2, timestamp_ns=7_000_000_001))
+    time.sleep(0.5)
+"""
+
+
+def test_a_ros2_node_reads_laser_scan_as_sensor_msgs_laser_scan(
+        dds_domain, worlds, children, generated, dds_peer):
+    source = worlds[0]
+    publisher = children.python(SCAN_PUBLISHER, python_env(source, generated))
+    wait_line(publisher, "ready")
+    peer = children.start([dds_peer, "read-scan", str(dds_domain), "1"])
+    wait_line(peer, "ready")
+    bridge(children, source, generated, dds_domain, "--export", "scan", "--ros2-types", "scan")
+    out, errors = peer.communicate(timeout=60)
+    assert peer.returncode == 0, errors
+    ranges = ",".join(str(i % 4) for i in range(360))
+    assert out.strip() == ("sec=7 nanosec=1 frame_id= angles=-1,1,0.5 times=0.25,0.125 "
+                           f"range=0.5,2 ranges={ranges} intensities="), out
+
+
+def test_a_ros2_node_writes_a_shorter_laser_scan_into_scan(
+        dds_domain, worlds, children, generated, dds_peer):
+    target = worlds[1]
+    reader = children.python(HOLDER, python_env(target, generated), "scan", "horus.msg.LaserScan")
+    wait_line(reader, "ready")
+    bridge(children, target, generated, dds_domain, "--import", "scan", "--ros2-types", "scan")
+    peer = children.start([dds_peer, "write-scan", str(dds_domain)])
+    out, errors = reader.communicate(timeout=60)
+    assert reader.returncode == 0, errors
+    # 100 ranges 0.25 apart, then 260 zeros (no reading); the intensities and frame dropped.
+    scan = ast.literal_eval(out)
+    assert scan.pop("time_increment") == pytest.approx(0.001), out  # 0.001 as a float32
+    assert scan == {
+        "ranges": [0.25 * i for i in range(100)] + [0.0] * 260, "angle_min": -1.5,
+        "angle_max": 1.5, "range_min": 0.5, "range_max": 20.0, "angle_increment": 0.03125,
+        "scan_time": 0.125, "timestamp_ns": 3_000_000_500}, out
     peer.communicate(timeout=30)
     assert peer.returncode == 0
 
