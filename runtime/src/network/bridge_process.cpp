@@ -41,7 +41,7 @@ std::optional<std::string> find_program(const std::string& name) {
     if (is_program(name)) return name;
     return std::nullopt;
   }
-  const char* path = std::getenv("PATH");
+  const char* path = std::getenv("PATH");  // NOLINT(concurrency-mt-unsafe): set-up only
   std::string_view folders = path != nullptr ? path : "";
   while (!folders.empty()) {
     const std::size_t colon = folders.find(':');
@@ -72,7 +72,8 @@ void check_patterns(const std::vector<std::string>& patterns, std::string_view f
 [[noreturn]] void become_bridge(char* const* argv, pid_t parent, int report) noexcept {
   sigset_t none;
   ::sigemptyset(&none);
-  ::sigprocmask(SIG_SETMASK, &none, nullptr);  // the scheduler's threads may block SIGTERM
+  // The scheduler's threads may block SIGTERM; the child has one thread.
+  ::sigprocmask(SIG_SETMASK, &none, nullptr);  // NOLINT(concurrency-mt-unsafe)
   struct sigaction by_default {};
   by_default.sa_handler = SIG_DFL;
   ::sigaction(SIGTERM, &by_default, nullptr);  // an ignored signal would stay ignored after exec
@@ -162,7 +163,8 @@ std::vector<std::string> bridge_arguments(const Network& network,
 }
 
 std::string bridge_program() {
-  if (const char* given = std::getenv("HORUS_BRIDGE_PROGRAM"); given != nullptr && *given != 0) {
+  const char* given = std::getenv("HORUS_BRIDGE_PROGRAM");  // NOLINT(concurrency-mt-unsafe)
+  if (given != nullptr && *given != 0) {
     if (auto found = find_program(given)) return *std::move(found);
     throw Error("HORUS_BRIDGE_PROGRAM is '" + std::string(given) + "', which is no executable" +
                 (std::string_view(given).find('/') == std::string_view::npos ? " on PATH" : ""));
