@@ -10,6 +10,10 @@
      dds_peer write-imu DOMAIN       writes one known Imu on rt/imu once a reader matches
      dds_peer read-scan DOMAIN N     prints N sensor_msgs/msg/LaserScan samples of rt/scan
      dds_peer write-scan DOMAIN      writes one known LaserScan (100 ranges) on rt/scan
+     dds_peer read-odom DOMAIN N     prints N nav_msgs/msg/Odometry samples of rt/odom
+     dds_peer write-odom DOMAIN      writes one known Odometry on rt/odom
+     dds_peer read-pose DOMAIN N     prints N geometry_msgs/msg/PoseStamped samples of rt/pose
+     dds_peer write-pose DOMAIN      writes one known PoseStamped on rt/pose
      dds_peer read-image DOMAIN N    prints N horus.msg.ImageDescriptor samples (with the image's
                                      data, as the bridge sends a pool type) of rt/camera
    It prints "ready" once its reader or writer exists; a timeout (20 s) is exit status 1. */
@@ -20,9 +24,11 @@
 
 #include "dds/dds.h"
 #include "dds_test/Kinds.h"
+#include "geometry_msgs/msg/PoseStamped.h"
 #include "geometry_msgs/msg/Twist.h"
 #include "horus/msg/CmdVel.h"
 #include "horus/msg/ImageDescriptor.h"
+#include "nav_msgs/msg/Odometry.h"
 #include "sensor_msgs/msg/Imu.h"
 #include "sensor_msgs/msg/LaserScan.h"
 
@@ -114,6 +120,36 @@ static void print_scan(const void *sample)
          s->range_max);
   print_floats("ranges", &s->ranges);
   print_floats("intensities", &s->intensities);
+  printf("\n");
+}
+
+static void print_pose(const geometry_msgs_msg_dds__Pose_ *pose)
+{
+  printf(" position=%g,%g,%g orientation=%g,%g,%g,%g", pose->position.x, pose->position.y,
+         pose->position.z, pose->orientation.x, pose->orientation.y, pose->orientation.z,
+         pose->orientation.w);
+}
+
+static void print_odometry(const void *sample)
+{
+  const nav_msgs_msg_dds__Odometry_ *s = sample;
+  printf("sec=%d nanosec=%u frame_id=%s child_frame_id=%s", s->header.stamp.sec,
+         s->header.stamp.nanosec, s->header.frame_id, s->child_frame_id);
+  print_pose(&s->pose.pose);
+  print_numbers("pose_covariance", s->pose.covariance, 36);
+  const geometry_msgs_msg_dds__Twist_ *twist = &s->twist.twist;
+  printf(" twist=%g,%g,%g,%g,%g,%g", twist->linear.x, twist->linear.y, twist->linear.z,
+         twist->angular.x, twist->angular.y, twist->angular.z);
+  print_numbers("twist_covariance", s->twist.covariance, 36);
+  printf("\n");
+}
+
+static void print_pose_stamped(const void *sample)
+{
+  const geometry_msgs_msg_dds__PoseStamped_ *s = sample;
+  printf("sec=%d nanosec=%u frame_id=%s", s->header.stamp.sec, s->header.stamp.nanosec,
+         s->header.frame_id);
+  print_pose(&s->pose);
   printf("\n");
 }
 
@@ -219,6 +255,31 @@ static int write_scan(dds_entity_t participant)
   return write_sample(participant, &sensor_msgs_msg_dds__LaserScan__desc, "rt/scan", &s);
 }
 
+static int write_odometry(dds_entity_t participant)
+{
+  nav_msgs_msg_dds__Odometry_ s = {
+    .header = { .stamp = { 4, 6 }, .frame_id = "odom" },
+    .child_frame_id = "base_link",
+    /* A yaw of 0.5 rad turned 0.1 rad about x too, 0.25 m up: HORUS keeps x, y and the yaw. */
+    .pose = { .pose = { .position = { 1, -2, 0.25 },
+                        .orientation = { 0.04842543793313918, 0.012365044357817807,
+                                         0.2470947687282004, 0.9677015334834238 } },
+              .covariance = { 1, 2, 3 } },
+    .twist = { .twist = { .linear = { 0.5, 0, 0 }, .angular = { 0, 0, 0.125 } },
+               .covariance = { [35] = 9 } },
+  };
+  return write_sample(participant, &nav_msgs_msg_dds__Odometry__desc, "rt/odom", &s);
+}
+
+static int write_pose(dds_entity_t participant)
+{
+  geometry_msgs_msg_dds__PoseStamped_ s = {
+    .header = { .stamp = { 8, 9 }, .frame_id = "map" },
+    .pose = { .position = { 1, 2, 3 }, .orientation = { 0, 0, 0.6, 0.8 } },
+  };
+  return write_sample(participant, &geometry_msgs_msg_dds__PoseStamped__desc, "rt/pose", &s);
+}
+
 static int write_kinds(dds_entity_t participant)
 {
   uint8_t blob[] = { 1, 2, 3 };
@@ -248,7 +309,8 @@ int main(int argc, char **argv)
   if (argc < 3)
   {
     fprintf(stderr, "usage: dds_peer read-cmdvel|read-kinds|write-kinds|read-twist|write-twist|"
-                    "read-imu|write-imu|read-scan|write-scan|read-image DOMAIN [N]\n");
+                    "read-imu|write-imu|read-scan|write-scan|read-odom|write-odom|read-pose|"
+                    "write-pose|read-image DOMAIN [N]\n");
     return 2;
   }
   dds_entity_t participant = dds_create_participant((dds_domainid_t) atoi(argv[2]), NULL, NULL);
@@ -275,6 +337,16 @@ int main(int argc, char **argv)
                           print_scan);
   else if (strcmp(argv[1], "write-scan") == 0)
     status = write_scan(participant);
+  else if (strcmp(argv[1], "read-odom") == 0)
+    status = read_samples(participant, &nav_msgs_msg_dds__Odometry__desc, "rt/odom", count,
+                          print_odometry);
+  else if (strcmp(argv[1], "write-odom") == 0)
+    status = write_odometry(participant);
+  else if (strcmp(argv[1], "read-pose") == 0)
+    status = read_samples(participant, &geometry_msgs_msg_dds__PoseStamped__desc, "rt/pose", count,
+                          print_pose_stamped);
+  else if (strcmp(argv[1], "write-pose") == 0)
+    status = write_pose(participant);
   else if (strcmp(argv[1], "read-image") == 0)
     status = read_samples(participant, &horus_msg_dds__ImageDescriptor__desc, "rt/camera", count,
                           print_image);

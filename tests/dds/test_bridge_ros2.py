@@ -6,22 +6,25 @@ bridges; a topic the option names whose type has no twin is refused in one line.
 from __future__ import annotations
 
 import ast
+import math
 
 import pytest
 from processes import wait_line
 from test_bridge import COUNT, PUBLISHER, assert_in_order, bridge, python_env
 
-# Holds `name` open with `type` and prints the first message's fields as a dict of numbers and
-# lists (for ast.literal_eval).
+# Holds `name` open with `type` and prints the first message as a dict of numbers, strings,
+# lists and such dicts (for ast.literal_eval).
 HOLDER = """
 import sys, horus, importlib
 package, _, short = sys.argv[2].rpartition(".")
 cls = getattr(importlib.import_module(package), short)
 topic = horus.Topic(cls, sys.argv[1])
 print("ready", flush=True)
-message = topic.recv(timeout=60)
-print({name: getattr(getattr(message, name), "tolist", lambda: getattr(message, name))()
-       for name in cls.__horus__.fields}, flush=True)
+def plain(value):
+    if hasattr(value, "__horus__"):
+        return {name: plain(getattr(value, name)) for name in type(value).__horus__.fields}
+    return value.tolist() if hasattr(value, "tolist") else value
+print(plain(topic.recv(timeout=60)), flush=True)
 """
 
 # Publishes one known Imu on `imu` twice a second until killed.
@@ -198,3 +201,83 @@ def test_a_type_without_a_ros2_twin_is_refused_naming_it(
     assert line.startswith("horus bridge: cannot export topic 'kinds': --ros2-types names it, "
                            "but dds_test.Kinds has no ROS 2 twin (those with one: "
                            "horus.msg.CmdVel, "), line
+
+
+# Publishes one known Odometry on `odom` and PoseStamped on `pose` twice a second until killed.
+ODOMETRY_PUBLISHER = """
+import time, horus
+from horus.msg import Odometry, Point3, Pose2D, Pose3D, PoseStamped, Quaternion, Twist
+odometry, pose = horus.Topic(Odometry, "odom"), horus.Topic(PoseStamped, "pose")
+print("ready", flush=True)
+while True:
+    odometry.send(Odometry(pose=Pose2D(x=1, y=-2, theta=0.5), twist=Twist(linear=[0.5, 0, 0],
+                           angular=[0, 0, 0.125]), pose_covariance=[1, 2, 3] + [0] * 33,
+                           twist_covariance=[0] * 35 + [9], frame_id="odom",
+                           child_frame_id="base_link", timestamp_ns=4_000_000_006))
+    pose.send(PoseStamped(pose=Pose3D(position=Point3(x=1, y=2, z=3),
+                                      orientation=Quaternion(x=0, y=0, z=0.6, w=0.8)),
+                          frame_id="map", timestamp_ns=8_000_000_009))
+    time.sleep(0.5)
+"""
+
+ODOMETRY_COVARIANCES = ("pose_covariance=1,2,3" + ",0" * 33 + " twist=0.5,0,0,0,0,0.125 "
+                        "twist_covariance=" + "0," * 35 + "9")
+
+
+def test_a_ros2_node_reads_odometry_and_pose_stamped(
+        dds_domain, worlds, children, generated, dds_peer):
+    source = worlds[0]
+    publisher = children.python(ODOMETRY_PUBLISHER, python_env(source, generated))
+    wait_line(publisher, "ready")
+    readers = {kind: children.start([dds_peer, f"read-{kind}", str(dds_domain), "1"])
+               for kind in ("odom", "pose")}
+    for reader in readers.values():
+        wait_line(reader, "ready")
+    bridge(children, source, generated, dds_domain, "--export", "odom", "--export", "pose",
+           "--ros2-types", "*")
+    said = {}
+    for kind, reader in readers.items():
+        said[kind], errors = reader.communicate(timeout=60)
+        assert reader.returncode == 0, errors
+    # The planar pose: z 0, the yaw 0.5 as a quaternion about z.
+    yaw_z, yaw_w = "%g" % math.sin(0.25), "%g" % math.cos(0.25)
+    assert said["odom"].strip() == (
+        "sec=4 nanosec=6 frame_id=odom child_frame_id=base_link position=1,-2,0 "
+        f"orientation=0,0,{yaw_z},{yaw_w} {ODOMETRY_COVARIANCES}"), said
+    assert said["pose"].strip() == (
+        "sec=8 nanosec=9 frame_id=map position=1,2,3 orientation=0,0,0.6,0.8"), said
+
+
+def test_a_ros2_node_writes_odometry_and_pose_stamped(
+        dds_domain, worlds, children, generated, dds_peer):
+    target = worlds[1]
+    holders = {kind: children.python(HOLDER, python_env(target, generated), kind, type_name)
+               for kind, type_name in (("odom", "horus.msg.Odometry"),
+                                       ("pose", "horus.msg.PoseStamped"))}
+    for holder in holders.values():
+        wait_line(holder, "ready")
+    bridge(children, target, generated, dds_domain, "--import", "odom", "--import", "pose",
+           "--ros2-types", "*")
+    peers = [children.start([dds_peer, f"write-{kind}", str(dds_domain)]) for kind in holders]
+    got = {}
+    for kind, holder in holders.items():
+        out, errors = holder.communicate(timeout=60)
+        assert holder.returncode == 0, errors
+        got[kind] = ast.literal_eval(out)
+    odometry = got["odom"]
+    # The peer's orientation is a yaw of 0.5 with a roll of 0.1, and z 0.25: HORUS keeps the yaw.
+    assert odometry["pose"]["theta"] == pytest.approx(0.5), odometry
+    assert odometry["timestamp_ns"] == 4_000_000_006 and odometry["frame_id"] == "odom"
+    assert odometry["child_frame_id"] == "base_link", odometry
+    assert odometry["pose_covariance"] == [1, 2, 3] + [0] * 33, odometry
+    assert odometry["twist_covariance"] == [0] * 35 + [9], odometry
+    assert odometry["twist"] == {"linear": [0.5, 0, 0], "angular": [0, 0, 0.125],
+                                 "timestamp_ns": 4_000_000_006}, odometry
+    assert (odometry["pose"]["x"], odometry["pose"]["y"]) == (1, -2), odometry
+    assert got["pose"] == {"pose": {"position": {"x": 1, "y": 2, "z": 3},
+                                    "orientation": {"x": 0, "y": 0, "z": 0.6, "w": 0.8},
+                                    "timestamp_ns": 8_000_000_009},
+                           "frame_id": "map", "timestamp_ns": 8_000_000_009}, got
+    for peer in peers:
+        peer.communicate(timeout=30)
+        assert peer.returncode == 0
