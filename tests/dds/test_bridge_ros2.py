@@ -281,3 +281,18 @@ def test_a_ros2_node_writes_odometry_and_pose_stamped(
     for peer in peers:
         peer.communicate(timeout=30)
         assert peer.returncode == 0
+
+
+def test_a_ros2_twin_without_the_option_is_refused_naming_the_option(
+        dds_domain, worlds, children, generated, dds_peer):
+    target = worlds[1]
+    holder = children.python(HOLDER, python_env(target, generated), "cmd_vel", "horus.msg.CmdVel")
+    wait_line(holder, "ready")
+    importer = bridge(children, target, generated, dds_domain, "--import", "cmd_vel")
+    children.start([dds_peer, "write-twist", str(dds_domain)])
+    line = importer.stderr.readline()
+    assert line == ("horus bridge: cannot import topic 'cmd_vel': the local topic has type "
+                    "horus.msg.CmdVel (horus::msg::dds_::CmdVel_ on DDS), DDS carries "
+                    "geometry_msgs::msg::dds_::Twist_ (its ROS 2 twin: --ros2-types 'cmd_vel' "
+                    "carries it)\n"), line
+    assert holder.poll() is None  # nothing reached the local topic

@@ -408,8 +408,11 @@ class Bridge:
         twin = self._twin(name, type_name)
         dds_type = twin.dds_type if twin else self.types.dds_name(type_name, schema)
         if dds_type != publication["type"]:
+            own_twin = ros2_types.twin_of(type_name)
+            hint = (f" (its ROS 2 twin: --ros2-types '{name}' carries it)"
+                    if own_twin and own_twin.dds_type == publication["type"] else "")
             raise BridgeError(f"the local topic has type {type_name} ({dds_type} on DDS), DDS "
-                              f"carries {publication['type']}")
+                              f"carries {publication['type']}{hint}")
         cls = self.types.load(type_name, schema, fingerprint)
         if capacity is None:  # the bridge creates the topic
             pool = self.dds.pool_frames(type_name, fingerprint, self.namespace or "", 1)
