@@ -2,9 +2,12 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 
+#include <horus/detail/service_channel.hpp>
 #include <horus/detail/service_frame.hpp>
 #include <horus/service_error.hpp>
 #include <horus/service_message.hpp>
@@ -162,6 +165,30 @@ TEST(ServiceResponse, BecomesTheCallersResult) {
   ServiceResult<ComputeResponse> empty = std::move(malformed).into_result();
   ASSERT_FALSE(empty) << "a success without a payload is not a value";
   EXPECT_EQ(empty.error().kind(), ServiceErrorKind::ServiceFailed);
+}
+
+TEST(ServiceFrames, AForwardingServersStatusIsTheKindTheCallerGets) {
+  // A server that forwards calls (the DDS bridge's stand-in for a remote service) answers with
+  // the kind its own call failed with; the caller sees that kind, with the text.
+  using Channel = horus::detail::ServiceChannel<service_test::Compute>;
+  const auto answer = [](std::uint32_t status) {
+    ServiceResponseFrame<ComputeResponse> frame{};
+    frame.status = status;
+    frame.error.try_assign("on the server's host: why");
+    return Channel::to_result(std::move(frame));
+  };
+  for (const auto& [status, kind] :
+       {std::pair{horus::detail::kStatusNoServer, ServiceErrorKind::NoServer},
+        std::pair{horus::detail::kStatusTimeout, ServiceErrorKind::Timeout},
+        std::pair{horus::detail::kStatusTransport, ServiceErrorKind::Transport},
+        std::pair{horus::detail::kStatusFailed, ServiceErrorKind::ServiceFailed},
+        std::pair{std::uint32_t{99}, ServiceErrorKind::ServiceFailed}}) {
+    const ServiceResult<ComputeResponse> result = answer(status);
+    ASSERT_FALSE(result) << status;
+    EXPECT_EQ(result.error().kind(), kind) << status;
+    EXPECT_EQ(result.error().message(), "on the server's host: why") << status;
+  }
+  EXPECT_TRUE(answer(horus::detail::kStatusOk));
 }
 
 TEST(ServiceFrames, CarryTheRequestAndResponseShapesBothWays) {
