@@ -47,6 +47,21 @@ def test_python_client_and_python_server_in_one_process():
         assert server.requests == 2 and server.failures == 1
 
 
+@pytest.mark.parametrize("error", [horus.NoServerError, horus.ServiceTimeout,
+                                   horus.TransportError, horus.ServiceFailed])
+def test_a_forwarding_server_hands_its_callers_the_kind_its_own_call_got(error):
+    def forward(req):
+        raise error(f"elsewhere: {req.a}")
+
+    with horus.ServiceServer(Add, forward, forward_errors=True):
+        with pytest.raises(error, match="^elsewhere: 7$"):
+            horus.ServiceClient(Add).call(AddRequest(a=7, b=0), timeout=5.0)
+    # Without forward_errors, whatever a handler raises is the caller's ServiceFailed.
+    with horus.ServiceServer(Add, forward):
+        with pytest.raises(horus.ServiceFailed, match=f"the handler raised: {error.__name__}"):
+            horus.ServiceClient(Add).call(AddRequest(a=7, b=0), timeout=5.0)
+
+
 def test_no_server_is_reported_at_once():
     client = horus.ServiceClient(Add)
     with pytest.raises(horus.NoServerError, match="no server for Add"):
