@@ -85,6 +85,8 @@ finally:
         child.wait()
 PY
 )
+# What was tried and measured by hand (written under "## Experiments") stays.
+experiments=$(sed -n '/^## Experiments/,$p' "$here/RESULTS.md" 2>/dev/null || true)
 {
   echo "# Remote link (horus remote) on loopback"
   echo
@@ -96,8 +98,13 @@ PY
   echo "The floor is one Cap'n Proto RPC call carrying a CmdVel's bytes (16 B) there and back over"
   echo "kj-tls with the same mutual-TLS setup horus-remote uses. The link's round trip crosses"
   echo "four shared-memory topics, an echo process on the robot's side and the link twice (one"
-  echo "streaming message each way, from a forwarder thread through the event loop)."
+  echo "streaming message each way, from a forwarder thread that wakes the event loop through an"
+  echo "eventfd)."
   echo
   echo "$table"
+  if [ -n "$experiments" ]; then
+    echo
+    echo "$experiments"
+  fi
 } > "$here/RESULTS.md"
 cat "$here/RESULTS.md"

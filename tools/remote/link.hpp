@@ -5,6 +5,7 @@
 
 #include <capnp/rpc-twoparty.h>
 #include <kj/async-io.h>
+#include <kj/async-unix.h>
 #include <kj/compat/tls.h>
 
 #include <atomic>
@@ -70,6 +71,10 @@ class LimitedMessageStream final : public capnp::MessageStream {
   std::size_t limit_words_ = kFirstLimitBytes / sizeof(capnp::word);
 };
 
+/// The event port of this process's event loop (which Forwarders watch their reader threads
+/// on); set once, by the loop's maker, before any Forwarder exists.
+void use_event_port(kj::UnixEventPort& port);
+
 /// One line on stderr, "horus-remote: ...".
 [[gnu::format(printf, 1, 2)]] void say(const char* format, ...);
 
@@ -121,8 +126,11 @@ class Forwarder {
   std::string label_;
   std::mutex mutex_;
   std::deque<Queued> queue_;
-  /// Set while the event loop waits for the reader thread's next message.
-  kj::Own<kj::CrossThreadPromiseFulfiller<void>> waiter_;
+  /// Written by the reader thread when the event loop waits for its next message (`waiting_`),
+  /// and watched by the loop.
+  kj::AutoCloseFd wake_;
+  kj::UnixEventPort::FdObserver wake_observer_;
+  bool waiting_ = false;
   std::atomic<bool> stopping_{false};
   std::atomic<std::uint64_t> sent_{0};
   std::atomic<std::uint64_t> dropped_{0};

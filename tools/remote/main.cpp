@@ -59,7 +59,7 @@ int usage(std::FILE* out, int status) {
 
 }  // namespace
 
-EventLoop::EventLoop() : io(set_up_async_io()) {}
+EventLoop::EventLoop() : io(set_up_async_io()) { use_event_port(io.unixEventPort); }
 
 void EventLoop::run_until_stopped(kj::Promise<void> work, const std::string& namespace_name,
                                   const char* role) {
