@@ -5,7 +5,7 @@
 //   horus_dds_service_peer once   calls Scale(1, 2) at once (2 s timeout) and prints the same
 //   horus_dds_service_peer kinds  waits for a server, then (20 s timeouts) calls Scale(1, 99),
 //                                 Scale(1, -1) (3 s later: the server is done with the first)
-//                                 and Scale(1, 2), printing each result the same way (with
+//                                 and Scale(1, 2) (0.5 s later), printing each result (with
 //                                 test_bridge_service.py's SERVER_WITH_KINDS: a remote Timeout,
 //                                 an answer that stops the server, a remote NoServer)
 #include <chrono>
@@ -51,6 +51,8 @@ int kinds() {
     print(client.call(dds_test::ScaleRequest{1.0, factor}, 20s));
     if (factor == 99.0) {
       std::this_thread::sleep_for(3s);
+    } else if (factor == -1.0) {
+      std::this_thread::sleep_for(500ms);
     }
   }
   return 0;

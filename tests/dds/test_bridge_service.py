@@ -17,15 +17,16 @@ from test_bridge import bridge, python_env
 SERVER = scale_server("dds_test")
 
 # Scale with two more cases: a factor of 99 takes 1.5 s (longer than the exporting bridge's
-# --service-timeout), a factor of -1 is answered and then stops the server (withdrawing it).
+# --service-timeout), a factor of -1 is answered and the server stops (withdraws) 0.25 s later,
+# once the answer is surely in.
 SERVER_WITH_KINDS = """
-import time, horus
+import threading, time, horus
 from dds_test import Scale, ScaleResponse
 def handle(request):
     if request.factor == 99:
         time.sleep(1.5)
     elif request.factor == -1:
-        server.stop()
+        threading.Timer(0.25, server.stop).start()
     return ScaleResponse(product=request.value * request.factor, note="")
 server = horus.ServiceServer(Scale, handle)
 print("ready", flush=True)
@@ -37,8 +38,8 @@ while True:
 # once: one call, printing the error's class and kind (or the answer).
 # until-no-server: calls every 0.1 s until one gives NoServerError, printing it.
 # kinds: waits for a server, then calls with the factors 99, -1 and 2 (20 s timeouts), printing
-# each answer or error as service_peer.cpp's kinds does; 3 s after the first, so that the
-# server is done with it.
+# each answer or error as service_peer.cpp's kinds does; the second 3 s after the first, so that
+# the server is done with it, the third 0.5 s after the second, when the server has stopped.
 CLIENT = """
 import sys, time, horus
 from dds_test import Scale, ScaleRequest
@@ -61,7 +62,7 @@ elif mode == "kinds":
             print("answer", f"{answer.product:g}", flush=True)
         except horus.ServiceError as error:
             print("error", error.kind, error, flush=True)
-        time.sleep(3 if factor == 99 else 0)
+        time.sleep({99.0: 3, -1.0: 0.5}.get(factor, 0))
 elif mode == "once":
     try:
         answer = client.call(ScaleRequest(value=1.0, factor=2.0), timeout=2)
@@ -143,7 +144,9 @@ def test_a_remote_timeout_and_a_remote_no_server_reach_the_caller_as_those_kinds
         language, dds_domain, worlds, children, generated):
     """The exporting bridge gives A's server 0.5 s: a call A's server takes 1.5 s over is the
     caller's Timeout (well before its own 20 s); a call that finds A's server gone (it withdrew
-    after answering the call before) is the caller's NoServer, whichever side notices first."""
+    after answering the call before) is the caller's NoServer, whichever side notices first: the
+    exporting bridge's call (most often: it looks for servers every 0.5 s), the importing one's
+    request writer losing its reader, or the importing bridge withdrawing its stand-in."""
     source, target = worlds
     server = children.python(SERVER_WITH_KINDS, python_env(source, generated))
     wait_line(server, "ready")
