@@ -39,11 +39,13 @@ def free_port() -> int:
 
 @pytest.fixture(scope="session")
 def generated(tmp_path_factory) -> pathlib.Path:
-    """The Python of remote_test (its Scale service), generated once; the folder to import from."""
+    """The Python of remote_test (its Scale and Halve services), generated once; the folder to
+    import from."""
     output = tmp_path_factory.mktemp("generated")
     subprocess.run([GENERATOR, "generate", "--lang", "python", "--out", str(output), "-I",
-                    str(SCHEMAS), str(SCHEMAS / "remote_test" / "scale.hsrv")], check=True,
-                   capture_output=True)
+                    str(SCHEMAS), *(str(SCHEMAS / "remote_test" / f"{name}.hsrv")
+                                    for name in ("scale", "halve"))],
+                   check=True, capture_output=True)
     return output / "python"
 
 

@@ -215,3 +215,41 @@ def test_unanswered_calls_reach_the_caller_with_their_kind(children, worlds, cer
     server.kill()
     link.errors.wait_for("trying again")
     assert ask(caller, "2 3 20") == "error TransportError the link to the robot is down"
+
+
+HALVE_SERVER = """
+import time, horus
+from remote_test import Halve, HalveResponse
+server = horus.ServiceServer(Halve, lambda request: HalveResponse(half=request.value / 2))
+print("ready", flush=True)
+while True:
+    time.sleep(1)
+"""
+
+# As CALLER, for Halve (POD request and response frames): "VALUE TIMEOUT" per line.
+HALVE_CALLER = """
+import sys, horus
+from remote_test import Halve, HalveRequest
+client = horus.ServiceClient(Halve)
+print("server", client.wait_for_server(30), flush=True)
+for line in sys.stdin:
+    value, timeout = map(float, line.split())
+    try:
+        print("answer", client.call(HalveRequest(value=value), timeout=timeout).half, flush=True)
+    except horus.ServiceError as error:
+        print("error", type(error).__name__, error, flush=True)
+"""
+
+
+def test_unanswered_pod_call_reaches_the_caller_with_its_kind(children, worlds, certs, generated):
+    robot, laptop = worlds
+    wait_line(children.python(HALVE_SERVER, env_with(robot, generated)), "ready")
+    server, port = serve(children, robot, certs, "laptop call Halve")
+    link = connect(children, laptop, certs, port)
+    caller = talking(children, HALVE_CALLER, env_with(laptop, generated))
+    assert wait_line(caller, "server") == "server True"
+    assert ask(caller, "5 20") == "answer 2.5"
+    server.kill()
+    link.errors.wait_for("trying again")
+    # The laptop's answer is a POD response frame: its error text at the frame's own offset.
+    assert ask(caller, "5 20") == "error TransportError the link to the robot is down"
