@@ -5,8 +5,10 @@
 //   rpc-ping PORT CERTS COUNT   COUNT echoes of a CmdVel's bytes to it (the laptop's certificate)
 //   topic-echo                  sends back each CmdVel of topic ping on topic pong
 //   topic-ping COUNT            COUNT CmdVels on ping, each waiting for its pong
-//   stream-publish SECONDS      CmdVel on cmd_vel at 1 kHz, a 640x480 RGB image on camera at 30 Hz
-//   stream-count SECONDS        the rates cmd_vel and camera arrive at, from the first message on
+//   stream-publish SECONDS      CmdVel on cmd_vel at 1 kHz, a 640x480 RGB image on camera (a
+//                               CompressedImage) and on pool_camera (a horus::Image) at 30 Hz
+//   stream-count SECONDS        the rates cmd_vel, camera and pool_camera arrive at, from the
+//                               first message on
 //
 // The pings print "<name> p50 P99 mean" in microseconds, the counter "<topic> RATE" in hertz.
 #include <capnp/rpc-twoparty.h>
@@ -22,6 +24,7 @@
 #include <vector>
 
 #include "echo.capnp.h"
+#include "horus/image.hpp"
 #include "horus/msg/cmd_vel.hpp"
 #include "horus/msg/compressed_image.hpp"
 #include "horus/topic.hpp"
@@ -141,6 +144,7 @@ int stream_publish(double seconds) {
   image.width = kWidth;
   image.height = kHeight;
   image.data.assign(std::size_t{kWidth} * kHeight * 3, 128);
+  horus::Topic<horus::Image> pool_camera("pool_camera");
   const auto start = Clock::now();
   auto next = start;
   for (std::uint64_t tick = 0; Clock::now() - start < std::chrono::duration<double>(seconds);
@@ -148,7 +152,10 @@ int stream_publish(double seconds) {
     horus::msg::CmdVel message;
     message.stamp_nanos = tick;
     cmd_vel.send(message);
-    if (tick % 33 == 0) camera.send(image);
+    if (tick % 33 == 0) {
+      camera.send(image);
+      pool_camera.send(horus::Image::make(kHeight, kWidth, horus::ImageEncoding::Rgb8).fill(128));
+    }
     next += std::chrono::milliseconds(1);
     std::this_thread::sleep_until(next);
   }
@@ -158,8 +165,10 @@ int stream_publish(double seconds) {
 int stream_count(double seconds) {
   horus::Topic<horus::msg::CmdVel> cmd_vel("cmd_vel");
   horus::Topic<horus::msg::CompressedImage> camera("camera", camera_options());
+  horus::Topic<horus::Image> pool_camera("pool_camera");
   std::uint64_t commands = 0;
   std::uint64_t images = 0;
+  std::uint64_t pool_images = 0;
   Clock::time_point first{};
   while (first == Clock::time_point{} ||
          Clock::now() - first < std::chrono::duration<double>(seconds)) {
@@ -172,12 +181,17 @@ int stream_count(double seconds) {
       ++images;
       idle = false;
     }
+    if (const auto image = pool_camera.try_recv(); image && image->width() == kWidth) {
+      ++pool_images;
+      idle = false;
+    }
     if (!idle && first == Clock::time_point{}) first = Clock::now();
     if (idle) std::this_thread::sleep_for(std::chrono::microseconds(200));
   }
   const double elapsed = std::chrono::duration<double>(Clock::now() - first).count();
-  std::printf("cmd_vel %.1f\ncamera %.1f\n", static_cast<double>(commands) / elapsed,
-              static_cast<double>(images) / elapsed);
+  std::printf("cmd_vel %.1f\ncamera %.1f\npool_camera %.1f\n",
+              static_cast<double>(commands) / elapsed, static_cast<double>(images) / elapsed,
+              static_cast<double>(pool_images) / elapsed);
   return 0;
 }
 

@@ -2,8 +2,9 @@
 # bench/remote: round-trip latency of a CmdVel across `horus remote` (laptop topic ping -> link
 # -> robot topic ping -> an echo process -> robot topic pong -> link -> laptop topic pong) on
 # loopback with TLS, against a plain Cap'n Proto RPC echo of the same bytes with the same TLS in
-# the same run (the goal: <= 1.3x); then 1 kHz CmdVel and 30 Hz 640x480 RGB images over
-# one link, and the rate each arrives at. Writes bench/remote/RESULTS.md.
+# the same run (the goal: <= 1.3x); then 1 kHz CmdVel and 30 Hz 640x480 RGB images (a
+# CompressedImage and a pool-backed horus::Image) over one link, and the rate each arrives at.
+# Writes bench/remote/RESULTS.md.
 # Usage: bench/remote/run.sh [BUILD_DIR] [ROUND_TRIPS]   (default: build, 5000)
 set -euo pipefail
 build=$(realpath "${1:-build}")
@@ -49,11 +50,12 @@ try:
     start([bench, "topic-echo"], "a")
     server = start([remote, "serve", "--listen", "127.0.0.1:0", "--certs", certs, "--name", "robot",
                     "--allow", "laptop write ping", "--allow", "laptop read pong",
-                    "--allow", "laptop read cmd_vel", "--allow", "laptop read camera"], "a")
+                    "--allow", "laptop read cmd_vel", "--allow", "laptop read camera",
+                    "--allow", "laptop read pool_camera"], "a")
     link_port = port_of(server, "serving")
     start([remote, "connect", f"127.0.0.1:{link_port}", "--certs", certs, "--name", "laptop",
            "--server-name", "robot", "--import", "pong", "--import", "cmd_vel", "--import", "camera",
-           "--export", "ping"], "b")
+           "--import", "pool_camera", "--export", "ping"], "b")
     results = {"rpc_echo": [], "link_round_trip": []}
     for _ in range(4):
         for argv, side in (([bench, "rpc-ping", rpc_port, certs, str(int(trips) // 4)], None),
@@ -79,6 +81,7 @@ try:
     print("|---|---|---|")
     print(f"| CmdVel (16 B) | 1000 | {float(rates['cmd_vel']):.1f} |")
     print(f"| 640x480 RGB image (CompressedImage, 921,600 B of data) | 30.3 | {float(rates['camera']):.1f} |")
+    print(f"| 640x480 RGB image (horus::Image: its pool block's 921,600 B cross) | 30.3 | {float(rates['pool_camera']):.1f} |")
 finally:
     for child in children:
         child.kill()
