@@ -266,7 +266,11 @@ LoopPlan SchedulerImpl::plan_loop(const std::vector<SlotPtr>& slots, std::int64_
       pool.push_back(ex);
       plan.executors.push_back(ex);
     }
-    for (std::size_t i = 0; i < compute.size(); ++i) pool[i % workers]->slots.push_back(compute[i]);
+    std::size_t next = 0;  // round robin over the workers
+    for (auto& slot : compute) {
+      pool[next]->slots.push_back(slot);
+      next = next + 1 == workers ? 0 : next + 1;
+    }
   }
   return plan;
 }
