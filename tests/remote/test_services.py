@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import os
 import signal
+import subprocess
 import sys
 
-from conftest import connect, free_port, serve
+from conftest import HORUS, connect, free_port, serve
 from peer_scripts import scale_server
 from processes import wait_line
 
@@ -215,6 +216,27 @@ def test_unanswered_calls_reach_the_caller_with_their_kind(children, worlds, cer
     server.kill()
     link.errors.wait_for("trying again")
     assert ask(caller, "2 3 20") == "error TransportError the link to the robot is down"
+
+
+def test_the_robots_wait_for_an_answer_is_the_call_timeout_of_connect(children, worlds, certs,
+                                                                       generated):
+    robot, laptop = worlds
+    wait_line(talking(children, STOPPABLE_SERVER, env_with(robot, generated)), "ready")
+    _, port = serve(children, robot, certs, "laptop call Scale")
+    connect(children, laptop, certs, port, "--call-timeout", "1.5")
+    caller = talking(children, CALLER, env_with(laptop, generated))
+    assert wait_line(caller, "server") == "server True"
+    assert ask(caller, "1 -4 20") == (
+        "error ServiceTimeout no answer from Scale on the robot within 1500 ms")
+
+
+def test_a_call_timeout_out_of_range_is_a_usage_error():
+    for text in ("0", "-1", "61", "soon", "nan"):
+        result = subprocess.run([HORUS, "remote", "connect", "127.0.0.1:1", "--insecure",
+                                 "--call-timeout", text], capture_output=True, text=True)
+        assert result.returncode == 2, (text, result)
+        assert f"--call-timeout needs a number of seconds from 0.001 to 60, not '{text}'" \
+            in result.stderr, (text, result.stderr)
 
 
 HALVE_SERVER = """

@@ -211,7 +211,7 @@ class Link {
     }
     try {
       auto requests = open_topic(topic_info(info.getRequest()), options_.namespace_name);
-      auto mirror = kj::heap<ServiceMirror>(info, options_.namespace_name);
+      auto mirror = kj::heap<ServiceMirror>(info, options_.namespace_name, options_.call_timeout);
       ServiceMirror* serving = mirror.get();
       serving->connect(session_, &messages_);
       auto forwarder =

@@ -4,8 +4,10 @@
 //   horus-remote serve --listen HOST:PORT --certs DIR --name NAME [--allow LINE]...
 //                      [--policy FILE] [--insecure] [--namespace NS]
 //   horus-remote connect HOST:PORT --certs DIR --name NAME [--server-name NAME]
-//                      [--import PATTERN]... [--export PATTERN]... [--queue N] [--insecure]
+//                      [--import PATTERN]... [--export PATTERN]... [--queue N]
+//                      [--call-timeout SECONDS] [--insecure]
 //                      [--namespace NS]
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -41,14 +43,16 @@ int usage(std::FILE* out, int status) {
       "                          [--allow 'PEER read|write|call PATTERN']... [--policy FILE]\n"
       "       horus-remote connect HOST:PORT --certs DIR --name NAME [--server-name NAME]\n"
       "                          [--import PATTERN]... [--export PATTERN]... [--queue N]\n"
+      "                          [--call-timeout SECONDS]\n"
       "  both:  [--namespace NS] [--insecure (plain TCP: no authentication, no encryption)]\n"
       "serve: serves the namespace to peers with a certificate of DIR's CA, each limited to\n"
       "       what the policy lines allow its certificate name (globs; the rest is denied).\n"
       "connect: mirrors the robot's topics matching --import here, sends local topics\n"
       "       matching --export to the robot; reconnects with backoff. --server-name: the\n"
       "       name in the robot's certificate (default: HOST). --queue: messages a stream\n"
-      "       may fall behind before the oldest are dropped (default %u).\n",
-      kDefaultQueue);
+      "       may fall behind before the oldest are dropped (default %u). --call-timeout: how\n"
+      "       long the robot waits for its server to answer a call (default 10, at most %u).\n",
+      kDefaultQueue, kLongestCallMs / 1000);
   return status;
 }
 
@@ -129,6 +133,16 @@ int run(int argc, char** argv) {
         usage_error("--queue needs a number of messages from 1 to 1024, not '" + text + "'");
       }
       connecting.queue = static_cast<unsigned>(queue);
+    } else if (command == "connect" && arg == "--call-timeout") {
+      const std::string text = value();
+      char* end = nullptr;
+      const double seconds = std::strtod(text.c_str(), &end);
+      if (end == text.c_str() || *end != '\0' || !(seconds >= 0.001) ||
+          !(seconds <= kLongestCallMs / 1000.0)) {
+        usage_error("--call-timeout needs a number of seconds from 0.001 to " +
+                    std::to_string(kLongestCallMs / 1000) + ", not '" + text + "'");
+      }
+      connecting.call_timeout = std::chrono::milliseconds(std::llround(seconds * 1000));
     } else if (command == "connect" && connecting.address.empty() && !arg.starts_with("-")) {
       connecting.address = arg;
     } else {

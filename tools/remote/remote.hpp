@@ -4,6 +4,8 @@
 #include <kj/async-io.h>
 #include <kj/async-unix.h>
 
+#include <chrono>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -13,6 +15,9 @@ namespace horus::remote {
 
 /// The name the policy knows every peer of an --insecure server by.
 inline constexpr const char* kInsecurePeer = "insecure";
+
+/// The longest a peer may have the robot wait for one call's answer (a longer ask is cut to it).
+inline constexpr std::uint32_t kLongestCallMs = 60000;
 
 struct ServeOptions {
   std::string listen;
@@ -34,6 +39,9 @@ struct ConnectOptions {
   std::vector<std::string> exports;
   /// Messages each stream may fall behind before the oldest are dropped.
   unsigned queue = 0;
+  /// How long the robot waits for its server to answer one call a local client makes (the
+  /// request frame does not carry the client's own timeout).
+  std::chrono::milliseconds call_timeout{10000};
   bool insecure = false;
 };
 

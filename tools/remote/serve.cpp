@@ -17,8 +17,6 @@ namespace {
 /// call messages (Cap'n Proto counts words).
 constexpr std::size_t kFlowLimitWords = (std::size_t{256} << 10) / sizeof(capnp::word);
 constexpr std::uint32_t kLargestQueue = 1024;
-/// The longest a peer may have the robot wait for one answer of a service.
-constexpr std::uint32_t kLongestCallMs = 60000;
 /// A peer's calls (not its streams) run at most this often on average, after a burst of
 /// kCallBurst / kCallSpacing calls.
 constexpr kj::Duration kCallSpacing = 1 * kj::MILLISECONDS;

@@ -12,10 +12,6 @@ namespace horus::remote {
 
 namespace {
 
-/// How long a peer's mirror lets the robot wait for its server (the local client's own timeout
-/// ends its wait sooner when it is shorter).
-constexpr std::uint32_t kCallTimeoutMs = 10000;
-
 using Kind = wire::CallFailure::Kind;
 
 TopicOptions namespace_options(const std::string& namespace_name) {
@@ -293,9 +289,11 @@ ServiceRelay::Outcome ServiceRelay::ask(const Job& job) {
   }
 }
 
-ServiceMirror::ServiceMirror(wire::ServiceInfo::Reader info, const std::string& namespace_name)
+ServiceMirror::ServiceMirror(wire::ServiceInfo::Reader info, const std::string& namespace_name,
+                             std::chrono::milliseconds call_timeout)
     : service_(info.getName()),
       namespace_name_(namespace_name),
+      call_timeout_ms_(static_cast<std::uint32_t>(call_timeout.count())),
       request_pod_(info.getRequest().getIsPod()),
       registration_(detail::registration_topic(service_),
                     detail::registration_options(namespace_options(namespace_name))),
@@ -361,7 +359,8 @@ kj::Promise<void> ServiceMirror::message(MessageContext context) {
   request.setService(service_);
   request.setRequest(data);
   describe(reply->info, request.initResponse());
-  request.setTimeoutMs(kCallTimeoutMs);
+  // The local client's own timeout, when shorter, ends its wait sooner.
+  request.setTimeoutMs(call_timeout_ms_);
   calls_.add(request.send().then(
       [this, ids = *ids](capnp::Response<wire::Session::CallResults>&& response) {
         if (response.hasFailure() && response.getFailure().getKind() != Kind::NONE) {

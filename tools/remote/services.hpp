@@ -6,6 +6,7 @@
 
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -94,7 +95,9 @@ class ServiceRelay {
 /// also while no connection to the robot is up, with a transport error naming the link.
 class ServiceMirror final : public wire::Sink::Server, public kj::TaskSet::ErrorHandler {
  public:
-  ServiceMirror(wire::ServiceInfo::Reader info, const std::string& namespace_name);
+  /// `call_timeout`: how long the robot waits for its server to answer each call.
+  ServiceMirror(wire::ServiceInfo::Reader info, const std::string& namespace_name,
+                std::chrono::milliseconds call_timeout);
   ~ServiceMirror() noexcept(false);
 
   /// The session calls go to from now on, and its connection's stream (raised to fit the
@@ -124,6 +127,7 @@ class ServiceMirror final : public wire::Sink::Server, public kj::TaskSet::Error
   LimitedMessageStream* messages_ = nullptr;
   std::string service_;
   std::string namespace_name_;
+  std::uint32_t call_timeout_ms_;
   bool request_pod_;
   detail::ServiceRegistration registered_;
   Topic<detail::ServiceRegistration> registration_;
