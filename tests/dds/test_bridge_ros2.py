@@ -70,22 +70,38 @@ def test_a_ros2_node_reads_cmd_vel_as_geometry_msgs_twist(
     assert_in_order("rt/cmd_vel", [round(float(x) * 2) for x, *_ in linear])
 
 
-def test_a_ros2_node_writes_geometry_msgs_twist_into_cmd_vel(
-        dds_domain, worlds, children, generated, dds_peer):
-    target = worlds[1]
-    holder = children.python(HOLDER, python_env(target, generated), "cmd_vel", "horus.msg.CmdVel")
-    wait_line(holder, "ready")
-    bridge(children, target, generated, dds_domain, "--import", "cmd_vel", "--ros2-types", "*")
-    peer = children.start([dds_peer, "write-twist", str(dds_domain)])
-    out, errors = holder.communicate(timeout=60)
-    assert holder.returncode == 0, errors
-    message = ast.literal_eval(out)
-    # Twist(linear (1.5, 0.25, 0), angular (0, 0, -0.75)): y and the roll and pitch rates have no
-    # place in CmdVel; the stamp is the time it arrived.
-    assert (message["linear"], message["angular"]) == (1.5, -0.75), out
-    assert message["stamp_nanos"] > 0, out
+def written_by_ros2_peer(children, world, generated, dds_peer, dds_domain, write: str,
+                         topic: str, type_name: str, ros2_types: str,
+                         local_topic_first: bool = True) -> dict:
+    """The message a HORUS reader of `topic` in `world` gets when dds_peer's `write` mode writes
+    its ROS 2 message, imported by a bridge with --ros2-types; `local_topic_first=False` starts
+    the bridge before the reader opens the topic (the bridge makes it)."""
+    def importing_bridge():
+        bridge(children, world, generated, dds_domain, "--import", topic,
+               "--ros2-types", ros2_types)
+
+    if not local_topic_first:
+        importing_bridge()
+    reader = children.python(HOLDER, python_env(world, generated), topic, type_name)
+    wait_line(reader, "ready")
+    if local_topic_first:
+        importing_bridge()
+    peer = children.start([dds_peer, write, str(dds_domain)])
+    out, errors = reader.communicate(timeout=60)
+    assert reader.returncode == 0, errors
     peer.communicate(timeout=30)
     assert peer.returncode == 0
+    return ast.literal_eval(out)
+
+
+def test_a_ros2_node_writes_geometry_msgs_twist_into_cmd_vel(
+        dds_domain, worlds, children, generated, dds_peer):
+    message = written_by_ros2_peer(children, worlds[1], generated, dds_peer, dds_domain,
+                                   "write-twist", "cmd_vel", "horus.msg.CmdVel", "*")
+    # Twist(linear (1.5, 0.25, 0), angular (0, 0, -0.75)): y and the roll and pitch rates have no
+    # place in CmdVel; the stamp is the time it arrived.
+    assert (message["linear"], message["angular"]) == (1.5, -0.75), message
+    assert message["stamp_nanos"] > 0, message
 
 
 def test_a_ros2_node_reads_imu_as_sensor_msgs_imu(
@@ -103,23 +119,17 @@ def test_a_ros2_node_reads_imu_as_sensor_msgs_imu(
 
 def test_a_ros2_node_writes_sensor_msgs_imu_into_imu(
         dds_domain, worlds, children, generated, dds_peer):
-    target = worlds[1]
     # No local topic: the bridge makes `imu` of the twin's HORUS type, horus.msg.Imu.
-    bridge(children, target, generated, dds_domain, "--import", "imu", "--ros2-types", "imu")
-    reader = children.python(HOLDER, python_env(target, generated), "imu", "horus.msg.Imu")
-    wait_line(reader, "ready")
-    peer = children.start([dds_peer, "write-imu", str(dds_domain)])
-    out, errors = reader.communicate(timeout=60)
-    assert reader.returncode == 0, errors
+    message = written_by_ros2_peer(children, worlds[1], generated, dds_peer, dds_domain,
+                                   "write-imu", "imu", "horus.msg.Imu", "imu",
+                                   local_topic_first=False)
     # Every field as written; the frame "imu_link" has no place in HORUS's Imu.
-    assert ast.literal_eval(out) == {
+    assert message == {
         "orientation": [0, 0, 0.6, 0.8], "orientation_covariance": [1, 0, 0, 0, 2, 0, 0, 0, 3],
         "angular_velocity": [0.1, -0.2, 0.3], "angular_velocity_covariance": [-1] + [0] * 8,
         "linear_acceleration": [0, 0, 9.81],
         "linear_acceleration_covariance": [0.5, 0, 0, 0, 0.5, 0, 0, 0, 0.5],
-        "timestamp_ns": 12_000_000_345}, out
-    peer.communicate(timeout=30)
-    assert peer.returncode == 0
+        "timestamp_ns": 12_000_000_345}, message
 
 
 # Publishes one known LaserScan on `scan` twice a second until killed.
@@ -153,22 +163,15 @@ def test_a_ros2_node_reads_laser_scan_as_sensor_msgs_laser_scan(
 
 def test_a_ros2_node_writes_a_shorter_laser_scan_into_scan(
         dds_domain, worlds, children, generated, dds_peer):
-    target = worlds[1]
-    reader = children.python(HOLDER, python_env(target, generated), "scan", "horus.msg.LaserScan")
-    wait_line(reader, "ready")
-    bridge(children, target, generated, dds_domain, "--import", "scan", "--ros2-types", "scan")
-    peer = children.start([dds_peer, "write-scan", str(dds_domain)])
-    out, errors = reader.communicate(timeout=60)
-    assert reader.returncode == 0, errors
+    scan = written_by_ros2_peer(children, worlds[1], generated, dds_peer, dds_domain,
+                                "write-scan", "scan", "horus.msg.LaserScan", "scan")
     # 100 ranges 0.25 apart, then 260 zeros (no reading); the intensities and frame dropped.
-    scan = ast.literal_eval(out)
+    out = repr(scan)
     assert scan.pop("time_increment") == pytest.approx(0.001), out  # 0.001 as a float32
     assert scan == {
         "ranges": [0.25 * i for i in range(100)] + [0.0] * 260, "angle_min": -1.5,
         "angle_max": 1.5, "range_min": 0.5, "range_max": 20.0, "angle_increment": 0.03125,
         "scan_time": 0.125, "timestamp_ns": 3_000_000_500}, out
-    peer.communicate(timeout=30)
-    assert peer.returncode == 0
 
 
 def test_two_bridges_carry_cmd_vel_as_twist_between_namespaces(
