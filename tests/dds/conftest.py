@@ -75,11 +75,11 @@ def kinds_class(generated):
 
 @pytest.fixture(scope="session")
 def dds_peer(generated, tmp_path_factory) -> str:
-    """dds_peer.c built with idlc's C of the emitted IDL and of ROS 2's messages (ros2_idl/), as
-    a Cyclone user would build it."""
+    """dds_peer.c built with idlc's C of the emitted IDL and of ROS 2's messages (the bridge's
+    tools/horus/ros2_idl/), as a Cyclone user would build it."""
     build = tmp_path_factory.mktemp("dds_peer")
     sources = [str(HERE / "dds_peer.c")]
-    for idl in (generated / "idl", HERE / "ros2_idl"):
+    for idl in (generated / "idl", HERE.parent.parent / "tools" / "horus" / "ros2_idl"):
         for path in sorted(idl.rglob("*.idl")):
             folder = build / path.parent.relative_to(idl)
             folder.mkdir(parents=True, exist_ok=True)
@@ -89,4 +89,18 @@ def dds_peer(generated, tmp_path_factory) -> str:
     program = build / "dds_peer"
     subprocess.run(["cc", "-O1", "-Wall", "-DDDS_NDEBUG", "-I", str(build), "-o", str(program),
                     *sources, "-lddsc"], check=True, capture_output=True)
+    return str(program)
+
+
+@pytest.fixture(scope="session")
+def dds_attacker(tmp_path_factory) -> str:
+    """dds_attacker.c built with idlc's C of attacker_idl/ (types of other layouts than CmdVel's
+    that it writes under CmdVel's DDS type name)."""
+    build = tmp_path_factory.mktemp("dds_attacker")
+    subprocess.run(["idlc", str(HERE / "attacker_idl" / "attack.idl")], cwd=build, check=True,
+                   capture_output=True)
+    program = build / "dds_attacker"
+    subprocess.run(["cc", "-O1", "-Wall", "-DDDS_NDEBUG", "-I", str(build), "-o", str(program),
+                    str(HERE / "dds_attacker.c"), str(build / "attack.c"), "-lddsc"], check=True,
+                   capture_output=True)
     return str(program)

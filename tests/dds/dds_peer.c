@@ -1,6 +1,6 @@
 /* A plain Cyclone DDS program built with idlc from the IDL horus-gen emits and from ROS 2's
-   messages as hand-written IDL (ros2_idl/; the tests build it), standing in for a ROS 2 node: it
-   knows nothing of HORUS but the IDL.
+   messages as hand-written IDL (tools/horus/ros2_idl/; the tests build it), standing in for a
+   ROS 2 node: it knows nothing of HORUS but the IDL.
      dds_peer read-cmdvel DOMAIN N   prints N horus.msg.CmdVel samples of rt/cmd_vel, one a line
      dds_peer read-kinds DOMAIN N    prints N dds_test.Kinds samples of rt/kinds
      dds_peer write-kinds DOMAIN     writes one known Kinds sample once a reader matches
@@ -16,8 +16,12 @@
      dds_peer write-pose DOMAIN      writes one known PoseStamped on rt/pose
      dds_peer read-image DOMAIN N    prints N horus.msg.ImageDescriptor samples (with the image's
                                      data, as the bridge sends a pool type) of rt/camera
+   Options, anywhere: --topic NAME reads or writes the DDS topic NAME instead; --xcdr2 makes the
+   reader or writer use XCDR2 alone (its data representation QoS), and write-kinds then writes
+   the name "from C in XCDR2", so that a test can tell its sample from an XCDR1 one.
    It prints "ready" once its reader or writer exists; a timeout (20 s) is exit status 1. */
 #include <inttypes.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -32,11 +36,19 @@
 #include "sensor_msgs/msg/Imu.h"
 #include "sensor_msgs/msg/LaserScan.h"
 
+static const char *topic_option; /* --topic */
+static bool xcdr2_option;        /* --xcdr2 */
+
 static dds_qos_t *reliable(void)
 {
   dds_qos_t *qos = dds_create_qos();
   dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
   dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 100);
+  if (xcdr2_option)
+  {
+    const dds_data_representation_id_t xcdr2 = DDS_DATA_REPRESENTATION_XCDR2;
+    dds_qset_data_representation(qos, 1, &xcdr2);
+  }
   return qos;
 }
 
@@ -167,7 +179,8 @@ static void print_image(const void *sample)
 static int read_samples(dds_entity_t participant, const dds_topic_descriptor_t *type,
                         const char *name, int count, void (*print)(const void *))
 {
-  dds_entity_t topic = dds_create_topic(participant, type, name, NULL, NULL);
+  dds_entity_t topic =
+    dds_create_topic(participant, type, topic_option ? topic_option : name, NULL, NULL);
   dds_qos_t *qos = reliable();
   dds_entity_t reader = dds_create_reader(participant, topic, qos, NULL);
   dds_delete_qos(qos);
@@ -199,7 +212,8 @@ static int read_samples(dds_entity_t participant, const dds_topic_descriptor_t *
 static int write_sample(dds_entity_t participant, const dds_topic_descriptor_t *type,
                         const char *name, const void *sample)
 {
-  dds_entity_t topic = dds_create_topic(participant, type, name, NULL, NULL);
+  dds_entity_t topic =
+    dds_create_topic(participant, type, topic_option ? topic_option : name, NULL, NULL);
   dds_qos_t *qos = reliable();
   dds_entity_t writer = dds_create_writer(participant, topic, qos, NULL);
   dds_delete_qos(qos);
@@ -288,7 +302,8 @@ static int write_kinds(dds_entity_t participant)
   dds_test_dds__Kinds__points points[] = { { 1.0f, 2.0f, 3.0f } };
   double maybe = 6.5;
   dds_test_dds__Kinds_ s = {
-    .small = 7, .big = -9000000000LL, .mode = 300, .name = "from C", .tag = "c-tag",
+    .small = 7, .big = -9000000000LL, .mode = 300,
+    .name = xcdr2_option ? "from C in XCDR2" : "from C", .tag = "c-tag",
     .blob = { ._length = 3, ._maximum = 3, ._buffer = blob },
     .raw = { ._length = 0 },
     .values = { ._length = 2, ._maximum = 2, ._buffer = values },
@@ -306,11 +321,22 @@ static int write_kinds(dds_entity_t participant)
 
 int main(int argc, char **argv)
 {
+  int kept = 1;
+  for (int i = 1; i < argc; i++)
+  {
+    if (strcmp(argv[i], "--topic") == 0 && i + 1 < argc)
+      topic_option = argv[++i];
+    else if (strcmp(argv[i], "--xcdr2") == 0)
+      xcdr2_option = true;
+    else
+      argv[kept++] = argv[i];
+  }
+  argc = kept;
   if (argc < 3)
   {
     fprintf(stderr, "usage: dds_peer read-cmdvel|read-kinds|write-kinds|read-twist|write-twist|"
                     "read-imu|write-imu|read-scan|write-scan|read-odom|write-odom|read-pose|"
-                    "write-pose|read-image DOMAIN [N]\n");
+                    "write-pose|read-image DOMAIN [N] [--topic NAME] [--xcdr2]\n");
     return 2;
   }
   dds_entity_t participant = dds_create_participant((dds_domainid_t) atoi(argv[2]), NULL, NULL);

@@ -126,7 +126,8 @@ int main(int argc, char** argv) {
                   .export_services = {"get_*"},
                   .import_services = {"plan"},
                   .service_timeout = 2500ms,
-                  .ros2_types = {"cmd_vel"}},
+                  .ros2_types = {"cmd_vel"},
+                  .accept_untyped_writers = true},
                  std::make_shared<Talker>());
     }
     if (role == "invalid" && args.size() == 1) return invalid();

@@ -59,8 +59,10 @@ def test_bytes_that_do_not_fit_are_a_value_error(kinds_class):
     cdr = codec.encode(sample_kinds(kinds_class))
     with pytest.raises(ValueError, match="dds_test.Kinds"):
         codec.decode(cdr[:40])
-    with pytest.raises(ValueError, match="not plain CDR"):
-        codec.decode(b"\x00\x07\x00\x00" + cdr[4:])  # XCDR2 (an appendable type)
+    with pytest.raises(ValueError, match="encapsulation 0007 is XCDR2, and the bridge reads XCDR1"):
+        codec.decode(b"\x00\x07\x00\x00" + cdr[4:])
+    with pytest.raises(ValueError, match="encapsulation 0003 is not plain CDR"):
+        codec.decode(b"\x00\x03\x00\x00" + cdr[4:])  # XCDR1's parameter list (@mutable)
     with pytest.raises(ValueError, match="encapsulation header"):
         codec.decode(b"\x00")
 

@@ -114,8 +114,12 @@ def test_samples_that_do_not_fit_are_value_errors_naming_the_type(kinds_class):
         plan.decode(cdr[:40])
     with pytest.raises(ValueError, match="bytes are left over"):
         plan.decode(cdr + bytes(8))
-    with pytest.raises(ValueError, match="not plain CDR"):
+    with pytest.raises(ValueError, match="encapsulation 0007 is XCDR2, and the bridge reads XCDR1"):
         plan.decode(b"\x00\x07\x00\x00" + cdr[4:])
+    with pytest.raises(ValueError, match="encapsulation 0009 is XCDR2, and the bridge reads XCDR1"):
+        plan.decode(b"\x00\x09\x00\x00" + cdr[4:])
+    with pytest.raises(ValueError, match="encapsulation 0003 is not plain CDR"):
+        plan.decode(b"\x00\x03\x00\x00" + cdr[4:])
     with pytest.raises(ValueError, match="no encapsulation header"):
         plan.decode(b"\x00")
     # label is string<12>: a 13-byte string in its place does not fit

@@ -73,3 +73,23 @@ def test_one_topic_name_with_two_types_is_refused(dds_domain):
     else:
         raise AssertionError("a second type on one topic name was accepted")
     del writer
+
+
+def test_a_reader_of_typed_writers_only_matches_writers_of_its_type_alone(dds_domain):
+    import horus_bridge
+    from horus.msg import CmdVel, Twist
+    types = horus_bridge._Types()
+    cmdvel_type, twist_type = (types.type_info(cls.__horus__.name, cls.__horus__.schema)
+                               for cls in (CmdVel, Twist))
+    a, b, c, d = (_dds.Participant(dds_domain) for _ in range(4))
+    reader = _dds.Reader(a, "rt/cmd_vel", TYPE, typed_writers_only=True, **cmdvel_type)
+    good = _dds.Writer(b, "rt/cmd_vel", TYPE, **cmdvel_type)
+    # CmdVel's name, Twist's type information; and no type information at all.
+    other_type = _dds.Writer(c, "rt/cmd_vel", TYPE, **twist_type)
+    untyped = _dds.Writer(d, "rt/cmd_vel", TYPE)
+    wait_until(lambda: good.matched() == 1 and reader.matched() == 1, "the typed writer's match")
+    other_type.write(cmdvel(1))
+    untyped.write(cmdvel(2))
+    good.write(cmdvel(3))
+    assert take(reader, 1) == [cmdvel(3)]
+    assert reader.matched() == 1 and other_type.matched() == 0 and untyped.matched() == 0

@@ -255,6 +255,10 @@ class CdrReader:
         if len(data) < 4:
             raise ValueError(f"a CDR sample of {len(data)} bytes has no encapsulation header")
         scheme = data[:2]
+        if scheme[0] == 0 and 6 <= scheme[1] <= 11:
+            raise ValueError(f"encapsulation {scheme.hex()} is XCDR2, and the bridge reads XCDR1 "
+                             "(plain CDR) only: the writer must offer XCDR1 (its data "
+                             "representation QoS)")
         if scheme not in (_CDR_LE, _CDR_BE):
             raise ValueError(f"encapsulation {scheme.hex()} is not plain CDR (XCDR1): the writer's "
                              "type is not a @final struct of the IDL horus-gen emits")

@@ -4,14 +4,25 @@
     horus bridge --export 'cmd_*' --import 'odom' [--domain N] [--best-effort] [--depth N]
                  [--transient-local PATTERN] [--deadline PATTERN=MS] [--ros2-types PATTERN]
                  [--export-service PATTERN] [--import-service PATTERN] [--service-timeout S]
+                 [--accept-untyped-writers]
 
-A local topic whose name matches an --export pattern is written to the DDS topic `rt/<name>`
-in CDR (dds_cdr) under its DDS type name (`horus-gen describe`'s dds_type, ROS 2's naming); its
+A local topic whose name matches an --export pattern is written to the DDS topic `rt/<name>`,
+each '.' of the name a '/' (`arm.state` is rt/arm/state, as ROS 2 reads namespaces), in XCDR1 CDR
+(dds_cdr) under its DDS type name (`horus-gen describe`'s dds_type, ROS 2's naming); its
 writer's user data carries the HORUS identity (type name, fingerprint, schema text), so a bridge
 on another host can create the topic without knowing the type beforehand. A DDS publication
-`rt/<name>` whose name matches an --import pattern is published into the local topic <name>:
-created from that identity, or the existing topic when its type is the same (a plain DDS program
-gives no identity: the local topic must exist then). Another type is refused, naming both.
+`rt/<name>` whose name (each '/' a '.') matches an --import pattern is published into that local
+topic: created from that identity, or the existing topic when its type is the same (a plain DDS
+program gives no identity: the local topic must exist then). Another type is refused, naming
+both; so is a name with no counterpart on the other side (a HORUS '-', a DDS '.'), and a DDS
+writer that writes XCDR2 (the bridge's endpoints accept XCDR1 alone, so DDS does not match them).
+
+Each writer and reader of a topic announces the XTypes type information idlc makes of its IDL
+(the IDL horus-gen emits, or ROS 2's message for a twin: ros2_idl/), and an importing reader
+matches only writers that announce theirs and whose type DDS finds assignable to it: a writer of
+another layout under the same type name never delivers a sample. A writer that announces none (a
+ROS 2 node's rmw) is refused in one line, or taken on trust under --accept-untyped-writers. Bad
+samples that reach a reader all the same are one line per (writer, reason) and then a count.
 
 Nothing crosses that no pattern names. DDS endpoints ignore their own participant, and a topic
 named by both directions is refused, so nothing a bridge writes comes back to it. One thread per
@@ -40,9 +51,12 @@ from __future__ import annotations
 import fnmatch
 import importlib
 import json
+import os
 import random
+import re
 import signal
 import struct
+import subprocess
 import sys
 import tempfile
 import threading
@@ -54,12 +68,19 @@ import dynamic_types
 import ros2_types
 
 PREFIX = "rt/"  # ROS 2's prefix of topic names on DDS
+HORUS_NAME = re.compile(r"[A-Za-z0-9_.-]{1,200}")  # what the runtime accepts for a topic's name
+XCDR1 = 0  # DDS_DATA_REPRESENTATION_XCDR1, the only CDR the bridge reads and writes
+REPRESENTATIONS = {0: "XCDR1", 1: "XML", 2: "XCDR2"}
 RESCAN_S = 0.5
 RETRY_S = 0.5  # after a failed DDS write or take, or a failing local topic
 LOCAL_CAPACITY = 64  # the geometry a topic the bridge creates gets (as `horus topic pub`'s)
 LOCAL_MAX_MESSAGE = 16 * 1024
 POOL_CAPACITY = 4  # a pool topic the bridge creates: as horus.Topic(Image, ...)'s, each a block held
 SERVICE_TIMEOUT_S = 10.0  # how long an exporting bridge waits for its local server, by default
+# ROS 2's messages the twins are (ros2_types) as IDL under rmw_cyclonedds's DDS names, for their
+# type information.
+ROS2_IDL = os.path.join(os.path.dirname(os.path.abspath(__file__)), "ros2_idl")
+DROPS_EVERY_S = 5.0  # samples dropped for a reason already said: a count line at most this often
 
 
 class BridgeError(Exception):
@@ -80,10 +101,12 @@ def _complain(text: str) -> None:
 
 
 class _Types:
-    """Generated classes and DDS type names of HORUS types, from their schema texts."""
+    """Generated classes, DDS type names and XTypes type information of HORUS types, from their
+    schema texts."""
 
     def __init__(self) -> None:
         self._dds_names: dict[tuple[str, str], str] = {}
+        self._type_info: dict[tuple[str, str], dict] = {}
 
     def load(self, type_name: str, schema: str, fingerprint: int):
         try:
@@ -109,6 +132,119 @@ class _Types:
             else:
                 raise BridgeError(f"horus-gen does not describe {type_name}")
         return self._dds_names[key]
+
+    def type_info(self, type_name: str, schema: str) -> dict:
+        """The serialized XTypes TypeInformation and TypeMapping of the type's IDL (`horus-gen
+        --lang idl`), as idlc puts them in a topic descriptor: horus._dds.Writer's and Reader's
+        type_info and type_map, so that DDS matches the bridge only with writers and readers of
+        an assignable type."""
+        key = (type_name, schema)
+        if key not in self._type_info:
+            dds_type = self.dds_name(type_name, schema)
+            with tempfile.TemporaryDirectory(prefix="horus-bridge-") as folder:
+                files = dynamic_types.write_schema_files(dynamic_types.parse_schema(schema), folder)
+                out = os.path.join(folder, "out")
+                try:
+                    dynamic_types.run_generator(
+                        ["generate", "--lang", "idl", "--out", out, "-I", folder, *files],
+                        f"the stored schema of {type_name} does not compile to IDL")
+                except dynamic_types.SchemaError as error:
+                    raise BridgeError(str(error)) from None
+                self._type_info[key] = _idlc_type_info(os.path.join(out, "idl"), dds_type,
+                                                       folder)
+        return self._type_info[key]
+
+    def twin_type_info(self, twin: ros2_types.Twin) -> dict:
+        """type_info's of a ROS 2 twin, from ROS 2's message as IDL (ROS2_IDL)."""
+        key = (twin.ros2, "")
+        if key not in self._type_info:
+            with tempfile.TemporaryDirectory(prefix="horus-bridge-") as folder:
+                self._type_info[key] = _idlc_type_info(ROS2_IDL, twin.dds_type, folder)
+        return self._type_info[key]
+
+
+def _idlc_type_info(idl_root: str, dds_type: str, output: str) -> dict:
+    """type_info and type_map of `dds_type` (horus::msg::dds_::CmdVel_), from the C idlc makes
+    (in `output`) of its IDL file under `idl_root` (horus/msg/CmdVel.idl)."""
+    *modules, name = [part for part in dds_type.split("::") if part != "dds_"]
+    idl = os.path.join(idl_root, *modules, name[:-1] + ".idl")
+    try:
+        result = subprocess.run(["idlc", "-I", idl_root, "-o", output, idl], capture_output=True,
+                                text=True)
+    except OSError as error:
+        raise BridgeError(f"cannot run idlc (Cyclone DDS's IDL compiler, Debian's "
+                          f"cyclonedds-tools), which gives the bridge the XTypes type information "
+                          f"of {dds_type}: {error.strerror}") from None
+    if result.returncode != 0:
+        first = (result.stderr.strip().splitlines() or ["(no message)"])[0]
+        raise BridgeError(f"idlc refuses the IDL of {dds_type}: {first}")
+    with open(os.path.join(output, name[:-1] + ".c"), encoding="utf-8") as handle:
+        text = handle.read()
+    mangled = dds_type.replace("::", "_")
+    found = {}
+    for key, macro in (("type_info", "TYPE_INFO_CDR_"), ("type_map", "TYPE_MAP_CDR_")):
+        match = re.search(
+            rf"#define {macro}{re.escape(mangled)} \(unsigned char \[\]\)\{{(.*?)\}}", text, re.S)
+        if match is None:
+            raise BridgeError(f"idlc gave no {macro}{mangled} for {dds_type}")
+        found[key] = bytes(int(byte, 16) for byte in re.findall(r"0x([0-9a-f]{2})", match[1]))
+    return found
+
+
+class _DropReport:
+    """Samples of an imported topic dropped for what a writer sent: the first of each (writer,
+    reason) a line naming both, the rest counted, the count a line at most every DROPS_EVERY_S
+    (a writer can send bad samples as fast as the network carries them). A reason is its text
+    with the numbers left out, so a writer whose every sample has another size has one reason."""
+
+    def __init__(self, what: str) -> None:
+        self.what, self.said, self.unsaid, self.last_line = what, set(), 0, 0.0
+
+    def dropped(self, writer: str, reason: str, failure: int) -> None:
+        key = (writer, re.sub(r"[0-9]+", "#", reason))
+        now = time.monotonic()
+        if key not in self.said:
+            self.said.add(key)
+            self.last_line = now
+            _complain(f"{self.what}: a DDS sample from writer {writer} {reason} (failure "
+                      f"{failure} of it); dropped it, and more of the same from that writer are "
+                      "counted, not said")
+            return
+        self.unsaid += 1
+        self.due(failure)
+
+    def due(self, failures: int, now: float | None = None) -> None:
+        """Says the count of samples dropped unsaid, if any, once DROPS_EVERY_S has passed since
+        the last line (or `now` is infinite: the thread ends)."""
+        now = time.monotonic() if now is None else now
+        if self.unsaid and now - self.last_line >= DROPS_EVERY_S:
+            _complain(f"{self.what}: dropped {self.unsaid} more DDS samples for reasons said "
+                      f"before ({failures} failures of it so far)")
+            self.unsaid, self.last_line = 0, now
+
+
+def dds_topic_name(name: str) -> str:
+    """The DDS topic of local topic `name`: DDS and ROS 2 names have no '.', and '/' is ROS 2's
+    namespace separator, so `arm.state` is rt/arm/state."""
+    if "-" in name:
+        raise BridgeError("DDS topic names cannot hold its '-' (DDS and ROS 2 allow letters, "
+                          "digits, '_' and '/' only, and '_' and '/' already stand for HORUS's "
+                          "'_' and '.')")
+    return PREFIX + name.replace(".", "/")
+
+
+def horus_topic_name(dds_name: str) -> str:
+    """The local topic of DDS topic `dds_name` (rt/...): rt/arm/state is `arm.state`."""
+    rest = dds_name[len(PREFIX):]
+    if "." in rest:
+        raise BridgeError(f"its '.' makes it ambiguous: {dds_name} and "
+                          f"{PREFIX}{rest.replace('.', '/')} would both be the local topic "
+                          f"'{rest.replace('/', '.')}'")
+    name = rest.replace("/", ".")
+    if not HORUS_NAME.fullmatch(name) or name in (".", ".."):
+        raise BridgeError(f"it would be the local topic '{name}', and a HORUS name is 1 to 200 of "
+                          "[A-Za-z0-9_.-] (and not . or ..)")
+    return name
 
 
 def _identity(topic: dict) -> bytes:
@@ -175,12 +311,15 @@ class Bridge:
                  domain: int, reliable: bool, depth: int, service_exports: list[str] = (),
                  service_imports: list[str] = (), latched: list[str] = (),
                  deadlines: list[tuple[str, int]] = (),
-                 service_timeout: float = SERVICE_TIMEOUT_S, ros2: list[str] = ()) -> None:
+                 service_timeout: float = SERVICE_TIMEOUT_S, ros2: list[str] = (),
+                 accept_untyped: bool = False) -> None:
         self.core, self.dds, self.namespace = core, dds, namespace
         self.exports, self.imports = exports, imports
         self.qos = {"reliable": reliable, "depth": depth}
         self.latched = list(latched)  # patterns of transient-local topics
         self.ros2 = list(ros2)  # patterns of topics that cross as ROS 2 twins
+        # Import from DDS writers that announce no type information (their type unchecked).
+        self.accept_untyped = accept_untyped
         self.deadlines = list(deadlines)  # (pattern, milliseconds), the first match counts
         self.watched: dict[str, list] = {}  # topic -> [endpoint, deadline ms, misses said]
         self.domain = domain
@@ -192,6 +331,8 @@ class Bridge:
         self.threads: list[threading.Thread] = []
         self.pumps: dict[str, object] = {}  # POD topic name -> its horus._dds pump
         self.done: set[str] = set()  # local topic names exported or imported (or refused)
+        # DDS topic names refused, and writers refused or taken on trust (each said once).
+        self.refused: set[str] = set()
         self.services = Services(self, list(service_exports), list(service_imports),
                                  service_timeout)
 
@@ -287,6 +428,7 @@ class Bridge:
 
     def _export(self, topic: dict) -> None:
         name, type_name = topic["name"], topic["type_name"]
+        dds_name = dds_topic_name(name)
         cls = self.types.load(type_name, topic["schema"], topic["fingerprint"])
         twin = self._twin(name, type_name)
         dds_type = twin.dds_type if twin else self.types.dds_name(type_name, topic["schema"])
@@ -294,8 +436,10 @@ class Bridge:
                              topic["capacity"], topic["max_message_size"],
                              topic["single_publisher"])
         qos = self._topic_qos(name)
-        writer = self.dds.Writer(self.participant, PREFIX + name, dds_type,
-                                 user_data=_identity(topic), **qos)
+        typing = (self.types.twin_type_info(twin) if twin
+                  else self.types.type_info(type_name, topic["schema"]))
+        writer = self.dds.Writer(self.participant, dds_name, dds_type,
+                                 user_data=_identity(topic), **typing, **qos)
         frames = self._pool_frames(local)
         if cls.__horus__.is_pod and not twin and frames is None:
             self._pump(self.dds.export_pump, writer, cls, local, latched=qos["transient_local"])
@@ -304,7 +448,7 @@ class Bridge:
                         _open_local(self.core, local, cls), _carrier(cls, twin, frames), writer,
                         qos["transient_local"])
         self._watch_deadline(name, writer, qos)
-        _say(f"exporting '{name}' ({type_name}) as {PREFIX}{name} ({dds_type})")
+        _say(f"exporting '{name}' ({type_name}) as {dds_name} ({dds_type})")
 
     def _pool_frames(self, local: dict):
         """horus._dds.PoolFrames of a pool-backed topic (holding as many blocks as its ring has
@@ -345,10 +489,18 @@ class Bridge:
 
     def scan_imports(self) -> None:
         for publication in self.participant.publications():
-            if not publication["topic"].startswith(PREFIX):
+            topic = publication["topic"]
+            if (not topic.startswith(PREFIX) or topic in self.refused
+                    or not self._matches(topic[len(PREFIX):].replace("/", "."), self.imports)):
                 continue
-            name = publication["topic"][len(PREFIX):]
-            if not self._matches(name, self.imports) or name in self.done:
+            try:
+                name = horus_topic_name(topic)
+            except BridgeError as error:
+                self.refused.add(topic)
+                _complain(f"cannot import DDS topic {topic}: {error}")
+                continue
+            if (self._refuse_representation(name, publication)
+                    or self._refuse_untyped(name, publication) or name in self.done):
                 continue
             if self._matches(name, self.exports):
                 self._claim(name)  # refused: both directions
@@ -373,6 +525,39 @@ class Bridge:
                 self.done.add(name)
                 _say(f"importing {publication['topic']} ({publication['type']}) as '{name}' "
                      f"({cls.__horus__.name})")
+
+    def _refuse_representation(self, name: str, publication: dict) -> bool:
+        """Whether the writer of `publication` writes other than XCDR1, said once per writer
+        (DDS does not match it with the bridge's reader: its samples never arrive)."""
+        representation = publication["data_representation"]
+        if representation == XCDR1:
+            return False
+        if publication["writer"] not in self.refused:
+            self.refused.add(publication["writer"])
+            encoding = REPRESENTATIONS.get(representation, f"data representation {representation}")
+            _complain(f"cannot import topic '{name}' from DDS writer {publication['writer']}: it "
+                      f"writes {encoding}, the bridge reads XCDR1 only (DDS does not match them)")
+        return True
+
+    def _refuse_untyped(self, name: str, publication: dict) -> bool:
+        """Whether the writer of `publication` is refused for announcing no XTypes type
+        information (DDS matches the bridge's reader only with writers of an assignable type;
+        one that announces none cannot be checked), said once per writer; under
+        --accept-untyped-writers it is taken on trust, also said once."""
+        if publication["typed"]:
+            return False
+        writer = publication["writer"]
+        if writer not in self.refused:
+            self.refused.add(writer)
+            if self.accept_untyped:
+                _complain(f"topic '{name}': DDS writer {writer} announces no type information: "
+                          f"taking its {publication['type']} on trust (--accept-untyped-writers)")
+            else:
+                _complain(f"cannot import topic '{name}' from DDS writer {writer}: it announces "
+                          f"no type information, so DDS cannot check that its "
+                          f"{publication['type']} is the type's layout (--accept-untyped-writers "
+                          "takes such writers on trust)")
+        return not self.accept_untyped
 
     def _import(self, name: str, publication: dict):
         """The (reader, class, local topic, QoS, ROS 2 twin or None) of an import; None when the
@@ -419,26 +604,36 @@ class Bridge:
             capacity = LOCAL_CAPACITY if pool is None else POOL_CAPACITY
         local = _local_topic(name, type_name, fingerprint, schema, capacity, max_message, False)
         qos = self._topic_qos(name, publication)
-        reader = self.dds.Reader(self.participant, publication["topic"], dds_type, **qos)
+        typing = (self.types.twin_type_info(twin) if twin
+                  else self.types.type_info(type_name, schema))
+        reader = self.dds.Reader(self.participant, publication["topic"], dds_type, **typing,
+                                 typed_writers_only=not self.accept_untyped, **qos)
         return reader, cls, local, qos, twin
 
     def _pump_import(self, name: str, reader, carrier, local) -> None:
         what = f"topic '{name}'"
+        drops = _DropReport(what)
+
+        def drop(writer: str, reason: str) -> None:
+            count = self.failures[what] = self.failures.get(what, 0) + 1
+            drops.dropped(writer, reason, count)
+
         while not self.stop.is_set():
+            drops.due(self.failures.get(what, 0))
             try:
-                received = reader.take(0.1)
+                received = reader.take(0.1, writers=True)
             except RuntimeError as error:
                 self._failed(what, str(error), "retrying")
                 self.stop.wait(RETRY_S)
                 continue
-            for cdr in received:
+            for writer, cdr in received:
                 try:
                     data = carrier.to_local(cdr)
                 except ValueError as error:
-                    self._failed(what, f"a DDS sample does not decode: {error}", "dropped it")
+                    drop(writer, f"does not decode: {error}")
                     continue
                 except RETRIABLE as error:
-                    self._failed(what, f"a DDS sample cannot be made here: {error}", "dropped it")
+                    drop(writer, f"cannot be made here: {error}")
                     continue
                 try:
                     delivered = local.send(data)
@@ -446,8 +641,9 @@ class Bridge:
                     self._failed(what, f"the local topic failed: {error}", "dropped the message")
                     continue
                 if not delivered:
-                    self._failed(what, "the local topic refused a message from DDS (no room, "
-                                 "or a stalled publisher)", "dropped it")
+                    drop(writer, "was refused by the local topic (no room, or a stalled "
+                         "publisher)")
+        drops.due(self.failures.get(what, 0), now=float("inf"))
 
     def run(self) -> int:
         """Carries topics until Ctrl+C or SIGTERM (0), or a thread's unexpected error (1)."""

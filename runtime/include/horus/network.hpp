@@ -19,7 +19,7 @@ namespace horus {
 /// out without -Wmissing-field-initializers.)
 struct Network {
   std::vector<std::string> export_{};  // local topics written to DDS (`export` is a C++ keyword)
-  std::vector<std::string> import_{};  // DDS topics rt/<name> published into local topics <name>
+  std::vector<std::string> import_{};  // DDS topics rt/a/b published into local topics a.b
   int domain = 0;                      // the DDS domain id, 0..232; both sides use the same one
   bool reliable = true;                // false: best-effort DDS endpoints
   int depth = 100;                     // the DDS history of each writer and reader, at least 1
@@ -32,6 +32,9 @@ struct Network {
   /// How long an exported service's local server has to answer a call from DDS (then Timeout).
   std::chrono::duration<double> service_timeout{10.0};
   std::vector<std::string> ros2_types{};  // topics that cross as their standard type's ROS 2 twin
+  /// Import from DDS writers that announce no XTypes type information (ROS 2 nodes), whose type
+  /// DDS cannot check; else they are refused.
+  bool accept_untyped_writers = false;
 };
 
 }  // namespace horus

@@ -181,6 +181,13 @@ std::string CdrPlan::decode(std::span<const std::byte> sample, std::byte* pod) c
       scheme += digits[std::to_integer<unsigned>(byte) >> 4];
       scheme += digits[std::to_integer<unsigned>(byte) & 15];
     }
+    // 0x0006 to 0x000b: XCDR2's plain, delimited and parameter-list encapsulations.
+    const auto kind = std::to_integer<unsigned>(sample[1]);
+    if (sample[0] == std::byte{0} && kind >= 6 && kind <= 11) {
+      return "encapsulation " + scheme +
+             " is XCDR2, and the bridge reads XCDR1 (plain CDR) only: the writer must offer XCDR1 "
+             "(its data representation QoS)";
+    }
     return "encapsulation " + scheme +
            " is not plain CDR (XCDR1): the writer's type is not a @final struct of the IDL "
            "horus-gen emits";

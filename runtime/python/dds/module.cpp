@@ -17,6 +17,7 @@
 #include <stdexcept>
 #include <string>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include "cdr_plan.hpp"
@@ -40,21 +41,19 @@ dds_entity_t checked(dds_entity_t entity, const std::string& what) {
   return entity;
 }
 
-std::string hex(const dds_guid_t& guid) {
-  static constexpr char digits[] = "0123456789abcdef";
-  std::string out;
-  for (const auto byte : guid.v) {
-    out += digits[byte >> 4];
-    out += digits[byte & 15];
-  }
-  return out;
-}
-
 struct Qos {
   bool reliable;
   std::int32_t depth;
   bool transient_local;
   std::int64_t deadline_ms;  // 0: none
+};
+
+// A DDS type: its name, and its serialized XTypes TypeInformation and TypeMapping (both empty:
+// none, and DDS matches by the name alone).
+struct TypeOnWire {
+  std::string name;
+  std::string info;
+  std::string map;
 };
 
 // One participant and the raw-CDR topics it has made (one per DDS topic name).
@@ -79,26 +78,27 @@ class Participant {
     if (code < 0) {
       fail("cannot read the participant's GUID", code);
     }
-    return hex(guid);
+    return guid_hex(guid);
   }
 
-  dds_entity_t topic(const std::string& name, const std::string& type_name) {
+  dds_entity_t topic(const std::string& name, const TypeOnWire& wire) {
     const auto found = topics_.find(name);
     if (found != topics_.end()) {
-      if (found->second.type_name != type_name) {
+      if (found->second.type_name != wire.name || found->second.type_info != wire.info) {
         throw std::runtime_error("DDS topic '" + name + "' is already open with type " +
-                                 found->second.type_name + ", not " + type_name);
+                                 found->second.type_name + ", not " + wire.name +
+                                 " (or other type information)");
       }
       return found->second.entity;
     }
-    ddsi_sertype* type = raw_cdr_sertype(type_name);
+    ddsi_sertype* type = raw_cdr_sertype(wire.name, wire.info, wire.map);
     const dds_entity_t entity =
         dds_create_topic_sertype(handle_, name.c_str(), &type, nullptr, nullptr, nullptr);
     if (entity < 0) {
       ddsi_sertype_unref(type);
-      fail("cannot create DDS topic '" + name + "' of type " + type_name, entity);
+      fail("cannot create DDS topic '" + name + "' of type " + wire.name, entity);
     }
-    topics_.emplace(name, Topic{entity, type, type_name});
+    topics_.emplace(name, Topic{entity, type, wire.name, wire.info});
     return entity;
   }
 
@@ -120,8 +120,8 @@ class Participant {
       if (!infos[i].valid_data) {
         continue;
       }
-      const auto* endpoint = static_cast<const dds_builtintopic_endpoint_t*>(samples[i]);
-      const std::string participant = hex(endpoint->participant_key);
+      auto* endpoint = static_cast<dds_builtintopic_endpoint_t*>(samples[i]);
+      const std::string participant = guid_hex(endpoint->participant_key);
       if (participant == own) {
         continue;
       }
@@ -135,16 +135,33 @@ class Participant {
       }
       dds_durability_kind_t durability = DDS_DURABILITY_VOLATILE;
       dds_duration_t deadline = DDS_INFINITY;
+      // A writer writes the first representation it offers; none offered means XCDR1.
+      dds_data_representation_id_t representation = DDS_DATA_REPRESENTATION_XCDR1;
       if (endpoint->qos != nullptr) {
         dds_qget_durability(endpoint->qos, &durability);
         dds_qget_deadline(endpoint->qos, &deadline);
+        std::uint32_t offered = 0;
+        dds_data_representation_id_t* representations = nullptr;
+        if (dds_qget_data_representation(endpoint->qos, &offered, &representations) &&
+            representations != nullptr) {
+          if (offered > 0) {
+            representation = representations[0];
+          }
+          dds_free(representations);
+        }
       }
+      const dds_typeinfo_t* type_info = nullptr;
+      const bool typed = dds_builtintopic_get_endpoint_type_info(endpoint, &type_info) == 0 &&
+                         type_info != nullptr;
       py::dict row;
       row["topic"] = std::string(endpoint->topic_name);
+      row["typed"] = typed;
       row["transient_local"] = durability == DDS_DURABILITY_TRANSIENT_LOCAL;
       row["deadline_ms"] = deadline == DDS_INFINITY ? 0 : deadline / DDS_MSECS(1);
       row["type"] = std::string(endpoint->type_name);
       row["participant"] = participant;
+      row["writer"] = guid_hex(endpoint->key);
+      row["data_representation"] = representation;
       row["user_data"] = py::bytes(user_data);
       out.append(row);
     }
@@ -157,13 +174,14 @@ class Participant {
     dds_entity_t entity;
     const ddsi_sertype* type;  // the topic holds the reference
     std::string type_name;
+    std::string type_info;
   };
   dds_entity_t handle_;
   dds_entity_t publications_;
   std::map<std::string, Topic> topics_;
 };
 
-dds_qos_t* make_qos(const Qos& qos, const std::string& user_data) {
+dds_qos_t* make_qos(const Qos& qos, const std::string& user_data, bool typed_writers_only) {
   dds_qos_t* out = dds_create_qos();
   if (qos.reliable) {
     dds_qset_reliability(out, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
@@ -182,8 +200,20 @@ dds_qos_t* make_qos(const Qos& qos, const std::string& user_data) {
     dds_qset_deadline(out, DDS_MSECS(qos.deadline_ms));
   }
   dds_qset_ignorelocal(out, DDS_IGNORELOCAL_PARTICIPANT);
+  // The bridge's CDR is XCDR1 only: DDS then refuses to match a writer or reader that insists on
+  // XCDR2, instead of matching it and handing over samples the bridge misreads.
+  const dds_data_representation_id_t xcdr1 = DDS_DATA_REPRESENTATION_XCDR1;
+  dds_qset_data_representation(out, 1, &xcdr1);
   if (!user_data.empty()) {
     dds_qset_userdata(out, user_data.data(), user_data.size());
+  }
+  if (typed_writers_only) {
+    // Match a writer only when it announces its type and that type is assignable to the reader's:
+    // without force_type_validation DDS falls back to comparing type names when either side
+    // announces none, and a same-named type of another layout would match. Bounds and member
+    // names are checked too; the CDR decoders would refuse what does not fit anyway.
+    dds_qset_type_consistency(out, DDS_TYPE_CONSISTENCY_ALLOW_TYPE_COERCION, false, false, false,
+                              true, true);
   }
   return out;
 }
@@ -208,8 +238,8 @@ class Endpoint {
 class Writer : public Endpoint {
  public:
   Writer(const std::shared_ptr<Participant>& participant, const std::string& topic,
-         const std::string& type_name, const Qos& qos, const std::string& user_data)
-      : Endpoint(participant, create(*participant, topic, type_name, qos, user_data), topic),
+         const TypeOnWire& type, const Qos& qos, const std::string& user_data)
+      : Endpoint(participant, create(*participant, topic, type, qos, user_data), topic),
         type_(participant->sertype(topic)) {}
 
   const ddsi_sertype* type() const { return type_; }
@@ -243,10 +273,9 @@ class Writer : public Endpoint {
 
  private:
   static dds_entity_t create(Participant& participant, const std::string& topic,
-                             const std::string& type_name, const Qos& qos,
-                             const std::string& user_data) {
-    const dds_entity_t entity = participant.topic(topic, type_name);
-    dds_qos_t* settings = make_qos(qos, user_data);
+                             const TypeOnWire& type, const Qos& qos, const std::string& user_data) {
+    const dds_entity_t entity = participant.topic(topic, type);
+    dds_qos_t* settings = make_qos(qos, user_data, false);
     const dds_entity_t writer = dds_create_writer(participant.handle(), entity, settings, nullptr);
     dds_delete_qos(settings);
     return checked(writer, "cannot create a DDS writer on '" + topic + "'");
@@ -258,8 +287,8 @@ class Writer : public Endpoint {
 class Reader : public Endpoint {
  public:
   Reader(const std::shared_ptr<Participant>& participant, const std::string& topic,
-         const std::string& type_name, const Qos& qos)
-      : Endpoint(participant, create(*participant, topic, type_name, qos), topic) {
+         const TypeOnWire& type, const Qos& qos, bool typed_writers_only)
+      : Endpoint(participant, create(*participant, topic, type, qos, typed_writers_only), topic) {
     waitset_ = checked(dds_create_waitset(participant->handle()), "cannot create a DDS waitset");
     const dds_entity_t condition =
         checked(dds_create_readcondition(entity_, DDS_ANY_STATE), "cannot create a condition");
@@ -272,9 +301,10 @@ class Reader : public Endpoint {
   Reader(const Reader&) = delete;
   Reader& operator=(const Reader&) = delete;
 
-  // The samples that arrived, oldest first, waiting up to `timeout` seconds for the first.
-  py::list take(double timeout) {
-    std::vector<std::string> received;
+  // The samples that arrived, oldest first, waiting up to `timeout` seconds for the first: each
+  // its bytes, or (with `writers`) a tuple of its writer's GUID and its bytes.
+  py::list take(double timeout, bool writers) {
+    std::vector<std::pair<dds_instance_handle_t, std::string>> received;
     dds_return_t failure = 0;
     {
       py::gil_scoped_release released;
@@ -287,8 +317,12 @@ class Reader : public Endpoint {
       fail("cannot take from DDS topic '" + topic_ + "'", failure);
     }
     py::list out;
-    for (const auto& sample : received) {
-      out.append(py::bytes(sample));
+    for (const auto& [writer, sample] : received) {
+      if (writers) {
+        out.append(py::make_tuple(writer_guid(entity_, writer), py::bytes(sample)));
+      } else {
+        out.append(py::bytes(sample));
+      }
     }
     return out;
   }
@@ -307,18 +341,20 @@ class Reader : public Endpoint {
 
  private:
   static dds_entity_t create(Participant& participant, const std::string& topic,
-                             const std::string& type_name, const Qos& qos) {
-    const dds_entity_t entity = participant.topic(topic, type_name);
-    dds_qos_t* settings = make_qos(qos, "");
+                             const TypeOnWire& type, const Qos& qos, bool typed_writers_only) {
+    const dds_entity_t entity = participant.topic(topic, type);
+    dds_qos_t* settings = make_qos(qos, "", typed_writers_only);
     const dds_entity_t reader = dds_create_reader(participant.handle(), entity, settings, nullptr);
     dds_delete_qos(settings);
     return checked(reader, "cannot create a DDS reader on '" + topic + "'");
   }
 
-  dds_return_t take_all(std::vector<std::string>& out) {
-    return take_raw_cdr(entity_, [&out](std::span<const std::byte> sample) {
-      out.emplace_back(reinterpret_cast<const char*>(sample.data()), sample.size());
-    });
+  dds_return_t take_all(std::vector<std::pair<dds_instance_handle_t, std::string>>& out) {
+    const auto keep = [&out](std::span<const std::byte> sample, dds_instance_handle_t writer) {
+      out.emplace_back(writer,
+                       std::string(reinterpret_cast<const char*>(sample.data()), sample.size()));
+    };
+    return take_raw_cdr(entity_, keep);
   }
 
   dds_entity_t waitset_ = 0;
@@ -431,19 +467,25 @@ PYBIND11_MODULE(_dds, m) {
       .def_property_readonly("guid", &Participant::guid)
       .def("publications", &Participant::publications,
            "The publications on the domain other participants have: dicts of topic, type, "
-           "participant (GUID), user_data (bytes), transient_local and deadline_ms (0: none).");
+           "typed (whether the writer announces XTypes type information), participant and "
+           "writer (GUIDs), user_data (bytes), transient_local, deadline_ms (0: none) and "
+           "data_representation (the one the writer writes: 0 XCDR1, 2 XCDR2).");
 
   py::class_<Writer, std::shared_ptr<Writer>>(m, "Writer")
       .def(py::init([](const std::shared_ptr<Participant>& participant, const std::string& topic,
                        const std::string& type_name, bool reliable, std::int32_t depth,
-                       bool transient_local, std::int64_t deadline_ms, const py::bytes& user_data) {
-             return std::make_shared<Writer>(participant, topic, type_name,
-                                             Qos{reliable, depth, transient_local, deadline_ms},
-                                             std::string(user_data));
+                       bool transient_local, std::int64_t deadline_ms, const py::bytes& user_data,
+                       const py::bytes& type_info, const py::bytes& type_map) {
+             return std::make_shared<Writer>(
+                 participant, topic, TypeOnWire{type_name, type_info, type_map},
+                 Qos{reliable, depth, transient_local, deadline_ms}, std::string(user_data));
            }),
            py::arg("participant"), py::arg("topic"), py::arg("type_name"), py::kw_only(),
            py::arg("reliable") = true, py::arg("depth") = 100, py::arg("transient_local") = false,
-           py::arg("deadline_ms") = 0, py::arg("user_data") = py::bytes())
+           py::arg("deadline_ms") = 0, py::arg("user_data") = py::bytes(),
+           py::arg("type_info") = py::bytes(), py::arg("type_map") = py::bytes(),
+           "A writer of raw CDR; type_info and type_map: the type's serialized XTypes "
+           "TypeInformation and TypeMapping (idlc's), announced to readers (empty: none).")
       .def("write", &Writer::write, py::arg("cdr"),
            "Writes one sample: its CDR, 4-byte encapsulation header included.")
       .def("matched", &Writer::matched, "How many readers match this writer now.")
@@ -453,15 +495,22 @@ PYBIND11_MODULE(_dds, m) {
   py::class_<Reader, std::shared_ptr<Reader>>(m, "Reader")
       .def(py::init([](const std::shared_ptr<Participant>& participant, const std::string& topic,
                        const std::string& type_name, bool reliable, std::int32_t depth,
-                       bool transient_local, std::int64_t deadline_ms) {
-             return std::make_shared<Reader>(participant, topic, type_name,
-                                             Qos{reliable, depth, transient_local, deadline_ms});
+                       bool transient_local, std::int64_t deadline_ms, const py::bytes& type_info,
+                       const py::bytes& type_map, bool typed_writers_only) {
+             return std::make_shared<Reader>(
+                 participant, topic, TypeOnWire{type_name, type_info, type_map},
+                 Qos{reliable, depth, transient_local, deadline_ms}, typed_writers_only);
            }),
            py::arg("participant"), py::arg("topic"), py::arg("type_name"), py::kw_only(),
            py::arg("reliable") = true, py::arg("depth") = 100, py::arg("transient_local") = false,
-           py::arg("deadline_ms") = 0)
-      .def("take", &Reader::take, py::arg("timeout"),
-           "The samples received (CDR bytes, oldest first), waiting up to timeout seconds.")
+           py::arg("deadline_ms") = 0, py::arg("type_info") = py::bytes(),
+           py::arg("type_map") = py::bytes(), py::arg("typed_writers_only") = false,
+           "A reader of raw CDR; type_info and type_map as a Writer's. typed_writers_only: DDS "
+           "matches only writers that announce type information and whose type is assignable "
+           "to this one (else writers of the same type name, whatever their layout).")
+      .def("take", &Reader::take, py::arg("timeout"), py::arg("writers") = false,
+           "The samples received (CDR bytes, oldest first), waiting up to timeout seconds; "
+           "with writers=True each is (the writer's GUID, its bytes).")
       .def("matched", &Reader::matched, "How many writers match this reader now.")
       .def("deadlines_missed", &Reader::deadlines_missed,
            "How many times nothing arrived within this reader's deadline (deadline_ms).");

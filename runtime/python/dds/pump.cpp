@@ -64,11 +64,50 @@ std::string Pump::broken() const {
 }
 
 void Pump::failed(const std::string& error, const char* then) {
-  const std::uint64_t count = failures_.fetch_add(1, std::memory_order_relaxed) + 1;
-  const std::string line =
-      label_ + ": " + error + " (failure " + std::to_string(count) + " of it); " + then + "\n";
+  const std::uint64_t count = count_failure();
+  say(error + " (failure " + std::to_string(count) + " of it); " + then);
+}
+
+void Pump::say(const std::string& text) const {
+  if (text.empty()) {
+    return;
+  }
+  const std::string line = label_ + ": " + text + "\n";
   // One write: the line stays whole beside what other threads print.
   [[maybe_unused]] const ssize_t written = ::write(STDERR_FILENO, line.data(), line.size());
+}
+
+std::string DropReport::dropped(const std::string& writer, const std::string& reason,
+                                std::uint64_t failure, std::chrono::steady_clock::time_point now) {
+  std::string kind;
+  for (const char c : reason) {
+    const bool digit = c >= '0' && c <= '9';
+    if (!digit) {
+      kind += c;
+    } else if (kind.empty() || kind.back() != '#') {
+      kind += '#';
+    }
+  }
+  if (said_.emplace(writer, std::move(kind)).second) {
+    last_line_ = now;
+    return "a DDS sample from writer " + writer + " " + reason + " (failure " +
+           std::to_string(failure) + " of it); dropped it, and more of the same from that writer " +
+           "are counted, not said";
+  }
+  ++unsaid_;
+  return due(failure, now);
+}
+
+std::string DropReport::due(std::uint64_t failures, std::chrono::steady_clock::time_point now) {
+  if (unsaid_ == 0 || now - last_line_ < kEvery) {
+    return {};
+  }
+  const std::string line = "dropped " + std::to_string(unsaid_) +
+                           " more DDS samples for reasons said before (" +
+                           std::to_string(failures) + " failures of it so far)";
+  unsaid_ = 0;
+  last_line_ = now;
+  return line;
 }
 
 void Pump::pause(std::chrono::milliseconds how_long) {
@@ -156,12 +195,17 @@ void ImportPump::loop() {
   while (!stopping()) {
     pause(drain() ? kPoll : kRetry);
   }
+  // What was dropped and not said yet, however recently the last line went.
+  const std::lock_guard lock(draining_);
+  say(drops_.due(failures(), std::chrono::steady_clock::time_point::max()));
 }
 
 bool ImportPump::drain() {
   const std::lock_guard lock(draining_);
   const dds_return_t code =
-      take_raw_cdr(reader_, [this](std::span<const std::byte> sample) { deliver(sample); });
+      take_raw_cdr(reader_, [this](std::span<const std::byte> sample,
+                                   dds_instance_handle_t writer) { deliver(sample, writer); });
+  say(drops_.due(failures(), std::chrono::steady_clock::now()));
   if (code < 0) {
     failed("cannot take from DDS topic '" + dds_topic_ + "': " + dds_strretcode(code), "retrying");
     return false;
@@ -169,16 +213,23 @@ bool ImportPump::drain() {
   return true;
 }
 
-void ImportPump::deliver(std::span<const std::byte> sample) {
+void ImportPump::deliver(std::span<const std::byte> sample, dds_instance_handle_t writer) {
   const std::string error = plan_.decode(sample, message_.data());
   if (!error.empty()) {
-    failed("a DDS sample does not decode: " + error, "dropped it");
+    drop(writer, "does not decode: " + error);
   } else if (!local_.send(message_)) {
-    failed("the local topic refused a message from DDS (no room, or a stalled publisher)",
-           "dropped it");
+    drop(writer, "was refused by the local topic (no room, or a stalled publisher)");
   } else {
     count_carried();
   }
+}
+
+void ImportPump::drop(dds_instance_handle_t writer, const std::string& reason) {
+  auto known = writers_.find(writer);
+  if (known == writers_.end()) {
+    known = writers_.emplace(writer, writer_guid(reader_, writer)).first;
+  }
+  say(drops_.dropped(known->second, reason, count_failure(), std::chrono::steady_clock::now()));
 }
 
 }  // namespace horus::dds_bridge

@@ -6,8 +6,10 @@
 // message); its thread takes what a failed take left behind.
 // Failures follow docs/dds-bridge.md "When something fails": one line on stderr per failure with
 // the topic's running count, a failed DDS write or take retried after kRetry (the same message:
-// nothing is reordered), a message that cannot be decoded or delivered dropped. The thread never
-// dies of a failure; anything else it meets (a bug) ends it and shows in broken().
+// nothing is reordered), a message that cannot be decoded or delivered dropped. A DDS writer can
+// send bad samples as fast as the network carries them, so those are said once per writer and
+// reason and otherwise counted (DropReport). The thread never dies of a failure; anything else it
+// meets (a bug) ends it and shows in broken().
 #pragma once
 
 #include <atomic>
@@ -15,11 +17,14 @@
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <span>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "cdr_plan.hpp"
@@ -69,6 +74,12 @@ class Pump {
   bool stopping() const noexcept { return stopping_.load(std::memory_order_relaxed); }
   /// One line on stderr: `<label>: <error> (failure N of it); <then>`.
   void failed(const std::string& error, const char* then);
+  /// Counts one more failure; its running count.
+  std::uint64_t count_failure() noexcept {
+    return failures_.fetch_add(1, std::memory_order_relaxed) + 1;
+  }
+  /// One line on stderr, whole: `<label>: <text>` (nothing for an empty text).
+  void say(const std::string& text) const;
   /// Sleeps `how_long`, or less when stopped.
   void pause(std::chrono::milliseconds how_long = kRetry);
   void count_carried() noexcept { carried_.fetch_add(1, std::memory_order_relaxed); }
@@ -110,6 +121,28 @@ class ExportPump final : public Pump {
   std::vector<std::byte> sample_;
 };
 
+/// Samples of one imported topic dropped for what a writer sent: the first of each (writer,
+/// reason) is a line naming both, the rest are counted and the count is a line at most every
+/// kEvery. A reason is its text with numbers left out, so a writer whose every sample is a
+/// different size still has one reason.
+class DropReport {
+ public:
+  static constexpr std::chrono::seconds kEvery{5};
+
+  /// The line to say of one more sample dropped, or empty when it is only counted; `failure`:
+  /// the topic's running count of failures, this one included.
+  std::string dropped(const std::string& writer, const std::string& reason, std::uint64_t failure,
+                      std::chrono::steady_clock::time_point now);
+  /// The line counting the samples dropped unsaid, when there are some and kEvery has passed
+  /// since the last line; else empty.
+  std::string due(std::uint64_t failures, std::chrono::steady_clock::time_point now);
+
+ private:
+  std::set<std::pair<std::string, std::string>> said_;
+  std::uint64_t unsaid_ = 0;
+  std::chrono::steady_clock::time_point last_line_{};
+};
+
 /// DDS reader -> local topic.
 class ImportPump final : public Pump {
  public:
@@ -121,13 +154,16 @@ class ImportPump final : public Pump {
   void loop();
   /// Takes and delivers every sample the reader holds: false when the take failed (said).
   bool drain();
-  void deliver(std::span<const std::byte> sample);
+  void deliver(std::span<const std::byte> sample, dds_instance_handle_t writer);
+  void drop(dds_instance_handle_t writer, const std::string& reason);
 
   detail::ErasedTopic local_;
   CdrPlan plan_;
   dds_entity_t reader_;
   std::string dds_topic_;
   std::vector<std::byte> message_;
+  DropReport drops_;
+  std::map<dds_instance_handle_t, std::string> writers_;  // GUIDs of writers of dropped samples
   std::mutex draining_;  // the listener and the thread: one take and delivery at a time, in order
 };
 

@@ -4,12 +4,36 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <functional>
+#include <memory>
+#include <string>
 
+#include "dds/ddsi/ddsi_typelib.h"
 #include "dds/ddsi/q_radmin.h"  // nn_rdata, to copy a received sample out of its fragments
 #include "dds/ddsrt/heap.h"
 
 namespace horus::dds_bridge {
 namespace {
+
+struct XTypesData {
+  std::string type_info;  // serialized XTypes TypeInformation, empty for none
+  std::string type_map;   // and TypeMapping
+};
+
+struct RawSertype {
+  ddsi_sertype c;  // first: Cyclone's pointer to it is a pointer to this
+  XTypesData* types;
+};
+
+const XTypesData* types_of(const ddsi_sertype* type) {
+  return reinterpret_cast<const RawSertype*>(type)->types;
+}
+
+// Cyclone's view of serialized type information: it only reads through the pointer.
+ddsi_sertype_cdr_data_t cdr_data(const std::string& bytes) {
+  return {static_cast<std::uint32_t>(bytes.size()),
+          reinterpret_cast<std::uint8_t*>(const_cast<char*>(bytes.data()))};
+}
 
 struct RawSerdata {
   ddsi_serdata c;  // first: Cyclone's pointer to it is a pointer to this
@@ -155,7 +179,9 @@ const ddsi_serdata_ops serdata_ops = make_serdata_ops();
 
 void free_sertype(ddsi_sertype* type) {
   ddsi_sertype_fini(type);
-  delete type;
+  auto* own = reinterpret_cast<RawSertype*>(type);
+  delete own->types;
+  delete own;
 }
 
 void zero_samples(const ddsi_sertype*, void* samples, std::size_t count) {
@@ -191,8 +217,40 @@ void free_samples(const ddsi_sertype*, void** pointers, std::size_t count, dds_f
 }
 
 // Cyclone compares type names before calling these.
-bool equal_types(const ddsi_sertype*, const ddsi_sertype*) { return true; }
-std::uint32_t hash_type(const ddsi_sertype*) { return 0; }
+bool equal_types(const ddsi_sertype* a, const ddsi_sertype* b) {
+  return types_of(a)->type_info == types_of(b)->type_info;
+}
+std::uint32_t hash_type(const ddsi_sertype* type) {
+  return static_cast<std::uint32_t>(std::hash<std::string>{}(types_of(type)->type_info));
+}
+
+// As Cyclone's default sertype gives the type information idlc put in a topic descriptor.
+ddsi_typeinfo_t* type_info(const ddsi_sertype* type) {
+  if (types_of(type)->type_info.empty()) {
+    return nullptr;
+  }
+  const ddsi_sertype_cdr_data_t data = cdr_data(types_of(type)->type_info);
+  return ddsi_typeinfo_deser(&data);
+}
+
+ddsi_typemap_t* type_map(const ddsi_sertype* type) {
+  if (types_of(type)->type_map.empty()) {
+    return nullptr;
+  }
+  const ddsi_sertype_cdr_data_t data = cdr_data(types_of(type)->type_map);
+  return ddsi_typemap_deser(&data);
+}
+
+ddsi_typeid_t* type_id(const ddsi_sertype* type, ddsi_typeid_kind_t kind) {
+  ddsi_typeinfo_t* info = type_info(type);
+  if (info == nullptr) {
+    return nullptr;
+  }
+  ddsi_typeid_t* id = ddsi_typeinfo_typeid(info, kind);
+  ddsi_typeinfo_fini(info);
+  ddsrt_free(info);
+  return id;
+}
 
 std::size_t serialized_size(const ddsi_sertype*, const void* value) {
   return static_cast<const RawSample*>(value)->size;
@@ -216,6 +274,9 @@ ddsi_sertype_ops make_sertype_ops() {
   ops.free_samples = free_samples;
   ops.equal = equal_types;
   ops.hash = hash_type;
+  ops.type_id = type_id;
+  ops.type_map = type_map;
+  ops.type_info = type_info;
   ops.get_serialized_size = serialized_size;
   ops.serialize_into = serialize_into;
   return ops;
@@ -225,11 +286,13 @@ const ddsi_sertype_ops sertype_ops = make_sertype_ops();
 
 }  // namespace
 
-ddsi_sertype* raw_cdr_sertype(const std::string& type_name) {
-  auto* type = new ddsi_sertype{};
-  ddsi_sertype_init_flags(type, type_name.c_str(), &sertype_ops, &serdata_ops,
+ddsi_sertype* raw_cdr_sertype(const std::string& type_name, const std::string& type_info,
+                              const std::string& type_map) {
+  auto types = std::make_unique<XTypesData>(XTypesData{type_info, type_map});
+  auto* type = new RawSertype{{}, types.release()};
+  ddsi_sertype_init_flags(&type->c, type_name.c_str(), &sertype_ops, &serdata_ops,
                           DDSI_SERTYPE_FLAG_TOPICKIND_NO_KEY);
-  return type;
+  return &type->c;
 }
 
 ddsi_serdata* raw_cdr_sample(const ddsi_sertype* type, const void* cdr, std::size_t size) {
@@ -241,6 +304,26 @@ ddsi_serdata* raw_cdr_sample(const ddsi_sertype* type, const void* cdr, std::siz
 
 std::span<const std::byte> raw_cdr_bytes(const ddsi_serdata* sample) {
   return {reinterpret_cast<const std::byte*>(raw(sample)->data), raw(sample)->size};
+}
+
+std::string guid_hex(const dds_guid_t& guid) {
+  static constexpr char digits[] = "0123456789abcdef";
+  std::string out;
+  for (const auto byte : guid.v) {
+    out += digits[byte >> 4];
+    out += digits[byte & 15];
+  }
+  return out;
+}
+
+std::string writer_guid(dds_entity_t reader, dds_instance_handle_t handle) {
+  dds_builtintopic_endpoint_t* writer = dds_get_matched_publication_data(reader, handle);
+  if (writer == nullptr) {
+    return "unknown";
+  }
+  std::string guid = guid_hex(writer->key);
+  dds_builtintopic_free_endpoint(writer);
+  return guid;
 }
 
 }  // namespace horus::dds_bridge

@@ -24,13 +24,14 @@ class Network:
     transient_local (patterns of latched topics), deadlines ({pattern: milliseconds}),
     export_services and import_services (service name patterns), service_timeout (seconds an
     exported service's server has to answer), ros2_types (patterns of topics that cross as their
-    standard type's ROS 2 twin, --ros2-types).
+    standard type's ROS 2 twin, --ros2-types), accept_untyped_writers (import from DDS writers
+    that announce no type information, --accept-untyped-writers).
     """
 
     def __init__(self, export=(), import_=(), domain: int = 0, reliable: bool = True,
                  depth: int = 100, transient_local=(), deadlines: dict | None = None,
                  export_services=(), import_services=(), service_timeout: float = 10.0,
-                 ros2_types=()) -> None:
+                 ros2_types=(), accept_untyped_writers: bool = False) -> None:
         self.export = _patterns(export, "export")
         self.import_ = _patterns(import_, "import_")
         self.export_services = _patterns(export_services, "export_services")
@@ -55,6 +56,7 @@ class Network:
                              f"{service_timeout!r}")
         self.domain, self.reliable, self.depth = domain, bool(reliable), depth
         self.service_timeout = float(service_timeout)
+        self.accept_untyped_writers = bool(accept_untyped_writers)
         self._bridge = None
         self._thread: threading.Thread | None = None
         self.status = 0  # 1 once the bridge stopped on an error of its own (said on stderr)
@@ -75,7 +77,8 @@ class Network:
         self._bridge = horus_bridge.Bridge(
             _core, _dds, "", self.export, self.import_, self.domain, self.reliable, self.depth,
             self.export_services, self.import_services, self.transient_local,
-            list(self.deadlines.items()), self.service_timeout, self.ros2_types)
+            list(self.deadlines.items()), self.service_timeout, self.ros2_types,
+            self.accept_untyped_writers)
 
         def serve() -> None:
             self.status = self._bridge.serve()

@@ -159,6 +159,7 @@ std::vector<std::string> bridge_arguments(const Network& network,
   }
   arguments.push_back("--service-timeout=" + seconds_text(network.service_timeout));
   each("--ros2-types", network.ros2_types);
+  if (network.accept_untyped_writers) arguments.emplace_back("--accept-untyped-writers");
   return arguments;
 }
 
