@@ -14,7 +14,11 @@ from processes import Children, two_worlds, wait_line
 
 HORUS = os.environ.get("HORUS_CLI", "")
 GENERATOR = os.environ.get("HORUS_GEN_PROGRAM", "")
+# A third-party peer with a Sink of its own (sink_peer.cpp).
+SINK_PEER = os.environ.get("HORUS_REMOTE_SINK_PEER", "")
 SCHEMAS = pathlib.Path(__file__).resolve().parent / "schemas"
+# The wire interface, all a third-party client (attacker.py) is given.
+SCHEMA = pathlib.Path(__file__).resolve().parents[2] / "runtime" / "remote" / "remote.capnp"
 
 
 @pytest.fixture
@@ -51,11 +55,12 @@ def generated(tmp_path_factory) -> pathlib.Path:
 
 @pytest.fixture(scope="session")
 def certs(tmp_path_factory) -> pathlib.Path:
-    """One CA with robot, laptop and stranger (whom no policy names); `intruder` presents a
-    certificate of another CA while trusting the robot's."""
+    """One CA with robot, laptop, attacker (a third-party client, attacker.py) and stranger (whom
+    no policy names); `intruder` presents a certificate of another CA while trusting the
+    robot's."""
     folder = tmp_path_factory.mktemp("certs") / "link"
-    subprocess.run([HORUS, "remote", "keygen", str(folder), "robot", "laptop", "stranger"],
-                   check=True, capture_output=True)
+    subprocess.run([HORUS, "remote", "keygen", str(folder), "robot", "laptop", "attacker",
+                    "stranger"], check=True, capture_output=True)
     other = folder.parent / "other"
     subprocess.run([HORUS, "remote", "keygen", str(other), "intruder"], check=True,
                    capture_output=True)

@@ -1,14 +1,22 @@
 """`horus remote`: a robot's namespace (A) reached from a laptop's (B) over loopback TCP with
 mutual TLS. Topics mirrored A->B in order (POD and serialized), exported B->A where the policy
 allows it, and every refusal (no certificate, another CA, a name outside the policy, a topic
-outside it) made before any message flows and logged with the peer's address and name."""
+outside it) made before any message flows and logged with the peer's address and name, saying
+what happened: a peer outside the policy is told why and tries again less and less often; a
+laptop that reaches the robot by address without --server-name, or trusts another CA, ends
+naming the problem; a robot without a single rule warns that it refuses everyone. A client of
+its own reads an image as remote.capnp says: its descriptor, block zeroed, then its pixels."""
 from __future__ import annotations
 
 import os
+import socket
+import ssl
 import stat
+import struct
 import subprocess
+import time
 
-from conftest import HORUS, connect, serve
+from conftest import HORUS, SINK_PEER, connect, serve
 from peer_scripts import RECEIVE_IN_ORDER
 from processes import wait_line
 
@@ -167,17 +175,102 @@ def refused(children, worlds, certs, *connect_args, name: str = "laptop", folder
 
 def test_peer_without_certificate_is_refused(children, worlds, certs):
     line = refused(children, worlds, certs, "--insecure")
-    assert "no certificate of our CA" in line
+    assert "(no name: it does not speak TLS: a peer run with --insecure?)" in line
+
+
+def test_tls_peer_presenting_no_certificate_is_refused(children, worlds, certs):
+    server, port = serve(children, worlds[0], certs, "laptop read *")
+    context = ssl.SSLContext(ssl.PROTOCOL_TLS_CLIENT)
+    context.load_verify_locations(certs / "ca.crt")
+    with socket.create_connection(("127.0.0.1", port), timeout=10) as raw:
+        try:
+            with context.wrap_socket(raw, server_hostname="robot") as peer:
+                peer.sendall(b"hello")
+                peer.recv(1)
+        except OSError:  # the robot's alert: a certificate is required
+            pass
+    line = server.errors.wait_for("refused 127.0.0.1:")
+    assert "(no name: it presented no certificate)" in line, line
 
 
 def test_peer_of_another_ca_is_refused(children, worlds, certs):
     line = refused(children, worlds, certs, name="intruder", folder=certs.parent / "intruder")
-    assert "no certificate of our CA" in line
+    assert "(no name: its certificate does not verify against our CA)" in line
 
 
 def test_peer_outside_the_policy_is_refused(children, worlds, certs):
     line = refused(children, worlds, certs, name="stranger")
     assert "refused stranger at 127.0.0.1:" in line
+
+
+def test_peer_outside_the_policy_is_told_why_and_backs_off(children, worlds, certs):
+    robot, laptop = worlds
+    server, port = serve(children, robot, certs, "laptop read *")
+    client = connect(children, laptop, certs, port, "--import", "*", name="stranger")
+    client.errors.wait_for("(the robot refused this peer: no policy line of this robot names "
+                           "peer 'stranger'); trying again in 0.2 s")
+    time.sleep(6)
+    # 0.2, 0.4, 0.8, 1.6, 3.2 s apart, then 5: about 5 attempts in 6 s (it was 5 a second).
+    attempts = server.errors.text().count("refused stranger at")
+    assert 2 <= attempts <= 10, server.errors.text()
+    assert "trying again in 1.6 s" in client.errors.text(), client.errors.text()
+    assert client.poll() is None, "it gave up: the robot's policy may change"
+    client.kill()
+    assert "connected to" not in client.stdout.read()
+
+
+def connect_without_server_name(children, world, certs, port: int, folder=None, name="laptop"):
+    """`horus remote connect 127.0.0.1:PORT` as `name`: the robot's certificate is named robot."""
+    client = children.start([HORUS, "--namespace", world.namespace, "remote", "connect",
+                             f"127.0.0.1:{port}", "--certs", str(folder or certs), "--name", name],
+                            world.env())
+    client.wait(timeout=30)
+    client.errors.wait_closed()
+    return client
+
+
+def test_connecting_by_address_without_the_robots_name_ends_saying_so(children, worlds, certs):
+    robot, laptop = worlds
+    server, port = serve(children, robot, certs, "laptop read *")
+    client = connect_without_server_name(children, laptop, certs, port)
+    assert client.returncode == 1, client.errors.text()
+    assert client.errors.lines[-1] == ("horus-remote: the robot's certificate is named 'robot', "
+                                       "not '127.0.0.1': pass --server-name robot"), \
+        client.errors.text()
+    assert "trying again" not in client.errors.text()
+    line = server.errors.wait_for("refused 127.0.0.1:")
+    assert "(no name: it did not accept our certificate, named 'robot': a peer that connects " \
+           "by address needs --server-name robot)" in line, line
+
+
+def test_a_laptop_trusting_another_ca_ends_saying_so(children, worlds, certs):
+    robot, laptop = worlds
+    server, port = serve(children, robot, certs, "intruder read *")
+    other = certs.parent / "other"  # the intruder's own CA, not the robot's
+    client = connect_without_server_name(children, laptop, certs, port, folder=other,
+                                         name="intruder")
+    assert client.returncode == 1, client.errors.text()
+    assert client.errors.lines[-1].startswith(
+        f"horus-remote: the robot's certificate (named 'robot') does not verify against "
+        f"{other}/ca.crt: "), client.errors.text()
+    line = server.errors.wait_for("refused 127.0.0.1:")
+    assert "(no name: it does not trust our CA: its ca.crt is another's)" in line, line
+
+
+def test_serve_without_a_rule_warns_that_it_refuses_everyone(children, worlds, certs, tmp_path):
+    robot = worlds[0]
+    nobody = tmp_path / "policy"
+    nobody.write_text("# nobody yet\n")
+    for extra in ([], ["--policy", str(nobody)]):
+        server = children.start([HORUS, "remote", "serve", "--listen", "127.0.0.1:0", "--certs",
+                                 str(certs), "--name", "robot", *extra], robot.env())
+        wait_line(server, "serving namespace")
+        server.errors.wait_for("WARNING: no --allow or --policy rule: every peer will be refused")
+    server, _ = serve(children, robot, certs, "laptop read *")
+    server.kill()
+    server.wait()
+    server.errors.wait_closed()
+    assert "WARNING" not in server.errors.text()
 
 
 def test_insecure_link_only_when_both_sides_ask_and_both_warn(children, worlds, certs):
@@ -308,3 +401,23 @@ def test_images_mirrored_with_their_pixels(children, worlds, certs):
     assert numbers == sorted(set(numbers)), numbers
     number, first, last = (int(n) for n in pixels_line.split())
     assert (first, last) == (number % 251, (480 * 640 * 3 - 1 + number) % 251)
+
+
+def test_a_frame_crosses_as_its_descriptor_and_its_data(children, worlds, certs, tmp_path):
+    import numpy
+    robot, _ = worlds
+    wait_line(children.python(IMAGE_PUBLISHER, robot.env()), "ready")
+    _, port = serve(children, robot, certs, "laptop read camera")
+    dump = tmp_path / "frame"
+    peer = children.start([SINK_PEER, str(port), str(certs), "camera", "4", "0", str(dump)],
+                          robot.env())
+    wait_line(peer, "")  # printed once the first frame's data is in `dump`
+    data = dump.read_bytes()
+    # horus.msg.ImageDescriptor (`horus msg show`): 80 bytes, block (16) at 24, stamp at 72.
+    width, height, encoding, channels, _step, data_size = struct.unpack_from("<IIBB2xIQ", data)
+    number = struct.unpack_from("<Q", data, 72)[0]
+    assert (width, height, encoding, channels) == (640, 480, 2, 3)  # Rgb8
+    assert data_size == 640 * 480 * 3 and len(data) == 80 + data_size, (data_size, len(data))
+    assert data[24:40] == bytes(16), "the block of the sender's pool went out"
+    base = numpy.arange(480 * 640 * 3, dtype=numpy.uint32)
+    assert data[80:] == ((base + number) % 251).astype(numpy.uint8).tobytes()

@@ -1,7 +1,9 @@
 """A remote link under trouble: a robot killed and restarted mid-stream (the laptop's mirror
 resumes in order, no duplicate), peers sending random bytes, malformed frames, oversized
-messages and floods of calls while another peer keeps receiving, and a peer that stops reading (its stream drops
-the oldest messages, counted and logged, the robot's memory does not grow, others go on)."""
+messages and floods of calls while another peer keeps receiving, a peer that stops reading (its stream drops
+the oldest messages, counted and logged, the robot's memory does not grow, others go on), and
+a slow peer of its own Sink (remote.capnp) seeing the publisher's sequence numbers, with a gap
+for each message its stream dropped."""
 from __future__ import annotations
 
 import json
@@ -14,7 +16,7 @@ import struct
 import subprocess
 import threading
 
-from conftest import HORUS, connect, free_port, serve
+from conftest import HORUS, SINK_PEER, connect, free_port, serve
 from processes import World, wait_line, wait_until
 from test_link import PUBLISHER
 
@@ -198,3 +200,42 @@ def test_a_flood_of_calls_leaves_the_others_served(children, worlds, certs):
     assert resident_kib(server) - before < 50 * 1024, "the robot's memory grew with the flood"
     seen = stamps.seen
     assert all(a < b for a, b in zip(seen, seen[1:])), "out of order or duplicated"
+
+
+
+# Publishes on cmd_vel, new, as fast as it can: the message stamped i is the i-th published on
+# it, its ticket.
+FAST_PUBLISHER = """
+import time, horus
+from horus.msg import CmdVel
+topic = horus.Topic(CmdVel, "cmd_vel", capacity=1024)
+print("ready", flush=True)
+i = 0
+while True:
+    topic.send(CmdVel(stamp_nanos=i))
+    i += 1
+    if i % 50 == 0:
+        time.sleep(0.002)
+"""
+
+
+def test_a_slow_peer_sees_the_publishers_sequence_with_its_drops_as_gaps(children, worlds, certs):
+    robot, _ = worlds
+    wait_line(children.python(FAST_PUBLISHER, robot.env()), "ready")
+    _, port = serve(children, robot, certs, "laptop read cmd_vel")
+    # Two messages behind at most, a millisecond for each: once Cap'n Proto's window of
+    # messages in flight is full, most of the publisher's drop.
+    peer = children.start([SINK_PEER, str(port), str(certs), "cmd_vel", "2", "1"], robot.env())
+    rows = []
+    while len(rows) < 20000 and not any(b[0] - a[0] > 1 for a, b in zip(rows[-50:], rows[-49:])):
+        rows.append(tuple(int(n) for n in wait_line(peer, "").split()))
+    rows += [tuple(int(n) for n in wait_line(peer, "").split()) for _ in range(100)]
+    assert all(sequence == stamp for sequence, _, stamp in rows), \
+        [row for row in rows if row[0] != row[2]][:5]
+    gaps = [later[0] - earlier[0] - 1 for earlier, later in zip(rows, rows[1:])]
+    assert min(gaps) >= 0 and sum(gaps) > 0, rows[-100:]
+    # Each message says how many the sender dropped so far: those its gaps left out (and, when
+    # its reader fell a lap behind the ring, a few newer ones).
+    dropped = [row[1] for row in rows]
+    assert dropped == sorted(dropped) and dropped[-1] >= sum(gaps), (dropped[-1], sum(gaps))
+    assert dropped[-1] - dropped[0] <= sum(gaps) + 100, (dropped[0], dropped[-1], sum(gaps))

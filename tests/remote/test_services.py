@@ -4,17 +4,21 @@ the server's failure comes back as it is, a service outside the policy is not se
 robot's server gone or the link lost ends a call with an error (a TransportError during an
 outage), never a wait for its timeout, and calls are answered again once the link is back.
 A call the robot's server does not answer reaches the laptop's caller with the kind and text a
-caller on the robot would get: NoServerError, ServiceTimeout, TransportError."""
+caller on the robot would get: NoServerError, ServiceTimeout, TransportError. The first caller of
+a fresh laptop namespace is answered too, `horus service call` (which makes no reply topic of
+its own) included, and `horus remote status` counts as sent only the requests the robot got."""
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
 import sys
+import time
 
 from conftest import HORUS, connect, free_port, serve
 from peer_scripts import scale_server
-from processes import wait_line
+from processes import World, wait_line, wait_until
 
 SERVER = scale_server("remote_test")
 
@@ -275,3 +279,68 @@ def test_unanswered_pod_call_reaches_the_caller_with_its_kind(children, worlds, 
     link.errors.wait_for("trying again")
     # The laptop's answer is a POD response frame: its error text at the frame's own offset.
     assert ask(caller, "5 20") == "error TransportError the link to the robot is down"
+
+
+def service_call(world, value: str, *args: str) -> subprocess.CompletedProcess:
+    """`horus service call Scale VALUE` in `world`."""
+    return subprocess.run([HORUS, "service", "call", "Scale", value, *args], env=world.env(),
+                          capture_output=True, text=True, timeout=90)
+
+
+def request_counts(world) -> tuple[int, int] | None:
+    """(sent, dropped) of the laptop's stream of Scale requests in `horus remote status`."""
+    listed = subprocess.run([HORUS, "remote", "status", "--json"], env=world.env(),
+                            capture_output=True, text=True, check=True)
+    for row in json.loads(listed.stdout):
+        if row["stream"] == "requests of Scale to the robot":
+            return row["sent"], row["dropped"]
+    return None
+
+
+def test_the_first_caller_of_a_fresh_laptop_namespace_is_answered(children, worlds, certs,
+                                                                   generated, tmp_path):
+    robot, laptop = worlds
+    wait_line(children.python(SERVER, env_with(robot, generated)), "ready")
+    server, port = serve(children, robot, certs, "laptop call Scale")
+    link = connect(children, laptop, certs, port)
+    link.errors.wait_for("serving Scale of the robot here")
+
+    # No reply topic of the service exists on either side: the command leaves its own to the
+    # server, here the laptop's stand-in, which learns the type of the frames from the robot.
+    called = service_call(laptop, "{value: 2, factor: 1.5}")
+    assert called.returncode == 0, called.stderr
+    assert "product: 3.0" in called.stdout and "2 times 1.5" in called.stdout, called.stdout
+    assert wait_until(lambda: request_counts(laptop) == (1, 0),
+                      "one request sent in horus remote status")
+
+    # A Python client, first caller in another fresh namespace.
+    other = World(tmp_path / "shm_c")
+    connect(children, other, certs, port).errors.wait_for("serving Scale of the robot here")
+    lines = client_lines(children, other, generated, "calls")
+    assert lines[1:6] == [f"answer {i * 2.5} {i:g} times 2.5" for i in range(5)], lines
+
+    # A request the robot never gets is answered here with its kind, and not counted as sent.
+    server.kill()
+    link.errors.wait_for("trying again")
+    called = service_call(laptop, "{value: 2, factor: 1.5}")
+    assert called.returncode == 1, called
+    assert "the link to the robot is down" in called.stderr, called.stderr
+    assert wait_until(lambda: request_counts(laptop) == (1, 1),
+                      "the request held back counted as dropped in horus remote status")
+
+
+def test_a_first_callers_unanswered_call_fails_with_its_kind(children, worlds, certs, generated):
+    robot, laptop = worlds
+    wait_line(talking(children, STOPPABLE_SERVER, env_with(robot, generated)), "ready")
+    # A caller on the robot has been answered: the robot has a reply topic with the frames' type.
+    at_robot = talking(children, CALLER, env_with(robot, generated))
+    assert wait_line(at_robot, "server") == "server True"
+    assert ask(at_robot, "1 2 5") == "answer 2.0"
+    _, port = serve(children, robot, certs, "laptop call Scale")
+    link = connect(children, laptop, certs, port, "--call-timeout", "1")
+    link.errors.wait_for("serving Scale of the robot here")
+    started = time.monotonic()
+    called = service_call(laptop, "{value: 1, factor: -3}", "--timeout", "30")
+    assert called.returncode == 1, called
+    assert "no answer from Scale on the robot within 1000 ms" in called.stderr, called.stderr
+    assert time.monotonic() - started < 25, "the call waited for its own timeout"

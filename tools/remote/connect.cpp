@@ -2,10 +2,18 @@
 // into the local namespace and streams local topics matching --export to the robot, over one
 // connection that is made again, with backoff, whenever it ends.
 #include <fnmatch.h>
+#include <netdb.h>
+#include <openssl/ssl.h>
+#include <openssl/x509.h>
+#include <sys/socket.h>
+#include <sys/time.h>
 
 #include <algorithm>
+#include <functional>
 #include <map>
+#include <memory>
 #include <set>
+#include <utility>
 
 #include "horus/service_registry.hpp"
 #include "link.hpp"
@@ -29,6 +37,90 @@ bool matches_any(const std::vector<std::string>& patterns, const std::string& na
 
 double seconds(kj::Duration duration) {
   return static_cast<double>(duration / kj::MILLISECONDS) / 1e3;
+}
+
+/// The text of a failure, without the prefix Cap'n Proto gives the robot's own.
+std::string text_of(const kj::Exception& failure) {
+  std::string text = failure.getDescription().cStr();
+  constexpr std::string_view kRemote = "remote exception: ";
+  if (text.starts_with(kRemote)) text.erase(0, kRemote.size());
+  return text;
+}
+
+/// What certificate_problem() saw of the robot's certificate.
+struct Presented {
+  std::string name;
+  /// Why its chain does not verify against our CA (empty: it does).
+  std::string untrusted;
+};
+
+/// The verify callback of certificate_problem(): notes the robot's certificate and whether its
+/// chain verifies, then ends the handshake (the certificate was all it wanted).
+int note_certificate(int verified, X509_STORE_CTX* store) {
+  auto* ssl =
+      static_cast<SSL*>(X509_STORE_CTX_get_ex_data(store, SSL_get_ex_data_X509_STORE_CTX_idx()));
+  auto& presented = *static_cast<Presented*>(SSL_get_app_data(ssl));
+  if (verified == 0 && presented.untrusted.empty()) {
+    presented.untrusted = X509_verify_cert_error_string(X509_STORE_CTX_get_error(store));
+  }
+  if (X509_STORE_CTX_get_error_depth(store) != 0) return 1;  // on to the robot's own
+  char name[256] = {};
+  X509_NAME_get_text_by_NID(X509_get_subject_name(X509_STORE_CTX_get_current_cert(store)),
+                            NID_commonName, name, sizeof name);
+  presented.name = name;
+  // What the robot is told: the alert of the handshake this one stands in for.
+  if (X509_STORE_CTX_get_error(store) == X509_V_OK) {
+    X509_STORE_CTX_set_error(store, X509_V_ERR_HOSTNAME_MISMATCH);
+  }
+  return 0;
+}
+
+/// Why the robot's certificate failed this laptop's check, learned from a handshake of our own
+/// that keeps the certificate kj's does not show: a name other than --server-name, or a chain
+/// that does not verify against our CA. Empty when that handshake got no certificate (the
+/// failure was not the certificate's). Blocking, 5 s at most per step: only after a failure.
+std::string certificate_problem(const ConnectOptions& options) {
+  const std::string::size_type colon = options.address.rfind(':');
+  std::string host = options.address.substr(0, colon);
+  const std::string port = colon == std::string::npos ? "" : options.address.substr(colon + 1);
+  if (host.size() > 1 && host.front() == '[' && host.back() == ']') {
+    host = host.substr(1, host.size() - 2);
+  }
+  addrinfo hints{};
+  hints.ai_socktype = SOCK_STREAM;
+  addrinfo* found = nullptr;
+  if (::getaddrinfo(host.c_str(), port.c_str(), &hints, &found) != 0) return {};
+  const std::unique_ptr<addrinfo, decltype(&::freeaddrinfo)> addresses(found, &::freeaddrinfo);
+  const kj::AutoCloseFd socket(::socket(found->ai_family, SOCK_STREAM | SOCK_CLOEXEC, 0));
+  const timeval limit{5, 0};
+  if (socket.get() < 0 ||
+      ::setsockopt(socket.get(), SOL_SOCKET, SO_RCVTIMEO, &limit, sizeof limit) != 0 ||
+      ::setsockopt(socket.get(), SOL_SOCKET, SO_SNDTIMEO, &limit, sizeof limit) != 0 ||
+      ::connect(socket.get(), found->ai_addr, found->ai_addrlen) != 0) {
+    return {};
+  }
+  const std::unique_ptr<SSL_CTX, decltype(&SSL_CTX_free)> context(SSL_CTX_new(TLS_client_method()),
+                                                                  &SSL_CTX_free);
+  const std::string authority = options.certs + "/ca.crt";
+  if (!context || SSL_CTX_load_verify_locations(context.get(), authority.c_str(), nullptr) != 1) {
+    return {};
+  }
+  SSL_CTX_set_verify(context.get(), SSL_VERIFY_PEER, note_certificate);
+  const std::unique_ptr<SSL, decltype(&SSL_free)> ssl(SSL_new(context.get()), &SSL_free);
+  Presented presented;
+  if (!ssl || SSL_set_fd(ssl.get(), socket.get()) != 1) return {};
+  SSL_set_app_data(ssl.get(), &presented);
+  static_cast<void>(SSL_connect(ssl.get()));  // fails in note_certificate, by design
+  if (presented.name.empty()) return {};
+  if (!presented.untrusted.empty()) {
+    return "the robot's certificate (named '" + presented.name + "') does not verify against " +
+           authority + ": " + presented.untrusted;
+  }
+  if (presented.name != options.server_name) {
+    return "the robot's certificate is named '" + presented.name + "', not '" +
+           options.server_name + "': pass --server-name " + presented.name;
+  }
+  return {};
 }
 
 /// A topic streaming to the robot (or a service's requests into its mirror).
@@ -55,11 +147,14 @@ struct Mirrors {
 /// One connection to the robot and the streams it carries; all of them end with it.
 class Link {
  public:
+  /// `admitted`: called when the robot answers its first request (it refused the peer when
+  /// that fails instead).
   Link(const ConnectOptions& options, Mirrors& mirrors, kj::Timer& timer,
-       kj::Own<kj::AsyncIoStream> stream)
+       kj::Own<kj::AsyncIoStream> stream, std::function<void()> admitted)
       : options_(options),
         mirrors_(mirrors),
         timer_(timer),
+        admitted_(std::move(admitted)),
         stream_(kj::mv(stream)),
         messages_(*stream_),
         network_(messages_, capnp::rpc::twoparty::Side::CLIENT,
@@ -94,6 +189,7 @@ class Link {
     return session_.topicsRequest()
         .send()
         .then([this](capnp::Response<wire::Session::TopicsResults>&& response) {
+          if (admitted_) std::exchange(admitted_, nullptr)();
           kj::Vector<kj::Promise<void>> requests;
           for (const wire::TopicInfo::Reader info : response.getTopics()) {
             const std::string name = info.getName();
@@ -200,7 +296,11 @@ class Link {
   /// Serves one of the robot's services here, unless a local server of its own serves it.
   void serve_locally(wire::ServiceInfo::Reader info) {
     const std::string name = info.getName();
-    if (mirrors_.served.count(name) != 0 || refused_services_.count(name) != 0) return;
+    if (const auto served = mirrors_.served.find(name); served != mirrors_.served.end()) {
+      served->second.mirror->learn(info);
+      return;
+    }
+    if (refused_services_.count(name) != 0) return;
     for (const horus::ServiceInfo& local : list_services(options_.namespace_name)) {
       if (local.name == name && local.servers > 0) {
         refused_services_.insert(name);
@@ -217,6 +317,7 @@ class Link {
       auto forwarder =
           kj::heap<Forwarder>(std::move(requests), kj::mv(mirror), options_.queue,
                               "requests of " + name + " to the robot", options_.namespace_name);
+      serving->count_in(forwarder->counts());
       kj::Promise<void> task = forwarder->run().eagerlyEvaluate([name](kj::Exception&& e) {
         say("serving %s of the robot ended: %s", name.c_str(), e.getDescription().cStr());
       });
@@ -231,6 +332,7 @@ class Link {
   const ConnectOptions& options_;
   Mirrors& mirrors_;
   kj::Timer& timer_;
+  std::function<void()> admitted_;
   kj::Own<kj::AsyncIoStream> stream_;
   /// Raised before a topic or service whose messages would not fit is asked for.
   LimitedMessageStream messages_;
@@ -250,22 +352,41 @@ class Client {
   Client(const ConnectOptions& options, EventLoop& loop, kj::Maybe<kj::TlsContext&> tls)
       : options_(options), loop_(loop), tls_(tls) {}
 
-  /// Connects, and connects again with backoff whenever the connection ends; never resolves.
+  /// Connects, and connects again with backoff whenever the connection ends (the backoff starts
+  /// again once the robot admitted this peer); fails, ending the command, on a configuration
+  /// the robot will never accept (the certificate's name or CA).
   kj::Promise<void> run() {
+    linked_ = false;
+    admitted_ = false;
     return attempt()
         .then([] { return std::string("the robot closed it"); },
-              [](kj::Exception&& failure) { return std::string(failure.getDescription().cStr()); })
-        .then([this](std::string reason) {
+              [this](kj::Exception&& failure) { return explain(failure); })
+        .then([this](std::string reason) -> kj::Promise<void> {
+          if (!fatal_.empty()) {
+            return kj::Exception(kj::Exception::Type::FAILED, __FILE__, __LINE__,
+                                 kj::heapString(fatal_));
+          }
           const kj::Duration delay = backoff_;
           backoff_ = std::min(backoff_ * 2, kLongestBackoff);
           say("connection to %s ended (%s); trying again in %.1f s", options_.address.c_str(),
               reason.c_str(), seconds(delay));
-          return loop_.io.provider->getTimer().afterDelay(delay);
-        })
-        .then([this] { return run(); });
+          return loop_.io.provider->getTimer().afterDelay(delay).then([this] { return run(); });
+        });
   }
 
  private:
+  /// Why an attempt ended; sets fatal_ when trying again cannot help.
+  std::string explain(const kj::Exception& failure) {
+    if (linked_ && !admitted_ && failure.getType() == kj::Exception::Type::FAILED) {
+      return "the robot refused this peer: " + text_of(failure);
+    }
+    const std::string text = text_of(failure);
+    if (!linked_ && text.find("certificate verify failed") != std::string::npos) {
+      fatal_ = certificate_problem(options_);
+    }
+    return text;
+  }
+
   kj::Promise<void> attempt() {
     return loop_.io.provider->getNetwork()
         .parseAddress(options_.address)
@@ -277,11 +398,14 @@ class Client {
           return kj::Promise<kj::Own<kj::AsyncIoStream>>(kj::mv(stream));
         })
         .then([this](kj::Own<kj::AsyncIoStream>&& stream) {
-          backoff_ = kFirstBackoff;
-          std::printf("connected to %s\n", options_.address.c_str());
-          std::fflush(stdout);
-          auto link =
-              kj::heap<Link>(options_, mirrors_, loop_.io.provider->getTimer(), kj::mv(stream));
+          linked_ = true;
+          auto link = kj::heap<Link>(options_, mirrors_, loop_.io.provider->getTimer(),
+                                     kj::mv(stream), [this] {
+                                       admitted_ = true;
+                                       backoff_ = kFirstBackoff;
+                                       std::printf("connected to %s\n", options_.address.c_str());
+                                       std::fflush(stdout);
+                                     });
           Link& running = *link;
           return running.run().attach(kj::mv(link));
         });
@@ -292,6 +416,11 @@ class Client {
   kj::Maybe<kj::TlsContext&> tls_;
   Mirrors mirrors_;
   kj::Duration backoff_ = kFirstBackoff;
+  /// This attempt's: the connection (TLS included) was made; the robot admitted this peer.
+  bool linked_ = false;
+  bool admitted_ = false;
+  /// Why the command ends instead of trying again.
+  std::string fatal_;
 };
 
 }  // namespace

@@ -53,6 +53,10 @@ kj::AutoCloseFd new_eventfd() {
 std::mutex forwarders_mutex;
 std::vector<const Forwarder*> forwarders;
 
+/// What a queued message costs beyond its bytes (its entry, its allocation), charged to a
+/// QueueBudget with them.
+constexpr std::size_t kQueuedRecordBytes = 64;
+
 /// Room for the message framing around the largest payload.
 constexpr std::size_t kFramingBytes = 4096;
 
@@ -75,7 +79,20 @@ kj::Promise<kj::Maybe<capnp::MessageReaderAndFds>> LimitedMessageStream::tryRead
     kj::ArrayPtr<kj::AutoCloseFd> fd_space, capnp::ReaderOptions options,
     kj::ArrayPtr<capnp::word> scratch_space) {
   options.traversalLimitInWords = limit_words_;
-  return inner_.tryReadMessage(fd_space, options, scratch_space);
+  auto read = inner_.tryReadMessage(fd_space, options, scratch_space);
+  if (!on_read_failure_) return read;
+  return read.catch_(
+      [this](kj::Exception&& e) -> kj::Promise<kj::Maybe<capnp::MessageReaderAndFds>> {
+        on_read_failure_(e);
+        return kj::mv(e);
+      });
+}
+
+bool QueueBudget::take(std::size_t bytes) noexcept {
+  const std::size_t before = used_.fetch_add(bytes);
+  if (before == 0 || before + bytes <= limit_) return true;
+  used_.fetch_sub(bytes);
+  return false;
 }
 
 capnp::ReaderOptions LimitedMessageStream::network_options() {
@@ -139,12 +156,14 @@ std::unique_ptr<detail::ErasedTopic> open_topic(const TopicInfo& info,
 }
 
 Forwarder::Forwarder(std::unique_ptr<detail::ErasedTopic> topic, wire::Sink::Client sink,
-                     std::size_t queue_limit, std::string label, const std::string& namespace_name)
+                     std::size_t queue_limit, std::string label, const std::string& namespace_name,
+                     std::shared_ptr<QueueBudget> budget)
     : topic_(std::move(topic)),
       frames_(pool_frames(*topic_, namespace_name, 1)),
       sink_(std::move(sink)),
       queue_limit_(queue_limit),
       label_(std::move(label)),
+      budget_(std::move(budget)),
       wake_(new_eventfd()),
       wake_observer_(*event_port, wake_, kj::UnixEventPort::FdObserver::OBSERVE_READ),
       reader_([this] { read_loop(); }) {
@@ -159,20 +178,27 @@ Forwarder::~Forwarder() {
   }
   stopping_.store(true);
   reader_.join();
-  if (dropped_.load() != 0) {
+  if (budget_) {
+    for (const Queued& message : queue_) {
+      budget_->give_back(message.bytes.size() + kQueuedRecordBytes);
+    }
+  }
+  if (dropped() != 0) {
     say("%s: ended after %llu messages sent, %llu dropped", label_.c_str(),
-        static_cast<unsigned long long>(sent_.load()),
-        static_cast<unsigned long long>(dropped_.load()));
+        static_cast<unsigned long long>(sent()), static_cast<unsigned long long>(dropped()));
   }
 }
 
 void Forwarder::read_loop() {
-  std::uint64_t sequence = 0;
   while (!stopping_.load()) {
     const std::ptrdiff_t size = topic_->recv(kReaderWakeUp);
     if (size < 0) {
       continue;
     }
+    const std::uint64_t sequence = topic_->received_ticket();
+    // What the ring overwrote before this thread read it is left out of the stream too.
+    const std::uint64_t lost = topic_->stats().lost - lost_;
+    lost_ += lost;
     const std::span<std::byte> bytes = topic_->received(static_cast<std::size_t>(size));
     std::vector<std::byte> message;
     if (frames_) {
@@ -182,18 +208,30 @@ void Forwarder::read_loop() {
             return reinterpret_cast<std::uint8_t*>(message.data());
           });
       // 0: the block was freed or reused since (a local subscriber would refuse it too).
-      if (recorded == 0) continue;
+      if (recorded == 0) {
+        counts_->dropped.fetch_add(lost + 1);
+        continue;
+      }
       message.resize(recorded);
     } else {
       message.assign(bytes.begin(), bytes.end());
     }
     {
+      // Counted with the queue locked: a message taken off it goes with the drops of those older.
       std::lock_guard lock(mutex_);
-      if (queue_.size() >= queue_limit_) {
-        queue_.pop_front();
-        dropped_.fetch_add(1);
+      counts_->dropped.fetch_add(lost);
+      if (queue_.size() >= queue_limit_) drop_oldest();
+      const std::size_t cost = message.size() + kQueuedRecordBytes;
+      bool fits = !budget_ || budget_->take(cost);
+      while (!fits && !queue_.empty()) {
+        drop_oldest();
+        fits = budget_->take(cost);
       }
-      queue_.push_back(Queued{++sequence, std::move(message)});
+      if (!fits) {  // the peer's other streams hold its budget
+        counts_->dropped.fetch_add(1);
+        continue;
+      }
+      queue_.push_back(Queued{sequence, std::move(message)});
       if (waiting_) {
         const std::uint64_t one = 1;
         static_cast<void>(::write(wake_, &one, sizeof one));
@@ -205,8 +243,14 @@ void Forwarder::read_loop() {
   }
 }
 
+void Forwarder::drop_oldest() {
+  if (budget_) budget_->give_back(queue_.front().bytes.size() + kQueuedRecordBytes);
+  queue_.pop_front();
+  counts_->dropped.fetch_add(1);
+}
+
 void Forwarder::report_drops() {
-  const std::uint64_t dropped = dropped_.load();
+  const std::uint64_t dropped = this->dropped();
   const auto now = std::chrono::steady_clock::now();
   if (dropped == reported_drops_ || now - last_report_ < kDropReportInterval) {
     return;
@@ -232,21 +276,25 @@ kj::Promise<void> Forwarder::run() {
   }
   const Queued message = std::move(queue_.front());
   queue_.pop_front();
+  if (budget_) budget_->give_back(message.bytes.size() + kQueuedRecordBytes);
+  const std::uint64_t dropped_so_far = dropped();
   lock.unlock();
   auto request = sink_.messageRequest();
   request.setSequence(message.sequence);
-  request.setDropped(dropped_.load());
+  request.setDropped(dropped_so_far);
   request.setData(kj::arrayPtr(reinterpret_cast<const capnp::byte*>(message.bytes.data()),
                                message.bytes.size()));
-  sent_.fetch_add(1);
+  counts_->sent.fetch_add(1);
   return request.send().then([this] { return run(); });
 }
 
 TopicSink::TopicSink(std::shared_ptr<detail::ErasedTopic> topic, std::string label,
-                     const std::string& namespace_name)
+                     const std::string& namespace_name,
+                     std::function<void(const std::string&)> refused)
     : topic_(std::move(topic)),
       frames_(pool_frames(*topic_, namespace_name, topic_->capacity())),
       label_(std::move(label)),
+      refused_(std::move(refused)),
       largest_message_(topic_->payload_capacity()) {
   if (frames_) {
     TensorPoolOptions options;
@@ -284,7 +332,11 @@ kj::Promise<void> TopicSink::message(MessageContext context) {
             std::to_string(topic_->payload_capacity());
   }
   if (!wrong.empty()) {
-    say("%s: %s; the stream ends", label_.c_str(), wrong.c_str());
+    if (refused_) {
+      refused_(wrong);
+    } else {
+      say("%s: %s; the stream ends", label_.c_str(), wrong.c_str());
+    }
     refuse(label_ + ": " + wrong);
   }
   topic_->send(message);

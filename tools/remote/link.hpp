@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -46,6 +47,11 @@ class LimitedMessageStream final : public capnp::MessageStream {
 
   /// Makes sure messages with `payload_bytes` of payload are read from now on.
   void make_room(std::size_t payload_bytes);
+  /// Told why a read failed (a message over the limit, malformed framing, a broken stream)
+  /// before the connection ends with it.
+  void on_read_failure(std::function<void(const kj::Exception&)> tell) {
+    on_read_failure_ = std::move(tell);
+  }
   std::size_t limit_bytes() const noexcept { return limit_words_ * sizeof(capnp::word); }
 
   kj::Promise<kj::Maybe<capnp::MessageReaderAndFds>> tryReadMessage(
@@ -69,6 +75,7 @@ class LimitedMessageStream final : public capnp::MessageStream {
  private:
   capnp::AsyncIoMessageStream inner_;
   std::size_t limit_words_ = kFirstLimitBytes / sizeof(capnp::word);
+  std::function<void(const kj::Exception&)> on_read_failure_;
 };
 
 /// The event port of this process's event loop (which Forwarders watch their reader threads
@@ -90,24 +97,52 @@ TopicInfo topic_info(wire::TopicInfo::Reader info);
 std::unique_ptr<detail::ErasedTopic> open_topic(const TopicInfo& info,
                                                 const std::string& namespace_name);
 
+/// What a Forwarder counts of its stream. Shared with a sink on this side that may not pass a
+/// message on (a service's mirror answering a request itself), which then takes it back.
+struct StreamCounts {
+  std::atomic<std::uint64_t> sent{0};
+  std::atomic<std::uint64_t> dropped{0};
+};
+
+/// The bytes the queues of several Forwarders (a peer's streams) may hold together.
+class QueueBudget {
+ public:
+  explicit QueueBudget(std::size_t limit) : limit_(limit) {}
+  /// Takes `bytes` of the budget, if they fit. A message larger than the whole budget fits
+  /// when nothing else is queued, so that every stream can go on.
+  bool take(std::size_t bytes) noexcept;
+  void give_back(std::size_t bytes) noexcept { used_.fetch_sub(bytes); }
+
+ private:
+  const std::size_t limit_;
+  std::atomic<std::size_t> used_{0};
+};
+
 /// Streams the messages of a local topic into a peer's Sink: a thread waits on the topic and
 /// queues at most `queue_limit` messages (the oldest dropped beyond that: latest wins when the
 /// link is slower than the publisher); the event loop sends them with Cap'n Proto's streaming
 /// flow control, so a slow peer holds the queue at its bound, never more. A frame of a
 /// pool-backed type (Image, DepthImage, PointCloud, Tensor) of `namespace_name` is queued as
-/// the recorder keeps it: its descriptor and the data of its block, copied as it is read.
+/// the recorder keeps it: its descriptor and the data of its block, copied as it is read. Each
+/// message goes with its ticket on the topic as its sequence; every message left out (dropped
+/// from the queue, overwritten in the ring before the thread read it, a frame whose block was
+/// reused) is counted as dropped, and shows as a gap in the sequence. With a `budget`, the queue
+/// also holds no more than the budget (shared with other Forwarders) lets it: the oldest
+/// messages are dropped first, then the new one.
 class Forwarder {
  public:
   Forwarder(std::unique_ptr<detail::ErasedTopic> topic, wire::Sink::Client sink,
-            std::size_t queue_limit, std::string label, const std::string& namespace_name);
+            std::size_t queue_limit, std::string label, const std::string& namespace_name,
+            std::shared_ptr<QueueBudget> budget = nullptr);
   Forwarder(const Forwarder&) = delete;
   Forwarder& operator=(const Forwarder&) = delete;
   ~Forwarder();
 
   /// Sends until the sink fails (the peer dropped it, or the connection ended).
   kj::Promise<void> run();
-  std::uint64_t sent() const noexcept { return sent_.load(); }
-  std::uint64_t dropped() const noexcept { return dropped_.load(); }
+  std::uint64_t sent() const noexcept { return counts_->sent.load(); }
+  std::uint64_t dropped() const noexcept { return counts_->dropped.load(); }
+  const std::shared_ptr<StreamCounts>& counts() const noexcept { return counts_; }
   const std::string& label() const noexcept { return label_; }
 
  private:
@@ -117,6 +152,8 @@ class Forwarder {
   };
   void read_loop();
   void report_drops();
+  /// Drops the oldest queued message; with mutex_ held.
+  void drop_oldest();
 
   std::unique_ptr<detail::ErasedTopic> topic_;
   /// Set for a pool-backed type.
@@ -124,6 +161,7 @@ class Forwarder {
   wire::Sink::Client sink_;
   std::size_t queue_limit_;
   std::string label_;
+  std::shared_ptr<QueueBudget> budget_;
   std::mutex mutex_;
   std::deque<Queued> queue_;
   /// Written by the reader thread when the event loop waits for its next message (`waiting_`),
@@ -132,9 +170,10 @@ class Forwarder {
   kj::UnixEventPort::FdObserver wake_observer_;
   bool waiting_ = false;
   std::atomic<bool> stopping_{false};
-  std::atomic<std::uint64_t> sent_{0};
-  std::atomic<std::uint64_t> dropped_{0};
-  /// The reader thread's: what report_drops() said last, and when.
+  std::shared_ptr<StreamCounts> counts_ = std::make_shared<StreamCounts>();
+  /// The reader thread's: the topic's count of messages it lost as read last; what
+  /// report_drops() said last, and when.
+  std::uint64_t lost_ = 0;
   std::uint64_t reported_drops_ = 0;
   std::chrono::steady_clock::time_point last_report_{};
   /// Last: started once everything it reads is there.
@@ -150,14 +189,16 @@ std::string status_path(const std::string& namespace_name);
 void write_status(const std::string& path, const char* role);
 
 /// Writes what a peer streams into a local topic: POD messages of exactly the type's size,
-/// serialized ones no larger than a slot; anything else ends the stream with the reason. A
+/// serialized ones no larger than a slot; anything else ends the stream with the reason, which
+/// `refused` is told (by default, it is logged). A
 /// frame of a pool-backed type (a descriptor and its data, as a Forwarder sends it) is made
 /// again in a block of the "default" pool of `namespace_name`, as a replay makes it, and its
 /// descriptor published.
 class TopicSink final : public wire::Sink::Server {
  public:
   TopicSink(std::shared_ptr<detail::ErasedTopic> topic, std::string label,
-            const std::string& namespace_name);
+            const std::string& namespace_name,
+            std::function<void(const std::string&)> refused = nullptr);
   ~TopicSink() noexcept(false);
 
   /// The largest message this sink reads: a slot's payload, or a descriptor and a block of
@@ -171,6 +212,7 @@ class TopicSink final : public wire::Sink::Server {
   std::shared_ptr<detail::ErasedTopic> topic_;
   std::unique_ptr<detail::PoolFrames> frames_;
   std::string label_;
+  std::function<void(const std::string&)> refused_;
   std::size_t largest_message_;
   std::uint64_t received_ = 0;
   std::uint64_t dropped_ = 0;

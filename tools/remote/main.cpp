@@ -68,6 +68,7 @@ EventLoop::EventLoop() : io(set_up_async_io()) { use_event_port(io.unixEventPort
 void EventLoop::run_until_stopped(kj::Promise<void> work, const std::string& namespace_name,
                                   const char* role) {
   const std::string path = status_path(namespace_name);
+  KJ_DEFER(std::remove(path.c_str()));
   kj::Function<kj::Promise<void>()> report = [&]() -> kj::Promise<void> {
     write_status(path, role);
     return io.provider->getTimer().afterDelay(kStatusInterval).then([&] { return report(); });
@@ -75,7 +76,6 @@ void EventLoop::run_until_stopped(kj::Promise<void> work, const std::string& nam
   kj::Promise<void> stopped = io.unixEventPort.onSignal(SIGINT).ignoreResult().exclusiveJoin(
       io.unixEventPort.onSignal(SIGTERM).ignoreResult());
   work.exclusiveJoin(kj::mv(stopped)).exclusiveJoin(report()).wait(io.waitScope);
-  std::remove(path.c_str());
 }
 
 namespace {

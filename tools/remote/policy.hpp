@@ -19,6 +19,8 @@ class Policy {
   /// Adds the rules of a file: one a line, blank lines and lines starting with # skipped.
   void load(const std::string& path);
 
+  /// Whether there is no rule at all: every peer is refused.
+  bool empty() const noexcept { return rules_.empty(); }
   /// Whether any rule names `peer`: a peer no rule names is refused at the door.
   bool knows(const std::string& peer) const;
   bool allows(const std::string& peer, Access access, const std::string& name) const;

@@ -1,8 +1,12 @@
 // `horus-remote serve`: the robot's end. Each connection that passes mutual TLS and names a
 // peer the policy knows gets a Session of its own, limited to what the policy allows that peer.
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
+#include <deque>
 #include <map>
+#include <memory>
+#include <set>
 
 #include "horus/service_registry.hpp"
 #include "link.hpp"
@@ -21,6 +25,29 @@ constexpr std::uint32_t kLargestQueue = 1024;
 /// kCallBurst / kCallSpacing calls.
 constexpr kj::Duration kCallSpacing = 1 * kj::MILLISECONDS;
 constexpr kj::Duration kCallBurst = 100 * kj::MILLISECONDS;
+/// How long a peer the policy refuses is kept connected to be told why.
+constexpr kj::Duration kRefusalLinger = 10 * kj::SECONDS;
+/// A peer (by its certificate's name, over all its connections) holds at most this many
+/// subscriptions and publishes of one topic, each a handle of the topic, of which a topic has
+/// 128 for every process on the robot: a peer cannot take them from local code.
+constexpr int kHandlesPerTopic = 4;
+/// ... and this many in all: each maps its topic in this process, a subscription runs a thread.
+constexpr int kHandlesPerPeer = 64;
+/// What the queues of all a peer's subscriptions hold at most, together (the oldest messages
+/// are dropped beyond it, as beyond --queue).
+constexpr std::size_t kQueuedBytesPerPeer = std::size_t{16} << 20;
+/// What the streams of one connection may have sent that the peer has not acknowledged yet,
+/// together: as much as a socket's send buffer grows to, so one stream runs as fast as it
+/// would alone.
+constexpr std::size_t kConnectionWindowBytes = std::size_t{4} << 20;
+/// What each message in flight counts for at least: the robot's own record of the call, which
+/// a small message's bytes do not cover.
+constexpr std::size_t kMessageInFlightBytes = 1024;
+/// Connections a peer may have at once (more are refused): a laptop's new connection may come
+/// before the robot noticed that its last one was lost.
+constexpr int kConnectionsPerPeer = 4;
+/// After its first line, a kind of refusal is summed up at most this often.
+constexpr auto kRefusalSummaryInterval = std::chrono::seconds(5);
 
 std::string hex(std::uint64_t value) {
   char text[17];
@@ -28,11 +55,182 @@ std::string hex(std::uint64_t value) {
   return text;
 }
 
+/// The refusals of a peer's connection, logged once per kind as they begin and then summed up:
+/// a peer that is refused a thousand times a second costs the log a line every few seconds.
+class Refusals {
+ public:
+  explicit Refusals(std::string peer) : peer_(std::move(peer)) {}
+  Refusals(const Refusals&) = delete;
+  Refusals& operator=(const Refusals&) = delete;
+  ~Refusals() {
+    for (auto& [kind, seen] : kinds_) summarize(kind, seen);
+  }
+
+  /// `what`: what the peer was refused and why ("subscribe to cmd_vel: ...").
+  void note(const std::string& kind, const std::string& what) {
+    Kind& seen = kinds_[kind];
+    seen.last = what;
+    if (++seen.count == 1) {
+      say("refused to let %s %s (%s; more of this kind are counted)", peer_.c_str(), what.c_str(),
+          kind.c_str());
+      seen.logged = 1;
+      seen.logged_at = std::chrono::steady_clock::now();
+    } else if (std::chrono::steady_clock::now() - seen.logged_at >= kRefusalSummaryInterval) {
+      summarize(kind, seen);
+    }
+  }
+
+ private:
+  struct Kind {
+    std::uint64_t count = 0;
+    std::uint64_t logged = 0;
+    std::chrono::steady_clock::time_point logged_at;
+    std::string last;
+  };
+
+  void summarize(const std::string& kind, Kind& seen) const {
+    if (seen.count == seen.logged) return;
+    say("refused to let %s %llu more times (%s), the last: %s", peer_.c_str(),
+        static_cast<unsigned long long>(seen.count - seen.logged), kind.c_str(), seen.last.c_str());
+    seen.logged = seen.count;
+    seen.logged_at = std::chrono::steady_clock::now();
+  }
+
+  std::string peer_;
+  std::map<std::string, Kind> kinds_;
+};
+
+/// What the messages a connection's streams sent and the peer has not acknowledged yet cost,
+/// together. Cap'n Proto's own flow control gives each stream a window of its own: a peer
+/// that never acknowledges what 64 streams of small messages send would hold 64 windows'
+/// worth of calls, each a record much larger than its message.
+class SharedWindow {
+ public:
+  /// Resolves when the connection has room for more.
+  kj::Promise<void> room() {
+    if (in_flight_ < kConnectionWindowBytes) return kj::READY_NOW;
+    auto paf = kj::newPromiseAndFulfiller<void>();
+    waiting_.push_back(kj::mv(paf.fulfiller));
+    return kj::mv(paf.promise);
+  }
+  void take(std::size_t bytes) { in_flight_ += bytes; }
+  void give_back(std::size_t bytes) {
+    in_flight_ -= bytes;
+    while (in_flight_ < kConnectionWindowBytes && !waiting_.empty()) {
+      waiting_.front()->fulfill();
+      waiting_.pop_front();
+    }
+  }
+
+ private:
+  std::size_t in_flight_ = 0;
+  std::deque<kj::Own<kj::PromiseFulfiller<void>>> waiting_;
+};
+
+/// A stream's flow control within its connection's SharedWindow.
+class SharedWindowStream final : public capnp::RpcFlowController,
+                                 private kj::TaskSet::ErrorHandler {
+ public:
+  explicit SharedWindowStream(std::shared_ptr<SharedWindow> window)
+      : window_(std::move(window)), acks_(*this) {}
+
+  kj::Promise<void> send(kj::Own<capnp::OutgoingRpcMessage> message,
+                         kj::Promise<void> ack) override {
+    const std::size_t cost =
+        std::max(message->sizeInWords() * sizeof(capnp::word), kMessageInFlightBytes);
+    message->send();
+    window_->take(cost);
+    ++unacknowledged_;
+    acks_.add(ack.then([this, cost] { acknowledged(cost); },
+                       [this, cost](kj::Exception&& e) {
+                         failure_ = kj::mv(e);
+                         acknowledged(cost);
+                       }));
+    KJ_IF_MAYBE (failure, failure_) {
+      return kj::cp(*failure);
+    }
+    return window_->room();
+  }
+
+  kj::Promise<void> waitAllAcked() override {
+    KJ_IF_MAYBE (failure, failure_) {
+      return kj::cp(*failure);
+    }
+    if (unacknowledged_ == 0) return kj::READY_NOW;
+    auto paf = kj::newPromiseAndFulfiller<void>();
+    all_acknowledged_ = kj::mv(paf.fulfiller);
+    return kj::mv(paf.promise);
+  }
+
+ private:
+  void acknowledged(std::size_t cost) {
+    window_->give_back(cost);
+    if (--unacknowledged_ == 0) {
+      KJ_IF_MAYBE (waiting, all_acknowledged_) {
+        (*waiting)->fulfill();
+        all_acknowledged_ = nullptr;
+      }
+    }
+  }
+  void taskFailed(kj::Exception&&) override {}
+
+  std::shared_ptr<SharedWindow> window_;
+  std::size_t unacknowledged_ = 0;
+  kj::Maybe<kj::Exception> failure_;
+  kj::Maybe<kj::Own<kj::PromiseFulfiller<void>>> all_acknowledged_;
+  /// Last: cancelled before what its continuations use.
+  kj::TaskSet acks_;
+};
+
+/// A peer's connection, whose streams share one window (SharedWindow).
+class PeerNetwork final : public capnp::TwoPartyVatNetwork {
+ public:
+  explicit PeerNetwork(capnp::MessageStream& messages)
+      : capnp::TwoPartyVatNetwork(messages, capnp::rpc::twoparty::Side::SERVER,
+                                  LimitedMessageStream::network_options()) {}
+
+ private:
+  kj::Own<capnp::RpcFlowController> newStream() override {
+    return kj::heap<SharedWindowStream>(window_);
+  }
+
+  std::shared_ptr<SharedWindow> window_ = std::make_shared<SharedWindow>();
+};
+
+/// What all connections of one peer (one certificate name) hold of the robot.
+struct PeerHoldings {
+  int connections = 0;
+  std::map<std::string, int> per_topic;
+  int total = 0;
+  std::shared_ptr<QueueBudget> budget = std::make_shared<QueueBudget>(kQueuedBytesPerPeer);
+};
+
+/// One topic handle of a peer (a subscription or a publish), counted while it lasts.
+class HandleLease {
+ public:
+  HandleLease(std::shared_ptr<PeerHoldings> holdings, std::string topic)
+      : holdings_(std::move(holdings)), topic_(std::move(topic)) {
+    ++holdings_->per_topic[topic_];
+    ++holdings_->total;
+  }
+  HandleLease(const HandleLease&) = delete;
+  HandleLease& operator=(const HandleLease&) = delete;
+  ~HandleLease() {
+    if (--holdings_->per_topic[topic_] == 0) holdings_->per_topic.erase(topic_);
+    --holdings_->total;
+  }
+
+ private:
+  std::shared_ptr<PeerHoldings> holdings_;
+  std::string topic_;
+};
+
 /// A subscription of a peer: lasts while the peer holds it and its stream works.
 class SubscriptionImpl final : public wire::Subscription::Server {
  public:
-  SubscriptionImpl(kj::Own<Forwarder> forwarder, std::string label)
-      : forwarder_(kj::mv(forwarder)),
+  SubscriptionImpl(kj::Own<HandleLease> lease, kj::Own<Forwarder> forwarder, std::string label)
+      : lease_(kj::mv(lease)),
+        forwarder_(kj::mv(forwarder)),
         task_(forwarder_->run().eagerlyEvaluate([label](kj::Exception&& e) {
           say("%s ended: %s", label.c_str(), e.getDescription().cStr());
         })) {}
@@ -45,6 +243,7 @@ class SubscriptionImpl final : public wire::Subscription::Server {
   }
 
  private:
+  kj::Own<HandleLease> lease_;
   kj::Own<Forwarder> forwarder_;
   /// Declared last: cancelled before the forwarder it runs is destroyed.
   kj::Promise<void> task_;
@@ -53,12 +252,14 @@ class SubscriptionImpl final : public wire::Subscription::Server {
 class SessionImpl final : public wire::Session::Server {
  public:
   SessionImpl(const ServeOptions& options, std::string peer, LimitedMessageStream& messages,
-              kj::Timer& timer)
+              kj::Timer& timer, std::shared_ptr<PeerHoldings> holdings)
       : options_(options),
         peer_(std::move(peer)),
         messages_(messages),
         timer_(timer),
-        next_call_(timer.now()) {}
+        next_call_(timer.now()),
+        holdings_(std::move(holdings)),
+        refusals_(std::make_shared<Refusals>(peer_)) {}
 
  protected:
   kj::Promise<void> topics(TopicsContext context) override {
@@ -89,21 +290,31 @@ class SessionImpl final : public wire::Session::Server {
   kj::Promise<void> answer_subscribe(SubscribeContext context) {
     const auto params = context.getParams();
     const std::string name = params.getTopic();
+    const std::string what = "subscribe to " + name;
     if (!allows(Access::Read, name)) {
       refuse(denied("read topic", name));
     }
-    const TopicInfo info = find(name);
-    if (info.type_name != params.getType().cStr() || info.fingerprint != params.getFingerprint()) {
-      refuse("topic '" + name + "' is " + info.type_name + " (fingerprint " +
-             hex(info.fingerprint) + ") on the robot, not " + params.getType().cStr() +
-             " (fingerprint " + hex(params.getFingerprint()) + ")");
+    auto lease = leased(what, name);
+    const std::optional<TopicInfo> info = existing(name);
+    if (!info) {
+      refused("no such topic", what, "no topic '" + name + "' on the robot");
+    }
+    if (info->type_name != params.getType().cStr() ||
+        info->fingerprint != params.getFingerprint()) {
+      refused("another type", what,
+              "topic '" + name + "' is " + info->type_name + " (fingerprint " +
+                  hex(info->fingerprint) + ") on the robot, not " + params.getType().cStr() +
+                  " (fingerprint " + hex(params.getFingerprint()) + ")");
     }
     const std::uint32_t queue = std::clamp(params.getQueue(), 1U, kLargestQueue);
     const std::string label = "topic " + name + " to " + peer_;
-    auto forwarder =
-        kj::heap<Forwarder>(opened(info), params.getSink(), queue, label, options_.namespace_name);
-    say("%s subscribed to %s", peer_.c_str(), name.c_str());
-    context.getResults().setSubscription(kj::heap<SubscriptionImpl>(kj::mv(forwarder), label));
+    auto forwarder = kj::heap<Forwarder>(opened(what, *info), params.getSink(), queue, label,
+                                         options_.namespace_name, holdings_->budget);
+    if (announced_.insert("subscribe " + name).second) {
+      say("%s subscribed to %s", peer_.c_str(), name.c_str());
+    }
+    context.getResults().setSubscription(
+        kj::heap<SubscriptionImpl>(kj::mv(lease), kj::mv(forwarder), label));
     return kj::READY_NOW;
   }
 
@@ -132,6 +343,10 @@ class SessionImpl final : public wire::Session::Server {
       list[i].setRequestType(service.request_type);
       list[i].setResponseType(service.response_type);
       list[i].setFingerprint(service.fingerprint);
+      if (const std::optional<TopicInfo> frames =
+              reply_topic_type(service.name, options_.namespace_name)) {
+        describe(*frames, list[i].initResponse());
+      }
     }
     return kj::READY_NOW;
   }
@@ -157,11 +372,13 @@ class SessionImpl final : public wire::Session::Server {
         return kj::READY_NOW;
       }
       try {
-        relay = std::make_unique<ServiceRelay>(name, *request, topic_info(params.getResponse()),
-                                               options_.namespace_name);
+        relay = std::make_unique<ServiceRelay>(
+            name, *request,
+            params.hasResponse() ? std::optional(topic_info(params.getResponse())) : std::nullopt,
+            options_.namespace_name);
       } catch (const std::exception& e) {
         relays_.erase(name);
-        refuse(e.what());
+        refused("cannot relay", "call " + name, e.what());
       }
     }
     const capnp::Data::Reader frame = params.getRequest();
@@ -173,6 +390,7 @@ class SessionImpl final : public wire::Session::Server {
                timeout)
         .then([context](ServiceRelay::Outcome&& outcome) mutable {
           auto results = context.getResults();
+          if (outcome.response_type) describe(*outcome.response_type, results.initResponseType());
           if (outcome.kind != wire::CallFailure::Kind::NONE) {
             auto failure = results.initFailure();
             failure.setKind(outcome.kind);
@@ -193,11 +411,30 @@ class SessionImpl final : public wire::Session::Server {
     if (!allows(Access::Write, info.name)) {
       refuse(denied("write topic", info.name));
     }
-    auto sink = kj::heap<TopicSink>(opened(info), "topic " + info.name + " from " + peer_,
-                                    options_.namespace_name);
+    const std::string what = "publish to " + info.name;
+    auto lease = leased(what, info.name);
+    if (const std::optional<TopicInfo> here = existing(info.name)) {
+      if (here->type_name != info.type_name || here->fingerprint != info.fingerprint ||
+          here->is_pod != info.is_pod ||
+          (here->is_pod && here->max_message_size != info.max_message_size)) {
+        refused("another type", what,
+                "topic '" + info.name + "' is " + here->type_name + " (fingerprint " +
+                    hex(here->fingerprint) + ", " + std::to_string(here->max_message_size) +
+                    " bytes) on the robot, not " + info.type_name + " (fingerprint " +
+                    hex(info.fingerprint) + ", " + std::to_string(info.max_message_size) +
+                    " bytes)");
+      }
+    }
+    auto tell = [refusals = refusals_, what](const std::string& why) {
+      refusals->note("wrong message", what + ": " + why + "; its stream ends");
+    };
+    auto sink = kj::heap<TopicSink>(opened(what, info), "topic " + info.name + " from " + peer_,
+                                    options_.namespace_name, tell);
     messages_.make_room(sink->largest_message());
-    say("%s publishes to %s", peer_.c_str(), info.name.c_str());
-    context.getResults().setSink(kj::mv(sink));
+    if (announced_.insert("publish " + info.name).second) {
+      say("%s publishes to %s", peer_.c_str(), info.name.c_str());
+    }
+    context.getResults().setSink(sink.attach(kj::mv(lease)));
     return kj::READY_NOW;
   }
 
@@ -218,8 +455,32 @@ class SessionImpl final : public wire::Session::Server {
 
   /// `what`: "read topic", "write topic" or "call service".
   std::string denied(const char* what, const std::string& name) const {
-    say("refused to let %s %s %s: not in the policy", peer_.c_str(), what, name.c_str());
+    refusals_->note(std::string(what) + ": not in the policy",
+                    std::string(what) + " " + name + ": not in the policy");
     return "peer '" + peer_ + "' may not " + what + " '" + name + "'";
+  }
+
+  /// Refuses the call with `why`, logged as a refusal of `kind` of `what` the peer asked.
+  [[noreturn]] void refused(const std::string& kind, const std::string& what,
+                            const std::string& why) const {
+    refusals_->note(kind, what + ": " + why);
+    refuse(why);
+  }
+
+  /// A handle of `topic` for this peer, unless it holds as many as it may.
+  kj::Own<HandleLease> leased(const std::string& what, const std::string& topic) const {
+    const auto held = holdings_->per_topic.find(topic);
+    if (held != holdings_->per_topic.end() && held->second >= kHandlesPerTopic) {
+      refused("handle limit", what,
+              "peer '" + peer_ + "' holds " + std::to_string(kHandlesPerTopic) +
+                  " subscriptions and publishes of '" + topic + "' already, the most it may");
+    }
+    if (holdings_->total >= kHandlesPerPeer) {
+      refused("handle limit", what,
+              "peer '" + peer_ + "' holds " + std::to_string(kHandlesPerPeer) +
+                  " subscriptions and publishes already, the most it may");
+    }
+    return kj::heap<HandleLease>(holdings_, topic);
   }
 
   std::optional<TopicInfo> existing(const std::string& name) const {
@@ -231,16 +492,13 @@ class SessionImpl final : public wire::Session::Server {
     return std::nullopt;
   }
 
-  TopicInfo find(const std::string& name) const {
-    if (std::optional<TopicInfo> info = existing(name)) return std::move(*info);
-    refuse("no topic '" + name + "' on the robot");
-  }
-
-  std::unique_ptr<detail::ErasedTopic> opened(const TopicInfo& info) const {
+  /// `info`'s topic, for the peer to `what`.
+  std::unique_ptr<detail::ErasedTopic> opened(const std::string& what,
+                                              const TopicInfo& info) const {
     try {
       return open_topic(info, options_.namespace_name);
     } catch (const std::exception& e) {
-      refuse(e.what());
+      refused("cannot open", what, e.what());
     }
   }
 
@@ -253,22 +511,28 @@ class SessionImpl final : public wire::Session::Server {
   kj::TimePoint next_call_;
   /// Per service the peer called: destroyed (each thread joined) with the session.
   std::map<std::string, std::unique_ptr<ServiceRelay>> relays_;
+  std::shared_ptr<PeerHoldings> holdings_;
+  /// What the peer was granted, logged the first time only on this connection: a peer that
+  /// subscribes and drops a thousand times a second costs the log one line.
+  std::set<std::string> announced_;
+  /// Shared with the sinks of the peer's publishes, which may outlive the session.
+  std::shared_ptr<Refusals> refusals_;
 };
 
-/// One authenticated peer's RPC connection.
+/// One authenticated peer's RPC connection, whose bootstrap capability `session` makes: the
+/// peer's Session, or for a refused peer a broken one that tells it why.
 struct Connection {
-  Connection(kj::Own<kj::AsyncIoStream> stream_, const ServeOptions& options,
-             const std::string& peer, kj::Timer& timer)
+  template <class MakeSession>
+  Connection(kj::Own<kj::AsyncIoStream> stream_, MakeSession&& session)
       : stream(kj::mv(stream_)),
         messages(*stream),
-        network(messages, capnp::rpc::twoparty::Side::SERVER,
-                LimitedMessageStream::network_options()),
-        rpc(capnp::makeRpcServer(network, kj::heap<SessionImpl>(options, peer, messages, timer))) {
+        network(messages),
+        rpc(capnp::makeRpcServer(network, session(messages))) {
     rpc.setFlowLimit(kFlowLimitWords);
   }
   kj::Own<kj::AsyncIoStream> stream;
   LimitedMessageStream messages;
-  capnp::TwoPartyVatNetwork network;
+  PeerNetwork network;
   capnp::RpcSystem<capnp::rpc::twoparty::VatId> rpc;
 };
 
@@ -304,11 +568,31 @@ class Server final : public kj::TaskSet::ErrorHandler {
     }
     connections_.add(secured.then(
         [this, address](kj::AuthenticatedStream&& peer) { return serve(kj::mv(peer), address); },
-        [address](kj::Exception&& exception) -> kj::Promise<void> {
-          say("refused %s (no name: it presented no certificate of our CA): %s", address.c_str(),
-              exception.getDescription().cStr());
+        [this, address](kj::Exception&& exception) -> kj::Promise<void> {
+          const std::string why = exception.getDescription().cStr();
+          say("refused %s (no name: %s): %s", address.c_str(), handshake_failure(why).c_str(),
+              why.c_str());
           return kj::READY_NOW;
         }));
+  }
+
+  /// What a failed TLS handshake says of the peer, from OpenSSL's reason.
+  std::string handshake_failure(const std::string& why) const {
+    const auto says = [&why](const char* text) { return why.find(text) != std::string::npos; };
+    if (says("peer did not return a certificate")) return "it presented no certificate";
+    if (says("certificate verify failed")) {
+      return "its certificate does not verify against our CA";
+    }
+    // The peer's alerts: it did not accept our certificate.
+    if (says("alert unknown ca")) return "it does not trust our CA: its ca.crt is another's";
+    if (says("alert bad certificate") || says("alert certificate unknown")) {
+      return "it did not accept our certificate, named '" + options_.name +
+             "': a peer that connects by address needs --server-name " + options_.name;
+    }
+    if (says("wrong version number") || says("http request") || says("packet length too long")) {
+      return "it does not speak TLS: a peer run with --insecure?";
+    }
+    return "its TLS handshake failed";
   }
 
   kj::Promise<void> serve(kj::AuthenticatedStream peer, const std::string& address) {
@@ -317,21 +601,62 @@ class Server final : public kj::TaskSet::ErrorHandler {
             ? std::string(kInsecurePeer)
             : std::string(
                   kj::downcast<kj::TlsPeerIdentity>(*peer.peerIdentity).getCommonName().cStr());
+    std::string text;
+    std::shared_ptr<PeerHoldings> held;
     if (!options_.policy.knows(name)) {
       say("refused %s at %s: no policy line names it", name.c_str(), address.c_str());
-      return kj::READY_NOW;
+      text = "no policy line of this robot names peer '" + name + "'";
+    } else if ((held = holdings(name))->connections >= kConnectionsPerPeer) {
+      text = "peer '" + name + "' has " + std::to_string(kConnectionsPerPeer) +
+             " connections to this robot already, the most it may";
+      say("refused %s at %s: it has %d connections already, the most it may", name.c_str(),
+          address.c_str(), kConnectionsPerPeer);
+    }
+    if (!text.empty()) {
+      // Every call the peer makes fails with the reason, which it prints; then it is let go.
+      auto refused = kj::heap<Connection>(
+          kj::mv(peer.stream), [&text](LimitedMessageStream&) -> capnp::Capability::Client {
+            return kj::Exception(kj::Exception::Type::FAILED, __FILE__, __LINE__,
+                                 kj::heapString(text));
+          });
+      return refused->network.onDisconnect()
+          .exclusiveJoin(timer_.afterDelay(kRefusalLinger))
+          .attach(kj::mv(refused));
     }
     say("%s connected from %s", name.c_str(), address.c_str());
-    auto connection = kj::heap<Connection>(kj::mv(peer.stream), options_, name, timer_);
-    return connection->network.onDisconnect().attach(kj::mv(connection)).then([name, address] {
-      say("%s at %s disconnected", name.c_str(), address.c_str());
+    auto connection = kj::heap<Connection>(
+        kj::mv(peer.stream), [&](LimitedMessageStream& messages) -> capnp::Capability::Client {
+          return kj::heap<SessionImpl>(options_, name, messages, timer_, held);
+        });
+    ++held->connections;
+    auto counted = kj::defer([held] { --held->connections; });
+    LimitedMessageStream& messages = connection->messages;
+    messages.on_read_failure([name, address, &messages](const kj::Exception& e) {
+      const std::string why = e.getDescription().cStr();
+      if (why.find("too large") != std::string::npos) {
+        say("refused a message of %s at %s over its limit of %zu bytes; the connection ends (%s)",
+            name.c_str(), address.c_str(), messages.limit_bytes(), why.c_str());
+      } else {
+        say("%s at %s: %s; the connection ends", name.c_str(), address.c_str(), why.c_str());
+      }
     });
+    return connection->network.onDisconnect()
+        .attach(kj::mv(connection), kj::mv(counted))
+        .then([name, address] { say("%s at %s disconnected", name.c_str(), address.c_str()); });
+  }
+
+  /// What the connections of peer `name` hold, together.
+  std::shared_ptr<PeerHoldings> holdings(const std::string& name) {
+    std::shared_ptr<PeerHoldings>& held = holdings_[name];
+    if (!held) held = std::make_shared<PeerHoldings>();
+    return held;
   }
 
   const ServeOptions& options_;
   kj::Own<kj::ConnectionReceiver> listener_;
   kj::Maybe<kj::TlsContext&> tls_;
   kj::Timer& timer_;
+  std::map<std::string, std::shared_ptr<PeerHoldings>> holdings_;
   kj::TaskSet connections_;
 };
 
@@ -341,6 +666,9 @@ int serve(const ServeOptions& options) {
   EventLoop loop;
   kj::Own<kj::TlsContext> tls;
   kj::Maybe<Credentials> credentials;
+  if (options.policy.empty()) {
+    say("WARNING: no --allow or --policy rule: every peer will be refused");
+  }
   if (options.insecure) {
     say("WARNING: --insecure: plain TCP, no authentication, no encryption; every peer is '%s'",
         kInsecurePeer);

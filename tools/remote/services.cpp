@@ -2,7 +2,9 @@
 
 #include <unistd.h>
 
+#include <charconv>
 #include <cstring>
+#include <thread>
 #include <utility>
 
 #include "horus/detail/service_channel.hpp"
@@ -54,6 +56,11 @@ std::optional<std::pair<std::uint64_t, std::size_t>> read_unsigned(std::span<con
 }
 
 constexpr std::size_t kPodIdsBytes = 3 * sizeof(std::uint64_t);
+
+/// Why a failed call's caller is not answered: no reply topic, and no type to make it with.
+constexpr const char* kUntold =
+    " (its caller cannot be told: its reply topic does not exist, and the type of the response "
+    "frames is not known here yet)";
 constexpr std::uint8_t kFixArray = 0x90;
 
 bool is_fixarray(std::span<const std::byte> frame) {
@@ -117,6 +124,24 @@ bool is_service_topic(const TopicInfo& info) {
          type.starts_with(detail::kResponseFrameName) || type == "horus.ServiceRegistration";
 }
 
+std::optional<TopicInfo> reply_topic_type(const std::string& service,
+                                          const std::string& namespace_name,
+                                          std::optional<std::uint64_t> index) {
+  const std::string prefix = response_topic(service) + ".";
+  for (TopicInfo& info : list_topics(namespace_name)) {
+    const std::string_view name = info.name;
+    if (info.type_name.empty() || !info.error.empty() || !name.starts_with(prefix)) continue;
+    const std::string_view suffix = name.substr(prefix.size());
+    std::uint64_t number = 0;
+    const auto [end, error] = std::from_chars(suffix.data(), suffix.data() + suffix.size(), number);
+    if (error == std::errc() && end == suffix.data() + suffix.size() && !suffix.empty() &&
+        (!index || *index == number)) {
+      return std::move(info);
+    }
+  }
+  return std::nullopt;
+}
+
 std::optional<std::array<std::uint64_t, 3>> frame_ids(std::span<const std::byte> frame, bool pod) {
   std::array<std::uint64_t, 3> ids{};
   if (pod) {
@@ -178,16 +203,14 @@ std::vector<std::byte> failure_frame(const TopicInfo& frame_type, std::uint64_t 
 }
 
 ServiceRelay::ServiceRelay(const std::string& service, const TopicInfo& request,
-                           const TopicInfo& response, const std::string& namespace_name)
+                           std::optional<TopicInfo> response, const std::string& namespace_name)
     : service_(service),
+      namespace_(namespace_name),
       client_id_(detail::new_service_endpoint_id()),
       reply_index_(detail::free_reply_index(response_topic(service), namespace_name)),
       requests_(open_topic(request, namespace_name)),
-      replies_([&] {
-        TopicInfo reply = response;
-        reply.name = detail::reply_topic(response_topic(service), reply_index_);
-        return open_topic(reply, namespace_name);
-      }()),
+      response_(response ? std::move(response) : reply_topic_type(service, namespace_name)),
+      replies_(open_replies(response_)),
       registration_(detail::registration_topic(service),
                     detail::registration_options(namespace_options(namespace_name))),
       worker_([this] { work(); }) {}
@@ -210,8 +233,17 @@ kj::Promise<ServiceRelay::Outcome> ServiceRelay::call(std::vector<std::byte> fra
   return done.promise.then([outcome]() { return std::move(*outcome); });
 }
 
+std::unique_ptr<detail::ErasedTopic> ServiceRelay::open_replies(
+    const std::optional<TopicInfo>& frames) {
+  if (!frames) return nullptr;
+  TopicInfo reply = *frames;
+  reply.name = detail::reply_topic(response_topic(service_), reply_index_);
+  return open_topic(reply, namespace_);
+}
+
 void ServiceRelay::work() {
-  replies_->try_recv();  // a subscriber now: free_reply_index counts the index as taken
+  // A subscriber now: free_reply_index counts the index as taken.
+  if (replies_) replies_->try_recv();
   for (;;) {
     Job job;
     {
@@ -222,6 +254,7 @@ void ServiceRelay::work() {
       jobs_.pop_front();
     }
     *job.outcome = ask(job);
+    job.outcome->response_type = response_;
     job.done->fulfill();
   }
 }
@@ -275,18 +308,41 @@ ServiceRelay::Outcome ServiceRelay::ask(const Job& job) {
               "no answer from " + service_ + " on the robot within " +
                   std::to_string(job.timeout.count()) + " ms"};
     }
-    const std::ptrdiff_t size = replies_->recv(
-        std::min<std::chrono::nanoseconds>(deadline - now, detail::kServerCheckInterval));
-    if (size >= 0) {
-      const std::span<std::byte> answer = replies_->received(static_cast<std::size_t>(size));
-      const auto answered = frame_ids(answer, replies_->type().is_pod);
-      if (answered && (*answered)[0] == client_id_ && (*answered)[1] == request_id) {
-        return {std::vector<std::byte>(answer.begin(), answer.end()), Kind::NONE, {}};
+    const auto wait =
+        std::min<std::chrono::nanoseconds>(deadline - now, detail::kServerCheckInterval);
+    if (!replies_) {
+      // The server makes the reply topic as it answers, the answer then its newest message.
+      if (std::optional<TopicInfo> made = reply_topic_type(service_, namespace_, reply_index_)) {
+        response_ = std::move(made);
+        replies_ = open_replies(response_);
+        if (auto answered = answer(replies_->read_latest(), request_id)) {
+          return std::move(*answered);
+        }
+      } else if (auto missing = server_missing(current->server_instance)) {
+        return std::move(*missing);
+      } else {
+        std::this_thread::sleep_for(wait);
       }
+      continue;
+    }
+    const std::ptrdiff_t size = replies_->recv(wait);
+    if (size >= 0) {
+      if (auto answered = answer(size, request_id)) return std::move(*answered);
     } else if (auto missing = server_missing(current->server_instance)) {
       return std::move(*missing);
     }
   }
+}
+
+std::optional<ServiceRelay::Outcome> ServiceRelay::answer(std::ptrdiff_t size,
+                                                          std::uint64_t request_id) {
+  if (size < 0) return std::nullopt;
+  const std::span<std::byte> reply = replies_->received(static_cast<std::size_t>(size));
+  const auto answered = frame_ids(reply, replies_->type().is_pod);
+  if (!answered || (*answered)[0] != client_id_ || (*answered)[1] != request_id) {
+    return std::nullopt;
+  }
+  return Outcome{std::vector<std::byte>(reply.begin(), reply.end()), Kind::NONE, {}};
 }
 
 ServiceMirror::ServiceMirror(wire::ServiceInfo::Reader info, const std::string& namespace_name,
@@ -304,6 +360,34 @@ ServiceMirror::ServiceMirror(wire::ServiceInfo::Reader info, const std::string& 
   registered_.response_type = std::string_view(info.getResponseType().cStr());
   registered_.server_pid = static_cast<std::uint64_t>(::getpid());
   registration_.send(registered_);
+  learn(info);
+  if (std::optional<TopicInfo> frames = reply_topic_type(service_, namespace_name_)) {
+    learn(*frames);
+  }
+}
+
+void ServiceMirror::connect(std::optional<wire::Session::Client> session,
+                            LimitedMessageStream* messages) {
+  session_ = std::move(session);
+  messages_ = messages;
+  if (messages_ != nullptr && response_) messages_->make_room(response_->max_message_size);
+}
+
+void ServiceMirror::learn(wire::ServiceInfo::Reader info) {
+  if (info.hasResponse()) learn(topic_info(info.getResponse()));
+}
+
+void ServiceMirror::learn(const TopicInfo& frames) {
+  if (response_) return;
+  response_ = frames;
+  // Answers of this size arrive on the connection from now on.
+  if (messages_ != nullptr) messages_->make_room(frames.max_message_size);
+}
+
+void ServiceMirror::held_back(bool dropped) {
+  if (!counts_) return;
+  counts_->sent.fetch_sub(1);
+  if (dropped) counts_->dropped.fetch_add(1);
 }
 
 ServiceMirror::~ServiceMirror() noexcept(false) {
@@ -323,23 +407,31 @@ void ServiceMirror::taskFailed(kj::Exception&& exception) {
 
 void ServiceMirror::fail(const std::array<std::uint64_t, 3>& ids, std::uint32_t status,
                          std::string_view text) {
-  say("a call of %s on the robot failed: %.*s", service_.c_str(), static_cast<int>(text.size()),
-      text.data());
-  if (Reply* back = reply_topic(ids[2])) {
+  Reply* back = reply_topic(ids[2]);
+  const char* untold = back != nullptr ? "" : kUntold;
+  say("a call of %s on the robot failed: %.*s%s", service_.c_str(), static_cast<int>(text.size()),
+      text.data(), untold);
+  if (back != nullptr) {
     back->topic->send(failure_frame(back->info, ids[0], ids[1], status, text));
   }
 }
 
 ServiceMirror::Reply* ServiceMirror::reply_topic(std::uint64_t index) {
   if (const auto known = replies_.find(index); known != replies_.end()) return &known->second;
-  const std::string name = detail::reply_topic(response_topic(service_), index);
-  for (TopicInfo& info : list_topics(namespace_name_)) {
-    if (info.name == name && !info.type_name.empty() && info.error.empty()) {
-      auto topic = open_topic(info, namespace_name_);
-      return &replies_.emplace(index, Reply{std::move(info), std::move(topic)}).first->second;
-    }
+  std::optional<TopicInfo> info = reply_topic_type(service_, namespace_name_, index);
+  if (!info && response_) {  // made as the server makes it when it answers
+    info = response_;
+    info->name = detail::reply_topic(response_topic(service_), index);
   }
-  return nullptr;  // the client's reply topic is gone: nobody waits for an answer
+  if (!info) return nullptr;
+  try {
+    auto topic = open_topic(*info, namespace_name_);
+    learn(*info);
+    return &replies_.emplace(index, Reply{std::move(*info), std::move(topic)}).first->second;
+  } catch (const std::exception& e) {
+    say("cannot answer a call of %s: %s", service_.c_str(), e.what());
+    return nullptr;
+  }
 }
 
 kj::Promise<void> ServiceMirror::message(MessageContext context) {
@@ -347,29 +439,44 @@ kj::Promise<void> ServiceMirror::message(MessageContext context) {
   const std::span<const std::byte> frame(reinterpret_cast<const std::byte*>(data.begin()),
                                          data.size());
   const auto ids = frame_ids(frame, request_pod_);
-  if (!ids || (*ids)[0] == 0) return kj::READY_NOW;  // not a frame, or a stopping server's wake-up
-  const Reply* reply = reply_topic((*ids)[2]);
-  if (reply == nullptr) return kj::READY_NOW;
+  if (!ids) {
+    held_back(true);
+    say("a request of %s is not a request frame: dropped", service_.c_str());
+    return kj::READY_NOW;
+  }
+  if ((*ids)[0] == 0) {  // a stopping server's wake-up
+    held_back(false);
+    return kj::READY_NOW;
+  }
   if (!session_) {
+    held_back(true);
     fail(*ids, detail::kStatusTransport, "the link to the robot is down");
     return kj::READY_NOW;
   }
-  messages_->make_room(reply->topic->payload_capacity());
   auto request = session_->callRequest();
   request.setService(service_);
   request.setRequest(data);
-  describe(reply->info, request.initResponse());
+  // Without the type the robot finds it, and says it with the answer.
+  if (const Reply* reply = reply_topic((*ids)[2])) {
+    messages_->make_room(reply->topic->payload_capacity());
+    describe(reply->info, request.initResponse());
+  }
   // The local client's own timeout, when shorter, ends its wait sooner.
   request.setTimeoutMs(call_timeout_ms_);
   calls_.add(request.send().then(
       [this, ids = *ids](capnp::Response<wire::Session::CallResults>&& response) {
+        if (response.hasResponseType()) learn(topic_info(response.getResponseType()));
         if (response.hasFailure() && response.getFailure().getKind() != Kind::NONE) {
           const auto failure = response.getFailure();
           fail(ids, status_of(failure.getKind()), failure.getText().cStr());
           return;
         }
         Reply* back = reply_topic(ids[2]);
-        if (back == nullptr) return;
+        if (back == nullptr) {
+          say("an answer of %s from the robot came without the type of its frames: dropped",
+              service_.c_str());
+          return;
+        }
         const capnp::Data::Reader answer = response.getResponse();
         const std::array<std::uint64_t, 2> caller{ids[0], ids[1]};
         back->topic->send(

@@ -11,8 +11,11 @@
 #include <cstdint>
 #include <deque>
 #include <map>
+#include <memory>
 #include <optional>
 #include <span>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "horus/detail/service_frame.hpp"
@@ -23,6 +26,13 @@ namespace horus::remote {
 
 /// Whether a topic carries a service's frames or registration rather than messages of its own.
 bool is_service_topic(const TopicInfo& info);
+
+/// A reply topic of `service` in the namespace that has its type (`index`: that one, else any):
+/// what the service's response frames are. None before a server answered there, or a typed
+/// client opened one (a server makes a client's reply topic as it answers it).
+std::optional<TopicInfo> reply_topic_type(const std::string& service,
+                                          const std::string& namespace_name,
+                                          std::optional<std::uint64_t> index = std::nullopt);
 
 /// The first three ids of a frame (request: client, request, reply topic; response: client,
 /// request, status); empty when the bytes are not a frame. POD frames hold them as u64 at
@@ -42,18 +52,27 @@ std::vector<std::byte> failure_frame(const TopicInfo& frame_type, std::uint64_t 
                                      std::string_view text);
 
 /// The robot's end of one service for one peer: a thread that sends each request to the live
-/// server and waits for its answer on a reply topic of its own.
+/// server and waits for its answer on a reply topic of its own. Until the type of the response
+/// frames is known (from the peer, or a typed reply topic here) that topic is the one the
+/// server makes as it answers, found the way `horus service call` finds it.
 class ServiceRelay {
  public:
-  /// The server's response frame, or why there is none (`kind` none: answered).
+  /// The server's response frame, or why there is none (`kind` none: answered); the type of the
+  /// response frames when known (always with an answer).
   struct Outcome {
+    Outcome() = default;
+    Outcome(std::vector<std::byte> frame, wire::CallFailure::Kind why, std::string text)
+        : answer(std::move(frame)), kind(why), failure(std::move(text)) {}
+
     std::vector<std::byte> answer;
     wire::CallFailure::Kind kind = wire::CallFailure::Kind::NONE;
     std::string failure;
+    std::optional<TopicInfo> response_type;
   };
 
-  ServiceRelay(const std::string& service, const TopicInfo& request, const TopicInfo& response,
-               const std::string& namespace_name);
+  /// `response`: the type of the response frames, when the peer knows it.
+  ServiceRelay(const std::string& service, const TopicInfo& request,
+               std::optional<TopicInfo> response, const std::string& namespace_name);
   ServiceRelay(const ServiceRelay&) = delete;
   ServiceRelay& operator=(const ServiceRelay&) = delete;
   ~ServiceRelay();
@@ -71,12 +90,19 @@ class ServiceRelay {
   };
   void work();
   Outcome ask(const Job& job);
+  /// The answer to `request_id` in the reply just received (`size` bytes), if it is one.
+  std::optional<Outcome> answer(std::ptrdiff_t size, std::uint64_t request_id);
   std::optional<Outcome> server_missing(std::uint64_t instance);
+  /// Opens the reply topic of this relay with the type of `frames`.
+  std::unique_ptr<detail::ErasedTopic> open_replies(const std::optional<TopicInfo>& frames);
 
   std::string service_;
+  std::string namespace_;
   std::uint64_t client_id_;
   std::uint64_t reply_index_;
   std::unique_ptr<detail::ErasedTopic> requests_;
+  /// The type of the response frames, once known; the reply topic, open from then on.
+  std::optional<TopicInfo> response_;
   std::unique_ptr<detail::ErasedTopic> replies_;
   Topic<detail::ServiceRegistration> registration_;
   std::uint64_t last_request_ = 0;
@@ -92,7 +118,10 @@ class ServiceRelay {
 /// namespace until the robot has no server for it any more (then withdrawn). A Forwarder streams
 /// the local request frames into it. A call the robot's server did not answer is answered here
 /// with the robot's reason and its kind (no server, timeout, transport); one that the link lost,
-/// also while no connection to the robot is up, with a transport error naming the link.
+/// also while no connection to the robot is up, with a transport error naming the link. A
+/// caller's reply topic that does not exist yet (`horus service call` leaves it to the server)
+/// is made here, as a server makes it, with the type of the response frames, known from a typed
+/// reply topic here, the robot's listing or the robot's answer.
 class ServiceMirror final : public wire::Sink::Server, public kj::TaskSet::ErrorHandler {
  public:
   /// `call_timeout`: how long the robot waits for its server to answer each call.
@@ -102,10 +131,12 @@ class ServiceMirror final : public wire::Sink::Server, public kj::TaskSet::Error
 
   /// The session calls go to from now on, and its connection's stream (raised to fit the
   /// answers); none while the connection is down.
-  void connect(std::optional<wire::Session::Client> session, LimitedMessageStream* messages) {
-    session_ = std::move(session);
-    messages_ = messages;
-  }
+  void connect(std::optional<wire::Session::Client> session, LimitedMessageStream* messages);
+  /// Learns the type of the response frames from the robot's listing, when it has it.
+  void learn(wire::ServiceInfo::Reader info);
+  /// The counts of the Forwarder that streams the requests here: a request not passed on to the
+  /// robot is taken back from its sent ones.
+  void count_in(std::shared_ptr<StreamCounts> counts) { counts_ = std::move(counts); }
 
   void taskFailed(kj::Exception&& exception) override;
 
@@ -118,10 +149,15 @@ class ServiceMirror final : public wire::Sink::Server, public kj::TaskSet::Error
     TopicInfo info;
     std::unique_ptr<detail::ErasedTopic> topic;
   };
-  /// The reply topic `index` (opened the first time), or none when it does not exist.
+  /// The reply topic `index` (opened the first time, made when it does not exist and the type
+  /// of the response frames is known), or none.
   Reply* reply_topic(std::uint64_t index);
   /// Answers the caller (`ids`: client, request, reply topic) with a failure of `status`.
   void fail(const std::array<std::uint64_t, 3>& ids, std::uint32_t status, std::string_view text);
+  void learn(const TopicInfo& frames);
+  /// A request the robot was not asked: counted as dropped (or, not being a request, not at all)
+  /// instead of sent.
+  void held_back(bool dropped);
 
   std::optional<wire::Session::Client> session_;
   LimitedMessageStream* messages_ = nullptr;
@@ -131,6 +167,9 @@ class ServiceMirror final : public wire::Sink::Server, public kj::TaskSet::Error
   bool request_pod_;
   detail::ServiceRegistration registered_;
   Topic<detail::ServiceRegistration> registration_;
+  /// The type of the response frames, once known.
+  std::optional<TopicInfo> response_;
+  std::shared_ptr<StreamCounts> counts_;
   std::map<std::uint64_t, Reply> replies_;
   kj::TaskSet calls_;
 };
