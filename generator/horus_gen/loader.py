@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 from .diagnostics import Reporter, Source, Span
 from .lexer import MAX_NAME_LENGTH
-from .lang import keyword_clash
+from .lang import cpp, keyword_clash
 from .parser import FILE_KINDS, parse
 from .syntax import FileSyntax
 
@@ -102,6 +102,11 @@ class Loader:
                 self.reporter.error(span, f"package name '{name}' cannot be a C++ namespace and a Python package" + why,
                                     "use lowercase identifiers separated by '.', such as 'my_robot.msg'")
                 break
+        else:
+            if cpp.reserved_package(name):
+                self.reporter.error(span, f"package name '{name}' is a C++ namespace of the horus runtime, "
+                                    "msgpack-cxx or the standard library",
+                                    "use a package of your own, such as 'my_robot.msg'")
         return name
 
     def find_import(self, target: str, base: str) -> str | None:

@@ -96,12 +96,26 @@ Value = Union[bool, int, float, str, EnumValue, tuple]
 
 
 @dataclass(frozen=True)
+class SummaryExpr:
+    """Arithmetic on number fields in a #[summary] placeholder (`{self.x * 100:.1}`), computed in
+    f64 by every language: `op` is "field" (a number field, as f64), "number", "neg", or one of
+    "+", "-", "*", "/" applied to its two operands."""
+    op: str
+    operands: tuple["SummaryExpr", ...] = ()
+    field: str | None = None
+    number: float = 0.0
+
+
+@dataclass(frozen=True)
 class SummaryPart:
-    """One piece of a log summary line: literal text, or a field's value (and unit)."""
+    """One piece of a log summary line: literal text, a field's value (and unit), or a computed
+    number (`expression`, printed as printf `%.<precision>f`, or `%g` without a precision)."""
     text: str = ""
     field: str | None = None
     label: str = ""  # element type spelling for "[N x label]" summaries of sequences
     unit: str = ""
+    expression: SummaryExpr | None = None
+    precision: int | None = None
 
 
 @dataclass(frozen=True)

@@ -179,9 +179,26 @@ class Parser:
         if self.accept_punct("="):
             value = self.parse_literal()
         elif self.peek().is_punct("("):
-            raise self.fail(self.peek().span, f"attribute '{name.text}' takes '= value', not a list")
+            value = self.parse_attribute_list(name)
         self.expect_punct("]", f"to close attribute '{name.text}'")
         return Attribute(name.text, value, name.span)
+
+    def parse_attribute_list(self, name: Token) -> Literal:
+        """`(Debug, Clone, serde::Serialize)`: the names of a list attribute such as `derive`."""
+        open_paren = self.advance()
+        names: list[Literal] = []
+        while not self.peek().is_punct(")"):
+            first = self.expect_ident(f"a name in the list of attribute '{name.text}'")
+            path = [first.text]
+            while self.accept_punct("::"):
+                path.append(self.expect_ident("a name after '::'").text)
+            end = self.tokens[self.pos - 1].span
+            names.append(Literal("path", tuple(path), Span(first.span.source, first.span.line, first.span.col,
+                                                           end.col + end.length - first.span.col)))
+            if not self.accept_punct(","):
+                break
+        self.expect_punct(")", f"to close the list of attribute '{name.text}'")
+        return Literal("list", tuple(names), open_paren.span)
 
     def parse_item(self) -> MessageDecl | EnumDecl | ServiceDecl | NodeDecl:
         attributes, docs = self.parse_prefix()

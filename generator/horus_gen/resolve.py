@@ -23,17 +23,23 @@ from .names import RESERVED_MEMBERS
 from .summary import summary_parts
 from .resolve_node import NodeResolver
 from .syntax import EnumDecl, FieldDecl, Literal, MessageDecl, NodeDecl, ServiceDecl, TypeExpr
-from .values import INTEGER_RANGES, check_attributes, convert_value, is_constant_type
+from .values import INTEGER_RANGES, check_attributes, check_derives, convert_value, is_constant_type
 
 BUILTIN_NAMES = sorted(list(PRIMITIVES) + ["String", "bytes", "string", "Vec", "Option"])
 
 # Attributes each kind of declaration accepts: "flag" (no value), "string", or "strings" (repeatable).
-MESSAGE_ATTRIBUTES = {"topic": "string", "fixed": "flag", "summary": "string",
+MESSAGE_ATTRIBUTES = {"topic": "string", "fixed": "flag", "summary": "string", "derive": "list",
                       "cpp_mixin": "string", "cpp_include": "strings", "py_mixin": "string"}
+ENUM_ATTRIBUTES = {"derive": "list"}
 FIELD_ATTRIBUTES = {"unit": "string"}
 NO_ATTRIBUTES: dict[str, str] = {}
 # The language whose emitter names the copy of each kind of mixin file.
 MIXIN_LANGUAGES = {"cpp_mixin": cpp, "py_mixin": python}
+
+# How deep messages may hold messages (docs/schema-language.md, "Limits"): a type's schema text
+# holds the definition of every type it holds, so a chain of N messages writes N²/2 definitions.
+MAX_MESSAGE_DEPTH = 64
+
 
 @dataclass
 class Decl:
@@ -107,7 +113,7 @@ class Resolver:
             previous_span = self.node_decls[qualified][0].span
         if previous_span is None:
             name = qualified.rsplit(".", 1)[-1]
-            clash = keyword_clash(name)
+            clash = keyword_clash(name) or ("a name of the generated C++ code" if name in cpp.NAMESPACE_NAMES else None)
             if clash:
                 self.reporter.error(span, f"type name '{name}' is {clash}", "rename the type")
             return True
@@ -182,7 +188,8 @@ class Resolver:
         cyclic = self.find_cycles()
         self.broken |= cyclic
         order = self.topological_order()
-        for qualified in order:
+        self.broken |= self.find_too_deep(order)
+        for qualified in [q for q in order if q not in self.broken]:
             self.build_message(self.decls[qualified])
         for qualified, (item, unit) in self.service_decls.items():
             request = self.model.types.get(f"{qualified}Request")
@@ -323,59 +330,96 @@ class Resolver:
         return edges
 
     def find_cycles(self) -> set[str]:
+        """Reports each message that contains itself. Depth-first with an explicit stack: a chain of
+        declarations may be longer than Python's recursion limit."""
         cyclic: set[str] = set()
         state: dict[str, int] = {}
-        stack: list[tuple[str, str]] = []
+        path: list[tuple[str, str]] = []  # (message, field) on the way to the message being visited
 
-        def visit(qualified: str) -> None:
-            state[qualified] = 1
-            for field_name, nested in self.message_edges(qualified):
-                stack.append((qualified, field_name))
+        for root in sorted(self.types):
+            if root in state:
+                continue
+            state[root] = 1
+            frames = [(root, iter(self.message_edges(root)))]
+            while frames:
+                qualified, edges = frames[-1]
+                edge = next(edges, None)
+                if edge is None:
+                    state[qualified] = 2
+                    frames.pop()
+                    if path:
+                        path.pop()
+                    continue
+                field_name, nested = edge
                 if state.get(nested) == 1:
-                    start = next(i for i, (q, _) in enumerate(stack) if q == nested)
-                    loop = stack[start:]
-                    cyclic.update(q for q, _ in loop)
-                    path = " -> ".join(f"{q.rsplit('.', 1)[-1]}.{f}" for q, f in loop)
-                    owner, owner_field = loop[-1]
-                    item = self.decls[owner].item
-                    span = next(f.span for f in item.fields if f.name == owner_field)
-                    self.reporter.error(span, f"message '{nested.rsplit('.', 1)[-1]}' contains itself "
-                                        f"({path} -> {nested.rsplit('.', 1)[-1]})",
-                                        "a message cannot hold itself, even through Vec or Option; "
-                                        "refer to the other item by an id instead")
+                    loop = path[next(i for i, (q, _) in enumerate(path + [(qualified, "")]) if q == nested):] + \
+                        [(qualified, field_name)]
+                    self.report_cycle(nested, loop, cyclic)
                 elif state.get(nested) is None:
-                    visit(nested)
-                stack.pop()
-            state[qualified] = 2
-
-        for qualified in sorted(self.types):
-            if qualified not in state:
-                visit(qualified)
+                    path.append((qualified, field_name))
+                    state[nested] = 1
+                    frames.append((nested, iter(self.message_edges(nested))))
         return cyclic
 
+    def report_cycle(self, nested: str, loop: list[tuple[str, str]], cyclic: set[str]) -> None:
+        cyclic.update(q for q, _ in loop)
+        path = " -> ".join(f"{q.rsplit('.', 1)[-1]}.{f}" for q, f in loop)
+        owner, owner_field = loop[-1]
+        item = self.decls[owner].item
+        span = next(f.span for f in item.fields if f.name == owner_field)
+        self.reporter.error(span, f"message '{nested.rsplit('.', 1)[-1]}' contains itself "
+                            f"({path} -> {nested.rsplit('.', 1)[-1]})",
+                            "a message cannot hold itself, even through Vec or Option; "
+                            "refer to the other item by an id instead")
+
+    def find_too_deep(self, order: list[str]) -> set[str]:
+        """Reports each message that holds messages more than MAX_MESSAGE_DEPTH levels deep, at the
+        field where the chain first passes the limit; returns every message past it."""
+        depth: dict[str, tuple[int, str]] = {}  # message -> (levels, the field of the deepest chain)
+        too_deep: set[str] = set()
+        for qualified in order:  # every message after those it holds
+            levels, through = 1, ""
+            for field_name, nested in self.message_edges(qualified):
+                if nested in depth and depth[nested][0] + 1 > levels:
+                    levels, through = depth[nested][0] + 1, field_name
+            depth[qualified] = (levels, through)
+            if levels > MAX_MESSAGE_DEPTH:
+                too_deep.add(qualified)
+                if levels == MAX_MESSAGE_DEPTH + 1:
+                    item = self.decls[qualified].item
+                    span = next(f.span for f in item.fields if f.name == through)
+                    self.reporter.error(span, f"message '{item.name}' holds messages more than {MAX_MESSAGE_DEPTH} "
+                                        f"levels deep (through '{through}')",
+                                        "flatten the chain: each type's schema text holds those of every "
+                                        "type it holds")
+        return too_deep
+
     def topological_order(self) -> list[str]:
+        """Every message after those it holds (iteratively, like find_cycles)."""
         order: list[str] = []
         done: set[str] = set()
-
-        def visit(qualified: str) -> None:
-            if qualified in done:
-                return
-            done.add(qualified)
-            for _, nested in self.message_edges(qualified):
-                if nested in self.types:
-                    visit(nested)
-            order.append(qualified)
-
-        for qualified in self.types:
-            if qualified not in self.broken:
-                visit(qualified)
+        for root in self.types:
+            if root in self.broken or root in done:
+                continue
+            done.add(root)
+            frames = [(root, iter(self.message_edges(root)))]
+            while frames:
+                qualified, edges = frames[-1]
+                edge = next(edges, None)
+                if edge is None:
+                    order.append(qualified)
+                    frames.pop()
+                elif edge[1] in self.types and edge[1] not in done:
+                    done.add(edge[1])
+                    frames.append((edge[1], iter(self.message_edges(edge[1]))))
         return [q for q in order if q not in self.broken]
 
     # -- enums ---------------------------------------------------------------------------------
     def build_enum(self, decl: Decl) -> None:
         item = decl.item
         assert isinstance(item, EnumDecl)
-        check_attributes(self.reporter, item.attributes, NO_ATTRIBUTES, f"enum '{item.name}'")
+        attributes = check_attributes(self.reporter, item.attributes, ENUM_ATTRIBUTES, f"enum '{item.name}'")
+        check_derives(self.reporter, attributes.get("derive", []), f"enum '{item.name}'", is_enum=True, is_pod=True)
         underlying = PRIMITIVES["i32"]
         if item.underlying is not None:
             candidate = PRIMITIVES.get(item.underlying.name)
@@ -489,6 +533,8 @@ class Resolver:
         canonical, readable = identity.message_texts(decl.qualified, [(f.name, f.type) for f in fields], fingerprints)
         uses = list(dict.fromkeys(q for f in fields for q in _named_types(f.type)))
         schema = readable + "".join(self.model.types[q].definition for q in self.schema_dependencies(uses))
+        check_derives(self.reporter, attributes.get("derive", []), f"message '{item.name}'", is_enum=False,
+                      is_pod=is_pod)
         summary = summary_parts(self.reporter, item, fields, attributes.get("summary"))
         directory = os.path.dirname(decl.unit.path)
         self.model.types[decl.qualified] = Message(
@@ -505,21 +551,19 @@ class Resolver:
         return any(q not in self.model.types for q in _named_types(t))
 
     def schema_dependencies(self, uses: list[str]) -> list[str]:
-        """Every type reachable from `uses`, each once, in first-use order."""
-        seen: list[str] = []
-
-        def visit(qualified: str) -> None:
+        """Every type reachable from `uses`, each once, in first-use (depth-first) order; with an
+        explicit stack, as a chain of declarations may be longer than Python's recursion limit."""
+        seen: dict[str, None] = {}
+        pending = list(reversed(uses))
+        while pending:
+            qualified = pending.pop()
             if qualified in seen:
-                return
-            seen.append(qualified)
+                continue
+            seen[qualified] = None
             found = self.model.types[qualified]
             if isinstance(found, Message):
-                for nested in found.uses:
-                    visit(nested)
-
-        for q in uses:
-            visit(q)
-        return seen
+                pending.extend(reversed(found.uses))
+        return list(seen)
 
     def is_pod(self, t: Type) -> bool:
         if isinstance(t, (Primitive, FixedString, EnumRef)):

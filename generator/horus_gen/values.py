@@ -32,6 +32,17 @@ def check_attributes(reporter: Reporter, attributes: tuple[Attribute, ...], allo
                 hint = f"{owner} takes no attributes"
             reporter.error(attribute.span, f"unknown attribute '{attribute.name}' on {owner}", hint)
             continue
+        if attribute.value is not None and attribute.value.kind == "list" and kind != "list":
+            reporter.error(attribute.span, f"attribute '{attribute.name}' takes '= value', not a list",
+                           f'write #[{attribute.name} = "..."]' if kind != "flag" else f"write #[{attribute.name}]")
+            continue
+        if kind == "list":
+            if attribute.value is None or attribute.value.kind != "list":
+                reporter.error(attribute.span, f"attribute '{attribute.name}' takes a list of names",
+                               f"write #[{attribute.name}(Debug, Clone)]")
+                continue
+            found.setdefault(attribute.name, []).extend(attribute.value.value)
+            continue
         if kind == "flag":
             if attribute.value is not None:
                 reporter.error(attribute.span, f"attribute '{attribute.name}' takes no value",
@@ -49,6 +60,41 @@ def check_attributes(reporter: Reporter, attributes: tuple[Attribute, ...], allo
         else:
             found[attribute.name] = attribute.value.value
     return found
+
+
+# The derives of the Rust structs and enums that schemas come from, and why each holds of the generated
+# type as it is: a derive is accepted and changes nothing. A derive of neither list is an error.
+DERIVES = {
+    "Debug": "log_summary() prints it, and Python's repr()",
+    "Clone": "C++ copies it, and Python's copy.copy()",
+    "Copy": "a POD message or an enum is trivially copyable",
+    "PartialEq": "operator== in C++, == in Python",
+    "Eq": "operator== in C++, == in Python",
+    "Default": "a value-initialised message holds zeros or the schema's defaults",
+    "Serialize": "horus::encode() in C++, to_bytes() in Python",
+    "Deserialize": "horus::decode() in C++, from_bytes() in Python",
+    "LogSummary": "log_summary() in C++ and Python (the default line, or #[summary])",
+}
+# What only an enum is: ordered and hashable (enum class in C++, enum.IntEnum in Python).
+ENUM_DERIVES = {"Hash": "std::hash in C++, hash() in Python",
+                "PartialOrd": "< in C++ and Python", "Ord": "< in C++ and Python"}
+
+
+def check_derives(reporter: Reporter, derives: list[Literal], owner: str, is_enum: bool, is_pod: bool) -> None:
+    """Reports each derive that the generated type does not already satisfy."""
+    known = DERIVES | ENUM_DERIVES if is_enum else DERIVES
+    for derive in derives:
+        name = derive.value[-1]
+        if name in known:
+            if name == "Copy" and not is_pod:
+                reporter.error(derive.span, f"{owner} derives Copy, but it is serialized: it holds a String, "
+                               "bytes, Vec or Option", "remove Copy, or give the message fixed-size fields only")
+        elif name in ENUM_DERIVES:
+            reporter.error(derive.span, f"derive '{name}' of {owner} is not generated",
+                           "generated messages have equality, but no hash or order; remove it")
+        else:
+            reporter.error(derive.span, f"unknown derive '{'::'.join(derive.value)}' on {owner}",
+                           did_you_mean(name, list(known)) or "horus-gen knows " + ", ".join(sorted(known)))
 
 
 def convert_value(reporter: Reporter, types: dict[str, Message | Enum], literal: Literal, t: Type,

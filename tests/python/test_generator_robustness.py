@@ -2,8 +2,10 @@
 output that imports in Python and compiles with g++, or exit 1 with `file:line:col: error:`
 diagnostics and no output; never an internal error, never more than a few seconds of CPU. A
 mutation fuzzer with a fixed seed over the project's own schemas (every distinct accepted output
-imported, an evenly spread sample of them compiled), then one case per class of input that once
-crashed or hung the generator."""
+imported, an evenly spread sample of them compiled with warnings as errors): its mutations also
+rename names to ones C++ or Python give a meaning, insert doc text that comments and docstrings
+must hold, and append long chains of declarations. Then one case per class of input that once
+crashed or hung the generator, or was accepted with code that did not compile."""
 from __future__ import annotations
 
 import concurrent.futures
@@ -12,6 +14,7 @@ import hashlib
 import io
 import os
 import random
+import re
 import signal
 import subprocess
 import time
@@ -22,6 +25,7 @@ import pytest
 from generator_testing import HORUS_GEN, ROOT, SCHEMAS, run_horus_gen
 from horus_gen.cli import main
 from horus_gen.data import DataPaths
+from horus_gen.lang import cpp
 
 DATA = DataPaths.for_launcher(str(HORUS_GEN), str(ROOT / "templates"),
                               str(ROOT / "runtime" / "python" / "_horus_gen_support_v1.py"))
@@ -37,10 +41,26 @@ FRAGMENTS = ["[", "]", "<", ">", "{", "}", ";", ",", ":", "::", "=", "#[", "Vec<
              # node files
              "sub {", "pub {", "client {", "server {", "data {", "->", '-> "t"', "rate: 1 hz,", "budget: 1 us,",
              "on_miss: Stop,", "failure_policy: Restart { max_restarts: 1 },", "#[capacity = 3]", "node!", 'on: "x",']
+# Doc text that C++ comments and Python docstrings must hold: comment and string ends, backslashes
+# (one ending a line would continue a C++ `//` comment), trigraphs, non-ASCII.
+DOCS = ["\n/// */ /* \"\"\" ''' \\n \\\n", "\n/// ends in a backslash \\\n", "\n/// ??/\n", "\n/// ?? ??/ x\n",
+        "\n/// é — ü 中\n", "\n/// \"quoted\"\n", "\n/// \\\\\n", "\n///\t\x7e\n"]
+FRAGMENTS += DOCS
+# Names that C++ or Python give a meaning where the generated code puts them (members, types,
+# enumerators, packages): keywords, macros, namespaces and types the code names, the generated
+# code's own methods, locals and module names. A mutation renames every occurrence of one name of
+# the input to one of these, so that many such mutants are accepted, and must then compile and import.
+SPECIAL_NAMES = ["class", "None", "def", "std", "horus", "msgpack", "errno", "assert", "unix", "linux", "EOF",
+                 "NULL", "INT_MAX", "st_atime", "stdin", "log_summary", "fingerprint", "schema", "visit", "type",
+                 "size", "name", "value", "string", "vector", "array", "optional", "uint8_t", "size_t", "TypeInfo",
+                 "FixedString", "Node", "Topic", "Request", "Response", "numpy", "math", "struct", "Sequence",
+                 "ClassVar", "TYPE_CHECKING", "cls", "buf", "off", "v", "msg", "fn", "handler", "settings", "declared",
+                 "fields", "kParts", "computed0", "horus_log_summary", "mro", "real", "to_bytes", "copy", "_s",
+                 "_c_x", "self", "True", "print", "int", "float", "list", "object", "main", "operator", "p"]
 NODE_FUZZ_INPUTS = 300
 FUZZ_INPUTS = 2000
 # How many of the distinct accepted outputs g++ checks (every one is imported).
-CPP_COMPILES = 8
+CPP_COMPILES = 10
 CXX = os.environ.get("CXX", "g++")
 # CPU seconds, far above any input's: this catches hangs, it measures nothing (the slowest input's
 # CPU time is printed, and recorded in BENCHMARKS.md). CPU time, not wall time, so that a machine
@@ -52,10 +72,30 @@ class Hang(Exception):
     pass
 
 
+_NAME = re.compile(r"\b[A-Za-z_]\w*\b")
+
+
+def chain(rng: random.Random) -> str:
+    """Many declarations, each using the next: deep nesting of messages, or a long run of enums."""
+    count = rng.choice([20, 64, 1100])
+    if rng.random() < 0.5:
+        return "".join(f"\nC{i} {{ x: C{i + 1}, y: [u8; 2] }}" for i in range(count)) + f"\nC{count} {{ z: u8 }}\n"
+    return "".join(f"\nenum E{i}: u8 {{ A = {i % 250}, B }}" for i in range(count)) + "\n"
+
+
 def mutate(rng: random.Random, text: str) -> str:
     for _ in range(rng.randint(1, 4)):
         at = rng.randrange(len(text) + 1)
         choice = rng.random()
+        if choice < 0.15:
+            names = sorted(set(_NAME.findall(text)))
+            if names:
+                text = re.sub(rf"\b{rng.choice(names)}\b", rng.choice(SPECIAL_NAMES), text)
+            continue
+        if choice < 0.2:
+            line_start = text.rfind("\n", 0, at) + 1
+            text = text + chain(rng) if rng.random() < 0.5 else text[:line_start] + rng.choice(DOCS) + text[line_start:]
+            continue
         if choice < 0.3:
             text = text[:at] + rng.choice(FRAGMENTS) + text[at:]
         elif choice < 0.5:
@@ -176,7 +216,7 @@ def compile_failure(out: Path, libraries: Path) -> str | None:
     unit = out / "all.cc"
     unit.write_text("".join(f'#include "{p.relative_to(cpp)}"\n'
                             for p in sorted(cpp.rglob("*")) if p.suffix in (".cpp", ".hpp")))
-    result = subprocess.run([CXX, "-std=c++20", "-fsyntax-only", f"-I{ROOT / 'runtime' / 'include'}", f"-I{cpp}",
+    result = subprocess.run([CXX, "-std=c++20", "-fsyntax-only", "-Wall", "-Wextra", "-Wpedantic", "-Werror", f"-I{ROOT / 'runtime' / 'include'}", f"-I{cpp}",
                              f"-I{libraries / 'cpp'}", str(unit)], capture_output=True, text=True)
     return f"{cpp} does not compile:\n{result.stderr[:3000]}" if result.returncode else None
 
@@ -273,6 +313,9 @@ def case(text: str, error: str, id: str, folder: str = "p"):
          id="huge_array_in_vec"),
     case("B { v: Option<[[u8; 1073741824]; 2]> }\n", "field 'v' of 'B' is too large", id="huge_array_in_option"),
     case("B { s: String, v: [[u16; 1073741824]; 1] }\n", "field 'v' of 'B' is too large", id="huge_array_in_serialized"),
+    case("".join(f"C{i} {{ x: C{i + 1} }}\n" for i in range(1100)) + "C1100 { z: u8 }\n",
+         "case.hmsg:1037:9: error: message 'C1036' holds messages more than 64 levels deep (through 'x')",
+         id="deep_chain_of_messages"),
     case("A { é: u8 }\n", "name 'é' is not ASCII", id="unicode_name"),
     case("A { ﬁeld: u8 }\n", "is not ASCII", id="nfkc_name"),
     case("A" * 101 + " { x: u8 }\n", "name of 101 characters is longer than 100", id="long_name"),
@@ -318,11 +361,56 @@ def test_a_fixed_size_array_is_bounded_in_services_and_node_data(tmp_path, text,
     assert error in stderr and "a fixed-size array holds at most 1073741824 bytes" in stderr
 
 
-@pytest.mark.parametrize("name", ["NULL", "errno", "assert", "stdin", "EOF", "INT32_MAX", "linux", "self",
-                                  "log_summary", "to_bytes"])
+@pytest.mark.parametrize("name", ["NULL", "errno", "assert", "stdin", "EOF", "INT32_MAX", "INT_MAX", "linux", "self",
+                                  "log_summary", "to_bytes", "st_atime", "TYPE_CHECKING", "_c_x", "_s"])
 def test_names_the_generated_code_cannot_use_are_refused(tmp_path, name):
     stderr = check(tmp_path, f"A {{ {name}: u8 }}\n")
     assert f"member name '{name}' is" in stderr
+
+
+# Names C++ or Python give a meaning where generated code puts them, which it holds safely, and doc
+# text its comments and docstrings must hold: before, `B: B` and a type `std` did not compile,
+# the trailing backslash commented out the next line of C++, and `B()` met the parameter B.
+SPECIAL_SCHEMA = '''package odd.std;
+/// doc */ /* """ \\ ends in a backslash \\
+/// ??/
+B { x: u8 }
+/// é ??/
+A { B: B, string: u8, uint8_t: u16, type: f32, size: u8, buf: B, cls: u8, v: [B; 2] }
+enum E: u8 { std = 0, None_ = 1, value = 2, name = 3 }
+/// a type named like the namespace generated code uses
+std { x: u8, e: E, a: A }
+buf { off: B }
+S { s: String, b: B, numpy: Vec<B> }
+'''
+
+
+def test_special_names_and_doc_text_compile_import_and_round_trip(tmp_path):
+    schema = tmp_path / "odd" / "std" / "odd.hmsg"
+    schema.parent.mkdir(parents=True)
+    schema.write_text(SPECIAL_SCHEMA, encoding="utf-8")
+    out = tmp_path / "out"
+    result = run_horus_gen("generate", "--lang", "cpp,python", "--out", str(out), str(schema))
+    assert result.returncode == 0, result.stderr
+    assert compile_failure(out, tmp_path) is None
+    script = ("import sys; sys.path.insert(0, sys.argv[1]); from odd.std import A, S, std, buf, B\n"
+              "a = A(); a.B.x = 3; assert A.from_bytes(a.to_bytes()) == a, a\n"
+              "assert buf.from_bytes(buf(off=B(x=1)).to_bytes()).off.x == 1\n"
+              "s = S(numpy=[B(x=2)]); assert S.from_bytes(s.to_bytes()) == s\n"
+              "print(std().log_summary())\n")
+    ran = subprocess.run(["/usr/bin/python3", "-c", script, str(out / "python")], capture_output=True, text=True)
+    assert ran.returncode == 0, ran.stderr
+    assert ran.stdout.startswith("std{x: 0, e: std, a: A{B: B{x: 0}")
+
+
+def test_the_runtimes_namespaces_are_not_packages():
+    """Every namespace the runtime's headers open (`horus::detail`, or `namespace log {` inside
+    horus) is refused as a package, and so is horus itself."""
+    text = "\n".join(p.read_text() for p in (ROOT / "runtime" / "include").rglob("*.hpp"))
+    nested = set(re.findall(r"^(?:inline )?namespace (\w+) \{", text, re.M)) - {"horus", "msgpack", "adaptor"}
+    opened = {"horus"} | {m.replace("::", ".") for m in re.findall(r"namespace (horus(?:::\w+)+)", text)}
+    opened |= {"horus." + name for name in nested}
+    assert [p for p in sorted(opened) if not cpp.reserved_package(p)] == []
 
 
 def test_thousands_of_errors_are_counted_and_the_first_hundred_shown(tmp_path):

@@ -2,14 +2,13 @@
 from __future__ import annotations
 
 import os
-import re
 import struct
 
 from .. import identity
 from ..data import DataPaths
 from ..model import (PRIMITIVES, Bytes, DynString, Enum, EnumRef, EnumValue, FailurePolicy, Field, FixedArray,
-                     FixedString, Message, MessageRef, Model, Node, Optional, Primitive, Service, SummaryPart,
-                     Type, Vec)
+                     FixedString, Message, MessageRef, Model, Node, Optional, Primitive, Service, SummaryExpr,
+                     SummaryPart, Type, Vec)
 from ..names import snake_case
 from ..summary import printed_types
 from .common import CONTRACT_VERSION, banner, environment
@@ -27,31 +26,42 @@ typedef typeid typename union unsigned using virtual void volatile wchar_t while
 """.split())
 
 
-# Macros of the C and C++ standard headers that generated code includes, and those GCC predefines
-# in its default GNU mode (-std=gnu++20, CMake's default): a member, type or enumerator so named
-# would be replaced by the preprocessor.
-MACROS = frozenset("""
-NULL errno assert stdin stdout stderr EOF BUFSIZ FILENAME_MAX offsetof setjmp va_arg va_copy
-va_end va_start CHAR_BIT MB_LEN_MAX RAND_MAX EXIT_SUCCESS EXIT_FAILURE SIG_DFL SIG_ERR SIG_IGN
-INFINITY NAN HUGE_VAL EDOM ERANGE EILSEQ FP_NAN FP_INFINITE FP_ZERO FP_NORMAL FP_SUBNORMAL
-SEEK_SET SEEK_CUR SEEK_END TMP_MAX CLOCKS_PER_SEC unix linux i386
-""".split())
-_LIMIT_MACRO = re.compile(r"(U?INT(8|16|32|64|MAX|PTR)?|U?INT_(LEAST|FAST)(8|16|32|64)|SIZE|PTRDIFF|"
-                          r"S?CHAR|U?CHAR|U?SHRT|U?LONG|LLONG|ULLONG|SIG_ATOMIC|WCHAR|WINT|FLT|DBL|LDBL)"
-                          r"_(MAX|MIN|C|EPSILON|DIG|MANT_DIG|MAX_EXP|MIN_EXP|TRUE_MIN|WIDTH)")
+# Macros that code including a generated header sees: those of the runtime headers generated code
+# includes, of the system headers they bring in, and GCC's own in its default GNU mode
+# (-std=gnu++20, CMake's default), as `g++ -dM -E` lists them (cpp_macros.txt; the robustness test
+# checks the list against the compiler and refreshes it). A member, type or enumerator so named would
+# be replaced by the preprocessor. Names with a leading underscore are refused by their own rule.
+MACROS_FILE = os.path.join(os.path.dirname(__file__), "cpp_macros.txt")
+with open(MACROS_FILE, encoding="utf-8") as _handle:
+    MACROS = frozenset(_handle.read().split())
 
 
 def reserved(name: str) -> str | None:
     if name.startswith("__") or (name.startswith("_") and len(name) > 1 and name[1].isupper()):
         return "reserved in C++ (leading underscores)"
-    if name in MACROS or _LIMIT_MACRO.fullmatch(name):
-        return "a macro of the C/C++ standard library"
+    if name in MACROS:
+        return "a macro of the C/C++ headers that generated code includes"
     return None
 
 
-PRIMITIVE_TYPES = {"bool": "bool", "u8": "std::uint8_t", "u16": "std::uint16_t", "u32": "std::uint32_t",
-                   "u64": "std::uint64_t", "i8": "std::int8_t", "i16": "std::int16_t", "i32": "std::int32_t",
-                   "i64": "std::int64_t", "f32": "float", "f64": "double"}
+# Packages whose C++ namespace another library owns: the runtime's (horus, its nested namespaces),
+# msgpack-cxx's and the standard library's. A type there could redefine one of theirs.
+RESERVED_PACKAGES = frozenset({"horus", "horus.detail", "horus.summary", "horus.literals", "horus.log"})
+RESERVED_PACKAGE_ROOTS = frozenset({"std", "msgpack"})
+
+
+def reserved_package(package: str) -> bool:
+    return package in RESERVED_PACKAGES or package.split(".")[0] in RESERVED_PACKAGE_ROOTS
+
+
+# What generated code declares in a package's namespace beside its types: each enum's to_string(),
+# and the namespace of the summary tables. A type of the package so named would collide.
+NAMESPACE_NAMES = frozenset({"to_string", "horus_log_summary"})
+
+
+PRIMITIVE_TYPES = {"bool": "bool", "u8": "::std::uint8_t", "u16": "::std::uint16_t", "u32": "::std::uint32_t",
+                   "u64": "::std::uint64_t", "i8": "::std::int8_t", "i16": "::std::int16_t", "i32": "::std::int32_t",
+                   "i64": "::std::int64_t", "f32": "float", "f64": "double"}
 
 
 def namespace(package: str) -> str:
@@ -91,28 +101,30 @@ def type_name(t: Type, package: str) -> str:
     if isinstance(t, Primitive):
         return PRIMITIVE_TYPES[t.name]
     if isinstance(t, FixedString):
-        return f"horus::FixedString<{t.capacity}>"
+        return f"::horus::FixedString<{t.capacity}>"
     if isinstance(t, FixedArray):
-        return f"std::array<{type_name(t.element, package)}, {t.length}>"
+        return f"::std::array<{type_name(t.element, package)}, {t.length}>"
     if isinstance(t, DynString):
-        return "std::string"
+        return "::std::string"
     if isinstance(t, Bytes):
-        return "std::vector<std::uint8_t>"
+        return "::std::vector<::std::uint8_t>"
     if isinstance(t, Vec):
-        return f"std::vector<{type_name(t.element, package)}>"
+        return f"::std::vector<{type_name(t.element, package)}>"
     if isinstance(t, Optional):
-        return f"std::optional<{type_name(t.element, package)}>"
-    if isinstance(t, (MessageRef, EnumRef)):
-        owner, name = t.qualified.rsplit(".", 1)
-        return name if owner == package else f"::{namespace(owner)}::{name}"
+        return f"::std::optional<{type_name(t.element, package)}>"
+    if isinstance(t, (MessageRef, EnumRef)):  # qualified: a member may take the name of a type
+        return cpp_ref(t.qualified, package)
     raise ValueError(t)
 
 
 def string_literal(text: str) -> str:
+    """A C++ string literal of `text`: ASCII, other bytes as octal escapes, and a `?` after a `?`
+    as `\\?`, so that no trigraph appears (GCC warns of them even where it ignores them)."""
     out = []
+    previous = ""
     for byte in text.encode("utf-8"):
         c = chr(byte)
-        if c in '"\\':
+        if c in '"\\' or (c == "?" and previous == "?"):
             out.append("\\" + c)
         elif c == "\n":
             out.append("\\n")
@@ -120,6 +132,7 @@ def string_literal(text: str) -> str:
             out.append(c)
         else:
             out.append(f"\\{byte:03o}")
+        previous = c
     return '"' + "".join(out) + '"'
 
 
@@ -183,7 +196,7 @@ def padding_initializer(message: Message) -> str:
 
 def constant_type(t: Type, package: str) -> str:
     if isinstance(t, (FixedString, DynString)):
-        return "std::string_view"
+        return "::std::string_view"
     return type_name(t, package)
 
 
@@ -290,8 +303,28 @@ def summary_enumerators(t: Type, package: str, model: Model) -> str | None:
     if not isinstance(t, EnumRef) or not model.types[t.qualified].variants:
         return None
     cpp = type_name(t, package)
-    return "{" + ", ".join(f"{{static_cast<std::uint64_t>({cpp}::{v.name}), \"{v.name}\"}}"
+    return "{" + ", ".join(f"{{static_cast<::std::uint64_t>({cpp}::{v.name}), \"{v.name}\"}}"
                            for v in model.types[t.qualified].variants) + "}"
+
+
+def summary_expression(expr: SummaryExpr, package: str) -> str:
+    """A computed summary value in C++: f64 arithmetic through the package's helpers (source.cpp.j2),
+    so that each operation is rounded on its own, as Python rounds it."""
+    if expr.op == "field":
+        return f"static_cast<double>(this->{expr.field})"
+    if expr.op == "number":
+        return float_literal(expr.number, single=False)
+    if expr.op == "neg":
+        return f"-({summary_expression(expr.operands[0], package)})"
+    left, right = (summary_expression(e, package) for e in expr.operands)
+    return f"::{namespace(package)}::horus_log_summary::{SUMMARY_OPERATIONS[expr.op]}({left}, {right})"
+
+
+SUMMARY_OPERATIONS = {"+": "add", "-": "subtract", "*": "multiply", "/": "divide"}
+
+
+def computes_summary(message: Message) -> bool:
+    return any(part.expression is not None for part in message.summary)
 
 
 def summary_type_id(part: SummaryPart, message: Message, ids: dict[Type, str]) -> str:
@@ -320,26 +353,34 @@ def node_headers(node: Node) -> list[str]:
 
 
 def cpp_ref(qualified: str, package: str) -> str:
-    """A message's or service's C++ name as code in namespace `package` spells it."""
+    """A message's, enum's or service's C++ name, from the global namespace: inside a class, a member
+    may have the name of a type, and a type of the package the name of a namespace (`std`)."""
     owner, name = qualified.rsplit(".", 1)
-    return name if owner == package else f"::{namespace(owner)}::{name}"
+    return f"::{namespace(owner)}::{name}"
 
 
 def nanoseconds(ns: int) -> str:
-    return f"std::chrono::nanoseconds({ns}LL)"
+    return f"::std::chrono::nanoseconds({ns}LL)"
 
 
 def failure_policy(policy: FailurePolicy) -> str:
-    """A horus::FailurePolicy expression; arguments not given keep the runtime's defaults."""
+    """A ::horus::FailurePolicy expression; arguments not given keep the runtime's defaults."""
     if not policy.arguments:
-        return f"horus::FailurePolicy::{policy.kind}{{}}"
+        return f"::horus::FailurePolicy::{policy.kind}{{}}"
     fields = ", ".join(f".{name} = " + (f"{value}U" if name.startswith("max_") else nanoseconds(value))
                        for name, value in policy.arguments)
-    return f"horus::FailurePolicy::{policy.kind}{{{fields}}}"
+    return f"::horus::FailurePolicy::{policy.kind}{{{fields}}}"
 
 
 def doc_lines(docs: tuple[str, ...]) -> list[str]:
-    return [f"/// {line}".rstrip() for line in docs]
+    """The `///` lines of doc text. A `//` line ending in a backslash (or in `??/`, a backslash
+    spelled as a trigraph, which GCC warns of) would continue the comment onto the next line of
+    code: such a line ends in `<!---->`, an HTML comment Doxygen leaves out."""
+    lines = []
+    for line in docs:
+        text = f"/// {line}".rstrip()
+        lines.append(text + "<!---->" if text.endswith(("\\", "??/")) else text)
+    return lines
 
 
 FILTERS = {
@@ -353,7 +394,8 @@ FILTERS = {
     "basename": os.path.basename, "failure_policy": failure_policy,
     "float_literal": float_literal,
     "summary_type": summary_type, "summary_type_id": summary_type_id,
-    "summary_enumerators": summary_enumerators, "schema_spelling": identity.spelling,
+    "summary_enumerators": summary_enumerators, "summary_expression": summary_expression,
+    "computes_summary": computes_summary, "schema_spelling": identity.spelling,
     "hex": lambda n: f"0x{n:016x}ULL",
 }
 

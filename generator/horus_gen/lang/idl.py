@@ -1,5 +1,5 @@
 """OMG IDL spelling of the model, in ROS 2's naming, so that a DDS program (Cyclone DDS's `idlc`,
-a ROS 2 node) with a matching type reads and writes what the HORUS DDS bridge (issue 22) sends.
+a ROS 2 node) with a matching type reads and writes what the HORUS DDS bridge sends.
 
 One `<Name>.idl` per message and enum, and one `<Service>.idl` per service (its request and response
 as `<Service>_Request_` and `<Service>_Response_`, as ROS 2 names them) under `idl/<package path>/`;

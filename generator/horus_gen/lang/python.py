@@ -14,7 +14,7 @@ import struct
 
 from ..data import DataPaths
 from ..model import (Bytes, DynString, Enum, EnumRef, EnumValue, Field, FixedArray, FixedString, Message,
-                     MessageRef, Model, Node, Optional, Primitive, Service, Type, Vec)
+                     MessageRef, Model, Node, Optional, Primitive, Service, SummaryExpr, SummaryPart, Type, Vec)
 from ..names import snake_case
 from .common import CONTRACT_VERSION, banner, environment
 
@@ -23,8 +23,16 @@ KEYWORDS = frozenset(keyword.kwlist)
 
 
 def reserved(name: str) -> str | None:
-    # `self` is the first parameter of every generated method (a field so named could not be one).
-    return "reserved for the generated Python code" if name.startswith("_horus") or name == "self" else None
+    # A type, field or parameter named like one of the generated module's own names would hide it;
+    # `self` is the first parameter of every generated method.
+    if name.startswith(MODULE_PREFIXES) or name in MODULE_NAMES:
+        return "a name of the generated Python modules"
+    return None
+
+
+# What generated modules bind besides the types: helpers, codecs (`_c_<field>`), locals.
+MODULE_NAMES = frozenset({"self", "TYPE_CHECKING", "_s", "_S", "_struct", "_math", "_declared", "_settings"})
+MODULE_PREFIXES = ("_horus", "_c_", "_summary_")
 
 
 SUPPORT_MODULE = "_horus_gen_support_v1"
@@ -224,9 +232,8 @@ def zero_literal(t: Type, model: Model, names: Names) -> str:
 
 def initializer(f: Field, names: Names) -> str:
     """The right-hand side that stores a factory-made field in __init__."""
-    if isinstance(f.type, MessageRef):
-        local = names[f.type.qualified]
-        return f"{local}() if {f.name} is None else {f.name}"
+    if isinstance(f.type, MessageRef):  # the codec, not the class: a parameter may take the class's name
+        return f"_c_{f.name}.default() if {f.name} is None else {f.name}"
     if isinstance(f.type, Vec):
         return f"[] if {f.name} is None else {f.name}"
     return f"_c_{f.name}.default() if {f.name} is None else _c_{f.name}.coerce({f.name})"
@@ -300,9 +307,8 @@ def raw_write(f: Field, names: Names) -> str:
     return f"_c_{f.name}.raw_into(buf, off + {f.offset}, self.{f.name})"
 
 
-def raw_read(f: Field, names: Names) -> str:
-    if isinstance(f.type, MessageRef):
-        return f"{names[f.type.qualified]}._horus_unpack_from(buf, off + {f.offset})"
+def raw_read(f: Field) -> str:
+    """Through the codec, nested messages too: the method's parameters may share a type's name."""
     return f"_c_{f.name}.raw_from(buf, off + {f.offset})"
 
 
@@ -332,15 +338,47 @@ def class_doc(message: Message) -> list[str]:
 
 
 def summary_table(message: Message) -> str:
-    """The log-summary parts as (text, field index, element label, unit) tuples."""
+    """The log-summary parts as (text, field index, element label, unit) tuples; computed values
+    are left out (a class whose summary computes prints them with its own log_summary())."""
     index = {f.name: i for i, f in enumerate(message.fields)}
     rows = []
     for part in message.summary:
+        if part.expression is not None:
+            continue
         if part.field is None:
             rows.append(f"({part.text!r}, None, '', '')")
         else:
             rows.append(f"('', {index[part.field]}, {part.label!r}, {part.unit!r})")
     return "(" + "".join(r + ", " for r in rows) + ")"
+
+
+def computes_summary(message: Message) -> bool:
+    return any(part.expression is not None for part in message.summary)
+
+
+def summary_piece(part: SummaryPart) -> str:
+    """The expression of one part of the line a log_summary() of the class's own prints: what the
+    support module's table-driven one prints for text and fields, and the computed values."""
+    if part.expression is not None:
+        return f"_summary_number({summary_expression(part.expression)}, {part.precision!r})"
+    if part.field is None:
+        return repr(part.text)
+    shown = f"_c_{part.field}.summary(self.{part.field}, {part.label!r})"
+    return shown + (f" + {' ' + part.unit!r}" if part.unit else "")
+
+
+def summary_expression(expr: SummaryExpr) -> str:
+    """f64 arithmetic as C++ computes it (the field's value as the codec holds it, f32 rounded)."""
+    if expr.op == "field":
+        return f"float(_c_{expr.field}.number(self.{expr.field}))"
+    if expr.op == "number":
+        return repr(expr.number)
+    if expr.op == "neg":
+        return f"(-{summary_expression(expr.operands[0])})"
+    left, right = (summary_expression(e) for e in expr.operands)
+    if expr.op == "/":
+        return f"_summary_divide({left}, {right})"
+    return f"({left} {expr.op} {right})"
 
 
 def string_literal(text: str) -> str:
@@ -409,6 +447,7 @@ FILTERS = {
     "raw_format": raw_format, "scalar_fields": scalar_fields, "other_fields": other_fields,
     "raw_store": raw_store, "raw_load": raw_load, "raw_write": raw_write, "raw_read": raw_read,
     "docstring": docstring, "class_doc": class_doc, "summary_table": summary_table,
+    "computes_summary": computes_summary, "summary_piece": summary_piece,
     "string_literal": string_literal, "hex": lambda n: f"0x{n:016x}", "basename": os.path.basename,
 }
 
