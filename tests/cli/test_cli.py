@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import calendar
+import contextlib
 import json
 import os
 import pathlib
@@ -12,7 +13,7 @@ import sys
 import time
 
 from conftest import HORUS, run_horus, wait_ready
-from processes import wait_until
+from processes import stderr_after_kill, wait_until
 
 PUBLISH_CMDVEL = """
 import time, horus
@@ -202,6 +203,57 @@ def test_unknown_topic_and_service_are_one_line_and_exit_one():
         assert "Traceback" not in result.stderr
 
 
+def test_every_command_gives_the_same_error_for_a_missing_topic(children, namespace):
+    wait_ready(children.python(PUBLISH_CMDVEL.format(name="cmd_vel")))
+    expected = f"horus: no topic 'cmd_vle' in namespace '{namespace}'; did you mean 'cmd_vel'?"
+    for args in (["topic", "info", "cmd_vle"], ["topic", "echo", "cmd_vle", "--once"],
+                 ["topic", "hz", "cmd_vle", "--once"], ["topic", "bw", "cmd_vle", "--once"]):
+        result = run_horus(*args)
+        assert (result.returncode, result.stderr) == (1, expected + "\n"), args
+    result = run_horus("topic", "pub", "cmd_vle", "{}", "--once")
+    assert (result.returncode, result.stderr) == (
+        1, expected + " (give --type TYPE to create it)\n")
+
+
+def test_unknown_nodes_services_and_types_get_the_closest_names(children, namespace):
+    wait_ready(children.python(SCHEDULER.format(sensor="lidar")))
+    wait_ready(children.program(os.environ["HORUS_PY_SERVICE_PEER"], "serve"), "serving")
+    for args, expected in (
+            (["node", "info", "lidr"],
+             f"no running node 'lidr' in namespace '{namespace}'; did you mean 'lidar'?"),
+            (["service", "info", "Ad"],
+             f"no service 'Ad' in namespace '{namespace}'; did you mean 'Add'?"),
+            (["service", "call", "Ecco", "{}"],
+             f"no service 'Ecco' in namespace '{namespace}'; did you mean 'Echo'?"),
+            (["msg", "show", "CmdVle"], "no message type 'CmdVle' in the installed schemas; "
+                                        "did you mean 'CmdVel'?"),
+            (["msg", "hash", "horus.msg.Imuu"], "no message type 'horus.msg.Imuu' in the "
+                                                "installed schemas; did you mean 'horus.msg.Imu'?")):
+        result = run_horus(*args)
+        assert result.returncode == 1 and result.stderr.count("\n") == 1, (args, result)
+        assert result.stderr.startswith(f"horus: {expected}"), (args, result.stderr)
+    # Nothing close: no guess.
+    assert "did you mean" not in run_horus("node", "info", "zzzzzz").stderr
+
+
+def test_topic_list_hides_the_topics_services_run_on_unless_asked(children):
+    wait_ready(children.program(os.environ["HORUS_PY_SERVICE_PEER"], "serve"), "serving")
+    wait_ready(children.python(PUBLISH_CMDVEL.format(name="cmd_vel")))
+    called = run_horus("service", "call", "Add", "{a: 1, b: 2}")  # its request and reply topics
+    assert called.returncode == 0, called.stderr
+    assert run_horus("topic", "list").stdout.split() == ["cmd_vel"]
+    assert [t["name"] for t in json.loads(run_horus("topic", "list", "--json").stdout)] == \
+        ["cmd_vel"]
+    assert [line.split()[0] for line in run_horus("topic", "list", "-v").stdout.splitlines()] \
+        == ["TOPIC", "cmd_vel"]
+    everything = run_horus("topic", "list", "--include-hidden").stdout.split()
+    assert {"cmd_vel", "Add.service", "Add.request", "Add.response.0", "Echo.service"} <= \
+        set(everything), everything
+    # They are still there for whoever names them.
+    assert run_horus("topic", "info", "Add.service").returncode == 0
+    assert run_horus("service", "list").stdout.split() == ["Add", "Echo"]
+
+
 def test_service_list_and_info_against_a_live_cpp_server(children):
     server = children.program(os.environ["HORUS_PY_SERVICE_PEER"], "serve")
     wait_ready(server, "serving")
@@ -273,15 +325,30 @@ def test_log_shows_the_schedulers_own_deadline_warning(children):
     wait_ready(process)
     lines = wait_until(lambda: run_horus("log", "--level", "warn").stdout.splitlines(),
                        "the scheduler's deadline warning")
-    # The scheduler logs as "@<its name>"; the first miss is logged, later ones only counted.
+    # The scheduler logs as "@<its name>"; the first miss is logged, later ones at most every 10 s.
     assert len(lines) == 1, lines
-    assert re.search(r" WARN @agv: node 'slow' missed its deadline by \d+ us \(further misses "
-                     r"counted only\)$", lines[0]), lines
+    assert re.search(r" WARN @agv: node 'slow' missed its deadline \(2000 us\) by \d+ us "
+                     r"\(Miss::Warn\); misses: 1 by this node, 1 in total$", lines[0]), lines
     assert run_horus("log", "--node", "@agv").stdout.splitlines() == lines
     assert run_horus("log", "--node", "slow", "--level", "warn").stdout == ""
     records = json.loads(run_horus("log", "--level", "warn", "--json").stdout)
     assert [(r["source"], r["level"], r["pid"]) for r in records] == \
         [("@agv", "WARN", process.pid)]
+
+
+def test_node_info_shows_the_misses_against_the_schedulers_limit(children):
+    process = children.python(MISSING_DEADLINES.replace('name="agv"',
+                                                        'name="agv", max_deadline_misses=100000'))
+    wait_ready(process)
+    info = wait_until(lambda: [line for line in run_horus("node", "info", "slow").stdout.splitlines()
+                               if line.startswith("scheduler misses: ")
+                               and not line.startswith("scheduler misses: 0 ")],
+                      "a miss in the announcement")
+    assert re.fullmatch(r"scheduler misses: \d+ of max_deadline_misses 100000, where it stops",
+                        info[0]), info
+    node = json.loads(run_horus("node", "info", "slow", "--json").stdout)[0]
+    assert node["deadline_ns"] == 2_000_000 and node["max_deadline_misses"] == 100000
+    assert node["scheduler_deadline_misses"] >= node["deadline_misses"] >= 1
 
 
 def test_shm_clean_removes_only_the_dead(children, namespace):
@@ -352,7 +419,7 @@ def test_blackbox_is_folded_in(tmp_path):
                    timeout=60)
     result = run_horus("blackbox", str(box))
     assert result.returncode == 0, result.stderr
-    lines = result.stdout.splitlines()
+    lines = result.stdout.split("\n\n")[0].splitlines()  # the events; the ticks follow
     assert lines[0] == f"{box}: 6 events (6 shown)", result.stdout
     assert lines[1].split()[:5] == ["time", "(UTC)", "tick", "event", "node"]
     # (tick, event, node) of each event: the scheduler's start, each node's init, the motor's
@@ -364,7 +431,7 @@ def test_blackbox_is_folded_in(tmp_path):
     lidar = run_horus("blackbox", str(box), "--node", "lidar")
     assert lidar.returncode == 0, lidar.stderr
     assert lidar.stdout.splitlines()[0] == f"{box}: 6 events (1 shown)"
-    assert [line.split()[1:4] for line in lidar.stdout.splitlines()[2:]] == \
+    assert [line.split()[1:4] for line in lidar.stdout.split("\n\n")[0].splitlines()[2:]] == \
         [["0", "NodeInit", "lidar"]]
     missing = run_horus("blackbox", "no_such_file.blackbox")
     assert missing.returncode == 1 and "no_such_file.blackbox" in missing.stderr
@@ -481,20 +548,63 @@ def test_hz_of_an_unknown_topic_is_one_line_and_exits_one():
     assert result.stderr.count("\n") == 1 and "'nowhere'" in result.stderr
 
 
-def test_monitor_in_a_real_terminal_shows_nodes_and_rates_and_quits_on_q(children, namespace):
+def test_hz_goes_on_when_its_topic_is_removed_and_created_again(children):
+    def talker():
+        # A scheduler: when it stops, it removes the topic segments nobody else has open.
+        process = children.program(os.environ["HORUS_PY_PEER"], "node", "cmdvel", "talk", "50")
+        wait_ready(process)
+        return process
+
+    first = talker()
+    hz = children.start([HORUS, "topic", "hz", "talk", "--window", "0.3", "--json"])
+
+    def window_with(condition):
+        while True:
+            line = hz.stdout.readline()
+            assert line, f"topic hz ended: {stderr_after_kill(hz)}"
+            if condition(json.loads(line)["messages"]):
+                return
+
+    window_with(lambda messages: messages > 0)
+    first.communicate(timeout=30)  # the end of its input stops it
+    assert first.returncode == 0
+    wait_until(lambda: "talk" not in run_horus("topic", "list").stdout.split(),
+               "the stopped scheduler to remove its topic")
+    window_with(lambda messages: messages == 0)
+    talker()
+    window_with(lambda messages: messages > 0)
+    assert hz.poll() is None
+    assert stderr_after_kill(hz) == "horus: topic 'talk' was removed (its last user ended); " \
+                                    "counting again once it is back"
+
+
+@contextlib.contextmanager
+def _monitor(namespace: str):
+    """`horus monitor` in a real terminal (tmux), refreshing every 0.3 s; yields a function that
+    returns its screen's rows by their first word."""
     assert shutil.which("tmux"), "tmux runs the monitor in a real terminal (scripts/install-deps)"
-    wait_ready(children.python(SCHEDULER.format(sensor="lidar")))
     session = f"horus_{namespace}"
     environment = [f"{key}={os.environ[key]}" for key in
                    ("PYTHONPATH", "HORUS_SHM_DIR", "HORUS_NAMESPACE")]
     subprocess.run(["tmux", "new-session", "-d", "-s", session, "-x", "120", "-y", "30", "env",
                     *environment, HORUS, "monitor", "--interval", "0.3"], check=True)
+
+    def rows() -> dict[str, list[str]]:
+        pane = subprocess.run(["tmux", "capture-pane", "-p", "-t", session],
+                              capture_output=True, text=True).stdout
+        return {line.split()[0]: line.split() for line in pane.splitlines() if line.split()}
     try:
+        yield session, rows
+    finally:
+        subprocess.run(["tmux", "kill-session", "-t", session], capture_output=True)
+
+
+def test_monitor_in_a_real_terminal_shows_nodes_and_rates_and_quits_on_q(children, namespace):
+    wait_ready(children.python(SCHEDULER.format(sensor="lidar")))
+    with _monitor(namespace) as (session, screen):
         def screen_with_rates():
-            pane = subprocess.run(["tmux", "capture-pane", "-p", "-t", session],
-                                  capture_output=True, text=True).stdout
-            rows = {line.split()[0]: line.split() for line in pane.splitlines() if line.split()}
-            # Rates appear from the second refresh on (they need two samples).
+            rows = screen()
+            # A rate shows once measured (from send stamps, or counted between two refreshes).
             if "lidar" in rows and "scan" in rows and rows["scan"][4] != "-":
                 return rows
             return None
@@ -505,8 +615,42 @@ def test_monitor_in_a_real_terminal_shows_nodes_and_rates_and_quits_on_q(childre
         wait_until(lambda: subprocess.run(["tmux", "has-session", "-t", session],
                                           capture_output=True).returncode != 0,
                    "the monitor to quit on q")
-    finally:
-        subprocess.run(["tmux", "kill-session", "-t", session], capture_output=True)
+
+
+ONE_HZ = """
+import time, horus
+from horus.msg import CmdVel
+topic = horus.Topic(CmdVel, "slow")
+start, sent = time.monotonic(), 0
+while True:
+    sent += 1
+    topic.send(CmdVel(linear=float(sent)))
+    if sent == 6:
+        print("ready", flush=True)
+    time.sleep(max(0.0, start + sent - time.monotonic()))
+"""
+
+
+def test_list_and_monitor_show_the_rate_of_a_1_hz_topic(children, namespace):
+    # A short window counts 0 or 1 message of a 1 Hz topic (a rate of 0 or twice the truth);
+    # its send stamps span seconds.
+    publisher = children.python(ONE_HZ)
+    wait_ready(publisher)
+
+    def listed_rate() -> float:
+        return json.loads(run_horus("topic", "list", "-v", "--json").stdout)[0]["rate_hz"]
+    for _ in range(3):
+        assert 0.6 <= listed_rate() <= 1.5
+        time.sleep(0.4)
+    with _monitor(namespace) as (_, screen):
+        def rate_shown():
+            row = screen().get("slow")
+            return row if row and row[4] != "-" else None
+        row = wait_until(rate_shown, "the monitor's rate of the 1 Hz topic")
+        assert 0.6 <= float(row[4]) <= 1.5, row
+    # Its stamps stay in the ring; once it missed two periods the rate is 0.
+    publisher.kill()
+    wait_until(lambda: listed_rate() == 0.0, "a rate of 0 after the publisher ended")
 
 
 def test_monitor_without_a_terminal_is_a_usage_error():
@@ -530,22 +674,30 @@ def test_msg_list_show_and_hash_of_installed_types_match_the_live_segment(childr
     assert int(fingerprint, 16) == segment["fingerprint"]
 
 
-def test_msg_show_of_a_user_type_given_with_I(tmp_path):
+def test_msg_show_of_a_user_type_given_with_I_with_its_padding(tmp_path):
     schemas = tmp_path / "schemas" / "my_robot"
     schemas.mkdir(parents=True)
     (schemas / "arm.hmsg").write_text("package my_robot;\n\nJointGoal {\n    joint: u16,\n"
-                                      "    angle: f64,\n}\n")
+                                      "    angle: f64,\n    done: bool,\n}\n")
     result = run_horus("msg", "show", "my_robot.JointGoal", "-I", str(tmp_path / "schemas"))
     assert result.returncode == 0, result.stderr
     lines = result.stdout.splitlines()
     assert lines[0] == "type: my_robot.JointGoal (message)"
-    assert lines[2] == "tier: pod, size 16, alignment 8"
-    assert lines[4].split() == ["joint", "u16", "0", "2"]
-    assert lines[5].split() == ["angle", "f64", "8", "8"]
-    assert lines[6:] == ["schema:", "  message my_robot.JointGoal {", "    joint: u16,",
-                         "    angle: f64,", "  }"]
+    assert lines[2] == "tier: pod, size 24, alignment 8"
+    # The holes between fields and at the end are rows of their own.
+    assert [line.split() for line in lines[3:9]] == [
+        ["FIELD", "TYPE", "OFFSET", "SIZE"], ["joint", "u16", "0", "2"],
+        ["(padding)", "-", "2", "6"], ["angle", "f64", "8", "8"], ["done", "bool", "16", "1"],
+        ["(padding)", "-", "17", "7"]]
+    assert lines[9:] == ["schema:", "  message my_robot.JointGoal {", "    joint: u16,",
+                         "    angle: f64,", "    done: bool,", "  }"]
     missing = run_horus("msg", "hash", "Nope", "-I", str(tmp_path / "schemas"))
     assert missing.returncode == 1 and "'Nope'" in missing.stderr
+    # Without -I only the installed types are known: the error says how to show one's own.
+    installed_only = run_horus("msg", "show", "my_robot.JointGoal")
+    assert installed_only.returncode == 1 and installed_only.stderr.count("\n") == 1
+    assert "no message type 'my_robot.JointGoal' in the installed schemas" in \
+        installed_only.stderr and "-I DIR" in installed_only.stderr, installed_only.stderr
 
 
 TOPIC_WITHOUT_SCHEDULER = """

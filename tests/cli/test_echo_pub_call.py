@@ -6,9 +6,10 @@ from __future__ import annotations
 import json
 import os
 import subprocess
+import time
 import uuid
 
-from conftest import run_horus, wait_ready
+from conftest import HORUS, run_horus, wait_ready
 from processes import wait_until
 
 USER_PROCESS = """
@@ -260,6 +261,56 @@ def test_echo_with_a_timeout_exits_one_on_a_silent_topic(children):
     assert result.returncode == 1, result
     assert result.stdout == ""
     assert result.stderr == "horus: no message on topic 'silent' within 0.3 s\n"
+
+
+def test_echo_with_a_timeout_waits_for_a_topic_that_does_not_exist_yet(children, namespace):
+    echo = children.start([HORUS, "topic", "echo", "later", "--once", "--json", "--timeout", "20"])
+    time.sleep(1)  # long enough for a command that does not wait to have given up
+    assert echo.poll() is None, echo.communicate()
+    publisher = children.program(os.environ["HORUS_PY_PEER"], "pub", "cmdvel", "later", "1")
+    assert publisher.wait(timeout=30) == 0
+    out, err = echo.communicate(timeout=30)
+    assert echo.returncode == 0, err
+    assert json.loads(out) == {"stamp_nanos": 0, "linear": 1.0, "angular": -1.0}
+    never = run_horus("topic", "echo", "never", "--timeout", "0.3")
+    assert (never.returncode, never.stderr) == (
+        1, f"horus: no topic 'never' in namespace '{namespace}' within 0.3 s\n")
+
+
+COUNTER = """
+import time, horus
+from horus.msg import CmdVel
+topic = horus.Topic(CmdVel, "counter")
+value = 0
+while True:
+    value += 1
+    topic.send(CmdVel(linear=float(value)))
+    if value == 100:
+        print("ready", flush=True)
+    time.sleep(0.001)
+"""
+
+
+def test_echo_shows_each_message_of_a_fast_publisher_once_and_in_order(children):
+    wait_ready(children.python(COUNTER))
+    for _ in range(3):
+        result = run_horus("topic", "echo", "counter", "--count", "30", "--field", "linear")
+        assert result.returncode == 0, result.stderr
+        values = [float(value) for value in result.stdout.split()]
+        # The newest message when echo started, then the later ones (a slow terminal may lose
+        # some to the ring, never repeat one or go back).
+        assert len(values) == 30 and all(a < b for a, b in zip(values, values[1:])), values
+
+
+def test_pub_with_the_type_of_another_topic_names_both_types(children):
+    publisher = children.program(os.environ["HORUS_PY_PEER"], "pub", "cmdvel", "cmd_vel", "1")
+    assert publisher.wait(timeout=30) == 0
+    other = run_horus("topic", "pub", "cmd_vel", "{}", "--type", "Twist", "--once")
+    assert (other.returncode, other.stderr) == (
+        1, "horus: topic 'cmd_vel' carries horus.msg.CmdVel, not horus.msg.Twist (--type)\n")
+    same = run_horus("topic", "pub", "cmd_vel", "{linear: 2}", "--type", "CmdVel", "--once")
+    assert same.returncode == 0, same.stderr
+    assert _echo_json("cmd_vel")["linear"] == 2.0
 
 
 def test_pub_with_a_type_creates_a_topic_nobody_opened_yet(tmp_path, user_types):

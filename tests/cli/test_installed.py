@@ -1,13 +1,16 @@
 """The installed `horus` command: `cmake --install` of this build into a scratch prefix, then its
 bin/horus run against a live process with nothing of the build tree on its paths, and its bash
-completion file sourced."""
+completion file sourced; the Cyclone DDS set-up it installs in share/horus."""
 from __future__ import annotations
 
 import json
 import os
+import pathlib
 import subprocess
 
 from conftest import wait_ready
+
+REPOSITORY = pathlib.Path(__file__).resolve().parents[2]
 
 PUBLISHER = """
 import horus, time
@@ -63,3 +66,7 @@ def test_the_installed_command_lists_and_echoes_a_live_topic(children, tmp_path)
     assert complete("se") == ["service"]
     assert complete("topic", "e") == ["echo"]
     assert complete("topic", "echo", "inst") == ["installed_cmd"]
+
+    # The Cyclone DDS set-up for one machine that docs/dds-bridge.md points CYCLONEDDS_URI at.
+    loopback = prefix / "share" / "horus" / "cyclonedds-loopback.xml"
+    assert loopback.read_text() == (REPOSITORY / "docs" / "cyclonedds-loopback.xml").read_text()

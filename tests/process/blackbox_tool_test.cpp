@@ -1,22 +1,44 @@
 // The horus-blackbox command on a file a scheduler wrote: every event, the --node / --kind /
-// --last filters, and its errors (missing file, bad option) with their exit statuses.
+// --last filters, its errors (missing file, bad option) with their exit statuses, and the last
+// ticks (node, start, duration, topics) of a dump written by a fatal stop and by a crash.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <array>
+#include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "horus/literals.hpp"
 #include "horus/scheduler.hpp"
+#include "horus/topic.hpp"
 
 using namespace horus::literals;
 
 namespace {
+
+// Every test runs in its own process (gtest_discover_tests): the topics live under a private
+// root outside /dev/shm, removed when the test ends.
+struct PrivateShmRoot {
+  PrivateShmRoot() {
+    char pattern[] = "/tmp/horus_blackbox_tool_test_XXXXXX";
+    root = ::mkdtemp(pattern);
+    ::setenv("HORUS_SHM_DIR", root.c_str(), 1);
+    ::setenv("HORUS_NAMESPACE", "blackboxtool", 1);
+  }
+  ~PrivateShmRoot() {
+    std::error_code ignored;
+    std::filesystem::remove_all(root, ignored);
+  }
+  std::string root;
+};
+const PrivateShmRoot shm_root;
 
 struct Outcome {
   int status;
@@ -116,4 +138,121 @@ TEST_F(BlackboxTool, ReportsAMissingFileAndBadArguments) {
       << last.output;
 
   EXPECT_EQ(run_tool("--help").status, 0);
+}
+
+namespace {
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> lines;
+  std::size_t start = 0;
+  for (std::size_t end = text.find('\n'); end != std::string::npos;
+       start = end + 1, end = text.find('\n', start)) {
+    lines.push_back(text.substr(start, end - start));
+  }
+  return lines;
+}
+
+/// The tick rows of the tool's output (after the ticks' header line).
+std::vector<std::string> tick_rows(const std::string& output) {
+  const std::vector<std::string> lines = lines_of(output);
+  std::vector<std::string> rows;
+  bool in_ticks = false;
+  for (const std::string& line : lines) {
+    if (in_ticks) rows.push_back(line);
+    if (line.starts_with("tick start (UTC)")) in_ticks = true;
+  }
+  return rows;
+}
+
+class Driver : public horus::Node {
+ public:
+  std::string_view name() const override { return "driver"; }
+  void tick() override { cmd_.send(++sent_); }
+  horus::Topic<std::int32_t> cmd_{"rover.cmd"};
+  std::int32_t sent_ = 0;
+};
+
+/// Receives the driver's commands; fails (throws, or aborts the process) in its `last`-th tick.
+class Arm : public horus::Node {
+ public:
+  Arm(int last, bool crash) : last_(last), crash_(crash) {}
+  std::string_view name() const override { return "arm"; }
+  void tick() override {
+    while (cmd_.try_recv()) {
+    }
+    if (++ticks_ < last_) return;
+    if (crash_) std::abort();
+    throw std::runtime_error("joint 3 overheated");
+  }
+  horus::Topic<std::int32_t> cmd_{"rover.cmd"};
+  int last_;
+  bool crash_;
+  int ticks_ = 0;
+};
+
+}  // namespace
+
+TEST(BlackboxToolTicks, AFatalStopDumpShowsTheLastTicksWithNodeDurationAndTopics) {
+  const auto file = std::filesystem::temp_directory_path() /
+                    ("horus_blackbox_fatal_" + std::to_string(::getpid()) + ".blackbox");
+  {
+    horus::Scheduler sched{
+        horus::SchedulerConfig{}.name("rover").deterministic(true).blackbox_mb(1).blackbox_path(
+            file)};
+    sched.add(std::make_shared<Driver>()).order(0).build();
+    sched.add(std::make_shared<Arm>(5, false)).order(1).build();  // FailurePolicy::Fatal
+    EXPECT_NE(sched.run(), 0);
+  }
+  ASSERT_TRUE(std::filesystem::exists(file)) << "the fatal stop wrote no blackbox";
+  const Outcome out = run_tool(file.string() + " --ticks 4");
+  std::filesystem::remove(file);
+  EXPECT_EQ(out.status, 0) << out.output;
+  EXPECT_NE(out.output.find(": 10 ticks (4 shown)"), std::string::npos) << out.output;
+  const std::vector<std::string> rows = tick_rows(out.output);
+  ASSERT_EQ(rows.size(), 4U) << out.output;
+  // Oldest first: driver and arm alternate, the arm's failing fifth tick (index 4) last.
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const bool arm = i % 2 == 1;
+    const std::string& row = rows[i];
+    EXPECT_NE(row.find(arm ? " arm " : " driver "), std::string::npos) << row;
+    EXPECT_NE(row.find(arm ? "rover.cmd 0/1" : "rover.cmd 1/0"), std::string::npos) << row;
+    EXPECT_NE(row.find(std::string(" ") + (i < 2 ? "3" : "4") + " "), std::string::npos) << row;
+    EXPECT_EQ(row.find("Z  "), 26U) << "the tick's start time first: " << row;
+  }
+  EXPECT_NE(out.output.find("joint 3 overheated"), std::string::npos) << out.output;
+}
+
+TEST(BlackboxToolTicks, ACrashDumpShowsTheTicksBeforeTheCrash) {
+  const auto file = std::filesystem::temp_directory_path() /
+                    ("horus_blackbox_crash_" + std::to_string(::getpid()) + ".blackbox");
+  std::filesystem::remove(file);
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    horus::Scheduler sched{
+        horus::SchedulerConfig{}.name("rover").tick_rate(200_hz).blackbox_mb(1).blackbox_path(
+            file)};
+    sched.add(std::make_shared<Driver>()).order(0).build();
+    sched.add(std::make_shared<Arm>(3, true)).order(1).build();
+    sched.run();
+    std::_Exit(0);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGABRT) << "status " << status;
+  ASSERT_TRUE(std::filesystem::exists(file)) << "the crash wrote no blackbox";
+  const Outcome out = run_tool(file.string() + " --node arm");
+  const Outcome all = run_tool(file.string() + " --ticks 100");
+  std::filesystem::remove(file);
+  EXPECT_EQ(out.status, 0) << out.output;
+  // The arm's two ticks before the one that aborted (its record is written when a tick ends).
+  const std::vector<std::string> rows = tick_rows(out.output);
+  ASSERT_EQ(rows.size(), 2U) << out.output;
+  for (const std::string& row : rows) {
+    EXPECT_NE(row.find(" arm "), std::string::npos) << row;
+    EXPECT_NE(row.find("rover.cmd 0/1"), std::string::npos) << row;
+  }
+  // The driver ticked a third time, just before the arm's fatal tick.
+  EXPECT_EQ(tick_rows(all.output).size(), 5U) << all.output;
+  EXPECT_NE(tick_rows(all.output).back().find(" driver "), std::string::npos) << all.output;
 }

@@ -25,6 +25,7 @@
 #include <thread>
 #include <vector>
 
+#include <horus/detail/process.hpp>
 #include <horus/detail/shm_segment.hpp>
 #include <horus/detail/topic_notifier.hpp>
 #include <horus/detail/topic_wait_set.hpp>
@@ -755,6 +756,13 @@ TEST(TopicProcess, AnotherTypeIsRefusedAndTheIncumbentsKeepWorking) {
     std::snprintf(fingerprint, sizeof fingerprint, "%016llx",
                   static_cast<unsigned long long>(horus::TypeInfo<Other>::fingerprint));
     EXPECT_NE(text.find(fingerprint), std::string::npos) << text;
+    // Who still uses the old type: the echo child, with its program's name as the kernel has it.
+    const std::string echo_name =
+        horus::detail::process_name(static_cast<std::uint32_t>(echo.pid()));
+    ASSERT_FALSE(echo_name.empty());
+    EXPECT_NE(text.find("pid " + std::to_string(echo.pid()) + " (" + echo_name + ")"),
+              std::string::npos)
+        << text;
   }
 
   ASSERT_TRUE(data.send(sealed<Sample>(33)));

@@ -1,24 +1,60 @@
-// The flight recorder: a fixed ring that keeps the newest events, survives concurrent writers,
-// round-trips through a file, rejects files that are not its own, and is fed by the scheduler.
+// The flight recorder: fixed rings that keep the newest events and ticks, survive concurrent
+// writers, round-trip through a file, reject files that are not their own, and are fed by the
+// scheduler (its events, and per tick the node, its timing and the topics it touched).
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include "horus/blackbox.hpp"
+#include "horus/clock.hpp"
 #include "horus/error.hpp"
 #include "horus/literals.hpp"
 #include "horus/scheduler.hpp"
+#include "horus/topic.hpp"
 
 using namespace horus::literals;
 using horus::BlackboxEventKind;
 
 namespace {
+
+// Every test runs in its own process (gtest_discover_tests): the topics of the scheduler tests
+// live under a private root outside /dev/shm, removed when the test ends.
+struct PrivateShmRoot {
+  PrivateShmRoot() {
+    char pattern[] = "/tmp/horus_blackbox_test_XXXXXX";
+    root = ::mkdtemp(pattern);
+    ::setenv("HORUS_SHM_DIR", root.c_str(), 1);
+    ::setenv("HORUS_NAMESPACE", "blackbox", 1);
+  }
+  ~PrivateShmRoot() {
+    std::error_code ignored;
+    std::filesystem::remove_all(root, ignored);
+  }
+  std::string root;
+};
+const PrivateShmRoot shm_root;
+
+/// The topics of one tick: `name` sent `sent` and received `received` messages.
+horus::detail::TickTopics topics_of(
+    std::initializer_list<std::tuple<const char*, int, int>> touched) {
+  horus::detail::TickTopics topics;
+  for (const auto& [name, sent, received] : touched) {
+    horus::detail::TopicTouch* touch = topics.touch(name, name);
+    if (touch == nullptr) continue;
+    touch->sent = static_cast<std::uint32_t>(sent);
+    touch->received = static_cast<std::uint32_t>(received);
+  }
+  return topics;
+}
 
 std::filesystem::path temp_file(const std::string& stem) {
   return std::filesystem::temp_directory_path() /
@@ -161,4 +197,131 @@ TEST(Blackbox, SchedulerRecordsLifecycleErrorsAndMisses) {
   horus::Scheduler without;
   EXPECT_EQ(without.blackbox(), nullptr);
   EXPECT_THROW(without.dump_blackbox(path), horus::Error);
+}
+
+TEST(Blackbox, KeepsTheNewestTicksWithTheirTopicsAndWrapsAtItsSize) {
+  horus::Blackbox box(4, 3);
+  for (std::uint64_t i = 0; i < 5; ++i) {
+    box.record_tick("motor", i, static_cast<std::int64_t>(1000 * (i + 1)),
+                    topics_of({{"cmd_vel", 0, static_cast<int>(i)}, {"odom", 1, 0}}));
+  }
+  EXPECT_EQ(box.tick_capacity(), 3U);
+  EXPECT_EQ(box.ticks_recorded(), 5U);
+  const auto ticks = box.tick_snapshot();
+  ASSERT_EQ(ticks.size(), 3U);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(ticks[i].tick, 2 + i);
+    EXPECT_EQ(ticks[i].node_name(), "motor");
+    EXPECT_EQ(ticks[i].duration_ns, static_cast<std::int64_t>(1000 * (3 + i)));
+    ASSERT_EQ(ticks[i].topic_count, 2U);
+    EXPECT_EQ(ticks[i].topics[0].topic_name(), "cmd_vel");
+    EXPECT_EQ(ticks[i].topics[0].received, 2 + i);
+    EXPECT_EQ(ticks[i].topics[1].topic_name(), "odom");
+    EXPECT_EQ(ticks[i].topics[1].sent, 1U);
+  }
+  EXPECT_TRUE(box.snapshot().empty()) << "ticks are not events";
+}
+
+TEST(Blackbox, ATickKeepsEightTopicsAndCountsTheMessagesOfFurtherOnes) {
+  horus::detail::TickTopics topics;
+  const std::vector<std::string> names{"t0", "t1", "t2", "t3", "t4", "t5", "t6", "t7", "t8"};
+  for (const std::string& name : names) {
+    if (auto* touch = topics.touch(&name, name)) ++touch->sent;
+  }
+  if (auto* touch = topics.touch(&names[8], names[8])) ++touch->sent;
+  if (auto* touch = topics.touch(&names[0], names[0])) ++touch->sent;
+  horus::Blackbox box(1, 1);
+  box.record_tick("mapper", 0, 10, topics);
+  const auto tick = box.tick_snapshot().at(0);
+  EXPECT_EQ(tick.topic_count, 8U);
+  EXPECT_EQ(tick.other_messages, 2U);
+  EXPECT_EQ(tick.topics[0].sent, 2U);
+  const std::string line = horus::format_blackbox_tick(tick);
+  EXPECT_NE(line.find("t0 2/0, t1 1/0"), std::string::npos) << line;
+  EXPECT_NE(line.find("+2 messages on further topics"), std::string::npos) << line;
+}
+
+TEST(Blackbox, MegabytesGoMostlyToTicks) {
+  const auto capacity = horus::Blackbox::capacity_for_mb(16);
+  const std::size_t bytes = capacity.events * 136 + capacity.ticks * 392;
+  EXPECT_LE(bytes, std::size_t{16} << 20);
+  EXPECT_GT(bytes, (std::size_t{16} << 20) - 392 - 136);
+  EXPECT_GT(capacity.ticks * 392, capacity.events * 136 * 6);
+}
+
+TEST(Blackbox, TicksRoundTripThroughAFile) {
+  horus::Blackbox box(2, 4);
+  box.record(BlackboxEventKind::NodeInit, "planner", 0);
+  box.record_tick("planner", 41, 2'500'000, topics_of({{"goal", 0, 1}, {"path", 1, 0}}));
+  box.record_tick("planner", 42, 1'000, topics_of({}));
+  const auto path = temp_file("ticks");
+  box.write_to(path);
+  const auto ticks = horus::read_blackbox_ticks(path);
+  const auto events = horus::read_blackbox(path);
+  std::filesystem::remove(path);
+  ASSERT_EQ(events.size(), 1U);
+  ASSERT_EQ(ticks.size(), 2U);
+  EXPECT_EQ(ticks[0].tick, 41U);
+  EXPECT_EQ(ticks[0].duration_ns, 2'500'000);
+  const std::string line = horus::format_blackbox_tick(ticks[0]);
+  EXPECT_NE(line.find("planner"), std::string::npos) << line;
+  EXPECT_NE(line.find("2500.0"), std::string::npos) << line;
+  EXPECT_NE(line.find("goal 0/1, path 1/0"), std::string::npos) << line;
+  EXPECT_TRUE(horus::format_blackbox_tick(ticks[1]).ends_with(" -"))
+      << horus::format_blackbox_tick(ticks[1]);
+}
+
+TEST(Blackbox, SchedulerRecordsEveryTickWithTheTopicsItsNodeTouched) {
+  class Driver : public horus::Node {
+   public:
+    std::string_view name() const override { return "driver"; }
+    void tick() override {
+      cmd_.send(1.0);
+      cmd_.send(2.0);
+    }
+    horus::Topic<double> cmd_{"bb.cmd"};
+  };
+  class Motor : public horus::Node {
+   public:
+    std::string_view name() const override { return "motor"; }
+    void tick() override {
+      while (cmd_.try_recv()) {
+      }
+      odom_.send(static_cast<std::int32_t>(horus::tick_index()));
+    }
+    horus::Topic<double> cmd_{"bb.cmd"};
+    horus::Topic<std::int32_t> odom_{"bb.odom"};
+  };
+  horus::Scheduler sched{horus::SchedulerConfig{}.blackbox_mb(1).name("rover").deterministic(true)};
+  sched.add(std::make_shared<Driver>()).order(0).build();
+  sched.add(std::make_shared<Motor>()).order(1).build();
+  for (int i = 0; i < 3; ++i) sched.tick_once();
+
+  const auto ticks = sched.blackbox()->tick_snapshot();
+  ASSERT_EQ(ticks.size(), 6U);
+  for (std::size_t i = 0; i < ticks.size(); ++i) {
+    const horus::BlackboxTick& t = ticks[i];
+    EXPECT_EQ(t.tick, i / 2);
+    EXPECT_GE(t.duration_ns, 0);
+    if (i % 2 == 0) {
+      EXPECT_EQ(t.node_name(), "driver");
+      ASSERT_EQ(t.topic_count, 1U);
+      EXPECT_EQ(t.topics[0].topic_name(), "bb.cmd");
+      EXPECT_EQ(t.topics[0].sent, 2U);
+      EXPECT_EQ(t.topics[0].received, 0U);
+    } else {
+      EXPECT_EQ(t.node_name(), "motor");
+      ASSERT_EQ(t.topic_count, 2U);
+      EXPECT_EQ(t.topics[0].topic_name(), "bb.cmd");
+      EXPECT_EQ(t.topics[0].received, 2U);
+      EXPECT_EQ(t.topics[1].topic_name(), "bb.odom");
+      EXPECT_EQ(t.topics[1].sent, 1U);
+    }
+  }
+  // A scheduler without a blackbox counts messages without noting topics.
+  horus::Scheduler quiet{horus::SchedulerConfig{}.name("quiet").deterministic(true)};
+  auto driver = std::make_shared<Driver>();
+  quiet.add(driver).build();
+  quiet.tick_once();
+  EXPECT_EQ(quiet.node_metrics("driver")->messages_sent, 2U);
 }

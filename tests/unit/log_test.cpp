@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -19,6 +20,7 @@
 #include <vector>
 
 #include "horus/error.hpp"
+#include "horus/literals.hpp"
 #include "horus/log.hpp"
 #include "horus/scheduler.hpp"
 
@@ -178,6 +180,35 @@ TEST(Log, TheSchedulersOwnWarningsCarryItsName) {
   const auto records = records_from("@agv");
   ASSERT_EQ(records.size(), 1U);
   EXPECT_EQ(records[0].message, "node 'camera' excluded: init() failed: no device");
+}
+
+TEST(Log, AMissIsLoggedInTheNodesNameWhateverItsPolicyOnceNotPerMiss) {
+  using namespace horus::literals;
+  horus::Scheduler sched{horus::SchedulerConfig{}.name("busy")};
+  const auto slow = [] { std::this_thread::sleep_for(std::chrono::milliseconds(2)); };
+  sched.add(std::make_shared<Lambda>("warned", slow)).rate(1000_hz).deadline(50_us).build();
+  sched.add(std::make_shared<Lambda>("skipped", slow))
+      .rate(1000_hz)
+      .deadline(50_us)
+      .on_miss(horus::Miss::Skip)
+      .build();
+  for (int i = 0; i < 3; ++i) sched.tick_once();  // warned misses 3 times, skipped twice
+  ASSERT_EQ(sched.node_metrics("warned")->deadline_misses, 3U);
+  ASSERT_EQ(sched.node_metrics("skipped")->deadline_misses, 2U);
+  for (const std::string node : {"warned", "skipped"}) {
+    std::vector<horus::LogRecord> lines;
+    for (const auto& record : records_from("@busy")) {
+      if (record.message.find("node '" + node + "' missed its deadline") != std::string::npos) {
+        lines.push_back(record);
+      }
+    }
+    ASSERT_EQ(lines.size(), 1U) << node << ": the first miss, then at most one line per interval";
+    EXPECT_EQ(lines[0].level, horus::LogLevel::Warn);
+    EXPECT_NE(lines[0].message.find("; misses: 1 by this node, "), std::string::npos)
+        << lines[0].message;
+    EXPECT_NE(lines[0].message.find(" of max_deadline_misses 100 in total"), std::string::npos)
+        << lines[0].message;
+  }
 }
 
 TEST(Log, EveryLineReachesStderrOrIsCountedAsDroppedAndTheRingKeepsTheNewest) {

@@ -1,5 +1,6 @@
-// Node lifecycle under the scheduler: lazy ordered init, exclusion on init failure, reverse-order
-// shutdown that survives throwing and hanging nodes, removal, selective ticking, topic metadata.
+// Node lifecycle under the scheduler: lazy ordered init, exclusion on init failure (and a failed
+// run once every node is excluded), reverse-order shutdown that survives throwing and hanging
+// nodes, removal, selective ticking, topic metadata.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -143,6 +144,19 @@ TEST(NodeLifecycle, FatalWithoutStopOnFailedInitExcludesTheNodeAndOthersContinue
   EXPECT_EQ(sched.node_info("lidar")->state, horus::NodeState::Error);
   EXPECT_EQ(sched.node_info("lidar")->failure_policy, horus::FailurePolicy::Kind::Fatal);
   EXPECT_EQ(sched.stop_reason(), "");
+}
+
+TEST(NodeLifecycle, ARunWhoseEveryNodeFailedInitStopsWithAFailureInsteadOfIdling) {
+  Journal journal;
+  horus::Scheduler sched;
+  add(sched, journal, "lidar", 0, horus::FailurePolicy::Skip{})->init_throws = true;
+  add(sched, journal, "motor", 1, horus::FailurePolicy::Fatal{.stop_on_failed_init = false})
+      ->init_throws = true;
+  EXPECT_EQ(sched.run(), 1) << "no node was left to run";
+  EXPECT_EQ(sched.stop_reason(),
+            "no node left to run: node 'lidar' failed in init(): no device on /dev/ttyUSB0; "
+            "node 'motor' failed in init(): no device on /dev/ttyUSB0");
+  EXPECT_TRUE(journal.only("tick:").empty());
 }
 
 TEST(NodeLifecycle, ShutdownRunsInReverseOrderAndSurvivesAThrowingNode) {

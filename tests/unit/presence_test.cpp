@@ -5,12 +5,16 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <memory>
+#include <optional>
+#include <regex>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include <horus/msg/cmd_vel.hpp>
 #include <horus/presence.hpp>
+#include <horus/scheduler.hpp>
 #include <horus/topic.hpp>
 #include <horus/topic_registry.hpp>
 
@@ -101,6 +105,47 @@ TEST_F(PresenceTest, UsesFromManyThreadsAreAllAnnouncedAndAllWithdrawn) {
   }
   for (std::thread& thread : threads) thread.join();
   EXPECT_EQ(announcement(), "");
+}
+
+/// The announcement of this process's scheduler `name` ("" when there is none).
+std::string scheduler_announcement(const std::string& namespace_name, const std::string& name) {
+  for (const horus::PresenceInfo& info : horus::list_presence(namespace_name)) {
+    if (info.pid == static_cast<std::uint32_t>(::getpid()) &&
+        info.snapshot_json.find("{\"scheduler\":\"" + name + "\"") == 0) {
+      return info.snapshot_json;
+    }
+  }
+  return "";
+}
+
+class Slow : public horus::Node {
+ public:
+  std::string_view name() const override { return "slow"; }
+  void tick() override { std::this_thread::sleep_for(2ms); }
+};
+
+TEST_F(PresenceTest, ASchedulerAnnouncesItsMissesAgainstTheLimit) {
+  horus::Scheduler limited{horus::SchedulerConfig{}.name("limited").max_deadline_misses(2)};
+  limited.add(std::make_shared<Slow>()).rate(horus::Rate::hz(1000)).deadline(50us).build();
+  EXPECT_EQ(limited.run(), 1) << "the miss limit stops it";
+  const std::string text = scheduler_announcement(name_, "limited");
+  std::smatch found;
+  ASSERT_TRUE(std::regex_search(text, found,
+                                std::regex(R"("deadline_misses":(\d+),"max_deadline_misses":2,)")))
+      << text;
+  EXPECT_GE(std::stoul(found[1].str()), 2U) << text;
+  EXPECT_NE(text.find(R"("name":"slow")"), std::string::npos) << text;
+  EXPECT_NE(text.find(R"("deadline_ns":50000,"deadline_misses":)"), std::string::npos) << text;
+
+  horus::Scheduler unlimited{
+      horus::SchedulerConfig{}.name("unlimited").max_deadline_misses(std::nullopt)};
+  unlimited.add(std::make_shared<Slow>()).build();
+  unlimited.run_for(10ms);
+  const std::string other = scheduler_announcement(name_, "unlimited");
+  EXPECT_NE(other.find(R"("deadline_misses":0,"max_deadline_misses":null,)"), std::string::npos)
+      << other;
+  EXPECT_NE(other.find(R"("deadline_ns":null,)"), std::string::npos)
+      << "a node without a rate has no deadline: " << other;
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <memory>
 #include <mutex>
@@ -189,6 +190,13 @@ TEST(SchedulerThreads, NameIsReportedAndInErrors) {
     EXPECT_NE(std::string(e.what()).find("horus::Scheduler 'agv'"), std::string::npos) << e.what();
   }
   EXPECT_THROW(horus::Scheduler{horus::SchedulerConfig{}.name("")}, horus::Error);
+}
+
+TEST(SchedulerThreads, AnUnnamedSchedulerIsNamedAfterTheProgram) {
+  const std::string program = std::filesystem::read_symlink("/proc/self/exe").filename().string();
+  EXPECT_EQ(horus::SchedulerConfig{}.name(), program);
+  horus::Scheduler sched;
+  EXPECT_EQ(sched.name(), program);
 }
 
 TEST(SchedulerThreads, VerbosePrintsTheTimingReportAndWhyItStopped) {

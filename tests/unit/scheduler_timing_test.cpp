@@ -161,16 +161,36 @@ TEST(SchedulerTiming, StopPolicyStopsTheScheduler) {
   EXPECT_EQ(sched.run(), 1);
 }
 
-TEST(SchedulerTiming, MaxDeadlineMissesStopsAfterTheThreshold) {
-  horus::Scheduler sched{horus::SchedulerConfig{}.max_deadline_misses(3)};
+TEST(SchedulerTiming, MaxDeadlineMissesStopsAfterTheThresholdNamingNodesCountsAndSettings) {
+  horus::Scheduler sched{horus::SchedulerConfig{}.max_deadline_misses(5)};
   auto a = add(sched, "a");
   a.node->sleep = 1_ms;
-  a.builder.rate(1000_hz).deadline(50_us).build();
+  a.builder.order(1).rate(1000_hz).deadline(50_us).build();
+  auto b = add(sched, "b");
+  b.node->sleep = 1_ms;
+  b.builder.order(2).rate(1000_hz).deadline(50_us).build();
   sched.tick_once();
   sched.tick_once();
   EXPECT_EQ(sched.stop_reason(), "");
   sched.tick_once();
-  EXPECT_EQ(sched.stop_reason(), "max_deadline_misses (3) reached");
+  const std::string reason = sched.stop_reason();
+  EXPECT_EQ(
+      reason.rfind("max_deadline_misses (5) reached: deadline misses by node 'a' 3, 'b' 2", 0), 0U)
+      << reason;
+  EXPECT_NE(reason.find("95 % of its period unless deadline() sets it"), std::string::npos)
+      << reason;
+  EXPECT_NE(reason.find("max_deadline_misses(std::nullopt)"), std::string::npos) << reason;
+  EXPECT_EQ(sched.run(), 1) << "a stop by the miss limit is a failure";
+}
+
+TEST(SchedulerTiming, NoMissLimitNeverStops) {
+  horus::Scheduler sched{horus::SchedulerConfig{}.max_deadline_misses(std::nullopt)};
+  auto a = add(sched, "a");
+  a.node->sleep = 1_ms;
+  a.builder.rate(1000_hz).deadline(50_us).build();
+  for (int i = 0; i < 3; ++i) sched.tick_once();
+  EXPECT_EQ(sched.node_metrics("a")->deadline_misses, 3U);
+  EXPECT_EQ(sched.stop_reason(), "");
 }
 
 TEST(SchedulerTiming, BudgetRemainingInsideTheTick) {

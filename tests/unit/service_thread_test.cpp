@@ -12,12 +12,15 @@
 #include <cstdio>
 #include <deque>
 #include <fstream>
+#include <memory>
 #include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include <horus/detail/shm_segment.hpp>
+#include <horus/log.hpp>
+#include <horus/scheduler.hpp>
 #include <horus/service.hpp>
 #include <horus/topic_registry.hpp>
 #include <service_test/compute.hpp>
@@ -83,6 +86,48 @@ TEST_F(ServiceThreadTest, CallReturnsTheHandlersResponse) {
   ASSERT_TRUE(sum.has_value()) << sum.error().to_string();
   EXPECT_EQ(sum->sum, 42);
   EXPECT_EQ(server.stats().requests, 1U);
+}
+
+/// Answers a + b and logs "adding <a>" from the handler.
+horus::ServiceServer<Compute> logging_server() {
+  return horus::ServiceServerBuilder<Compute>()
+      .on_request([](const ComputeRequest& req) {
+        HORUS_LOG_INFO("adding %lld", static_cast<long long>(req.a));
+        return ComputeResponse{req.a + req.b, 0};
+      })
+      .build();
+}
+
+/// The source of the log line "adding <a>" ("" when there is none).
+std::string source_of_adding(long long a) {
+  for (const horus::LogRecord& record : horus::read_log().records) {
+    if (record.message == "adding " + std::to_string(a)) return record.source;
+  }
+  return "";
+}
+
+TEST_F(ServiceThreadTest, HandlerLinesCarryTheServingNodesNameElseTheServicesName) {
+  horus::ServiceClient<Compute> client;
+  {
+    auto server = logging_server();
+    ASSERT_TRUE(client.call(ComputeRequest{1, 1, 0, 0}, kLong));
+  }
+  EXPECT_EQ(source_of_adding(1), "Compute") << "a server built outside any node";
+
+  class Serving : public horus::Node {
+   public:
+    std::string_view name() const override { return "adder"; }
+    void init() override { server_.emplace(logging_server()); }
+    void tick() override {}
+
+   private:
+    std::optional<horus::ServiceServer<Compute>> server_;
+  };
+  horus::Scheduler sched{horus::SchedulerConfig{}.name("services")};
+  sched.add(std::make_shared<Serving>()).build();
+  sched.tick_once();  // init() builds the server
+  ASSERT_TRUE(client.call(ComputeRequest{2, 1, 0, 0}, kLong));
+  EXPECT_EQ(source_of_adding(2), "adder") << "a server built in a node's init()";
 }
 
 TEST_F(ServiceThreadTest, SerializedRequestAsInTheSpecification) {

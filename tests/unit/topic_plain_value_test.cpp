@@ -1,11 +1,15 @@
-// Topics of plain values (seed 002's Topic<f32>, Topic<u64>): numbers and arrays of them,
-// carried byte for byte, with an identity spelled as the schema language spells the type.
+// Topics of plain values (seed 002's Topic<f32>, Topic<u64>, Topic<String>): numbers and arrays
+// of them, carried byte for byte, strings and vectors, carried as a message of one field would
+// be, each with an identity spelled as the schema language spells the type.
 #include <gtest/gtest.h>
 
 #include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
+
+#include <horus/codec.hpp>
 
 #include <horus/error.hpp>
 #include <horus/plain_value.hpp>
@@ -26,6 +30,16 @@ static_assert(!horus::PlainValue<topic_test::Sample> && !horus::Message<float>,
               "a plain value is not a message, and a message is not a plain value");
 static_assert(!horus::PlainValue<std::array<float, 0>> && !horus::PlainValue<char> &&
               !horus::PlainValue<std::array<topic_test::Sample, 2>>);
+static_assert(horus::SerializedPlainValue<std::string> &&
+              horus::SerializedPlainValue<std::vector<std::uint8_t>> &&
+              horus::SerializedPlainValue<std::vector<std::array<float, 3>>> &&
+              horus::SerializedPlainValue<std::vector<std::string>>);
+static_assert(!horus::PodTopicValue<std::string> && !horus::PodTopicValue<std::vector<float>> &&
+                  horus::PodTopicValue<std::array<float, 3>>,
+              "strings and vectors are serialized: no loans");
+static_assert(!horus::PlainValue<std::vector<topic_test::Sample>> &&
+              !horus::PlainValue<std::array<std::string, 2>> &&
+              !horus::PlainValue<std::vector<char>>);
 
 TEST(TopicPlainValue, NamesAreTheSchemaLanguagesSpelling) {
   EXPECT_EQ(horus::TypeInfo<float>::name, "f32");
@@ -37,6 +51,17 @@ TEST(TopicPlainValue, NamesAreTheSchemaLanguagesSpelling) {
   EXPECT_EQ((horus::TypeInfo<std::array<std::array<std::uint8_t, 4>, 12>>::name), "[[u8; 4]; 12]");
   EXPECT_EQ(horus::TypeInfo<float>::schema, "value f32\n");
   EXPECT_EQ((horus::TypeInfo<std::array<double, 3>>::schema), "value [f64; 3]\n");
+}
+
+TEST(TopicPlainValue, StringsAndVectorsAreSpelledAsTheSchemaLanguageSpellsThem) {
+  EXPECT_EQ(horus::TypeInfo<std::string>::name, "String");
+  EXPECT_EQ(horus::TypeInfo<std::vector<std::uint8_t>>::name, "Vec<u8>");
+  EXPECT_EQ(horus::TypeInfo<std::vector<float>>::name, "Vec<f32>");
+  EXPECT_EQ((horus::TypeInfo<std::vector<std::array<float, 3>>>::name), "Vec<[f32; 3]>");
+  EXPECT_EQ(horus::TypeInfo<std::vector<std::string>>::name, "Vec<String>");
+  EXPECT_EQ(horus::TypeInfo<std::string>::schema, "value String\n");
+  EXPECT_EQ(horus::TypeInfo<std::string>::fingerprint, horus::detail::fnv1a("value String\n"));
+  EXPECT_FALSE(horus::TypeInfo<std::string>::is_pod);
 }
 
 TEST(TopicPlainValue, FingerprintIsFnv1aOfTheSchemaText) {
@@ -126,6 +151,62 @@ TEST(TopicPlainValue, AnotherValueTypeIsRefusedNamingBoth) {
   EXPECT_THROW(horus::Topic<topic_test::Sample>("level"), horus::Error);
   EXPECT_THROW((horus::Topic<std::array<float, 1>>("level")), horus::Error)
       << "a one-element array is another type than its element";
+}
+
+TEST(TopicPlainValue, StringsAndVectorsArriveWhole) {
+  PrivateNamespace ns;
+  horus::Topic<std::string> pub("status");
+  horus::Topic<std::string> sub("status");
+  horus::Topic<std::vector<float>> ranges_pub("ranges");
+  horus::Topic<std::vector<float>> ranges_sub("ranges");
+  ASSERT_TRUE(pub.send("ready"));
+  ASSERT_TRUE(pub.send(std::string(1000, 'x')));
+  ASSERT_TRUE(ranges_pub.send({0.5F, 1.5F, -2.0F}));
+  EXPECT_EQ(sub.try_recv(), "ready");
+  EXPECT_EQ(sub.try_recv(), std::string(1000, 'x'));
+  EXPECT_EQ(ranges_sub.try_recv(), (std::vector<float>{0.5F, 1.5F, -2.0F}));
+  EXPECT_EQ(pub.read_latest(), std::string(1000, 'x'));
+}
+
+TEST(TopicPlainValue, AStringOrVectorTravelsAsAMessageOfOneField) {
+  // A MessagePack array of one element, then the value: what Python writes, and what tools that
+  // decode `value String` as the message `PlainValue { value: String }` read.
+  EXPECT_EQ(horus::encode(std::string("hi")), (std::vector<std::uint8_t>{0x91, 0xa2, 'h', 'i'}));
+  EXPECT_EQ(horus::encode(std::vector<std::uint8_t>{1, 2}),
+            (std::vector<std::uint8_t>{0x91, 0xc4, 0x02, 1, 2}));
+  EXPECT_EQ(horus::encode(std::vector<float>{1.0F, 0.5F}),
+            (std::vector<std::uint8_t>{0x91, 0x92, 0x01, 0xca, 0x3f, 0x00, 0x00, 0x00}));
+  EXPECT_EQ(horus::decode<std::string>(std::vector<std::uint8_t>{0x91, 0xa2, 'h', 'i'}), "hi");
+  EXPECT_THROW(horus::decode<std::string>(std::vector<std::uint8_t>{0xa2, 'h', 'i'}),
+               horus::DecodeError)
+      << "a bare string is not the one field of a message";
+  EXPECT_EQ(horus::encode(2.5), (std::vector<std::uint8_t>{0, 0, 0, 0, 0, 0, 0x04, 0x40}));
+}
+
+TEST(TopicPlainValue, LogSummaryFollowsTheSummaryRules) {
+  EXPECT_EQ(horus::log_summary(1.5), "1.5");
+  EXPECT_EQ(horus::log_summary(std::int64_t{-3}), "-3");
+  EXPECT_EQ(horus::log_summary(true), "true");
+  EXPECT_EQ(horus::log_summary(std::string("front")), "\"front\"");
+  EXPECT_EQ(horus::log_summary(std::vector<std::uint8_t>(3)), "<3 bytes>");
+  EXPECT_EQ(horus::log_summary(std::array<float, 3>{1.0F, 2.5F, -3.0F}), "[1, 2.5, -3]");
+  std::array<float, 10> many{};
+  many[4] = 9.0F;
+  EXPECT_EQ(horus::log_summary(many), "[10 x f32, min 0, max 9]");
+  EXPECT_EQ(horus::log_summary(std::vector<std::string>(5)), "[5 x String]");
+}
+
+TEST(TopicPlainValue, AStringTopicRefusesBytesNamingBoth) {
+  PrivateNamespace ns;
+  horus::Topic<std::string> incumbent("label");
+  try {
+    horus::Topic<std::vector<std::uint8_t>> other("label");
+    FAIL() << "a Vec<u8> handle opened a String topic";
+  } catch (const horus::Error& error) {
+    const std::string text = error.what();
+    EXPECT_NE(text.find("carries String"), std::string::npos) << text;
+    EXPECT_NE(text.find("as Vec<u8>"), std::string::npos) << text;
+  }
 }
 
 }  // namespace

@@ -12,6 +12,14 @@ process already uses (horus.msg included).
     plain = to_plain(message)                  # dicts, lists, numbers, strings, enum names
     payload = from_plain(cls, {"x": 1.0}).to_bytes()
 
+The types the runtime spells itself (docs/recording.md, "Types the runtime defines") decode the
+same way, compiled under the package `horus_runtime` (horus-gen keeps `horus` for the runtime): a
+plain value (`value [f32; 3]`) as a message `PlainValue` of one field `value`, a service frame
+(`horus.ServiceRequest<demo.AddRequest>`) as a message `ServiceRequest` (or `ServiceResponse`) of
+its fields, and `horus.ServiceRegistration` as `ServiceRegistration`; their
+fingerprint is the FNV-1a hash of the stored text, as the runtime computes it, where every other
+type's is the SHA-256 of its canonical text that horus-gen computes.
+
 Errors are `SchemaError` (the text cannot be compiled or gives another fingerprint) and
 `ValueError` (a value that does not fit the type), each one line naming the problem.
 
@@ -31,13 +39,20 @@ import tempfile
 import threading
 
 __all__ = ["SchemaError", "load_type", "to_plain", "from_plain", "parse_schema", "cache_root",
-           "run_generator", "write_schema_files"]
+           "run_generator", "write_schema_files", "type_declarations", "runtime_fingerprint"]
 
 # Bump when the way classes are produced changes, so stale cache entries are not reused.
 _CACHE_FORMAT = "v1"
 _SUPPORT = "_horus_gen_support_v1"
 
 _HEADER = re.compile(r"^(message|enum) ([A-Za-z_][A-Za-z0-9_.]*)(: [a-z0-9]+)? \{$")
+# The identities the runtime spells itself (runtime/include/horus/plain_value.hpp,
+# detail/service_frame.hpp): the runtime's own package `horus` (not a generated one such as
+# horus.msg), a service frame's name with its payload's in angle brackets, a plain value.
+_RUNTIME_NAME = re.compile(r"^horus\.([A-Za-z_][A-Za-z0-9_]*)(<[A-Za-z0-9_.]+>)?$")
+_PLAIN_VALUE = "value "
+# The package they are compiled under: horus-gen keeps the package `horus` for the runtime itself.
+_RUNTIME_PACKAGE = "horus_runtime"
 _loaded: dict[tuple[str, int], type] = {}
 _importing = threading.Lock()
 
@@ -80,6 +95,39 @@ def parse_schema(text: str) -> list[tuple[str, str, str]]:
     if not declarations:
         raise SchemaError("empty schema text")
     return declarations
+
+
+def runtime_fingerprint(text: str) -> int:
+    """The FNV-1a hash (64 bits) the runtime gives the identities it spells itself."""
+    value = 0xCBF29CE484222325
+    for byte in text.encode():
+        value = ((value ^ byte) * 0x100000001B3) & 0xFFFFFFFFFFFFFFFF
+    return value
+
+
+def _runtime_spelled(type_name: str, schema_text: str) -> bool:
+    return schema_text.startswith(_PLAIN_VALUE) or _RUNTIME_NAME.match(type_name) is not None
+
+
+def type_declarations(type_name: str, schema_text: str) -> tuple[str, list[tuple[str, str, str]]]:
+    """(the name horus-gen compiles the type under, its declarations as parse_schema gives them)
+    for a type as a segment stores it, the runtime's own identities included (a frame's name is
+    not one horus-gen accepts: the frame is compiled as horus_runtime.ServiceRequest, the payload
+    under its own name). Raises SchemaError."""
+    if schema_text.startswith(_PLAIN_VALUE):
+        value_type = schema_text[len(_PLAIN_VALUE):].strip()
+        if value_type != type_name:
+            raise SchemaError(f"the stored schema describes {value_type}, not {type_name}")
+        compiled = f"{_RUNTIME_PACKAGE}.PlainValue"
+        return compiled, [("message", compiled, f"PlainValue {{\n  value: {value_type},\n}}\n")]
+    runtime = _RUNTIME_NAME.match(type_name)
+    compiled = f"{_RUNTIME_PACKAGE}.{runtime.group(1)}" if runtime else type_name
+    if runtime:
+        schema_text = schema_text.replace(f"message {type_name} {{", f"message {compiled} {{", 1)
+    declarations = parse_schema(schema_text)
+    if declarations[0][1] != compiled:
+        raise SchemaError(f"the stored schema describes {declarations[0][1]}, not {type_name}")
+    return compiled, declarations
 
 
 def _schema_files(declarations) -> dict[str, str]:
@@ -173,16 +221,20 @@ def _import_private(root: str, module_name: str, top_names: set[str]):
 
 def load_type(type_name: str, schema_text: str, fingerprint: int | None) -> type:
     """The generated class of `type_name` compiled from `schema_text` (as a segment stores it),
-    checked to have `fingerprint` (None: the caller checks the identity another way, as a
-    service frame's does). Cached on disk and in the process. Raises SchemaError."""
+    checked to have `fingerprint` (None: the caller checks the identity another way). Cached on
+    disk and in the process. Raises SchemaError."""
     key = (type_name, schema_text)
     with _importing:
         cls = _loaded.get(key)
         if cls is None:
             cls = _loaded[key] = _compiled_class(type_name, schema_text)
-    if fingerprint is not None and cls.__horus__.fingerprint != fingerprint:
+    if fingerprint is None:
+        return cls
+    actual = (runtime_fingerprint(schema_text) if _runtime_spelled(type_name, schema_text)
+              else cls.__horus__.fingerprint)
+    if actual != fingerprint:
         raise SchemaError(f"the stored schema of {type_name} gives fingerprint "
-                          f"{cls.__horus__.fingerprint:016x}, the segment says {fingerprint:016x}")
+                          f"{actual:016x}, the segment says {fingerprint:016x}")
     return cls
 
 
@@ -202,15 +254,13 @@ def _trusted_cache_root() -> str:
 
 
 def _compiled_class(type_name: str, schema_text: str) -> type:
-    declarations = parse_schema(schema_text)
-    if declarations[0][1] != type_name:
-        raise SchemaError(f"the stored schema describes {declarations[0][1]}, not {type_name}")
+    compiled, declarations = type_declarations(type_name, schema_text)
     digest = hashlib.sha256(f"{type_name}\n{schema_text}".encode()).hexdigest()[:24]
     root = _trusted_cache_root()
     entry = os.path.join(root, f"{digest}-{_CACHE_FORMAT}")
     if not os.path.isdir(os.path.join(entry, "python")):
         _compile(type_name, declarations, entry)
-    package, short = type_name.rsplit(".", 1)
+    package, short = compiled.rsplit(".", 1)
     top_names = {qualified.split(".", 1)[0] for _kind, qualified, _source in declarations}
     try:
         module = _import_private(os.path.join(entry, "python"), package, top_names)

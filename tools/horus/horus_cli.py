@@ -111,11 +111,47 @@ def _topics(args) -> list[dict]:
     return _core().list_topics(args.namespace)
 
 
+def _namespace(args) -> str:
+    return args.namespace or _core().current_namespace()
+
+
+def _close_names(name: str, known) -> list[str]:
+    """Those of `known` closest to a name that is not one of them, the closest first."""
+    import difflib
+    return difflib.get_close_matches(name, sorted(set(known)), n=3, cutoff=0.6)
+
+
+def _suggestion(close: list[str]) -> str:
+    return "; did you mean " + " or ".join(f"'{name}'" for name in close) + "?" if close else ""
+
+
+def _did_you_mean(name: str, known) -> str:
+    return _suggestion(_close_names(name, known))
+
+
+# The types of the topics a service runs on (runtime/src/service/README.md): its registration,
+# its requests and its replies. `topic list` leaves them out unless --include-hidden.
+SERVICE_TYPES = ("horus.ServiceRegistration", "horus.ServiceRequest<", "horus.ServiceResponse<")
+
+
+def _internal(topic: dict) -> bool:
+    """Whether a topic is one a service runs on (by its type: only services use these)."""
+    return topic["type_name"].startswith(SERVICE_TYPES)
+
+
+def _missing_topic(args, name: str, topics: list[dict], within: str = "",
+                   hint: str = "") -> CommandFailed:
+    """The one error of every command for a topic that does not exist."""
+    return CommandFailed(f"no topic '{name}' in namespace '{_namespace(args)}'{within}"
+                         f"{_did_you_mean(name, [t['name'] for t in topics])}{hint}")
+
+
 def _find_topic(args, name: str) -> dict:
-    for topic in _topics(args):
+    topics = _topics(args)
+    for topic in topics:
         if topic["name"] == name:
             return topic
-    raise CommandFailed(f"no topic '{name}' in namespace '{args.namespace or _core().current_namespace()}'")
+    raise _missing_topic(args, name, topics)
 
 
 def _utc(seconds: float, digits: int = 0) -> str:
@@ -131,22 +167,77 @@ def _started(started_wall_ns: int) -> str:
     return _utc(started_wall_ns / 1e9, 2) if started_wall_ns else "?"
 
 
-def _topic_rate(topic: dict, since: dict | None, seconds: float) -> float | None:
-    if since is None or seconds <= 0:
+# A rate from fewer messages than this is off by more than a tenth (one message either way).
+ENOUGH_MESSAGES = 10
+
+
+def _stamped_rate(traffic: dict, now: float) -> tuple[float, int] | None:
+    """(rate, messages it spans) from the whole-second send stamps of the messages still in the
+    ring, from the first change of second to the last (each within one period of its stamp), or
+    None while they hold fewer than two changes. 0 once two periods passed without a message:
+    its publishers stopped."""
+    first, last = traffic["first_new_second"], traffic["last_new_second"]
+    if first is None or last["second"] <= first["second"]:
         return None
-    return (topic["message_count"] - since["message_count"]) / seconds
+    messages = last["ticket"] - first["ticket"]
+    rate = messages / (last["second"] - first["second"])
+    # The newest message went out within the second its stamp names.
+    if now - (traffic["newest"]["second"] + 1) > 2 / rate:
+        return 0.0, messages
+    return rate, messages
+
+
+def _best_rate(*estimates: tuple[float, int] | None) -> float | None:
+    """The rate of the estimate that counted the most messages: the one least off."""
+    known = [estimate for estimate in estimates if estimate is not None]
+    return max(known, key=lambda estimate: estimate[1])[0] if known else None
+
+
+def _traffic(core, args, name: str) -> dict | None:
+    """A topic's traffic over its whole ring, or None when it cannot be read (removed meanwhile,
+    or its segment's error, which the listing shows)."""
+    try:
+        return core.topic_traffic(name, 0, args.namespace)
+    except core.HorusError:
+        return None
+
+
+def _measure_rates(args, topics: list[dict]) -> None:
+    """Sets each topic's rate_hz from its send stamps; those whose stamps span too few messages
+    while they still send are also counted over --window, one wait for all of them."""
+    core = _core()
+    now = time.time()
+    stamped, counting = {}, {}
+    for topic in topics:
+        traffic = _traffic(core, args, topic["name"])
+        if traffic is None:
+            continue
+        stamped[topic["name"]] = estimate = _stamped_rate(traffic, now)
+        newest = traffic["newest"]
+        sending = newest is not None and newest["second"] + 2 >= now
+        if sending and (estimate is None or estimate[1] < ENOUGH_MESSAGES):
+            counting[topic["name"]] = (traffic["message_count"], time.monotonic())
+    if counting:
+        time.sleep(args.window)
+    for topic in topics:
+        name = topic["name"]
+        counted = None
+        if name in counting:
+            traffic = _traffic(core, args, name)
+            before, since = counting[name]
+            if traffic is not None and traffic["message_count"] >= before:
+                messages = traffic["message_count"] - before
+                counted = messages / (time.monotonic() - since), messages
+        rate = _best_rate(stamped.get(name), counted)
+        topic["rate_hz"] = None if name not in stamped else round(rate or 0.0, 1)
 
 
 def topic_list(args) -> int:
     topics = _topics(args)
+    if not args.include_hidden:
+        topics = [topic for topic in topics if not _internal(topic)]
     if args.verbose:
-        # The rate needs two looks at the counters; a short gap keeps the command quick.
-        first = {t["name"]: t for t in topics}
-        time.sleep(args.window)
-        topics = _topics(args)
-        for topic in topics:
-            rate = _topic_rate(topic, first.get(topic["name"]), args.window)
-            topic["rate_hz"] = None if rate is None else round(rate, 1)
+        _measure_rates(args, topics)
 
     render = _names_or_table(
         args, ["TOPIC", "TYPE", "PUBS", "SUBS", "RATE_HZ", "MESSAGES"],
@@ -187,21 +278,36 @@ def topic_info(args) -> int:
 
 def _measure_traffic(args, on_window) -> None:
     """Samples a topic's slot headers every 20 ms (fast enough not to be lapped by the ring at a
-    few kHz) and hands each window's figures to `on_window`, forever or once with --once."""
+    few kHz) and hands each window's figures to `on_window`, forever or once with --once. A
+    topic removed meanwhile (its last user ended) counts nothing until it is created again."""
     core = _core()
-    traffic = core.topic_traffic(args.topic, 0, args.namespace)
+    _find_topic(args, args.topic)
+    since = core.topic_traffic(args.topic, 0, args.namespace)["message_count"]
+    gone = False
     while True:
         start = time.monotonic()
-        first = since = traffic["message_count"]
-        counted = size = 0
+        messages = counted = size = 0
         while time.monotonic() - start < args.window:
             time.sleep(0.02)
-            traffic = core.topic_traffic(args.topic, since, args.namespace)
+            try:
+                traffic = core.topic_traffic(args.topic, since, args.namespace)
+                if traffic["message_count"] < since:  # removed and created again meanwhile
+                    since = 0
+                    traffic = core.topic_traffic(args.topic, since, args.namespace)
+            except core.HorusError as error:
+                if any(t["name"] == args.topic for t in _topics(args)):
+                    raise CommandFailed(str(error)) from None
+                if not gone:
+                    print(f"horus: topic '{args.topic}' was removed (its last user ended); "
+                          "counting again once it is back", file=sys.stderr, flush=True)
+                gone, since = True, 0
+                continue
+            gone = False
+            messages += traffic["message_count"] - since
             counted += traffic["counted"]
             size += traffic["bytes"]
             since = traffic["message_count"]
         elapsed = time.monotonic() - start
-        messages = since - first
         # Messages overwritten between two samples count with the mean size of the others.
         total_bytes = size * messages / counted if counted else 0
         window = {"topic": args.topic, "window_s": round(elapsed, 3), "messages": messages,
@@ -368,13 +474,37 @@ def _yaml_text(value) -> str:
     return yaml.dump(value, Dumper=Dumper, sort_keys=False, default_flow_style=False, width=100)
 
 
+def _awaited_topic(args, deadline: float | None) -> dict:
+    """The typed topic `args.topic`; with a deadline, waited for until then (its publisher may
+    not have started yet)."""
+    while True:
+        try:
+            return _typed_topic(args, args.topic)
+        except CommandFailed as failure:
+            if deadline is None:
+                raise
+            if time.monotonic() >= deadline:
+                topics = _topics(args)
+                if not any(t["name"] == args.topic for t in topics):
+                    raise _missing_topic(args, args.topic, topics,
+                                         within=f" within {args.timeout:g} s") from None
+                raise failure from None
+        time.sleep(0.05)
+
+
 def topic_echo(args) -> int:
-    topic = _typed_topic(args, args.topic)
+    deadline = None if args.timeout is None else time.monotonic() + args.timeout
+    topic = _awaited_topic(args, deadline)
     cls = _message_class(topic["type_name"], topic["schema"], topic["fingerprint"])
     handle = _open_topic(topic, cls)
+    # The newest message already sent comes first (a topic is latched), then each new one. Once
+    # a message came after the handle opened, the newest one may be that or a later one, which
+    # the handle receives in order anyway: then it is left out, never shown twice.
+    data = handle.read_latest()
+    if handle.has_msg():
+        data = None
     if cls.__horus__.name != PLAIN_VALUES:  # a plain value has no fields to check beforehand
         _plain_field(_plain(cls()), args.field, topic["type_name"], checking=True)
-    deadline = None if args.timeout is None else time.monotonic() + args.timeout
 
     def show(data) -> None:
         try:
@@ -383,8 +513,6 @@ def topic_echo(args) -> int:
             raise CommandFailed(f"topic '{args.topic}': a message does not decode: {error}") from None
         _show_message(_plain_field(_plain(message), args.field, topic["type_name"]), args.json)
 
-    # The newest message already sent comes first (a topic is latched), then each new one.
-    data = handle.read_latest()
     shown = 0
     while True:
         if data is not None:
@@ -411,15 +539,22 @@ def _new_topic(args) -> dict:
 
 
 def topic_pub(args) -> int:
+    topics = _topics(args)
     if args.type is None:
-        if not any(t["name"] == args.topic for t in _topics(args)):
-            raise CommandFailed(f"no topic '{args.topic}' in namespace "
-                                f"'{args.namespace or _core().current_namespace()}' (give --type "
-                                "TYPE to create it)")
+        if not any(t["name"] == args.topic for t in topics):
+            raise _missing_topic(args, args.topic, topics, hint=" (give --type TYPE to create it)")
         topic = _typed_topic(args, args.topic)
     else:
-        existing = [t for t in _topics(args) if t["name"] == args.topic and t["type_name"]]
-        topic = existing[0] if existing else _new_topic(args)
+        topic = next((t for t in topics if t["name"] == args.topic and t["type_name"]), None)
+        if topic is None:
+            topic = _new_topic(args)
+        elif args.type not in (topic["type_name"], topic["type_name"].rsplit(".", 1)[-1]):
+            try:
+                given = _described_type(args)["name"]
+            except CommandFailed:  # not in the schemas either: named as given
+                given = args.type
+            raise CommandFailed(f"topic '{args.topic}' carries {topic['type_name']}, not "
+                                f"{given} (--type)")
     cls = _message_class(topic["type_name"], topic["schema"], topic["fingerprint"])
     message = _build(cls, _parse_value(args.value, f"value for {topic['type_name']}"))
     payload = message.to_bytes()
@@ -475,11 +610,12 @@ def service_info(args) -> int:
 
 
 def _find_service(args) -> dict:
-    for service in _core().list_services(args.namespace):
+    services = _core().list_services(args.namespace)
+    for service in services:
         if service["name"] == args.service:
             return service
-    raise CommandFailed(f"no service '{args.service}' in namespace "
-                        f"'{args.namespace or _core().current_namespace()}'")
+    raise CommandFailed(f"no service '{args.service}' in namespace '{_namespace(args)}'"
+                        f"{_did_you_mean(args.service, [s['name'] for s in services])}")
 
 
 def _frame_payload(args, topic: dict, payload_type: str, response: bool):
@@ -617,6 +753,8 @@ def _live_nodes(args) -> list[dict]:
             node["pid"] = entry["pid"]
             node["started_wall_ns"] = entry["started_wall_ns"]
             node["scheduler"] = snapshot["scheduler"]
+            node["scheduler_deadline_misses"] = snapshot.get("deadline_misses")
+            node["max_deadline_misses"] = snapshot.get("max_deadline_misses")
             nodes.append(node)
     nodes.sort(key=lambda n: (n["name"], n["pid"]))
     return nodes
@@ -640,10 +778,11 @@ def node_list(args) -> int:
 
 
 def node_info(args) -> int:
-    matches = [n for n in _live_nodes(args) if n["name"] == args.node]
+    nodes = _live_nodes(args)
+    matches = [n for n in nodes if n["name"] == args.node]
     if not matches:
-        raise CommandFailed(f"no running node '{args.node}' in namespace "
-                            f"'{args.namespace or _core().current_namespace()}'")
+        raise CommandFailed(f"no running node '{args.node}' in namespace '{_namespace(args)}'"
+                            f"{_did_you_mean(args.node, [n['name'] for n in nodes])}")
 
     def render(rows):
         for n in rows:
@@ -657,6 +796,13 @@ def node_info(args) -> int:
             print(f"tick time: avg {n['avg_tick_ns'] / 1e3:.1f} us, max {n['max_tick_ns'] / 1e3:.1f} us, "
                   f"last {n['last_tick_ns'] / 1e3:.1f} us")
             print(f"misses: {n['deadline_misses']} deadline, {n['budget_overruns']} budget")
+            if n.get("deadline_ns") is not None:
+                print(f"deadline: {n['deadline_ns'] / 1e3:.1f} us")
+            if n.get("scheduler_deadline_misses") is not None:
+                total, limit = n["scheduler_deadline_misses"], n["max_deadline_misses"]
+                print(f"scheduler misses: {total} (no max_deadline_misses: never stops)"
+                      if limit is None else
+                      f"scheduler misses: {total} of max_deadline_misses {limit}, where it stops")
             for key in ("publishers", "subscribers"):
                 topics = ", ".join(f"{t['topic']} ({t['type'] or '?'})" for t in n[key]) or "-"
                 print(f"{key}: {topics}")
@@ -802,13 +948,38 @@ def _described_type(args) -> dict:
     for described in types:
         if described["name"] == args.type or described["name"].rsplit(".", 1)[-1] == args.type:
             return described
-    raise CommandFailed(f"no message type '{args.type}' in the schemas (horus msg list)")
+    # Matched on the bare names: qualified ones all share their package's prefix.
+    package, _, bare = args.type.rpartition(".")
+    close = _close_names(bare, [t["name"].rsplit(".", 1)[-1] for t in types])
+    if package:
+        close = [t["name"] for t in types if t["name"].rsplit(".", 1)[-1] in close]
+    where = "the given schemas" if args.include else "the installed schemas"
+    hint = "" if args.include else " (your own types: -I DIR, the folder of their .hmsg files)"
+    raise CommandFailed(f"no message type '{args.type}' in {where}{_suggestion(close)}{hint}")
 
 
 def msg_list(args) -> int:
     types = _described_types(args)
     _emit(types, args.json, lambda rows: [print(t["name"]) for t in rows])
     return EXIT_OK
+
+
+def _layout_rows(described: dict) -> list[list]:
+    """The field table of `msg show`: each field, and for a POD type each hole of padding
+    between two fields and after the last (what the fields leave of `size`)."""
+    rows, end = [], 0
+    for field in described["fields"]:
+        offset, size = field.get("offset"), field.get("size")
+        if offset is not None and offset > end:
+            rows.append(["(padding)", "-", end, offset - end])
+        rows.append([field["name"], field["type"], "-" if offset is None else offset,
+                     "-" if size is None else size])
+        if offset is not None and size is not None:
+            end = offset + size
+    if described.get("size") and all(f.get("offset") is not None for f in described["fields"]) \
+            and described["size"] > end:
+        rows.append(["(padding)", "-", end, described["size"] - end])
+    return rows
 
 
 def msg_show(args) -> int:
@@ -818,12 +989,11 @@ def msg_show(args) -> int:
         print(f"type: {t['name']} ({t['kind']})")
         print(f"fingerprint: {t['fingerprint']}")
         if "tier" in t:
-            print(f"tier: {t['tier']}, size {t.get('size', '-')}, alignment {t.get('alignment', '-')}")
+            size, alignment = t.get("size"), t.get("alignment")
+            print(f"tier: {t['tier']}, size {'-' if size is None else size}, alignment "
+                  f"{'-' if alignment is None else alignment}")
         if t.get("fields"):
-            _table(["FIELD", "TYPE", "OFFSET", "SIZE"],
-                   [[f["name"], f["type"], "-" if f.get("offset") is None else f["offset"],
-                     "-" if f.get("size") is None else f["size"]]
-                    for f in t["fields"]])
+            _table(["FIELD", "TYPE", "OFFSET", "SIZE"], _layout_rows(t))
         if t["kind"] == "enum":
             print(f"underlying: {t['underlying']}")
             for name, value in t["values"].items():
@@ -846,37 +1016,38 @@ def msg_hash(args) -> int:
 
 
 class _TopicRates:
-    """Each topic's rate and bandwidth between two refreshes, from slot headers."""
+    """Each topic's rate and bandwidth: from its send stamps, or counted between two refreshes,
+    whichever spans more messages; the bandwidth is the rate times the mean size in the ring."""
 
     def __init__(self) -> None:
-        self.previous: dict[str, int] = {}
-        self.stamp = time.monotonic()
+        self.previous: dict[str, tuple[int, float]] = {}
 
-    def sample(self, core, namespace: str) -> list[dict]:
-        now = time.monotonic()
-        elapsed = now - self.stamp
-        topics = core.list_topics(namespace)
+    def sample(self, core, args) -> list[dict]:
+        topics = core.list_topics(args.namespace)
+        topics = [topic for topic in topics if not _internal(topic)]
+        now, counts = time.time(), {}
         for topic in topics:
-            before = self.previous.get(topic["name"])
+            name = topic["name"]
             topic["rate_hz"] = topic["bytes_per_s"] = None
-            if before is None or elapsed <= 0:
+            traffic = _traffic(core, args, name)
+            if traffic is None:
                 continue
-            messages = topic["message_count"] - before
-            topic["rate_hz"] = messages / elapsed
-            try:
-                traffic = core.topic_traffic(topic["name"], before, namespace)
-            except Exception:  # noqa: BLE001 (a topic removed meanwhile shows no bandwidth)
-                continue
-            if traffic["counted"]:
-                topic["bytes_per_s"] = traffic["bytes"] * messages / traffic["counted"] / elapsed
-        self.previous = {t["name"]: t["message_count"] for t in topics}
-        self.stamp = now
+            count, stamp = counts[name] = traffic["message_count"], time.monotonic()
+            previous, counted = self.previous.get(name), None
+            # Not for a topic new since the last refresh, or created again (its count restarted).
+            if previous is not None and count >= previous[0]:
+                counted = (count - previous[0]) / (stamp - previous[1]), count - previous[0]
+            rate = _best_rate(_stamped_rate(traffic, now), counted)
+            topic["rate_hz"] = rate
+            if rate is not None and traffic["counted"]:
+                topic["bytes_per_s"] = rate * traffic["bytes"] / traffic["counted"]
+        self.previous = counts
         return topics
 
 
 def _monitor_lines(args, rates: _TopicRates) -> list[str]:
     core = _core()
-    lines = [f"horus monitor  namespace {args.namespace or core.current_namespace()}  "
+    lines = [f"horus monitor  namespace {_namespace(args)}  "
              f"{time.strftime('%H:%M:%S')}   q: quit", ""]
     node_rows = [[n["name"], n["pid"], _rate(n["rate_hz"]), _rate(n["achieved_rate_hz"]),
                   f"{n['avg_tick_ns'] / 1e3:.1f}", f"{n['max_tick_ns'] / 1e3:.1f}",
@@ -885,7 +1056,7 @@ def _monitor_lines(args, rates: _TopicRates) -> list[str]:
     topic_rows = [[t["name"], t["type_name"] or "-", t["publishers"], t["subscribers"],
                    _rate(t["rate_hz"]),
                    "-" if t["bytes_per_s"] is None else _bytes(t["bytes_per_s"]) + "/s"]
-                  for t in rates.sample(core, args.namespace)]
+                  for t in rates.sample(core, args)]
     for title, header, rows in (
             ("NODES", ["NODE", "PID", "RATE_HZ", "ACHIEVED_HZ", "AVG_US", "MAX_US", "MISSES",
                        "HEALTH", "STATE"], node_rows),
@@ -971,7 +1142,7 @@ def bridge(args) -> int:
                                      args.domain, not args.best_effort, args.depth,
                                      args.export_service, args.import_service,
                                      args.transient_local, deadlines, args.service_timeout,
-                                     args.ros2_types)
+                                     args.ros2_types, args.accept_untyped_writers)
     except RuntimeError as error:
         raise CommandFailed(str(error)) from None
     return bridge.run()
@@ -1079,8 +1250,12 @@ def build_parser() -> argparse.ArgumentParser:
     sub = action(topic, "list", "the namespace's topics", topic_list)
     sub.add_argument("-v", "--verbose", action="store_true",
                      help="with type, publishers, subscribers and rate")
-    sub.add_argument("--window", type=positive_float, default=0.5,
-                     help="seconds over which -v measures rates (default 0.5)")
+    sub.add_argument("--window", type=positive_float, default=0.2,
+                     help="seconds over which -v counts the messages of topics too fast for "
+                          "their send stamps, which are whole seconds (default 0.2)")
+    sub.add_argument("--include-hidden", action="store_true",
+                     help="also the topics services run on (NAME.service, NAME.request, "
+                          "NAME.response.N)")
     sub = action(topic, "info", "one topic: type, schema, capacity, users, counters", topic_info)
     sub.add_argument("topic")
 
@@ -1149,8 +1324,9 @@ def build_parser() -> argparse.ArgumentParser:
         if name != "list":
             sub.add_argument("type", help="qualified (horus.msg.CmdVel) or bare (CmdVel) name")
         sub.add_argument("-I", dest="include", action="append", metavar="DIR",
-                         help="schema folder to read, like horus-gen's -I (repeatable; default: "
-                              "the installed schemas)")
+                         help="schema folder to read, like horus-gen's -I: the folder of your "
+                              "own .hmsg and .hsrv files (repeatable; default: the installed "
+                              "schemas)")
 
     sub = commands.add_parser("log", help="the namespace's log ring",
                               description="Lines nodes logged, oldest first.",
@@ -1189,13 +1365,15 @@ def build_parser() -> argparse.ArgumentParser:
     sub = commands.add_parser("bridge", help="carry topics to and from Cyclone DDS (other hosts, "
                               "ROS 2)", parents=[common],
                               description="Export local topics matching --export to DDS (as "
-                                          "rt/<name>, in CDR) and import DDS topics matching "
-                                          "--import into the namespace, until Ctrl+C. Nothing "
-                                          "crosses that no pattern names (docs/dds-bridge.md).")
+                                          "rt/<name>, each '.' a '/', in CDR) and import DDS "
+                                          "topics matching --import into the namespace, until "
+                                          "Ctrl+C. Nothing crosses that no pattern names "
+                                          "(docs/dds-bridge.md).")
     sub.add_argument("--export", action="append", default=[], metavar="PATTERN",
                      help="local topics to write to DDS (a glob; repeatable)")
     sub.add_argument("--import", dest="imports", action="append", default=[], metavar="PATTERN",
-                     help="DDS topics (without rt/) to publish locally (a glob; repeatable)")
+                     help="DDS topics to publish locally, by their local name (rt/arm/state "
+                          "is arm.state; a glob; repeatable)")
     sub.add_argument("--export-service", action="append", default=[], metavar="PATTERN",
                      help="local services to serve on DDS (rq/<name>Request, rr/<name>Reply)")
     sub.add_argument("--import-service", action="append", default=[], metavar="PATTERN",
@@ -1218,6 +1396,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("--ros2-types", action="append", default=[], metavar="PATTERN",
                      help="topics that cross as their standard type's ROS 2 twin (CmdVel as "
                           "geometry_msgs/msg/Twist, Imu, LaserScan, Odometry, ...), both ways")
+    sub.add_argument("--accept-untyped-writers", action="store_true",
+                     help="import from DDS writers that announce no XTypes type information "
+                          "(ROS 2 nodes), whose type DDS cannot check (default: refused)")
     sub.set_defaults(handler=bridge)
 
     remote = group("remote", "reach a robot from afar over Cap'n Proto RPC with mutual TLS "

@@ -10,9 +10,12 @@ message carrying its pixels (width, height, step, encoding, data) foxglove.RawIm
 carrying its points (point_count, fields_per_point, dtype, data) foxglove.PointCloud. A recorded
 Image, DepthImage or PointCloud (encoding horus.pool: the descriptor, then its data) is such a
 message with the data as `data` (a depth image: RawImage 32FC1 or 16UC1). Every other
-type is its plain values under the JSON Schema `horus-gen --lang jsonschema` writes for it. The
-node-tick channel is copied as it is (already JSON). HORUS types without a frame name take the
-topic's name as frame (a transform: parent "world", child the topic).
+type is its plain values under the JSON Schema `horus-gen --lang jsonschema` writes for it, with
+every integer that can pass 2^53 (u64, i64) written as a string of its decimal digits and its
+schema saying so: JavaScript, Foxglove's language, reads a JSON number as a double and rounds
+those. The node-tick channel is copied with the same rule (its integers are unbounded: all become
+strings). HORUS types without a frame name take the topic's name as frame (a transform: parent
+"world", child the topic).
 """
 from __future__ import annotations
 
@@ -23,7 +26,7 @@ import os
 import tempfile
 
 import horus_mcap as mcap
-from horus_mcap import MSGPACK_ENCODING, POD_ENCODING, POOL_ENCODING
+from horus_mcap import MSGPACK_ENCODING, POD_ENCODING, POOL_ENCODING, TICKS_TOPIC
 
 
 # ImageEncoding names -> Foxglove's RawImage encodings (those it draws).
@@ -237,24 +240,78 @@ def plain_json(value):
     return value
 
 
+# The largest integer a JavaScript number (a double) holds exactly: Number.MAX_SAFE_INTEGER.
+SAFE_INTEGER = 2**53 - 1
+
+
+def _wide(schema: dict) -> bool:
+    """An integer whose schema admits values a double cannot hold exactly (no bound: any)."""
+    return schema.get("type") == "integer" and not (
+        -SAFE_INTEGER <= schema.get("minimum", -SAFE_INTEGER - 1)
+        and schema.get("maximum", SAFE_INTEGER + 1) <= SAFE_INTEGER)
+
+
+def wide_integers_as_strings(schema: dict) -> dict:
+    """`schema` with each integer that can pass 2^53 made a string of decimal digits (what
+    strings_for_wide_integers writes)."""
+    if _wide(schema):
+        out = {k: v for k, v in schema.items() if k not in ("type", "minimum", "maximum")}
+        negative = schema.get("minimum", -1) < 0
+        out.update(type="string", pattern="^-?[0-9]+$" if negative else "^[0-9]+$")
+        return out
+    out = dict(schema)
+    if "properties" in schema:
+        out["properties"] = {k: wide_integers_as_strings(v) for k, v in schema["properties"].items()}
+    for keyword in ("additionalProperties", "items"):
+        if isinstance(schema.get(keyword), dict):
+            out[keyword] = wide_integers_as_strings(schema[keyword])
+    if "anyOf" in schema:
+        out["anyOf"] = [wide_integers_as_strings(s) for s in schema["anyOf"]]
+    return out
+
+
+def strings_for_wide_integers(schema: dict, value):
+    """A JSON value of `schema` (the schema before wide_integers_as_strings) with every integer
+    that schema lets pass 2^53 written as a string of its digits."""
+    if _wide(schema):
+        return str(value) if isinstance(value, int) and not isinstance(value, bool) else value
+    if isinstance(value, dict):
+        properties = schema.get("properties", {})
+        extra = schema.get("additionalProperties")
+        return {k: strings_for_wide_integers(properties[k], v) if k in properties
+                else strings_for_wide_integers(extra, v) if isinstance(extra, dict) else v
+                for k, v in value.items()}
+    if isinstance(value, list) and isinstance(schema.get("items"), dict):
+        return [strings_for_wide_integers(schema["items"], v) for v in value]
+    if value is not None and "anyOf" in schema:
+        # An Option: its one branch that is not null.
+        branch = next(s for s in schema["anyOf"] if s.get("type") != "null")
+        return strings_for_wide_integers(branch, value)
+    return value
+
+
 def generated_json_schema(type_name: str, schema_text: str) -> dict:
     """The JSON Schema that `horus-gen --lang jsonschema` writes for a recorded type, from the
-    schema text the recording stores."""
+    schema text the recording stores (a type the runtime spells itself, such as a service
+    frame, compiled under the name dynamic_types gives it, titled with its own)."""
     import dynamic_types
     with tempfile.TemporaryDirectory(prefix="horus-export-") as work:
         sources = os.path.join(work, "schemas")
-        files = dynamic_types.write_schema_files(dynamic_types.parse_schema(schema_text), sources)
         out = os.path.join(work, "out")
         try:
+            compiled, declarations = dynamic_types.type_declarations(type_name, schema_text)
+            files = dynamic_types.write_schema_files(declarations, sources)
             dynamic_types.run_generator(
                 ["generate", "--lang", "jsonschema", "--out", out, "-I", sources, *files],
                 f"horus-gen --lang jsonschema failed for {type_name}")
         except dynamic_types.SchemaError as error:
             raise ExportError(str(error)) from None
-        package, name = type_name.rsplit(".", 1)
+        package, name = compiled.rsplit(".", 1)
         with open(os.path.join(out, "jsonschema", *package.split("."), f"{name}.schema.json"),
                   encoding="utf-8") as handle:
-            return json.load(handle)
+            schema = json.load(handle)
+        schema["title"] = type_name
+        return schema
 
 
 class _ExportChannel:
@@ -265,8 +322,20 @@ class _ExportChannel:
         self.topic = channel.topic
         self.decode = None
         self.convert = None
+        if channel.topic == TICKS_TOPIC and channel.message_encoding == "json" and schema is not None \
+                and schema.encoding == "jsonschema":
+            # Already JSON: its integers (unbounded, start_ns past 2^53) become strings.
+            tick_schema = json.loads(schema.data)
+            self.decode = json.loads
+            self.convert = lambda plain, log_time: strings_for_wide_integers(tick_schema, plain)
+            key = f"{schema.name}:{schema.encoding}"
+            if key not in schema_ids:
+                schema_ids[key] = writer.add_schema(schema.name, schema.encoding, json.dumps(
+                    wide_integers_as_strings(tick_schema), sort_keys=True).encode())
+            self.id = writer.add_channel(channel.topic, "json", schema_ids[key], channel.metadata)
+            return
         if channel.message_encoding not in (POD_ENCODING, MSGPACK_ENCODING, POOL_ENCODING):
-            # Already readable (the node ticks): copied with its own schema.
+            # Readable as it is: copied with its own schema.
             key = f"{schema.name}:{schema.encoding}" if schema else ""
             if schema is not None and key not in schema_ids:
                 schema_ids[key] = writer.add_schema(schema.name, schema.encoding, schema.data)
@@ -303,8 +372,10 @@ class _ExportChannel:
             schema_json = FOXGLOVE_SCHEMAS[schema_name]
         else:
             schema_name = type_name
-            self.convert = lambda plain, log_time: plain_json(plain)
-            schema_json = generated_json_schema(type_name, schema.data.decode("utf-8"))
+            generated = generated_json_schema(type_name, schema.data.decode("utf-8"))
+            self.convert = lambda plain, log_time: strings_for_wide_integers(
+                generated, plain_json(plain))
+            schema_json = wide_integers_as_strings(generated)
         if schema_name not in schema_ids:
             schema_ids[schema_name] = writer.add_schema(
                 schema_name, "jsonschema", json.dumps(schema_json, sort_keys=True).encode())

@@ -224,6 +224,7 @@ class _ReplayTopic:
         self.is_pod = self.is_pool or channel.message_encoding == POD_ENCODING
         self.size = int(channel.metadata.get("horus.payload_size", "0")) if self.is_pod else 0
         self.largest = 0
+        self.alignment = 1
         self.handle = None
         self.frames = None
 
@@ -239,9 +240,21 @@ class _ReplayTopic:
             return None
 
 
+# The types that carry a service (runtime/include/horus/detail/service_frame.hpp). Replayed, a
+# recorded request would have a live server act on it again, and a registration would announce a
+# server that is not there: left out unless named with --topics.
+SERVICE_FRAMES = ("horus.ServiceRequest<", "horus.ServiceResponse<")
+SERVICE_REGISTRATION = "horus.ServiceRegistration"
+
+
+def is_service_type(type_name: str) -> bool:
+    return type_name == SERVICE_REGISTRATION or type_name.startswith(SERVICE_FRAMES)
+
+
 def _replay_channels(reader_channels: dict[int, mcap.Channel], schemas: dict[int, mcap.Schema],
-                     wanted: set[str] | None) -> dict[int, _ReplayTopic]:
-    topics = {}
+                     wanted: set[str] | None) -> tuple[dict[int, _ReplayTopic], list[str]]:
+    """The topics to replay by channel id, and the service topics left out."""
+    topics, services = {}, []
     for channel in reader_channels.values():
         if wanted is not None and channel.topic not in wanted:
             continue
@@ -250,12 +263,16 @@ def _replay_channels(reader_channels: dict[int, mcap.Channel], schemas: dict[int
         schema = schemas.get(channel.schema_id)
         if schema is None:
             raise CommandFailed(f"channel '{channel.topic}' has no schema record")
-        topics[channel.id] = _ReplayTopic(channel, schema)
+        topic = _ReplayTopic(channel, schema)
+        if wanted is None and is_service_type(topic.type_name):
+            services.append(channel.topic)
+            continue
+        topics[channel.id] = topic
     if wanted is not None:
         missing = sorted(wanted - {t.channel.topic for t in topics.values()})
         if missing:
             raise CommandFailed(f"not in the recording: {', '.join(missing)}")
-    return topics
+    return topics, sorted(services)
 
 
 def _installed_fingerprints(args) -> dict[str, str]:
@@ -293,13 +310,8 @@ def check_types(topics: dict[int, _ReplayTopic], args) -> None:
 
 def _open_topic(topic: _ReplayTopic, capacity: int, namespace: str):
     from horus import _core
-    alignment = 1
-    if topic.is_pod and not topic.type_name.startswith("["):
-        # The recording states no alignment: the message type compiled from its schema does (a
-        # plain value such as [u8; N] needs no more than the segment's own 8 bytes).
-        alignment = _loaded_type(topic.type_name, topic.schema, topic.fingerprint).__horus__.alignment
     topic.handle = _core.Topic(topic.channel.topic, topic.type_name, topic.fingerprint,
-                               topic.schema, topic.is_pod, topic.size, alignment, capacity,
+                               topic.schema, topic.is_pod, topic.size, topic.alignment, capacity,
                                max(16 * 1024, topic.largest), False)
     if topic.is_pool:
         # Each frame is made again in the namespace's pool; as many stay alive as the ring
@@ -329,15 +341,24 @@ def replay(args) -> int:
             first_time[record.channel_id] = min(first_time.get(record.channel_id, record.log_time),
                                                 record.log_time)
             largest[record.channel_id] = max(largest.get(record.channel_id, 0), len(record.data))
-    topics = _replay_channels(reader.channels, reader.schemas, wanted)
+    topics, services = _replay_channels(reader.channels, reader.schemas, wanted)
+    if services:
+        print(f"horus record replay: left out the service topics {', '.join(services)} (name "
+              "them with --topics to replay them)", file=sys.stderr)
     if not topics:
         raise CommandFailed(f"{path} has no HORUS topic to replay")
     check_types(topics, args)
     if not any(channel_id in first_time for channel_id in topics):
         raise CommandFailed(f"{path} holds no message on the topics to replay")
     first = min(first_time[channel_id] for channel_id in topics if channel_id in first_time)
+    # Everything that can refuse the recording does so before the first topic is opened: a
+    # refusal then leaves nothing behind in the namespace.
     for channel_id, topic in topics.items():
         topic.largest = topic.size if topic.is_pool else largest.get(channel_id, 0)
+        if topic.is_pod:
+            # The recording states no alignment: the type compiled from its schema does.
+            topic.alignment = _loaded_type(topic.type_name, topic.schema,
+                                           topic.fingerprint).__horus__.alignment
     for topic in topics.values():
         _open_topic(topic, args.capacity, args.namespace or "")
     sent = failed = 0

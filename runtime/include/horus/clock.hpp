@@ -16,6 +16,10 @@ namespace horus {
 /// Current time: since the Unix epoch normally, since the scheduler started in deterministic mode.
 std::chrono::nanoseconds now() noexcept;
 
+/// now() as an integer count of nanoseconds, for a message's `timestamp_ns` field: since the Unix
+/// epoch normally, simulated time in deterministic mode (so recorded stamps repeat run to run).
+std::uint64_t timestamp_now() noexcept;
+
 /// Time since this node's previous tick began; exactly 1/rate in deterministic mode. On a node's
 /// first tick, its nominal period (so integrators never see a zero or garbage step).
 std::chrono::nanoseconds dt() noexcept;

@@ -1,6 +1,7 @@
 // MessagePack for serialized messages, over msgpack-cxx. Every generated message and enum packs
 // through the adaptors below: a message as an array of its fields in declaration order, an enum
 // as its underlying integer, string<N> as a str. Python's generated code writes the same bytes.
+// A plain string or vector on a topic (horus/plain_value.hpp) is framed as a message's one field.
 //
 // Only the parts of msgpack-cxx that message fields need are included (the whole library takes
 // longer to compile than all of horus's other headers together). To pack other types into a
@@ -39,6 +40,7 @@
 
 #include "horus/codec.hpp"
 #include "horus/fixed_string.hpp"
+#include "horus/plain_value.hpp"
 #include "horus/type_info.hpp"
 
 namespace msgpack {
@@ -115,33 +117,75 @@ MSGPACK_API_VERSION_NAMESPACE(MSGPACK_DEFAULT_API_NS) {
 
 namespace horus::detail {
 
+/// Packs what a topic carrying `V` sends. A serialized plain value goes as the one field of a
+/// message (an array of one element), so a tool that decodes the topic from its stored schema
+/// (`value String`) as the message `PlainValue { value: String }` reads it.
+template <class Stream, class V>
+void pack_payload(msgpack::packer<Stream>& packer, const V& value) {
+  if constexpr (SerializedPlainValue<V>) {
+    packer.pack_array(1);
+  }
+  packer.pack(value);
+}
+
+/// The one value `bytes` hold, read by `convert(object, value)`; DecodeError naming `what`.
+template <class V, class Convert>
+V unpack_with(std::span<const std::uint8_t> bytes, std::string_view what, Convert convert) {
+  try {
+    std::size_t offset = 0;
+    msgpack::object_handle handle =
+        msgpack::unpack(reinterpret_cast<const char*>(bytes.data()), bytes.size(), offset);
+    if (offset != bytes.size()) {
+      throw DecodeError(std::string(what) + ": " + std::to_string(bytes.size() - offset) +
+                        " trailing bytes after the MessagePack value");
+    }
+    V value{};
+    convert(handle.get(), value);
+    return value;
+  } catch (const DecodeError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw DecodeError(std::string(what) + ": not a valid MessagePack encoding (" + e.what() + ")");
+  }
+}
+
+/// The bytes `pack(packer)` writes.
+template <class Pack>
+std::vector<std::uint8_t> packed(Pack pack) {
+  msgpack::sbuffer buffer;
+  msgpack::packer<msgpack::sbuffer> packer(buffer);
+  pack(packer);
+  const auto* data = reinterpret_cast<const std::uint8_t*>(buffer.data());
+  return std::vector<std::uint8_t>(data, data + buffer.size());
+}
+
+/// A value as itself (a serialized message, a GenericMessage payload of any type).
 template <class V>
 struct Msgpack {
   static std::vector<std::uint8_t> pack(const V& value) {
-    msgpack::sbuffer buffer;
-    msgpack::pack(buffer, value);
-    const auto* data = reinterpret_cast<const std::uint8_t*>(buffer.data());
-    return std::vector<std::uint8_t>(data, data + buffer.size());
+    return packed([&](auto& packer) { packer.pack(value); });
   }
 
   static V unpack(std::span<const std::uint8_t> bytes, std::string_view what) {
-    try {
-      std::size_t offset = 0;
-      msgpack::object_handle handle =
-          msgpack::unpack(reinterpret_cast<const char*>(bytes.data()), bytes.size(), offset);
-      if (offset != bytes.size()) {
-        throw DecodeError(std::string(what) + ": " + std::to_string(bytes.size() - offset) +
-                          " trailing bytes after the MessagePack value");
+    return unpack_with<V>(bytes, what,
+                          [](const msgpack::object& object, V& value) { object.convert(value); });
+  }
+};
+
+/// A serialized plain value as a topic carries it (pack_payload).
+template <class V>
+struct PlainValueFrame {
+  static std::vector<std::uint8_t> pack(const V& value) {
+    return packed([&](auto& packer) { pack_payload(packer, value); });
+  }
+
+  static V unpack(std::span<const std::uint8_t> bytes, std::string_view what) {
+    return unpack_with<V>(bytes, what, [](const msgpack::object& object, V& value) {
+      if (object.type != msgpack::type::ARRAY || object.via.array.size != 1) {
+        throw msgpack::type_error();
       }
-      V value{};
-      handle.get().convert(value);
-      return value;
-    } catch (const DecodeError&) {
-      throw;
-    } catch (const std::exception& e) {
-      throw DecodeError(std::string(what) + ": not a valid MessagePack encoding (" + e.what() +
-                        ")");
-    }
+      object.via.array.ptr[0].convert(value);
+    });
   }
 };
 

@@ -32,11 +32,12 @@ struct PresenceInfo {
   std::int64_t started_wall_ns = 0;
   /// When the announcement was last rewritten (ns since the Unix epoch).
   std::int64_t updated_wall_ns = 0;
-  /// The scheduler and its nodes as a JSON object: {"scheduler", "time_ns", "cycle", "nodes": [
+  /// The scheduler and its nodes as a JSON object: {"scheduler", "time_ns", "cycle",
+  /// "deadline_misses" (all nodes'), "max_deadline_misses" (null: no limit), "nodes": [
   /// {"name", "order", "class", "rate_hz" (null without a rate), "state", "health",
   /// "total_ticks", "failed_ticks", "avg_tick_ns", "max_tick_ns", "last_tick_ns",
-  /// "deadline_misses", "budget_overruns", "messages_sent", "messages_received",
-  /// "achieved_rate_hz", "publishers"/"subscribers": [{"topic", "type"}]}]}.
+  /// "deadline_ns" (null: none), "deadline_misses", "budget_overruns", "messages_sent",
+  /// "messages_received", "achieved_rate_hz", "publishers"/"subscribers": [{"topic", "type"}]}]}.
   /// A process announcement instead: {"process" (its program name), "topics": [{"topic",
   /// "type", "handles"}], "services": [{"service", "role" ("server" or "client"),
   /// "request_type", "response_type"}]}.

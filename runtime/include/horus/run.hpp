@@ -10,7 +10,6 @@
 #pragma once
 
 #include <chrono>
-#include <concepts>
 #include <memory>
 #include <optional>
 #include <utility>
@@ -20,22 +19,6 @@
 #include "horus/scheduler.hpp"
 
 namespace horus {
-
-/// A node and its settings, chained as on Scheduler::add() (a bare node gets the defaults).
-class RunNode : public NodeSettings<RunNode> {
- public:
-  template <std::derived_from<Node> N>
-  RunNode(std::shared_ptr<N> node)  // NOLINT(google-explicit-constructor): run({a, b})
-      : node_(std::move(node)) {}
-  const std::shared_ptr<Node>& node() const noexcept { return node_; }
-  const NodeConfig& config() const noexcept { return config_; }
-
- private:
-  friend class NodeSettings<RunNode>;
-  NodeConfig& node_config() { return config_; }
-  std::shared_ptr<Node> node_;
-  NodeConfig config_;
-};
 
 /// Builds a Scheduler from `config`, adds and builds every node in the given order, then runs
 /// until stop (Ctrl+C, SIGTERM, a node's request_stop(), a fatal failure) or for `duration`.

@@ -12,6 +12,7 @@
 #pragma once
 
 #include <chrono>
+#include <concepts>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -19,6 +20,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "horus/blackbox.hpp"
@@ -37,6 +39,9 @@ namespace horus {
 namespace detail {
 class SchedulerImpl;
 struct NodeSlot;
+/// The running program's name (its executable's file name; "horus" when unknown): a scheduler's
+/// default name, so that two programs' log lines and announcements can be told apart.
+std::string program_name();
 }  // namespace detail
 
 /// How a node is run; inferred from its settings (first match wins):
@@ -98,11 +103,15 @@ class SchedulerConfig {
     blackbox_path_ = std::move(p);
     return *this;
   }
-  /// Stop the scheduler after this many deadline misses in total (default 100; nullopt: never).
+  /// Stop the scheduler after this many deadline misses in total, all nodes together (default
+  /// 100, as in Rust; nullopt: never). Every node with a rate has a deadline (95 % of its period
+  /// unless NodeSettings::deadline() says otherwise), so a busy machine can reach it.
   SchedulerConfig& max_deadline_misses(std::optional<std::uint64_t> n) {
     max_deadline_misses_ = n;
     return *this;
   }
+  /// What the scheduler's own log lines ("@<name>"), `horus node list`, telemetry and the
+  /// blackbox call it. Default: the program's name (detail::program_name()).
   SchedulerConfig& name(std::string n) {
     name_ = std::move(n);
     return *this;
@@ -208,7 +217,7 @@ class SchedulerConfig {
   std::size_t blackbox_mb_ = 0;
   std::filesystem::path blackbox_path_;
   std::optional<std::uint64_t> max_deadline_misses_ = 100;
-  std::string name_ = "horus";
+  std::string name_ = detail::program_name();
   std::vector<int> cores_;
   bool verbose_ = false;
   std::size_t compute_threads_ = 0;
@@ -304,6 +313,25 @@ class NodeSettings {
 
 class Scheduler;
 
+/// A node and its settings, chained as on Scheduler::add()'s NodeBuilder (a bare node gets the
+/// defaults): what seed 001's Python Node carries in its keywords. Scheduler::add(RunNode) adds
+/// and builds it at once and returns the scheduler, so that additions chain as the seed writes
+/// them (`sched.add(safety).add(lidar)`); horus::run takes a list of them.
+class RunNode : public NodeSettings<RunNode> {
+ public:
+  template <std::derived_from<Node> N>
+  RunNode(std::shared_ptr<N> node)  // NOLINT(google-explicit-constructor): run({a, b})
+      : node_(std::move(node)) {}
+  const std::shared_ptr<Node>& node() const noexcept { return node_; }
+  const NodeConfig& config() const noexcept { return config_; }
+
+ private:
+  friend class NodeSettings<RunNode>;
+  NodeConfig& node_config() { return config_; }
+  std::shared_ptr<Node> node_;
+  NodeConfig config_;
+};
+
 /// Returned by Scheduler::add(); set what you need, then build() (which validates and throws
 /// horus::Error). A node added without build() makes the next run()/tick_once() throw.
 class [[nodiscard]] NodeBuilder : public NodeSettings<NodeBuilder> {
@@ -365,13 +393,26 @@ class Scheduler {
   Scheduler(const Scheduler&) = delete;
   Scheduler& operator=(const Scheduler&) = delete;
 
-  /// Registers a node; finish with .build(). Throws horus::Error for a null node or while running.
+  /// Registers a node; finish with .build(). Throws horus::Error for a null node.
   /// Takes std::make_unique<MyNode>() as well; the scheduler shares ownership so that a language
   /// binding can keep its own reference to the object it handed over.
+  ///
+  /// Also while the scheduler runs, from any thread or from a node's callback: the node is
+  /// initialised at the loop's next cycle (on the thread of run()), then ticks at its rate on a
+  /// thread of its own (BestEffort nodes join the main loop), shows in introspection and presence
+  /// at once, and is shut down in reverse order with the others.
   NodeBuilder add(std::shared_ptr<Node> node);
+  template <std::derived_from<Node> N>
+  NodeBuilder add(std::shared_ptr<N> node) {
+    return add(std::shared_ptr<Node>(std::move(node)));
+  }
+  /// Adds and builds a node with its settings (throws horus::Error as build() does); returns the
+  /// scheduler so that additions chain: sched.add(imu).add(attitude).add(esc).
+  Scheduler& add(const RunNode& node);
 
   /// Marks a built node safety-critical with its own watchdog timeout: past 3x it is Isolated and
-  /// every other node is asked to enter its safe state. Throws horus::Error for an unknown node.
+  /// every other node is asked to enter its safe state. Also while running (the watchdog picks the
+  /// node up at the loop's next cycle). Throws horus::Error for an unknown node.
   void add_critical_node(std::string_view name, std::chrono::nanoseconds timeout);
 
   /// Initialises nodes (first time), runs until stop(), Ctrl+C, SIGTERM or a fatal failure, then

@@ -20,9 +20,11 @@
 #include <utility>
 #include <variant>
 
+#include "horus/detail/log_source.hpp"
 #include "horus/detail/service_channel.hpp"
 #include "horus/detail/service_frame.hpp"
 #include "horus/error.hpp"
+#include "horus/log.hpp"
 #include "horus/presence.hpp"
 #include "horus/service_message.hpp"
 #include "horus/service_type.hpp"
@@ -119,9 +121,10 @@ class ServiceServer {
     using RequestFrame = detail::ServiceRequestFrame<Request>;
     using ResponseFrame = detail::ServiceResponseFrame<Response>;
 
-    State(Handler handler_in, const TopicOptions& options_in)
+    State(Handler handler_in, const TopicOptions& options_in, std::string log_source_in)
         : handler(std::move(handler_in)),
           options(options_in),
+          log_source(std::move(log_source_in)),
           incoming(S::request_topic(), options),
           waker(S::request_topic(), options),
           registration(detail::registration_topic(S::name()),
@@ -133,6 +136,7 @@ class ServiceServer {
                                        std::string(S::response_type_name())}) {}
 
     void serve() noexcept {
+      static_cast<void>(detail::exchange_thread_log_source(log_source));
       while (!stopping.load(std::memory_order_acquire)) {
         std::optional<RequestFrame> request = incoming.recv(kIdleWake);
         lost_requests.store(incoming.lost(), std::memory_order_relaxed);
@@ -222,6 +226,7 @@ class ServiceServer {
 
     Handler handler;
     TopicOptions options;
+    std::string log_source;        // what the handler's log lines carry
     Topic<RequestFrame> incoming;  // the server thread's
     /// Reply topics by index (the server thread's): as many as clients alive at once.
     std::map<std::uint64_t, Topic<ResponseFrame>> replies;
@@ -270,15 +275,19 @@ class ServiceServerBuilder {
     return *this;
   }
 
-  /// Registers the server and starts its thread. Throws horus::Error without a handler, when a
-  /// live server already serves the service in the namespace, or when the topics carry other types.
+  /// Registers the server and starts its thread. The handler's log lines carry the name of the
+  /// node whose callback (init(), say) builds the server, else the service's name. Throws
+  /// horus::Error without a handler, when a live server already serves the service in the
+  /// namespace, or when the topics carry other types.
   ServiceServer<S> build() {
     if (!handler_) {
       throw Error("ServiceServerBuilder<" + std::string(S::name()) +
                   ">: build() without on_request(handler)");
     }
     using State = typename ServiceServer<S>::State;
-    auto state = std::make_unique<State>(handler_, options_);
+    std::string log_source(log::current_node());
+    if (log_source.empty()) log_source = S::name();
+    auto state = std::make_unique<State>(handler_, options_, std::move(log_source));
     const std::optional<detail::ServiceRegistration> current = state->registration.read_latest();
     if (current && current->server_pid != 0 && !detail::server_process_gone(current->server_pid)) {
       throw Error("service " + std::string(S::name()) + " in namespace " + namespace_name() +

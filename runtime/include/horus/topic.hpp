@@ -2,6 +2,7 @@
 // How the segment and the slots work: runtime/src/transport/README.md.
 #pragma once
 
+#include <array>
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
@@ -21,6 +22,7 @@
 #include "horus/detail/shm_segment.hpp"
 #include "horus/detail/slot_copy.hpp"
 #include "horus/detail/topic_endpoint.hpp"
+#include "horus/detail/topic_log.hpp"
 #include "horus/detail/topic_stream.hpp"
 #include "horus/msgpack.hpp"
 #include "horus/plain_value.hpp"
@@ -51,6 +53,11 @@ struct TopicOptions {
   /// handle sends; from then on every send claims its slot with two. Either way, while one
   /// handle publishes alone, a blocking receiver pays a membarrier(2) each time it goes to sleep.
   bool single_publisher = false;
+  /// This handle logs every message it sends or receives (seed 002's verbose topics): one line
+  /// with the message's summary in the runtime's log, at most 10 a second, then a count of the
+  /// lines suppressed (horus/detail/topic_log.hpp). Per handle, unlike the options above; see
+  /// also Topic::set_verbose. Off, send and receive pay one predictable branch for it.
+  bool verbose = false;
 };
 
 template <TopicValue T>
@@ -123,6 +130,7 @@ class Topic {
     } else {
       buffer_.resize(endpoint_.ring().payload_capacity);
     }
+    set_verbose(options.verbose);
   }
 
   Topic(Topic&&) noexcept = default;
@@ -137,6 +145,16 @@ class Topic {
 
   const std::string& name() const noexcept { return name_; }
 
+  /// Turns this handle's logging of its messages on or off (TopicOptions::verbose).
+  void set_verbose(bool on) {
+    if (!on) {
+      log_.reset();
+    } else if (!log_) {
+      log_ = std::make_unique<detail::TopicLog>(name_);
+    }
+  }
+  bool verbose() const noexcept { return log_ != nullptr; }
+
   /// Publishes a copy of `msg`. Never blocks; false (and a counter) when nothing was published.
   bool send(const T& msg) noexcept {
     const bool sent = endpoint_.send([&](std::byte* payload) noexcept {
@@ -146,13 +164,16 @@ class Topic {
       } else {
         detail::FixedBufferStream stream(payload, endpoint_.ring().payload_capacity);
         msgpack::packer<detail::FixedBufferStream> packer(stream);
-        packer.pack(msg);
+        detail::pack_payload(packer, msg);
         return stream.overflowed() ? detail::kReleasedSlot
                                    : static_cast<std::uint32_t>(stream.size());
       }
     });
     if (sent) {
-      detail::count_sent();
+      detail::count_sent(this, name_);
+      if (log_) [[unlikely]] {
+        log_->message(detail::TopicLogDirection::Send, msg);
+      }
     }
     return sent;
   }
@@ -168,8 +189,11 @@ class Topic {
 
   /// Makes a loaned message visible. False (and a counter) when the loan had no slot.
   bool publish(Loan<T>&& loan) noexcept requires PodTopicValue<T> {
+    if (log_) [[unlikely]] {
+      return publish_logged(std::move(loan));
+    }
     if (loan.finish(sizeof(T))) {
-      detail::count_sent();
+      detail::count_sent(this, name_);
       return true;
     }
     endpoint_.count_send_failure();
@@ -269,16 +293,36 @@ class Topic {
           return msg.has_value();
         });
     if (got) {
-      detail::count_received();
+      detail::count_received(this, name_, endpoint_.next_ticket());
+      if (log_) [[unlikely]] {
+        log_->message(detail::TopicLogDirection::Recv, *msg);
+      }
     } else {
       msg.reset();
     }
+  }
+
+  /// publish() of a verbose handle: the summary is read from the slot before it is committed
+  /// (after, the ring may reuse it), and logged once the message is published.
+  [[gnu::cold]] bool publish_logged(Loan<T>&& loan) noexcept requires PodTopicValue<T> {
+    std::array<char, detail::TopicLog::kMaxSummary> buffer;
+    detail::SummaryWriter summary(buffer.data(), buffer.size());
+    const bool admitted = log_->admit();
+    if (admitted) detail::TopicLog::summarize(summary, *loan);
+    if (!loan.finish(sizeof(T))) {
+      endpoint_.count_send_failure();
+      return false;
+    }
+    detail::count_sent(this, name_);
+    if (admitted) log_->write(detail::TopicLogDirection::Send, summary.view());
+    return true;
   }
 
   std::string name_;
   detail::TopicEndpoint endpoint_;
   std::unique_ptr<T> spare_;
   std::vector<std::uint8_t> buffer_;
+  std::unique_ptr<detail::TopicLog> log_;  // null unless verbose
 };
 
 }  // namespace horus

@@ -51,6 +51,12 @@ std::string current_namespace();
 /// used yet has none.
 std::vector<TopicInfo> list_topics(std::string_view namespace_name = {});
 
+/// A message's ticket and its send stamp (whole seconds of time(), as TopicInfo::last_send).
+struct SendStamp {
+  std::uint64_t ticket = 0;
+  std::uint32_t second = 0;
+};
+
 /// What `topic_traffic` counted: read from slot headers, no message decoded (`horus hz`, `bw`).
 struct TopicTraffic {
   /// Messages sent since the segment was created.
@@ -58,6 +64,14 @@ struct TopicTraffic {
   /// Of the messages from the asked ticket on, those still in the ring, and their payload bytes.
   std::uint64_t counted = 0;
   std::uint64_t bytes = 0;
+  /// Of the messages still in the ring, the first and the last one stamped a later second than
+  /// the message just before it (the same one when only one is): the (last - first) messages
+  /// from one to the other took (last.second - first.second) seconds, give or take one message's
+  /// period. The rate of a topic too slow for a short window to count (`horus topic list -v`).
+  std::optional<SendStamp> first_new_second;
+  std::optional<SendStamp> last_new_second;
+  /// The newest message still in the ring.
+  std::optional<SendStamp> newest;
 };
 
 /// The traffic of one topic from ticket `since` on (a message_count seen before). Throws

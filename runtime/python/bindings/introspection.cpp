@@ -3,6 +3,7 @@
 #include <pybind11/stl.h>
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -93,11 +94,21 @@ void bind_introspection(py::module_& m) {
         out["message_count"] = traffic.message_count;
         out["counted"] = traffic.counted;
         out["bytes"] = traffic.bytes;
+        const auto stamp = [](const std::optional<SendStamp>& sent) -> py::object {
+          if (!sent) return py::none();
+          py::dict fields;
+          fields["ticket"] = sent->ticket;
+          fields["second"] = sent->second;
+          return fields;
+        };
+        out["first_new_second"] = stamp(traffic.first_new_second);
+        out["last_new_second"] = stamp(traffic.last_new_second);
+        out["newest"] = stamp(traffic.newest);
         return out;
       },
       py::arg("topic"), py::arg("since"), py::arg("namespace_name") = "",
       "A topic's message count, and the messages from ticket `since` still in the ring with "
-      "their payload bytes (slot headers only).");
+      "their payload bytes, and the send stamps where the second changes (slot headers only).");
   m.def(
       "clean_namespace",
       [](const std::string& namespace_name) { return clean_namespace(namespace_name); },

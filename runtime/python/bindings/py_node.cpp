@@ -1,9 +1,15 @@
 #include "py_node.hpp"
 
+#include <sched.h>
+
+#include <cstdint>
 #include <cstdio>
+#include <ctime>
 #include <stdexcept>
+#include <thread>
 #include <utility>
 
+#include "gil_probe.hpp"
 #include "horus/clock.hpp"
 
 namespace py = pybind11;
@@ -14,6 +20,12 @@ namespace {
 
 double seconds(std::chrono::nanoseconds ns) { return static_cast<double>(ns.count()) * 1e-9; }
 
+std::int64_t monotonic_ns() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
 /// Marks this thread as inside a Python callback and, on the way out, keeps the clock it saw.
 class CallbackScope {
  public:
@@ -21,7 +33,8 @@ class CallbackScope {
     clock_.in_callback = true;
   }
   ~CallbackScope() {
-    clock_.now_s = seconds(horus::now());
+    clock_.now_ns = horus::timestamp_now();
+    clock_.now_s = seconds(std::chrono::nanoseconds(clock_.now_ns));
     clock_.dt_s = seconds(horus::dt());
     clock_.elapsed_s = seconds(horus::elapsed());
     clock_.tick = horus::tick_index();
@@ -44,6 +57,23 @@ bool python_may_run() noexcept {
   return Py_IsInitialized() != 0 && (_Py_IsFinalizing() == 0 || PyGILState_Check() != 0);
 }
 
+/// A scheduler thread about to run Python spins while another thread holds the GIL, for at most
+/// this long: the holder is most often another node's tick of a few microseconds, and blocking
+/// on CPython's condition variable instead costs a wake-up once it is released (tens of
+/// microseconds on a VM, more when its CPU went idle). A longer holder gets the usual wait. Each
+/// turn yields, so a holder of the same priority waiting for this CPU gets it; with one CPU
+/// there is no spinning at all.
+constexpr std::int64_t kGilSpinNs = 100'000;
+
+void spin_while_gil_taken() noexcept {
+  static const bool spin = std::thread::hardware_concurrency() > 1;
+  if (!spin || !gil_taken()) return;
+  const std::int64_t give_up = monotonic_ns() + kGilSpinNs;
+  do {
+    sched_yield();
+  } while (gil_taken() && monotonic_ns() < give_up);
+}
+
 /// Takes the GIL for one callback. A scheduler thread that Python does not know gets a Python
 /// thread state once, kept until the thread ends: making and destroying one per callback (what a
 /// PyGILState_Ensure/Release pair does there) costs microseconds. A thread Python started (the
@@ -54,6 +84,7 @@ class CallbackGil {
     if (PyGILState_Check() != 0) {
       return;  // this thread holds it already
     }
+    spin_while_gil_taken();
     if (PyThreadState* state = PyGILState_GetThisThreadState()) {
       PyEval_RestoreThread(state);
     } else {

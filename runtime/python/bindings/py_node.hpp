@@ -5,6 +5,7 @@
 
 #include <pybind11/pybind11.h>
 
+#include <cstdint>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -52,6 +53,7 @@ class PyNode final : public Node {
 /// tick_once()), or "no tick" when there was none.
 struct ClockSnapshot {
   double now_s = 0.0;
+  std::uint64_t now_ns = 0;
   double dt_s = 0.0;
   double elapsed_s = 0.0;
   std::uint64_t tick = 0;

@@ -2,6 +2,7 @@
 // node callbacks (run, tick_once, remove_node, destruction ...) releases the GIL first, so the
 // scheduler's threads can take it for their Python callbacks.
 #include <pybind11/stl.h>
+#include <sys/mman.h>
 
 #include <chrono>
 #include <cmath>
@@ -15,6 +16,7 @@
 
 #include "bindings.hpp"
 #include "horus/clock.hpp"
+#include "horus/detail/publisher_lease.hpp"
 #include "horus/log.hpp"
 #include "horus/scheduler.hpp"
 #include "py_node.hpp"
@@ -29,7 +31,8 @@ std::chrono::nanoseconds from_seconds(double s) {
   if (!std::isfinite(s) || s < 0.0) {
     throw Error("a duration must be a finite number of seconds >= 0, got " + std::to_string(s));
   }
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::duration<double>(s));
+  // Rounded, not truncated: 100 * us is 9.999999999999999e-05 s, which must stay 100 us.
+  return std::chrono::round<std::chrono::nanoseconds>(std::chrono::duration<double>(s));
 }
 
 std::optional<std::chrono::nanoseconds> from_seconds(std::optional<double> s) {
@@ -205,11 +208,22 @@ void bind_scheduler(py::module_& m) {
                  .verbose(verbose)
                  .recording(recording);
              if (name) config.name(*name);
-             if (max_deadline_misses) config.max_deadline_misses(max_deadline_misses);
+             config.max_deadline_misses(max_deadline_misses);  // None: no limit (seed 001)
              if (telemetry) config.telemetry(*telemetry);
              if (seed) config.seed(*seed);
              if (replay) config.replay(*replay);
-             return std::unique_ptr<Scheduler, ReleasingDeleter>(new Scheduler(std::move(config)));
+             // Ticks run Python under one lock: a node's first send must not hold it for the
+             // milliseconds the process's one-time set-up for publishing takes.
+             detail::prepare_publisher_leases();
+             std::unique_ptr<Scheduler, ReleasingDeleter> sched(new Scheduler(std::move(config)));
+             if (sched->capabilities().memory_locking) {
+               // Pages stay locked, but are locked as they are first touched: CPython maps and
+               // unmaps its 1 MiB arenas as the heap breathes, and filling a whole new one in at
+               // once (what rt's MCL_FUTURE alone does) costs ~0.3 ms inside a tick, under the
+               // GIL every other Python node waits for. New threads' stacks likewise.
+               mlockall(MCL_CURRENT | MCL_FUTURE | MCL_ONFAULT);
+             }
+             return sched;
            }),
            py::arg("tick_rate"), py::arg("rt"), py::arg("deterministic"), py::arg("watchdog_ms"),
            py::arg("blackbox_mb"), py::arg("name"), py::arg("cores"),
@@ -358,6 +372,10 @@ void bind_scheduler(py::module_& m) {
     const ClockSnapshot& clock = thread_clock();
     return clock.in_callback || !clock.valid ? seconds(horus::now()) : clock.now_s;
   });
+  m.def("timestamp_now", [] {
+    const ClockSnapshot& clock = thread_clock();
+    return clock.in_callback || !clock.valid ? horus::timestamp_now() : clock.now_ns;
+  });
   m.def("dt", [] {
     const ClockSnapshot& clock = thread_clock();
     return clock.in_callback ? seconds(horus::dt()) : clock.dt_s;
@@ -376,6 +394,10 @@ void bind_scheduler(py::module_& m) {
                                                         : seconds(remaining);
   });
   m.def("rng_float", [] { return horus::rng_float(); });
+  m.def(
+      "lateness", [] { return seconds(horus::lateness()); },
+      "Inside a callback: how late the scheduler began this tick after its release, before "
+      "taking the GIL (bench/python measures Python ticks with it).");
   m.def("in_callback", [] { return thread_clock().in_callback; });
   m.def(
       "log",

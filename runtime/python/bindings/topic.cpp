@@ -5,7 +5,9 @@
 #include <memory>
 
 #include "bindings.hpp"
+#include "horus/detail/created_segments.hpp"
 #include "horus/detail/erased_topic.hpp"
+#include "horus/detail/topic_log.hpp"
 #include "horus/error.hpp"
 #include "horus/topic_registry.hpp"
 
@@ -119,6 +121,21 @@ void bind_topics(py::module_& m) {
       .def_property_readonly("capacity", &ErasedTopic::capacity)
       .def_property_readonly("payload_capacity", &ErasedTopic::payload_capacity);
 
+  // A verbose horus.Topic's log lines: the same limiter and line as a C++ Topic's, with the
+  // summary made in Python (log_summary(), or the plain value's) only once admit() said yes.
+  py::class_<detail::TopicLog>(m, "TopicLog",
+                               "The rate-limited log lines of one verbose topic handle.")
+      .def(py::init<std::string_view>(), py::arg("topic"))
+      .def("admit", &detail::TopicLog::admit,
+           "Whether one more message may have its line now; if not, it is counted suppressed.")
+      .def(
+          "write",
+          [](detail::TopicLog& log, bool sent, std::string_view summary) {
+            log.write(sent ? detail::TopicLogDirection::Send : detail::TopicLogDirection::Recv,
+                      summary.substr(0, detail::TopicLog::kMaxSummary));
+          },
+          py::arg("sent"), py::arg("summary"));
+
   m.def(
       "list_topics",
       [](const std::string& namespace_name) {
@@ -149,6 +166,14 @@ void bind_topics(py::module_& m) {
       },
       py::arg("namespace_name") = "",
       "The topics of a namespace (empty: HORUS_NAMESPACE), with their users.");
+  m.def(
+      "remove_created_topics_nobody_uses",
+      [] {
+        py::gil_scoped_release released;
+        return detail::remove_created_segments_nobody_uses();
+      },
+      "Removes the topic segments this process created that no live process has open any more "
+      "(what a C++ Scheduler does when it is destroyed); returns how many.");
   m.def("current_namespace", [] { return current_namespace(); });
   m.def(
       "namespace_directory",

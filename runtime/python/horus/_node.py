@@ -9,6 +9,7 @@ import weakref
 from . import _core
 from ._pool import is_pool_type
 from ._topic import Topic
+from ._values import plain_value_of, python_spelling
 
 _MISS_POLICIES = ("warn", "skip", "safe_mode", "stop")
 _FAILURE_POLICIES = ("fatal", "restart", "skip", "ignore")
@@ -149,14 +150,28 @@ class Node:
 
     # -- topics ---------------------------------------------------------------------------------
 
-    def _topic(self, name: str) -> Topic:
+    def _topic(self, name: str, role: str = "subs") -> Topic:
         topic = self._topics.get(name)
         if topic is None:
             msg_type = self.subs.get(name, self.pubs.get(name, dict))
             capacity = self.topic_capacities.get(name)
-            topic = self._topics[name] = (Topic(msg_type, name) if capacity is None
-                                          else Topic(msg_type, name, capacity=capacity))
+            try:
+                topic = (Topic(msg_type, name) if capacity is None
+                         else Topic(msg_type, name, capacity=capacity))
+            except _core.HorusError as error:
+                if msg_type is not dict:
+                    raise
+                hint = _typed_declaration(name, "subs" if name in self.subs else
+                                          "pubs" if name in self.pubs else role)
+                if hint is None:
+                    raise
+                raise _core.HorusError(f"node '{self.name}': {hint} ({error})") from None
+            self._topics[name] = topic
         return topic
+
+    def _close_topics(self) -> None:
+        """Lets go of the topics this node opened (a later use opens them again)."""
+        self._topics.clear()
 
     def open_topics(self) -> None:
         """Opens every declared topic now (the scheduler does it before init())."""
@@ -165,7 +180,7 @@ class Node:
 
     def send(self, topic: str, msg) -> bool:
         """Publishes `msg` on `topic` (a generated message, or a plain value on a dict topic)."""
-        return self._topic(topic).send(msg)
+        return self._topic(topic, "pubs").send(msg)
 
     def recv(self, topic: str):
         """The next message on `topic`, or None."""
@@ -221,9 +236,25 @@ def _with_topics(node: Node, init):
     return start
 
 
+def _typed_declaration(topic: str, role: str) -> str | None:
+    """For a topic opened as dict values that carries a generated type or a plain value: how to
+    declare the type instead, as Python imports or spells it (None when the topic carries none)."""
+    found = next((t for t in _core.list_topics() if t["name"] == topic), None)
+    type_name = found["type_name"] if found is not None else ""
+    if found is not None and found["schema"] == f"value {type_name}\n":
+        return (f"topic {topic!r} carries the plain value {type_name}, not dict values: declare "
+                f"{role}={{{topic!r}: {python_spelling(type_name)}}}")
+    module, _, cls = type_name.rpartition(".")
+    if not module or not cls.isidentifier() or type_name == _type_name(dict):
+        return None
+    return (f"topic {topic!r} carries {type_name}, not dict values: declare "
+            f"{role}={{{topic!r}: {cls}}} (from {module} import {cls})")
+
+
 def _type_name(cls) -> str:
     if cls is dict:
         return "horus.msg.GenericMessage"
     if is_pool_type(cls):  # Image & co. travel as their descriptor type
         return cls.type_name
-    return cls.__horus__.name
+    plain = plain_value_of(cls)
+    return plain.name if plain is not None else cls.__horus__.name

@@ -2,6 +2,9 @@
 from __future__ import annotations
 
 import os
+import sys
+import weakref
+from pathlib import Path
 
 from . import _core
 from ._network import Network
@@ -17,7 +20,12 @@ class Scheduler:
     the nodes' topics, each message before the tick that received it (docs/recording.md).
     `network` (a horus.Network) carries topics to and from other hosts over DDS from this
     process, as `horus bridge` does, from construction until run() returns or the scheduler is
-    stopped; if that bridge fails, it stops the scheduler and run() returns 1.
+    stopped; if that bridge fails, it stops the scheduler and run() returns 1. `name` defaults to
+    the program's (the script's file name without .py), so two programs' log lines differ.
+
+    Like a C++ scheduler, it leaves nothing in shared memory: when run() returns, when the `with`
+    block ends, and when it is dropped (at the latest as the interpreter exits), its nodes'
+    topics close and the segments this process created that nobody uses any more are removed.
     """
 
     def __init__(self, tick_rate: float = 1000.0, rt: bool = False, deterministic: bool = False,
@@ -34,13 +42,16 @@ class Scheduler:
         if watchdog_ms is None or not float(watchdog_ms) >= 0.0:
             raise ValueError(f"watchdog_ms must be >= 0, got {watchdog_ms!r}")
         self._tick_rate = float(tick_rate)
-        self._core = _core.Scheduler(
+        self._owned = _Owned(_core.Scheduler(
             tick_rate=float(tick_rate), rt=bool(rt), deterministic=bool(deterministic),
-            watchdog_ms=float(watchdog_ms), blackbox_mb=int(blackbox_mb), name=name,
-            cores=list(cores or []), max_deadline_misses=max_deadline_misses,
-            verbose=bool(verbose), telemetry=telemetry, seed=seed, recording=bool(recording),
-            replay=None if replay is None else os.fspath(replay))
-        self._nodes: dict[str, object] = {}
+            watchdog_ms=float(watchdog_ms), blackbox_mb=int(blackbox_mb),
+            name=_program_name() if name is None else name, cores=list(cores or []),
+            max_deadline_misses=max_deadline_misses, verbose=bool(verbose), telemetry=telemetry,
+            seed=seed, recording=bool(recording),
+            replay=None if replay is None else os.fspath(replay)))
+        # Runs when this scheduler is dropped, or as the interpreter exits (before it finalizes:
+        # the nodes' shutdowns still run, and the C++ scheduler takes its presence entry along).
+        self._close = weakref.finalize(self, _close, self._owned)
         self._network = network
         if network is not None:
             network._start(on_failure=self.stop)
@@ -67,7 +78,7 @@ class Scheduler:
         else:
             raise TypeError(f"add() takes a horus.Node or a C++ node, got {type(node).__name__}")
         self._core.add(core_node, **settings)
-        self._nodes[core_node.name] = node
+        self._owned.nodes[core_node.name] = node
         return self
 
     def add_critical_node(self, name: str, timeout_ms: float) -> "Scheduler":
@@ -79,12 +90,14 @@ class Scheduler:
 
     def run(self, duration: float | None = None) -> int:
         """Runs until stop(), Ctrl+C, SIGTERM, a node's request_stop() or `duration` seconds;
-        shuts the nodes down in reverse order. 0, or 1 when a failure stopped it."""
+        shuts the nodes down in reverse order. 0, or 1 when a failure stopped it (a node's, or
+        every node's init() failing: with no node left, it does not idle)."""
         try:
             status = self._core.run() if duration is None else self._core.run_for(float(duration))
         finally:
             if self._network is not None:
                 self._network._stop(wait=True)
+        self._owned.release_topics()  # the nodes are shut down, and a scheduler runs once
         return status or (self._network.status if self._network is not None else 0)
 
     def tick_once(self, names: list[str] | None = None) -> None:
@@ -107,6 +120,15 @@ class Scheduler:
         self.stop()
         if self._network is not None:
             self._network._stop(wait=True)
+        if not self._core.is_running():  # a run() on another thread is still shutting down
+            self._owned.release_topics()
+
+    @property
+    def _core(self) -> _core.Scheduler:
+        core = self._owned.core
+        if core is None:
+            raise _core.HorusError("this scheduler was closed as the interpreter exited")
+        return core
 
     # -- runtime changes --------------------------------------------------------------------
 
@@ -120,7 +142,7 @@ class Scheduler:
 
     def remove_node(self, name: str) -> bool:
         removed = self._core.remove_node(name)
-        self._nodes.pop(name, None)
+        self._owned.nodes.pop(name, None)
         return removed
 
     # -- introspection ----------------------------------------------------------------------
@@ -203,6 +225,45 @@ class Scheduler:
         return self._core.delete_recording(session)
 
 
+class _Owned:
+    """What a Scheduler owns that must not outlive it: the C++ scheduler and the nodes, whose
+    topics it closes (kept apart from the Scheduler so that its finalizer can hold them)."""
+
+    def __init__(self, core: _core.Scheduler) -> None:
+        self.core: _core.Scheduler | None = core
+        self.nodes: dict[str, object] = {}
+
+    def release_topics(self) -> None:
+        """Closes the Python nodes' topics (a later use opens them again), then removes the
+        segments this process created that nobody has open any more."""
+        for node in self.nodes.values():
+            if isinstance(node, Node):
+                node._close_topics()
+        _core.remove_created_topics_nobody_uses()
+
+
+def _close(owned: _Owned) -> None:
+    core = owned.core
+    if core.is_running():
+        # A loop on a thread the interpreter does not wait for (a daemon thread): destroying the
+        # scheduler under it would crash the process.
+        core.stop()
+        return
+    owned.core = None
+    del core  # shuts down the nodes init() started; C++ nodes' topics and its presence entry go
+    owned.release_topics()
+
+
+def _program_name() -> str | None:
+    """The running script's name ("agv" for agv.py, the package for `python -m package`); None
+    when Python runs no file (-c, a REPL), and the C++ scheduler's default applies."""
+    path = getattr(sys.modules.get("__main__"), "__file__", None)
+    if not path:
+        return None
+    path = Path(path)
+    return (path.parent.name if path.stem == "__main__" else path.stem) or None
+
+
 _CPP_DEFAULTS = dict(order=100, rate=None, budget=None, deadline=None, on_miss=None,
                      failure_policy=None, compute=False, on=None, async_io=False, priority=None,
                      core=None, watchdog=None)
@@ -226,6 +287,9 @@ def run(*nodes, duration: float | None = None, tick_rate: float = 1000.0, rt: bo
                       blackbox_mb=blackbox_mb, watchdog_ms=watchdog_ms, recording=recording,
                       name=name, cores=cores, max_deadline_misses=max_deadline_misses,
                       verbose=verbose, telemetry=telemetry, network=network)
-    for node in nodes:
-        sched.add(node)
-    return sched.run(duration)
+    try:
+        for node in nodes:
+            sched.add(node)
+        return sched.run(duration)
+    finally:
+        sched._close()

@@ -322,12 +322,8 @@ ProcessUses& process_uses() {
 }
 
 std::string program_name() {
-  char name[64] = {};
-  const int fd = ::open("/proc/self/comm", O_RDONLY | O_CLOEXEC);
-  ssize_t got = fd >= 0 ? ::read(fd, name, sizeof name - 1) : -1;
-  if (fd >= 0) ::close(fd);
-  while (got > 0 && (name[got - 1] == '\n' || name[got - 1] == '\0')) --got;
-  return got > 0 ? std::string(name, static_cast<std::size_t>(got)) : "?";
+  std::string name = detail::process_name(detail::this_pid());
+  return name.empty() ? "?" : name;
 }
 
 std::string uses_json(const NamespaceUses& uses) {

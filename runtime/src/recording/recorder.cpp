@@ -48,7 +48,8 @@ constexpr std::string_view kTickSchema =
     R"("properties":{"node":{"type":"string"},"tick":{"type":"integer"},)"
     R"("start_ns":{"type":"integer"},"duration_ns":{"type":"integer"},)"
     R"("outcome":{"type":"string","enum":["ok","error","deadline_miss"]},)"
-    R"("received":{"type":"object","additionalProperties":{"type":"integer"}}},)"
+    R"("received":{"type":"object","additionalProperties":{"type":"integer"}},)"
+    R"("taken":{"type":"object","additionalProperties":{"type":"integer"}}},)"
     R"("required":["node","tick","start_ns","duration_ns","outcome"]})";
 
 std::string hex16(std::uint64_t value) {
@@ -172,7 +173,7 @@ class RecorderImpl {
         std::find(ticks.watched.begin(), ticks.watched.end(), topic.name) != ticks.watched.end()) {
       return;
     }
-    if (ticks.log->watch(topic.endpoint->ring(), topic.endpoint))
+    if (ticks.log->watch(topic.name, topic.endpoint->ring(), topic.endpoint))
       ticks.watched.push_back(topic.name);
   }
 
@@ -381,6 +382,14 @@ class RecorderImpl {
         tick_text_ += json_string(ticks.watched[i]) + ":" + std::to_string(entry.received[i]);
       }
       tick_text_ += '}';
+      bool first = true;
+      for (std::size_t i = 0; i < entry.watched; ++i) {
+        if (entry.taken[i] == 0) continue;
+        tick_text_ += first ? ",\"taken\":{" : ",";
+        first = false;
+        tick_text_ += json_string(ticks.watched[i]) + ":" + std::to_string(entry.taken[i]);
+      }
+      if (!first) tick_text_ += '}';
     }
     tick_text_ += '}';
     writer_.add_message(

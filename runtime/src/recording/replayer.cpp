@@ -4,14 +4,16 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
 #include <optional>
 #include <span>
 #include <string_view>
-#include <tuple>
 #include <utility>
 
+#include "horus/detail/created_segments.hpp"
 #include "horus/detail/pool_frames.hpp"
 #include "horus/detail/ring.hpp"
+#include "horus/detail/service_frame.hpp"
 #include "horus/detail/shm_segment.hpp"
 #include "horus/detail/topic_endpoint.hpp"
 #include "horus/error.hpp"
@@ -58,14 +60,38 @@ std::optional<std::string> json_literal(std::string_view text, std::size_t& at) 
   return std::nullopt;
 }
 
-/// One recorded tick: the node, its cycle and start, and the ring positions of the topics it
-/// reads when it started ("received", written by recorder.cpp).
+using Counts = std::vector<std::pair<std::string, std::uint64_t>>;
+
+/// One recorded tick: the node, its cycle and start, the ring positions of the topics it reads
+/// when it started ("received") and how far it read them by its end ("taken", when it read any),
+/// as recorder.cpp writes them.
 struct RecordedTick {
   std::string node;
   std::uint64_t cycle = 0;
   std::uint64_t start_ns = 0;
-  std::vector<std::pair<std::string, std::uint64_t>> received;
+  Counts received;
+  Counts taken;
 };
+
+/// The object `"key":{topic: count, ...}` of a tick record into `counts`; false when malformed.
+bool parse_counts(std::string_view text, std::string_view key, Counts& counts) {
+  const std::string pattern = "\"" + std::string(key) + "\":{";
+  std::size_t at = text.find(pattern);
+  if (at == std::string_view::npos) return true;
+  at += pattern.size();
+  while (at < text.size() && text[at] != '}') {
+    if (text[at] == ',') ++at;
+    std::optional<std::string> topic = json_literal(text, at);
+    if (!topic || at >= text.size() || text[at] != ':') return false;
+    const std::string digits(text.substr(at + 1, 24));
+    char* end = nullptr;
+    const std::uint64_t count = std::strtoull(digits.c_str(), &end, 10);
+    if (end == digits.c_str()) return false;
+    at += 1 + static_cast<std::size_t>(end - digits.c_str());
+    counts.emplace_back(std::move(*topic), count);
+  }
+  return true;
+}
 
 std::optional<RecordedTick> parse_tick(std::string_view text) {
   RecordedTick tick;
@@ -77,61 +103,31 @@ std::optional<RecordedTick> parse_tick(std::string_view text) {
       !json_number(text, "start_ns", tick.start_ns))
     return std::nullopt;
   tick.node = std::move(*node);
-  at = text.find("\"received\":{");
-  if (at == std::string_view::npos) return tick;
-  at += 12;
-  while (at < text.size() && text[at] != '}') {
-    if (text[at] == ',') ++at;
-    std::optional<std::string> topic = json_literal(text, at);
-    if (!topic || at >= text.size() || text[at] != ':') return std::nullopt;
-    const std::string digits(text.substr(at + 1, 24));
-    char* end = nullptr;
-    const std::uint64_t count = std::strtoull(digits.c_str(), &end, 10);
-    if (end == digits.c_str()) return std::nullopt;
-    at += 1 + static_cast<std::size_t>(end - digits.c_str());
-    tick.received.emplace_back(std::move(*topic), count);
-  }
+  if (!parse_counts(text, "received", tick.received) || !parse_counts(text, "taken", tick.taken))
+    return std::nullopt;
   return tick;
 }
 
-/// When each message of one topic is due, from the ticks of the nodes that read it: before the
-/// first of those ticks that started with the message's ticket handed out (`received` > ticket).
-class FirstReceipt {
- public:
-  void add(std::uint64_t cycle, std::uint64_t start_ns, std::uint64_t received) {
-    ticks_.push_back({cycle, start_ns, received});
-  }
-  bool empty() const noexcept { return ticks_.empty(); }
-  void prepare() {
-    std::sort(ticks_.begin(), ticks_.end(), [](const Tick& a, const Tick& b) {
-      return std::tie(a.cycle, a.start_ns) < std::tie(b.cycle, b.start_ns);
-    });
-    // Readers of one topic start ticks in time order, so their positions only grow; the running
-    // maximum makes that exact across readers whose ticks interleave.
-    for (std::size_t i = 1; i < ticks_.size(); ++i)
-      ticks_[i].received = std::max(ticks_[i].received, ticks_[i - 1].received);
-    ticket_ = ticks_.front().received;
-  }
-  /// The tick that first received the message of 32-bit `sequence` (the file's sequence
-  /// numbers are tickets mod 2^32, taken in order: unwrapped against the previous one), or null.
-  const std::pair<std::uint64_t, std::uint64_t>* receipt(std::uint32_t sequence) {
-    ticket_ += static_cast<std::int32_t>(sequence - static_cast<std::uint32_t>(ticket_));
-    const auto first =
-        std::upper_bound(ticks_.begin(), ticks_.end(), ticket_,
-                         [](std::uint64_t t, const Tick& tick) { return t < tick.received; });
-    if (first == ticks_.end()) return nullptr;
-    found_ = {first->cycle, first->start_ns};
-    return &found_;
-  }
+/// Where one node was on one topic at each of its ticks that carried it: (the node's tick
+/// number, the tickets within its reach: those handed out when it started, or as far as it read
+/// by its end when a publisher on another thread sent more meanwhile and it took them).
+using Positions = std::vector<std::pair<std::uint64_t, std::uint64_t>>;
 
- private:
-  struct Tick {
-    std::uint64_t cycle, start_ns, received;
-  };
-  std::vector<Tick> ticks_;
-  std::uint64_t ticket_ = 0;
-  std::pair<std::uint64_t, std::uint64_t> found_;
-};
+/// The number of the first of `ticks` that had `ticket` within its reach, or nullopt.
+std::optional<std::uint64_t> first_receipt(const Positions& ticks, std::uint64_t ticket) {
+  const auto first =
+      std::upper_bound(ticks.begin(), ticks.end(), ticket,
+                       [](std::uint64_t t, const std::pair<std::uint64_t, std::uint64_t>& tick) {
+                         return t < tick.second;
+                       });
+  if (first == ticks.end()) return std::nullopt;
+  return first->first;
+}
+
+bool is_service_type(std::string_view type_name) {
+  return type_name == TypeInfo<ServiceRegistration>::name ||
+         type_name.starts_with(kRequestFrameName) || type_name.starts_with(kResponseFrameName);
+}
 
 std::uint64_t parse_fingerprint(const RecordedChannel& channel, const std::string& where) {
   const auto found = channel.metadata.find("horus.fingerprint");
@@ -148,7 +144,17 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
   const RecordingReader recording(path);
   const std::string where = "replay of " + path.string();
   const std::vector<TopicInfo> now = list_topics(namespace_name);
-  std::map<std::uint16_t, std::pair<TopicEndpoint*, PoolFrames*>> endpoints;
+  // Every channel is checked before the first topic is opened, so that a refusal leaves nothing
+  // behind in the namespace.
+  struct Planned {
+    std::uint16_t id;
+    const RecordedChannel* channel;
+    TypeDescriptor descriptor;
+    SegmentOptions options;
+    bool pool;
+    bool existed;
+  };
+  std::vector<Planned> planned;
   for (const auto& entry : recording.channels()) {
     const std::uint16_t id = entry.first;
     const RecordedChannel& channel = entry.second;
@@ -157,8 +163,11 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
     if (schema == recording.schemas().end()) {
       throw Error(where + ": topic '" + channel.topic + "' refers to a missing schema");
     }
-    const std::uint64_t fingerprint = parse_fingerprint(channel, where);
     const RecordedSchema& type = schema->second;
+    // The nodes make their service calls again: recorded requests fed to their server would be
+    // answered twice, and a recorded registration would announce a server that is not there.
+    if (is_service_type(type.name)) continue;
+    const std::uint64_t fingerprint = parse_fingerprint(channel, where);
     const auto live = std::find_if(now.begin(), now.end(),
                                    [&](const TopicInfo& t) { return t.name == channel.topic; });
     if (live != now.end() && !live->type_name.empty() &&
@@ -182,30 +191,54 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
     for (const RecordedMessage& m : recording.messages()) {
       if (m.channel_id == id && !pool) largest = std::max(largest, m.data.size());
     }
-    const TypeDescriptor descriptor{type.name, fingerprint, type.data, pod, size, 1};
-    SegmentOptions options{live != now.end() ? live->capacity : 64,
-                           std::max<std::size_t>(largest, std::size_t{16} * 1024), 0600,
-                           namespace_name, false};
-    topics_.push_back(std::make_unique<TopicEndpoint>(
-        ShmSegment::open_topic(channel.topic, descriptor, options)));
-    PoolFrames* frames = nullptr;
-    if (pool) {
-      // Each frame is made again in this namespace's pool; the ring's capacity of them stay alive.
-      frames_.push_back(make_pool_frames(type.name, fingerprint, namespace_name,
-                                         topics_.back()->ring().mask + 1));
-      if (!frames_.back()) {
-        throw Error(where + ": topic '" + channel.topic + "' holds " + type.name +
-                    " frames with their data, which only a program linking horus::pool replays");
+    planned.push_back(Planned{id, &channel,
+                              TypeDescriptor{type.name, fingerprint, type.data, pod, size, 1},
+                              SegmentOptions{live != now.end() ? live->capacity : 64,
+                                             std::max<std::size_t>(largest, std::size_t{16} * 1024),
+                                             0600, namespace_name, false},
+                              pool, live != now.end()});
+  }
+  std::map<std::uint16_t, std::pair<TopicEndpoint*, PoolFrames*>> endpoints;
+  try {
+    for (const Planned& plan : planned) {
+      topics_.push_back(std::make_unique<TopicEndpoint>(
+          ShmSegment::open_topic(plan.channel->topic, plan.descriptor, plan.options)));
+      PoolFrames* frames = nullptr;
+      if (plan.pool) {
+        // Each frame is made again in this namespace's pool; the ring's capacity of them stay
+        // alive.
+        frames_.push_back(make_pool_frames(plan.descriptor.name, plan.descriptor.fingerprint,
+                                           namespace_name, topics_.back()->ring().mask + 1));
+        if (!frames_.back()) {
+          throw Error(where + ": topic '" + plan.channel->topic + "' holds " +
+                      std::string(plan.descriptor.name) +
+                      " frames with their data, which only a program linking horus::pool "
+                      "replays");
+        }
+        frames = frames_.back().get();
       }
-      frames = frames_.back().get();
+      endpoints[plan.id] = {topics_.back().get(), frames};
     }
-    endpoints[id] = {topics_.back().get(), frames};
+  } catch (...) {
+    // The topics this replay created go again (those another process opened meanwhile stay).
+    frames_.clear();
+    topics_.clear();
+    const NamespaceFolder folder = open_namespace_folder(namespace_name, 0600, false);
+    for (const Planned& plan : planned) {
+      if (!plan.existed && folder.descriptor.get() >= 0) {
+        remove_if_abandoned(folder, plan.channel->topic);
+      }
+    }
+    throw;
   }
   const RecordedChannel* ticks = recording.channel(kTicksTopic);
-  // The ticks first: when each cycle began, and where each reading node was on its topics.
+  // The ticks first: when each cycle began, and where each reading node was on its topics at
+  // each of its ticks, numbered in the order the node ran them (the live run's cycle numbers
+  // cannot be matched: a live node's first tick falls in whatever cycle the loop had reached).
   std::map<std::uint64_t, std::uint64_t> cycle_starts;
-  std::map<std::uint16_t, FirstReceipt> receipts;
-  std::map<std::string, std::uint16_t> channel_ids;
+  std::map<std::string, std::uint64_t, std::less<>> tick_counts;
+  std::map<std::uint16_t, std::map<std::string, Positions>> positions;  // by channel, node
+  std::map<std::string, std::uint16_t, std::less<>> channel_ids;
   for (const auto& [id, channel] : recording.channels()) channel_ids.emplace(channel.topic, id);
   for (const RecordedMessage& m : recording.messages()) {
     if (ticks == nullptr || m.channel_id != ticks->id) continue;
@@ -214,68 +247,104 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
     if (!tick) continue;
     auto [first, fresh] = cycle_starts.emplace(tick->cycle, tick->start_ns);
     if (!fresh) first->second = std::min(first->second, tick->start_ns);
-    tick_starts_[{tick->cycle, tick->node}] = tick->start_ns;
+    has_ticks_ = true;
     last_cycle_ = std::max(last_cycle_, tick->cycle);
+    const std::uint64_t number = tick_counts[tick->node]++;
     for (const auto& [topic, received] : tick->received) {
       const auto channel = channel_ids.find(topic);
-      if (channel != channel_ids.end())
-        receipts[channel->second].add(tick->cycle, tick->start_ns, received);
+      if (channel == channel_ids.end()) continue;
+      std::uint64_t reach = received;
+      for (const auto& [read_topic, taken] : tick->taken) {
+        if (read_topic == topic) reach = std::max(reach, taken);
+      }
+      positions[channel->second][tick->node].emplace_back(number, reach);
     }
   }
-  for (auto& entry : receipts) entry.second.prepare();
+  // The file's sequence numbers are tickets mod 2^32, in order on a channel: each is unwrapped
+  // against the previous one, starting from the lowest position a reader noted.
+  std::map<std::uint16_t, std::uint64_t> tickets;
+  for (auto& [channel, readers] : positions) {
+    std::uint64_t lowest = UINT64_MAX;
+    for (auto& [node, ticks_of_node] : readers) {
+      // The counts only grow; the running maximum keeps them sorted for first_receipt.
+      for (std::size_t i = 1; i < ticks_of_node.size(); ++i)
+        ticks_of_node[i].second = std::max(ticks_of_node[i].second, ticks_of_node[i - 1].second);
+      lowest = std::min(lowest, ticks_of_node.front().second);
+    }
+    tickets[channel] = lowest;
+  }
   for (const RecordedMessage& m : recording.messages()) {
     const auto endpoint = endpoints.find(m.channel_id);
     if (endpoint == endpoints.end()) continue;
-    Due due{UINT64_MAX, 0};
-    const auto receipt = receipts.find(m.channel_id);
-    const auto* tick = receipt == receipts.end() ? nullptr : receipt->second.receipt(m.sequence);
-    if (tick != nullptr) {
-      due = Due{tick->first, tick->second};
-    } else {
-      // No node that names the topic received it: before the first cycle that began after the
-      // recorder took it.
-      const auto after = std::find_if(cycle_starts.begin(), cycle_starts.end(),
-                                      [&](const auto& cycle) { return cycle.second > m.log_time; });
-      if (after != cycle_starts.end()) due = Due{after->first, 0};
+    const std::size_t index = messages_.size();
+    messages_.push_back(Message{endpoint->second.first, endpoint->second.second, m.data, false});
+    const auto readers = positions.find(m.channel_id);
+    if (readers != positions.end()) {
+      std::uint64_t& ticket = tickets[m.channel_id];
+      ticket += static_cast<std::int32_t>(m.sequence - static_cast<std::uint32_t>(ticket));
+      // What came after a reader's last recorded tick is due at its next one, not earlier by
+      // some cycle count: the replay's cycles are not the live run's.
+      for (const auto& [node, ticks_of_node] : readers->second) {
+        readers_[node].due.emplace_back(
+            first_receipt(ticks_of_node, ticket).value_or(tick_counts.at(node)), index);
+      }
+      continue;
     }
-    messages_.push_back(Message{due, endpoint->second.first, endpoint->second.second, m.data});
+    // No node that names the topic recorded a tick: before the first cycle that began after the
+    // recorder took it (after the last, once the recorded cycles are exhausted).
+    const auto after = std::find_if(cycle_starts.begin(), cycle_starts.end(),
+                                    [&](const auto& cycle) { return cycle.second > m.log_time; });
+    unread_.emplace_back(after != cycle_starts.end() ? after->first : UINT64_MAX, index);
   }
-  std::stable_sort(messages_.begin(), messages_.end(),
-                   [](const Message& a, const Message& b) { return a.due < b.due; });
+  std::stable_sort(unread_.begin(), unread_.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (auto& [node, reader] : readers_) std::sort(reader.due.begin(), reader.due.end());
 }
 
 Replayer::~Replayer() = default;
 
 void Replayer::deliver_before_cycle(std::uint64_t cycle) {
-  const bool past_the_recorded_cycles = tick_starts_.empty() || cycle > last_cycle_;
-  deliver_until(past_the_recorded_cycles ? Due{UINT64_MAX, UINT64_MAX} : Due{cycle, 0});
+  const std::uint64_t until = !has_ticks_ || cycle > last_cycle_ ? UINT64_MAX : cycle;
+  for (; next_unread_ < unread_.size() && unread_[next_unread_].first <= until; ++next_unread_)
+    send(unread_[next_unread_].second);
 }
 
-void Replayer::deliver_before_tick(std::uint64_t cycle, const std::string& node) {
-  const auto tick = tick_starts_.find({cycle, node});
-  if (tick != tick_starts_.end()) deliver_until(Due{cycle, tick->second});
+void Replayer::deliver_before_tick(std::string_view node) {
+  if (Reader* reader = deliver_for_next_tick(node)) ++reader->ticks;
 }
 
-void Replayer::deliver_until(Due due) {
-  for (; next_ < messages_.size() && messages_[next_].due <= due; ++next_) {
-    Message& m = messages_[next_];
-    std::span<const std::byte> bytes(reinterpret_cast<const std::byte*>(m.data.data()),
-                                     m.data.size());
-    if (m.frames != nullptr) {
-      try {
-        bytes = m.frames->replay(m.data);
-      } catch (const Error& e) {
-        log::warn("replay: a frame could not be made again: %s", e.what());
-        continue;
-      }
-      if (bytes.empty()) continue;  // malformed in the file
+Replayer::Reader* Replayer::deliver_for_next_tick(std::string_view node) {
+  const auto found = readers_.find(node);
+  if (found == readers_.end()) return nullptr;
+  Reader& reader = found->second;
+  // In recorded order, so a topic's messages keep their order whichever reader calls for them.
+  for (; reader.next < reader.due.size() && reader.due[reader.next].first <= reader.ticks;
+       ++reader.next)
+    send(reader.due[reader.next].second);
+  return &reader;
+}
+
+void Replayer::send(std::size_t message) {
+  Message& m = messages_[message];
+  if (m.sent) return;
+  m.sent = true;
+  ++delivered_;
+  std::span<const std::byte> bytes(reinterpret_cast<const std::byte*>(m.data.data()),
+                                   m.data.size());
+  if (m.frames != nullptr) {
+    try {
+      bytes = m.frames->replay(m.data);
+    } catch (const Error& e) {
+      log::warn("replay: a frame could not be made again: %s", e.what());
+      return;
     }
-    m.topic->send([&](std::byte* payload) {
-      if (bytes.size() > m.topic->ring().payload_capacity) return kReleasedSlot;
-      std::memcpy(payload, bytes.data(), bytes.size());
-      return static_cast<std::uint32_t>(bytes.size());
-    });
+    if (bytes.empty()) return;  // malformed in the file
   }
+  m.topic->send([&](std::byte* payload) {
+    if (bytes.size() > m.topic->ring().payload_capacity) return kReleasedSlot;
+    std::memcpy(payload, bytes.data(), bytes.size());
+    return static_cast<std::uint32_t>(bytes.size());
+  });
 }
 
 }  // namespace horus::detail

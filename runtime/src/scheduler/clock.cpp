@@ -38,6 +38,8 @@ std::chrono::nanoseconds now() noexcept {
   return std::chrono::seconds(ts.tv_sec) + std::chrono::nanoseconds(ts.tv_nsec);
 }
 
+std::uint64_t timestamp_now() noexcept { return static_cast<std::uint64_t>(now().count()); }
+
 std::chrono::nanoseconds dt() noexcept {
   const detail::TickContext* ctx = current_tick_context();
   return std::chrono::nanoseconds(ctx != nullptr ? ctx->dt_ns : 0);

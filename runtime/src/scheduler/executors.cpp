@@ -45,11 +45,7 @@ bool named(const std::vector<std::string>* names, const std::string& name) {
 class ThreadGroup {
  public:
   explicit ThreadGroup(std::shared_ptr<void> keep_alive) : keep_alive_(std::move(keep_alive)) {
-    sigset_t blocked;
-    sigemptyset(&blocked);
-    sigaddset(&blocked, SIGINT);
-    sigaddset(&blocked, SIGTERM);
-    pthread_sigmask(SIG_BLOCK, &blocked, &previous_mask_);
+    pthread_sigmask(SIG_BLOCK, &stop_signals(), &previous_mask_);
   }
   ~ThreadGroup() { unblock_signals(); }
   ThreadGroup(const ThreadGroup&) = delete;
@@ -57,12 +53,22 @@ class ThreadGroup {
 
   template <class Body>
   void spawn(Body body) {
+    // A thread started later in the loop (a node added while running) is started masked too.
+    sigset_t previous;
+    const bool mask = !blocking_;
+    if (mask) pthread_sigmask(SIG_BLOCK, &stop_signals(), &previous);
     auto exited = std::make_shared<std::atomic<bool>>(false);
-    threads_.push_back({std::thread([body, exited, keep = keep_alive_] {
-                          body();
-                          exited->store(true, std::memory_order_release);
-                        }),
-                        exited});
+    try {
+      threads_.push_back({std::thread([body, exited, keep = keep_alive_] {
+                            body();
+                            exited->store(true, std::memory_order_release);
+                          }),
+                          exited});
+    } catch (...) {
+      if (mask) pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+      throw;
+    }
+    if (mask) pthread_sigmask(SIG_SETMASK, &previous, nullptr);
   }
 
   void unblock_signals() noexcept {
@@ -94,6 +100,16 @@ class ThreadGroup {
     std::thread thread;
     std::shared_ptr<std::atomic<bool>> exited;
   };
+  static const sigset_t& stop_signals() {
+    static const sigset_t set = [] {
+      sigset_t signals;
+      sigemptyset(&signals);
+      sigaddset(&signals, SIGINT);
+      sigaddset(&signals, SIGTERM);
+      return signals;
+    }();
+    return set;
+  }
   std::shared_ptr<void> keep_alive_;
   std::vector<Running> threads_;
   sigset_t previous_mask_{};
@@ -125,11 +141,15 @@ void SchedulerImpl::release_if_due(NodeSlot& slot, std::int64_t& mono) noexcept 
 
 void SchedulerImpl::pass_once(const std::vector<std::string>* names) {
   const bool deterministic = config_.deterministic();
+  // Nodes added while running (from a tick, say) start here, on the thread that runs them all.
+  if (changes_pending_.load(std::memory_order_acquire) && changes_pending_.exchange(false)) {
+    start_nodes(unstarted_slots());
+  }
   refresh_loop_slots();
   const std::vector<SlotPtr>& slots = loop_slots_;
   if (names != nullptr) check_names(slots, *names, "tick_once");
-  // What the recording received before this cycle began reaches its topics first, and what a
-  // node of this name first received in this cycle, just before its tick.
+  // What no recorded reader received reaches its topics by cycle; what a reader received, just
+  // before its tick of the same number (service()).
   const std::uint64_t cycle = cycle_.load(std::memory_order_relaxed);
   if (replayer_) replayer_->deliver_before_cycle(cycle);
   std::int64_t mono = monotonic_ns();
@@ -137,8 +157,8 @@ void SchedulerImpl::pass_once(const std::vector<std::string>* names) {
   for (const SlotPtr& slot : slots) {
     NodeSlot& s = *slot;
     if (!named(names, s.name)) continue;
-    if (replayer_) replayer_->deliver_before_tick(cycle, s.name);
     if (s.execution_class == ExecutionClass::Event) {
+      if (replayer_) replayer_->deliver_ahead_of_tick(s.name);
       if (s.notifier->wait(std::chrono::nanoseconds(0))) service(s, mono, mono);
     } else if (deterministic) {
       release_if_due(s, mono);
@@ -171,14 +191,24 @@ void SchedulerImpl::real_loop(std::optional<std::int64_t> duration_ns,
     check_names(slots, *names, "tick_for");
     std::erase_if(slots, [&](const SlotPtr& s) { return !named(names, s->name); });
   }
+  // A node added during init() is not started yet: the main loop adopts it at its first cycle.
+  std::erase_if(slots, [](const SlotPtr& s) { return !s->init_attempted; });
+  LoopPlan plan = plan_loop(slots);
+  ThreadGroup threads(shared_from_this());
+  auto clock = std::make_shared<LoopClock>();
+  start_threads(plan, clock, threads);
+  // The clock starts once every thread exists: making one costs milliseconds under rt's mlockall
+  // (its whole stack is locked and faulted in, holding the address space's lock that other
+  // threads' page faults wait for), which would make the first releases that late.
   const std::int64_t loop_start = monotonic_ns();
   const std::int64_t end =
       duration_ns ? loop_start + *duration_ns : std::numeric_limits<std::int64_t>::max();
-  const LoopPlan plan = plan_loop(slots, loop_start);
-
-  ThreadGroup threads(shared_from_this());
-  start_threads(plan, end, threads);
-  run_main_loop(*plan.main, loop_start, end);
+  for (const SlotPtr& s : slots) {
+    s->next_release_ns = loop_start;
+    s->warm_up = true;
+  }
+  clock->start(end);
+  run_main_loop(plan, threads, loop_start, end, names);
 
   // Teardown: end every thread; one stuck in a node's tick is abandoned after shutdown_timeout.
   wake(wake_word_);
@@ -206,7 +236,7 @@ void SchedulerImpl::simulated_loop(std::optional<std::int64_t> duration_ns,
   }
 }
 
-LoopPlan SchedulerImpl::plan_loop(const std::vector<SlotPtr>& slots, std::int64_t loop_start) {
+LoopPlan SchedulerImpl::plan_loop(const std::vector<SlotPtr>& slots) {
   LoopPlan plan;
   plan.main = std::make_shared<Executor>();
   plan.main->label = "main";
@@ -214,8 +244,7 @@ LoopPlan SchedulerImpl::plan_loop(const std::vector<SlotPtr>& slots, std::int64_
   std::map<std::tuple<std::int64_t, int, int>, std::shared_ptr<Executor>> rt_groups;
   std::vector<SlotPtr> compute;
   for (const SlotPtr& s : slots) {
-    s->next_release_ns = loop_start;
-    if (s->watchdog_ns > 0) plan.watched.push_back(s);
+    if (s->watchdog_ns.load() > 0) plan.watched.push_back(s);
     switch (s->execution_class) {
       case ExecutionClass::BestEffort:
         plan.main->slots.push_back(s);
@@ -275,36 +304,113 @@ LoopPlan SchedulerImpl::plan_loop(const std::vector<SlotPtr>& slots, std::int64_
   return plan;
 }
 
-void SchedulerImpl::start_threads(const LoopPlan& plan, std::int64_t end, ThreadGroup& threads) {
+void LoopClock::start(std::int64_t end) noexcept {
+  end_ns = end;
+  started.store(true, std::memory_order_release);
+  started.notify_all();
+}
+
+std::int64_t LoopClock::wait() const noexcept {
+  started.wait(false, std::memory_order_acquire);
+  return end_ns;
+}
+
+void SchedulerImpl::start_threads(const LoopPlan& plan, const std::shared_ptr<LoopClock>& clock,
+                                  ThreadGroup& threads) {
   try {
     for (const auto& ex : plan.executors) {
-      threads.spawn([this, ex, end] { run_executor(*ex, end); });
-    }
-    for (const SlotPtr& s : plan.events) {
-      threads.spawn([this, s, end] {
-        Executor ex;
-        ex.label = "event:" + s->name;
-        ex.core = s->config.core;
-        apply_thread_settings(ex);
-        run_event(*s, end);
+      threads.spawn([this, ex, clock] {
+        apply_thread_settings(*ex);
+        run_executor(*ex, clock->wait());
       });
     }
+    for (const SlotPtr& s : plan.events) spawn_event(s, clock, threads);
     if (!plan.watched.empty()) {
-      threads.spawn([this, watched = plan.watched, end] { run_watchdog(watched, end); });
+      threads.spawn(
+          [this, watched = plan.watched, clock] { run_watchdog(watched, clock->wait()); });
     }
-    if (telemetry_) threads.spawn([this, end] { run_telemetry(end); });
-    if (presence_) threads.spawn([this, end] { run_presence(end); });
+    if (telemetry_) threads.spawn([this, clock] { run_telemetry(clock->wait()); });
+    if (presence_) threads.spawn([this, clock] { run_presence(clock->wait()); });
   } catch (...) {
     threads.unblock_signals();
     request_stop("could not start the scheduler's threads", true);
+    clock->start(monotonic_ns());
     threads.join_until(std::numeric_limits<std::int64_t>::max());
     throw;
   }
   threads.unblock_signals();
 }
 
-void SchedulerImpl::run_main_loop(const Executor& main, std::int64_t loop_start, std::int64_t end) {
+void SchedulerImpl::spawn_event(const SlotPtr& slot, const std::shared_ptr<LoopClock>& clock,
+                                ThreadGroup& threads) {
+  threads.spawn([this, slot, clock] {
+    Executor ex;
+    ex.label = "event:" + slot->name;
+    ex.core = slot->config.core;
+    apply_thread_settings(ex);
+    run_event(*slot, clock->wait());
+  });
+}
+
+void SchedulerImpl::adopt_changes(LoopPlan& plan, ThreadGroup& threads, std::int64_t end,
+                                  const std::vector<std::string>* names) {
+  const std::vector<SlotPtr> fresh = unstarted_slots();
+  start_nodes(fresh);
+  std::vector<SlotPtr> watched;
+  {
+    std::lock_guard lock(mutex_);
+    watched.swap(newly_critical_);
+  }
+  auto clock = std::make_shared<LoopClock>();
+  clock->start(end);
+  const std::int64_t now = monotonic_ns();
+  for (const SlotPtr& s : fresh) {
+    if (!s->init_attempted || !named(names, s->name)) continue;
+    s->next_release_ns = now;
+    s->warm_up = true;
+    if (s->watchdog_ns.load() > 0 &&
+        std::find(watched.begin(), watched.end(), s) == watched.end()) {
+      watched.push_back(s);
+    }
+    switch (s->execution_class) {
+      case ExecutionClass::BestEffort: {
+        // In execution order among the main loop's nodes, which only this thread reads.
+        auto& main = plan.main->slots;
+        const auto before = [](const SlotPtr& a, const SlotPtr& b) {
+          return std::tie(a->config.order, a->registration) <
+                 std::tie(b->config.order, b->registration);
+        };
+        main.insert(std::upper_bound(main.begin(), main.end(), s, before), s);
+        break;
+      }
+      case ExecutionClass::Event:
+        plan.events.push_back(s);
+        spawn_event(s, clock, threads);
+        break;
+      default: {
+        // A thread of its own: an Rt group's or the compute pool's thread reads its node list
+        // without a lock, so it cannot take one more.
+        auto ex = std::make_shared<Executor>();
+        ex->label = std::string(to_string(s->execution_class)) + ":" + s->name;
+        ex->realtime = s->execution_class == ExecutionClass::Rt;
+        ex->priority = s->config.priority;
+        ex->core = s->config.core;
+        ex->slots.push_back(s);
+        threads.spawn([this, ex, end] {
+          apply_thread_settings(*ex);
+          run_executor(*ex, end);
+        });
+        break;
+      }
+    }
+  }
+  if (!watched.empty()) threads.spawn([this, watched, end] { run_watchdog(watched, end); });
+}
+
+void SchedulerImpl::run_main_loop(LoopPlan& plan, ThreadGroup& threads, std::int64_t loop_start,
+                                  std::int64_t end, const std::vector<std::string>* names) {
   // BestEffort nodes on the scheduler's tick grid, on the thread that called run().
+  const Executor& main = *plan.main;
   cpu_set_t previous_affinity;
   const bool pinned =
       !config_.cores().empty() &&
@@ -317,6 +423,15 @@ void SchedulerImpl::run_main_loop(const Executor& main, std::int64_t loop_start,
     if (!on_time || stop_requested_.load()) break;
     std::int64_t mono = monotonic_ns();
     if (mono >= end) break;
+    if (changes_pending_.load(std::memory_order_acquire) && changes_pending_.exchange(false)) {
+      try {
+        adopt_changes(plan, threads, end, names);
+      } catch (const std::exception& e) {
+        request_stop(std::string("could not start a node added while running: ") + e.what(), true);
+        break;
+      }
+      mono = monotonic_ns();
+    }
     cycle_.fetch_add(1, std::memory_order_relaxed);
     for (const SlotPtr& slot : main.slots) release_if_due(*slot, mono);
     next_cycle = next_on_grid(next_cycle, tick_period_ns_, mono);
@@ -357,7 +472,6 @@ void SchedulerImpl::apply_thread_settings(const Executor& ex) noexcept {
 }
 
 void SchedulerImpl::run_executor(Executor& ex, std::int64_t end) noexcept {
-  apply_thread_settings(ex);
   while (!loop_ending()) {
     std::int64_t earliest = end;
     for (const SlotPtr& s : ex.slots) earliest = std::min(earliest, s->next_release_ns);

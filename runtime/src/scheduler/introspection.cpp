@@ -49,10 +49,10 @@ NodeInfo SchedulerImpl::info(const NodeSlot& slot) const {
   info.rate = slot.config.rate;
   if (const auto b = slot.budget_ns.load(); b > 0) info.budget = std::chrono::nanoseconds(b);
   if (const auto d = slot.deadline_ns.load(); d > 0) info.deadline = std::chrono::nanoseconds(d);
-  if (slot.watchdog_ns > 0) info.watchdog = std::chrono::nanoseconds(slot.watchdog_ns);
+  if (const auto w = slot.watchdog_ns.load(); w > 0) info.watchdog = std::chrono::nanoseconds(w);
   info.on_miss = slot.config.on_miss;
   info.failure_policy = slot.config.failure_policy.kind();
-  info.critical = slot.critical;
+  info.critical = slot.critical.load();
   info.on_topic = slot.config.on_topic;
   info.priority = slot.config.priority;
   info.last_error = slot.last_error;

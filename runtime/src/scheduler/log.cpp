@@ -13,7 +13,9 @@
 #include <mutex>
 #include <new>
 #include <thread>
+#include <utility>
 
+#include "horus/detail/log_source.hpp"
 #include "horus/detail/ring.hpp"
 #include "log_ring.hpp"
 #include "logger.hpp"
@@ -232,14 +234,20 @@ void fill_entry(LogEntry& entry, LogLevel level, std::string_view source) noexce
   std::memcpy(entry.source, source.data(), entry.source_size);
 }
 
+thread_local std::string_view thread_source;
+
 std::string_view current_source() noexcept {
   const TickContext* context = current_tick_context();
-  return context != nullptr ? context->node_name : std::string_view{};
+  return context != nullptr ? context->node_name : thread_source;
 }
 
 }  // namespace
 
 void prepare_logging() noexcept { logger().ensure_started(); }
+
+std::string_view exchange_thread_log_source(std::string_view source) noexcept {
+  return std::exchange(thread_source, source);
+}
 
 void vlog_as(LogLevel level, std::string_view source, const char* format, va_list args) noexcept {
   if (!log::enabled(level)) return;

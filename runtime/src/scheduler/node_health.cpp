@@ -18,9 +18,9 @@ void SchedulerImpl::escalate(NodeSlot& slot, std::uint8_t level) noexcept {
     total_watchdog_.fetch_add(1, std::memory_order_relaxed);
   }
   record(BlackboxEventKind::WatchdogExpired, slot, level);
-  const NodeHealthState target = level >= 3 && slot.critical ? NodeHealthState::Isolated
-                                 : level >= 2                ? NodeHealthState::Unhealthy
-                                                             : NodeHealthState::Warning;
+  const NodeHealthState target = level >= 3 && slot.critical.load() ? NodeHealthState::Isolated
+                                 : level >= 2                       ? NodeHealthState::Unhealthy
+                                                                    : NodeHealthState::Warning;
   NodeHealthState current = slot.health.load(std::memory_order_acquire);
   while (current < target &&
          !slot.health.compare_exchange_weak(current, target, std::memory_order_acq_rel)) {
@@ -36,7 +36,9 @@ void SchedulerImpl::escalate(NodeSlot& slot, std::uint8_t level) noexcept {
         "critical node '%s' frozen (3x watchdog): isolating it, all nodes to safe state",
         slot.name.c_str());
     slot.pending_safe_state.store(true, std::memory_order_release);
-    for (const SlotPtr& other : loop_slots_) {
+    // Every node, those added while running too: a rare path, where the lock costs nothing.
+    std::lock_guard lock(mutex_);
+    for (const SlotPtr& other : slots_) {
       if (other.get() != &slot) other->pending_safe_state.store(true, std::memory_order_release);
     }
   } else if (config_.verbose() || target == NodeHealthState::Unhealthy) {
@@ -67,7 +69,7 @@ void SchedulerImpl::enter_safe(NodeSlot& slot) noexcept {
 
 void SchedulerImpl::run_watchdog(const std::vector<SlotPtr>& watched, std::int64_t end) noexcept {
   std::int64_t shortest = std::numeric_limits<std::int64_t>::max();
-  for (const SlotPtr& s : watched) shortest = std::min(shortest, s->watchdog_ns);
+  for (const SlotPtr& s : watched) shortest = std::min(shortest, s->watchdog_ns.load());
   const std::int64_t interval = std::clamp<std::int64_t>(shortest / 4, 1'000'000, 50'000'000);
   std::int64_t next = monotonic_ns() + interval;
   while (sleep_until(std::min(next, end))) {
@@ -75,9 +77,9 @@ void SchedulerImpl::run_watchdog(const std::vector<SlotPtr>& watched, std::int64
     if (now >= end) break;
     for (const SlotPtr& s : watched) {
       const std::int64_t started = s->tick_started_ns.load(std::memory_order_acquire);
-      if (started == 0 || now - started < s->watchdog_ns) continue;
-      escalate(*s, static_cast<std::uint8_t>(
-                       std::min<std::int64_t>((now - started) / s->watchdog_ns, 3)));
+      const std::int64_t timeout = s->watchdog_ns.load(std::memory_order_relaxed);
+      if (started == 0 || now - started < timeout) continue;
+      escalate(*s, static_cast<std::uint8_t>(std::min<std::int64_t>((now - started) / timeout, 3)));
     }
     next = next_on_grid(next, interval, now);
   }

@@ -4,6 +4,9 @@
 #include <cstdio>
 #include <exception>
 #include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
 
 #include "scheduler_impl.hpp"
 
@@ -134,7 +137,8 @@ void SchedulerImpl::service(NodeSlot& slot, std::int64_t release, std::int64_t& 
     ctx.dt_ns = slot.last_tick_start_ns >= 0 ? mono - slot.last_tick_start_ns : period;
   }
   slot.last_tick_start_ns = now;
-  const bool watched = slot.watchdog_ns > 0 && !deterministic;
+  const std::int64_t watchdog = slot.watchdog_ns.load(std::memory_order_relaxed);
+  const bool watched = watchdog > 0 && !deterministic;
   const std::int64_t start = deterministic ? monotonic_ns() : mono;
   ctx.tick_start_ns = start;
   ctx.release_ns = deterministic ? start : release;
@@ -142,7 +146,10 @@ void SchedulerImpl::service(NodeSlot& slot, std::int64_t release, std::int64_t& 
     slot.watchdog_level.store(0, std::memory_order_relaxed);
     slot.tick_started_ns.store(start, std::memory_order_release);
   }
+  // A replay feeds what this tick got live just where the live run counted what it had.
+  if (replayer_) replayer_->deliver_before_tick(slot.name);
   if (slot.tick_log) slot.tick_log->note_start();
+  slot.messages.topics.clear();
   std::exception_ptr error;
   {
     TickContextScope scope(&ctx);
@@ -157,6 +164,7 @@ void SchedulerImpl::service(NodeSlot& slot, std::int64_t release, std::int64_t& 
   mono = end;
 
   const std::int64_t duration = end - start;
+  if (blackbox_) blackbox_->record_tick(slot.name, index, duration, slot.messages.topics);
   slot.total_ticks.store(index + 1, std::memory_order_relaxed);
   slot.sum_tick_ns.store(slot.sum_tick_ns.load(std::memory_order_relaxed) + duration,
                          std::memory_order_relaxed);
@@ -180,14 +188,17 @@ void SchedulerImpl::service(NodeSlot& slot, std::int64_t release, std::int64_t& 
   const TickOutcome outcome = error ? TickOutcome::Error : TickOutcome::Ok;
   // Wall-clock enforcement would make a deterministic run depend on the machine's load.
   if (deterministic) return log_tick(slot, cycle, start, duration, outcome);
+  // A loop's first tick of each node pays one-time costs (a thread's first page faults, lazily
+  // made state, an interpreter's first calls) that say nothing about the ones to come.
+  const bool judged = !std::exchange(slot.warm_up, false);
 
-  if (ctx.budget_ns > 0 && duration > ctx.budget_ns) {
+  if (judged && ctx.budget_ns > 0 && duration > ctx.budget_ns) {
     slot.budget_overruns.fetch_add(1, std::memory_order_relaxed);
     total_overruns_.fetch_add(1, std::memory_order_relaxed);
     record(BlackboxEventKind::BudgetOverrun, slot, duration);
   }
   if (watched) {
-    const std::int64_t level = std::min<std::int64_t>(duration / slot.watchdog_ns, 3);
+    const std::int64_t level = std::min<std::int64_t>(duration / watchdog, 3);
     if (level > 0) escalate(slot, static_cast<std::uint8_t>(level));
     if (slot.health.load(std::memory_order_acquire) != NodeHealthState::Isolated) {
       const std::uint8_t reached = slot.watchdog_level.load(std::memory_order_acquire);
@@ -195,13 +206,13 @@ void SchedulerImpl::service(NodeSlot& slot, std::int64_t release, std::int64_t& 
                                     : reached == 1 ? NodeHealthState::Warning
                                                    : NodeHealthState::Unhealthy;
       set_health(slot, after);
-      if (after == NodeHealthState::Unhealthy) slot.unhealthy_until_ns = end + slot.watchdog_ns;
+      if (after == NodeHealthState::Unhealthy) slot.unhealthy_until_ns = end + watchdog;
     }
     if (slot.pending_safe_state.exchange(false, std::memory_order_acq_rel)) enter_safe(slot);
   }
   const std::int64_t deadline = slot.deadline_ns.load(std::memory_order_relaxed);
-  if (deadline > 0 && end - release > deadline) {
-    deadline_missed(slot, end - release - deadline);
+  if (judged && deadline > 0 && end - release > deadline) {
+    deadline_missed(slot, end - release - deadline, end);
     return log_tick(slot, cycle, start, duration, TickOutcome::DeadlineMiss);
   }
   log_tick(slot, cycle, start, duration, outcome);
@@ -284,19 +295,33 @@ void SchedulerImpl::handle_failure(NodeSlot& slot, Phase phase, const std::strin
   }
 }
 
-void SchedulerImpl::deadline_missed(NodeSlot& slot, std::int64_t late_ns) noexcept {
+void SchedulerImpl::deadline_missed(NodeSlot& slot, std::int64_t late_ns,
+                                    std::int64_t now_ns) noexcept {
   const std::uint64_t mine = slot.deadline_misses.fetch_add(1, std::memory_order_relaxed) + 1;
   const std::uint64_t total = total_misses_.fetch_add(1, std::memory_order_relaxed) + 1;
   record(BlackboxEventKind::DeadlineMiss, slot, late_ns, to_string(slot.config.on_miss));
-  char reason[160];
+  const auto limit = config_.max_deadline_misses();
+  // The first miss and then one line per interval, whatever the policy: a node that keeps
+  // missing shows up in the log long before the limit stops everything, without a line per miss.
+  if (mine == 1 || config_.verbose() || now_ns - slot.miss_logged_ns >= kMissLogIntervalNs) {
+    slot.miss_logged_ns = now_ns;
+    char of_limit[64] = "";
+    if (limit) {
+      std::snprintf(of_limit, sizeof(of_limit), " of max_deadline_misses %llu",
+                    static_cast<unsigned long long>(*limit));
+    }
+    const std::string_view policy = to_string(slot.config.on_miss);
+    log(LogLevel::Warn,
+        "node '%s' missed its deadline (%lld us) by %lld us (Miss::%.*s); misses: %llu by this "
+        "node, %llu%s in total",
+        slot.name.c_str(),
+        static_cast<long long>(slot.deadline_ns.load(std::memory_order_relaxed) / 1000),
+        static_cast<long long>(late_ns / 1000), static_cast<int>(policy.size()), policy.data(),
+        static_cast<unsigned long long>(mine), static_cast<unsigned long long>(total), of_limit);
+  }
   switch (slot.config.on_miss) {
     case Miss::Warn:
       slot.warnings.fetch_add(1, std::memory_order_relaxed);
-      if (mine == 1 || config_.verbose()) {
-        log(LogLevel::Warn, "node '%s' missed its deadline by %lld us%s", slot.name.c_str(),
-            static_cast<long long>(late_ns / 1000),
-            mine == 1 ? " (further misses counted only)" : "");
-      }
       break;
     case Miss::Skip:
       slot.skip_next = true;
@@ -304,17 +329,42 @@ void SchedulerImpl::deadline_missed(NodeSlot& slot, std::int64_t late_ns) noexce
     case Miss::SafeMode:
       enter_safe(slot);
       break;
-    case Miss::Stop:
+    case Miss::Stop: {
+      char reason[160];
       std::snprintf(reason, sizeof(reason), "node '%s' missed its deadline (Miss::Stop)",
                     slot.name.c_str());
       request_stop(reason, true);
       break;
+    }
   }
-  if (const auto limit = config_.max_deadline_misses(); limit && total >= *limit) {
-    std::snprintf(reason, sizeof(reason), "max_deadline_misses (%llu) reached",
-                  static_cast<unsigned long long>(*limit));
-    request_stop(reason, true);
+  // Only the miss that reaches the limit says so: the counter hands out each total once.
+  if (limit && total == *limit) {
+    try {
+      request_stop(miss_limit_reason(*limit), true);
+    } catch (...) {
+      request_stop("max_deadline_misses reached", true);  // out of memory for the details
+    }
   }
+}
+
+std::string SchedulerImpl::miss_limit_reason(std::uint64_t limit) const {
+  std::vector<std::pair<std::uint64_t, std::string>> missed;
+  for (const SlotPtr& s : ordered_slots()) {
+    if (const auto n = s->deadline_misses.load(std::memory_order_relaxed); n > 0) {
+      missed.emplace_back(n, s->name);
+    }
+  }
+  std::stable_sort(missed.begin(), missed.end(),
+                   [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::string nodes;
+  for (const auto& [count, name] : missed) {
+    nodes += (nodes.empty() ? "'" : ", '") + name + "' " + std::to_string(count);
+  }
+  return "max_deadline_misses (" + std::to_string(limit) + ") reached: deadline misses by node " +
+         nodes +
+         "; a node with a rate has a deadline of 95 % of its period unless deadline() sets it; "
+         "raise the limit with max_deadline_misses(n), or never stop with "
+         "max_deadline_misses(std::nullopt) (None in Python)";
 }
 
 }  // namespace horus::detail

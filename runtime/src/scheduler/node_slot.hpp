@@ -35,12 +35,13 @@ struct NodeSlot : std::enable_shared_from_this<NodeSlot> {
   ExecutionClass execution_class = ExecutionClass::BestEffort;
   bool budget_auto = false;
   bool deadline_auto = false;
-  bool critical = false;
+  // Atomic: add_critical_node() may change them while the node's thread and the watchdog run.
+  std::atomic<bool> critical{false};
   std::int64_t critical_timeout_ns = 0;
   std::atomic<std::int64_t> period_ns{0};
   std::atomic<std::int64_t> budget_ns{0};    // 0: none
   std::atomic<std::int64_t> deadline_ns{0};  // 0: none
-  std::int64_t watchdog_ns = 0;              // 0: none
+  std::atomic<std::int64_t> watchdog_ns{0};  // 0: none
   std::unique_ptr<TopicNotifier> notifier;
   /// The node's ticks on their way to the session recording; null while nothing records. Set
   /// before the node first runs and never reset, so the running thread reads it unguarded.
@@ -59,12 +60,14 @@ struct NodeSlot : std::enable_shared_from_this<NodeSlot> {
 
   // Release bookkeeping (executing thread only).
   std::int64_t next_release_ns = 0;
+  bool warm_up = false;  // the node's first tick in this loop: timed, not judged
   std::int64_t last_tick_start_ns = -1;
   std::int64_t resume_at_ns = 0;        // Restart backoff / Skip cooldown
   std::int64_t unhealthy_until_ns = 0;  // Unhealthy rest period
   bool skip_next = false;
   std::uint32_t consecutive_failures = 0;
   std::uint32_t restart_attempts = 0;
+  std::int64_t miss_logged_ns = 0;  // when a deadline miss of this node was last logged
   Rng rng;
   TickContext context;
   std::int64_t init_done_ns = 0;

@@ -5,7 +5,7 @@ namespace horus {
 int run(std::vector<RunNode> nodes, SchedulerConfig config,
         std::optional<std::chrono::nanoseconds> duration) {
   Scheduler scheduler(std::move(config));
-  for (const RunNode& entry : nodes) scheduler.add(entry.node()).configure(entry.config()).build();
+  for (const RunNode& entry : nodes) scheduler.add(entry);
   return duration ? scheduler.run_for(*duration) : scheduler.run();
 }
 

@@ -1,5 +1,7 @@
 // The entry points of a run (run, run_for, tick_once, tick_for) and stop requests.
 #include <cstdio>
+#include <string>
+#include <string_view>
 
 #include "horus/error.hpp"
 #include "logger.hpp"
@@ -61,6 +63,21 @@ int SchedulerImpl::run(std::optional<std::int64_t> duration_ns) {
   {
     Activity activity(*this, true);
     prepare();
+    // A node whose init() failed is out of the loop (FailurePolicy::Skip, Ignore, or Fatal without
+    // stop_on_failed_init, seed 001's default for Python nodes); with none left, the loop would
+    // idle until a signal and then report success.
+    const std::string failed_inits = [this] {
+      std::lock_guard lock(mutex_);
+      std::string text;
+      for (const SlotPtr& s : slots_) {
+        if (s->state.load() != NodeState::Error || s->restart_pending) return std::string();
+        const std::string_view error = s->last_error;  // "init(): <what>", maybe a traceback
+        text += (text.empty() ? "node '" : "; node '") + s->name + "' failed in " +
+                std::string(error.substr(0, error.find('\n')));
+      }
+      return text;
+    }();
+    if (!failed_inits.empty()) request_stop("no node left to run: " + failed_inits, true);
     real_loop(duration_ns, nullptr);
     purge_removed();
     check_signal();

@@ -1,10 +1,19 @@
 // horus::Scheduler and NodeBuilder: the public surface, forwarding to detail::SchedulerImpl.
 #include "horus/scheduler.hpp"
 
+#include <cerrno>
+#include <string>
+
 #include "horus/error.hpp"
 #include "scheduler_impl.hpp"
 
 namespace horus {
+
+std::string detail::program_name() {
+  // glibc's basename of argv[0], whole (the kernel's comm is cut at 15 characters).
+  const std::string name = program_invocation_short_name;
+  return name.empty() ? "horus" : name;
+}
 
 std::string_view to_string(ExecutionClass c) noexcept {
   switch (c) {
@@ -46,6 +55,10 @@ Scheduler::~Scheduler() { impl_->finish(); }
 
 NodeBuilder Scheduler::add(std::shared_ptr<Node> node) {
   return NodeBuilder(*this, impl_->add(std::move(node)));
+}
+
+Scheduler& Scheduler::add(const RunNode& node) {
+  return add(node.node()).configure(node.config()).build();
 }
 
 void Scheduler::add_critical_node(std::string_view name, std::chrono::nanoseconds timeout) {

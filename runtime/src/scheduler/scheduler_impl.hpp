@@ -60,6 +60,18 @@ struct LoopPlan {
   std::vector<SlotPtr> watched;                      // nodes with a watchdog timeout
 };
 
+/// When one real loop's clock starts: its threads wait for it before their first release.
+struct LoopClock {
+  /// Starts the clock (the loop ends at `end`) and wakes the waiting threads.
+  void start(std::int64_t end) noexcept;
+  /// Waits until the clock has started; returns when the loop ends.
+  std::int64_t wait() const noexcept;
+
+ private:
+  std::atomic<bool> started{false};
+  std::int64_t end_ns = 0;  // written before `started`
+};
+
 class ThreadGroup;
 class TelemetrySink;
 
@@ -112,6 +124,15 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   void derive(NodeSlot& slot) const;
   void validate(const NodeSlot& slot) const;
   void prepare();
+  /// Built nodes not yet initialised: those of the first run, and those added while running.
+  std::vector<SlotPtr> unstarted_slots() const;
+  /// Readies, records and initialises `fresh` (in order) on the calling thread.
+  void start_nodes(const std::vector<SlotPtr>& fresh);
+  /// At a safe point of a real loop (between two main-loop cycles, on the thread of run()):
+  /// starts the nodes added since, each on a thread of its own (BestEffort ones join `plan.main`),
+  /// and watches the nodes made critical since.
+  void adopt_changes(LoopPlan& plan, ThreadGroup& threads, std::int64_t end,
+                     const std::vector<std::string>* names);
   void refresh_loop_slots();
   void probe_rt();
   void add_degradation(const std::string& message);
@@ -121,7 +142,11 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   void service(NodeSlot& slot, std::int64_t release, std::int64_t& mono) noexcept;
   void handle_failure(NodeSlot& slot, Phase phase, const std::string& what,
                       std::int64_t sched_now) noexcept;
-  void deadline_missed(NodeSlot& slot, std::int64_t late_ns) noexcept;
+  void deadline_missed(NodeSlot& slot, std::int64_t late_ns, std::int64_t now_ns) noexcept;
+  /// Why max_deadline_misses stopped the scheduler: the limit, each node's misses, the settings.
+  std::string miss_limit_reason(std::uint64_t limit) const;
+  /// A node that keeps missing is logged at most this often (its first miss at once).
+  static constexpr std::int64_t kMissLogIntervalNs = 10'000'000'000;
   void escalate(NodeSlot& slot, std::uint8_t level) noexcept;
   void set_health(NodeSlot& slot, NodeHealthState health) noexcept;
   void enter_safe(NodeSlot& slot) noexcept;
@@ -137,9 +162,13 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   void real_loop(std::optional<std::int64_t> duration_ns, const std::vector<std::string>* names);
   void simulated_loop(std::optional<std::int64_t> duration_ns,
                       const std::vector<std::string>* names);
-  LoopPlan plan_loop(const std::vector<SlotPtr>& slots, std::int64_t loop_start);
-  void start_threads(const LoopPlan& plan, std::int64_t end_ns, ThreadGroup& threads);
-  void run_main_loop(const Executor& main, std::int64_t loop_start, std::int64_t end_ns);
+  LoopPlan plan_loop(const std::vector<SlotPtr>& slots);
+  void start_threads(const LoopPlan& plan, const std::shared_ptr<LoopClock>& clock,
+                     ThreadGroup& threads);
+  void run_main_loop(LoopPlan& plan, ThreadGroup& threads, std::int64_t loop_start,
+                     std::int64_t end_ns, const std::vector<std::string>* names);
+  void spawn_event(const SlotPtr& slot, const std::shared_ptr<LoopClock>& clock,
+                   ThreadGroup& threads);
   void run_executor(Executor& ex, std::int64_t end_ns) noexcept;
   void run_event(NodeSlot& slot, std::int64_t end_ns) noexcept;
   void run_watchdog(const std::vector<SlotPtr>& watched, std::int64_t end_ns) noexcept;
@@ -170,7 +199,9 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   /// Hands a finished tick to the recording, if one runs (the tick path: no lock, no allocation).
   static void log_tick(NodeSlot& slot, std::uint64_t cycle, std::int64_t start,
                        std::int64_t duration, TickOutcome outcome) noexcept {
-    if (slot.tick_log) slot.tick_log->push(TickEntry{cycle, start, duration, outcome});
+    if (slot.tick_log) {
+      slot.tick_log->push(TickEntry{cycle, start, duration, outcome}, slot.messages.topics);
+    }
   }
 
   void record(BlackboxEventKind kind, const NodeSlot& slot, std::int64_t value = 0,
@@ -200,6 +231,14 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   std::uint64_t loop_slots_version_ = 0;
   std::atomic<std::uint64_t> structure_version_{1};  // bumped when nodes are built or removed
   std::atomic<bool> removals_pending_{false};
+  /// Nodes added with add() while running, kept out of slots_ (where the loop's threads would
+  /// read their settings) until build() has them complete.
+  std::vector<SlotPtr> unbuilt_;
+  /// Nodes made critical while a real loop runs, for its watchdog (guarded by mutex_).
+  std::vector<SlotPtr> newly_critical_;
+  /// Set by build() and add_critical_node() while running: the one load a main-loop cycle pays
+  /// for runtime additions.
+  std::atomic<bool> changes_pending_{false};
 
   bool topic_cycle_reported_ = false;
   bool prepared_ = false;
@@ -209,7 +248,7 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   std::atomic<bool> stop_requested_{false};
   std::atomic<bool> failed_{false};
   std::atomic<std::uint32_t> wake_word_{0};  // non-zero: the current loop must end
-  char stop_reason_[192] = {};
+  char stop_reason_[512] = {};
   std::atomic<bool> stop_reason_set_{false};
 
   std::atomic<std::uint64_t> cycle_{0};

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <iterator>
 #include <thread>
 
 #include "horus/detail/created_segments.hpp"
@@ -98,7 +99,8 @@ SchedulerImpl::SchedulerImpl(SchedulerConfig config)
   }
   if (config_.name().empty()) throw Error("horus::Scheduler: name must not be empty");
   if (config_.blackbox_mb() > 0) {
-    blackbox_ = std::make_unique<Blackbox>(Blackbox::capacity_for_mb(config_.blackbox_mb()));
+    const Blackbox::Capacity capacity = Blackbox::capacity_for_mb(config_.blackbox_mb());
+    blackbox_ = std::make_unique<Blackbox>(capacity.events, capacity.ticks);
     blackbox_path_ = config_.blackbox_path().empty()
                          ? std::filesystem::path(config_.name() + ".blackbox")
                          : config_.blackbox_path();
@@ -139,6 +141,7 @@ SchedulerImpl::~SchedulerImpl() {
   // The nodes go first: their topics close, so a segment only they used has no live user left.
   loop_slots_.clear();
   slots_.clear();
+  unbuilt_.clear();
   try {
     remove_created_segments_nobody_uses();
   } catch (const std::exception& e) {
@@ -202,17 +205,13 @@ void SchedulerImpl::add_degradation(const std::string& message) {
 
 NodeConfig* SchedulerImpl::add(std::shared_ptr<Node> node) {
   if (!node) throw Error("horus::Scheduler::add: node is null");
-  if (active_.load()) {
-    throw Error("horus::Scheduler::add: cannot add node '" + std::string(node->name()) +
-                "' while the scheduler is running");
-  }
   auto slot = std::make_shared<NodeSlot>();
   slot->name = std::string(node->name());
   node->scheduler_ = weak_from_this();
   slot->node = std::move(node);
   std::lock_guard lock(mutex_);
   slot->registration = registrations_++;
-  slots_.push_back(slot);
+  (active_.load() ? unbuilt_ : slots_).push_back(slot);
   return &slot->config;
 }
 
@@ -280,21 +279,30 @@ void SchedulerImpl::derive(NodeSlot& slot) const {
                                            : 0;
   slot.budget_ns.store(budget);
   slot.deadline_ns.store(deadline);
-  slot.watchdog_ns = slot.critical ? slot.critical_timeout_ns
-                     : c.watchdog  ? c.watchdog->count()
-                                   : config_.watchdog().count();
+  slot.watchdog_ns.store(slot.critical.load() ? slot.critical_timeout_ns
+                         : c.watchdog         ? c.watchdog->count()
+                                              : config_.watchdog().count());
 }
 
 void SchedulerImpl::build(NodeConfig* config) {
   std::lock_guard lock(mutex_);
-  const auto it = std::find_if(slots_.begin(), slots_.end(),
-                               [&](const SlotPtr& s) { return &s->config == config; });
+  const auto is_it = [&](const SlotPtr& s) { return &s->config == config; };
+  auto it = std::find_if(slots_.begin(), slots_.end(), is_it);
+  if (const auto added = std::find_if(unbuilt_.begin(), unbuilt_.end(), is_it);
+      added != unbuilt_.end()) {
+    // Added while running: it joins slots_ complete, or not at all.
+    SlotPtr slot = *added;
+    unbuilt_.erase(added);
+    slots_.push_back(std::move(slot));
+    it = std::prev(slots_.end());
+  }
   if (it == slots_.end())
     throw Error("horus::NodeBuilder::build: the node is no longer registered");
   NodeSlot& slot = **it;
   if (slot.built) throw Error("node '" + slot.name + "': build() called twice");
   for (const SlotPtr& other : slots_) {
-    if (other.get() != &slot && other->name == slot.name) {
+    if (other.get() != &slot && other->name == slot.name && !other->removed.load() &&
+        !other->remove_requested.load()) {
       const std::string name = slot.name;  // the slot dies with the erase
       slots_.erase(it);
       throw Error("duplicate node name '" + name +
@@ -311,6 +319,7 @@ void SchedulerImpl::build(NodeConfig* config) {
   derive(slot);
   slot.built = true;
   structure_version_.fetch_add(1, std::memory_order_release);
+  if (active_.load()) changes_pending_.store(true, std::memory_order_release);
   std::stable_sort(slots_.begin(), slots_.end(), [](const SlotPtr& a, const SlotPtr& b) {
     return a->config.order != b->config.order ? a->config.order < b->config.order
                                               : a->registration < b->registration;
@@ -321,28 +330,28 @@ void SchedulerImpl::add_critical_node(std::string_view name, std::chrono::nanose
   if (timeout.count() <= 0) {
     throw Error("add_critical_node('" + std::string(name) + "'): timeout must be positive");
   }
-  if (active_.load()) {
-    throw Error("add_critical_node('" + std::string(name) + "'): not while the scheduler runs");
-  }
   SlotPtr slot = find(name);
   if (!slot || !slot->built) {
     throw Error("add_critical_node: no built node named '" + std::string(name) + "'");
   }
   std::lock_guard lock(mutex_);
-  slot->critical = true;
+  slot->critical.store(true);
   slot->critical_timeout_ns = timeout.count();
-  slot->watchdog_ns = timeout.count();
+  slot->watchdog_ns.store(timeout.count());
+  // The running loop's watchdog thread knows only the nodes watched when it started.
+  if (in_loop_.load() && !config_.deterministic()) {
+    newly_critical_.push_back(slot);
+    changes_pending_.store(true, std::memory_order_release);
+  }
 }
 
 void SchedulerImpl::prepare() {
-  std::vector<SlotPtr> fresh;
   {
     std::lock_guard lock(mutex_);
     for (const SlotPtr& s : slots_) {
       if (!s->built) {
         throw Error("node '" + s->name + "' was added but .build() was never called");
       }
-      if (!s->init_attempted) fresh.push_back(s);
     }
   }
   if (!prepared_) {
@@ -353,6 +362,22 @@ void SchedulerImpl::prepare() {
                      config_.deterministic() ? "deterministic" : "");
   }
   // Nodes built since the last run are initialised (lazily, in order) like the first ones.
+  start_nodes(unstarted_slots());
+  if (!config_.replay().empty() && !replayer_) start_replay();
+}
+
+std::vector<SlotPtr> SchedulerImpl::unstarted_slots() const {
+  std::vector<SlotPtr> fresh;
+  std::lock_guard lock(mutex_);
+  for (const SlotPtr& s : slots_) {
+    if (s->built && !s->init_attempted && !s->removed.load() && !s->remove_requested.load()) {
+      fresh.push_back(s);
+    }
+  }
+  return fresh;
+}
+
+void SchedulerImpl::start_nodes(const std::vector<SlotPtr>& fresh) {
   for (const SlotPtr& s : fresh) {
     if (s->execution_class == ExecutionClass::Event && !s->notifier) {
       s->notifier = std::make_unique<TopicNotifier>(*s->config.on_topic);
@@ -367,6 +392,7 @@ void SchedulerImpl::prepare() {
     s->context.start_ns = start_mono_ns_;
     s->context.node_name = s->name;
     s->context.messages = &s->messages;
+    s->messages.track_topics = blackbox_ != nullptr;  // for the blackbox's tick records
     s->next_release_ns = sim_now_ns_;
   }
   if (config_.recording()) start_recording(fresh);
@@ -402,7 +428,6 @@ void SchedulerImpl::prepare() {
     }
     for (const std::string& topic : topics) recorder->add_topic(topic);
   }
-  if (!config_.replay().empty() && !replayer_) start_replay();
 }
 
 void SchedulerImpl::start_recording(const std::vector<SlotPtr>& fresh) {
@@ -415,6 +440,7 @@ void SchedulerImpl::start_recording(const std::vector<SlotPtr>& fresh) {
   for (const SlotPtr& s : fresh) {
     if (s->tick_log) continue;
     s->tick_log = std::make_shared<TickLog>();  // handed to the recorder once initialised
+    s->messages.track_topics = true;  // how far each tick read its topics goes into its entry
   }
 }
 

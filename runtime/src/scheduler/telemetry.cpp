@@ -70,10 +70,13 @@ bool TelemetrySink::publish(const std::string& json) noexcept {
 }
 
 std::string SchedulerImpl::telemetry_snapshot() const {
-  std::string json = "{\"scheduler\":" + json_string(config_.name()) +
-                     ",\"time_ns\":" + std::to_string(monotonic_ns() - start_mono_ns_) +
-                     ",\"cycle\":" + std::to_string(cycle_.load(std::memory_order_relaxed)) +
-                     ",\"nodes\":[";
+  const auto limit = config_.max_deadline_misses();
+  std::string json =
+      "{\"scheduler\":" + json_string(config_.name()) +
+      ",\"time_ns\":" + std::to_string(monotonic_ns() - start_mono_ns_) +
+      ",\"cycle\":" + std::to_string(cycle_.load(std::memory_order_relaxed)) +
+      ",\"deadline_misses\":" + std::to_string(total_misses_.load(std::memory_order_relaxed)) +
+      ",\"max_deadline_misses\":" + (limit ? std::to_string(*limit) : "null") + ",\"nodes\":[";
   bool first = true;
   for (const SlotPtr& slot : ordered_slots()) {
     const NodeMetrics m = metrics(*slot);
@@ -107,6 +110,8 @@ std::string SchedulerImpl::telemetry_snapshot() const {
       }
       json += "]";
     }
+    json += ",\"deadline_ns\":" +
+            (node.deadline ? std::to_string(node.deadline->count()) : std::string("null"));
     json += ",\"deadline_misses\":" + std::to_string(m.deadline_misses);
     json += ",\"budget_overruns\":" + std::to_string(m.budget_overruns);
     json += ",\"messages_sent\":" + std::to_string(m.messages_sent);

@@ -31,7 +31,7 @@ bool ErasedTopic::send(std::span<const std::byte> bytes) noexcept {
     return static_cast<std::uint32_t>(bytes.size());
   });
   if (sent) {
-    detail::count_sent();  // the running node's messages_sent, as Topic<T>::send counts
+    detail::count_sent(this, name_);  // the running node's messages_sent, as Topic<T>::send counts
   }
   return sent;
 }
@@ -50,7 +50,7 @@ bool ErasedTopic::publish() noexcept {
   }
   loaned_ = false;
   if (detail::finish_claim(endpoint_.ring(), loan_, static_cast<std::uint32_t>(type_.size))) {
-    detail::count_sent();
+    detail::count_sent(this, name_);
     return true;
   }
   endpoint_.count_send_failure();
@@ -88,7 +88,8 @@ std::ptrdiff_t ErasedTopic::receive(bool check_stall) noexcept {
   if (!got) {
     return -1;
   }
-  detail::count_received();  // the running node's messages_received, as Topic<T> counts
+  // The running node's messages_received, as Topic<T> counts.
+  detail::count_received(this, name_, endpoint_.next_ticket());
   return length;
 }
 

@@ -2,6 +2,7 @@
 // forgotten in every forked child; and whether the process an entry names still runs.
 #include "horus/detail/process.hpp"
 
+#include <fcntl.h>
 #include <pthread.h>
 #include <signal.h>
 #include <unistd.h>
@@ -117,6 +118,17 @@ std::int64_t identity_start_wall_ns(std::uint64_t identity) noexcept {
   // same (to the microsecond) each time it is asked.
   const std::int64_t booted_wall_ns = wall.tv_sec * 1'000'000'000LL + wall.tv_nsec - since_boot_ns;
   return booted_wall_ns + static_cast<std::int64_t>(start_ticks) * tick_ns;
+}
+
+std::string process_name(std::uint32_t pid) {
+  char path[32];
+  std::snprintf(path, sizeof path, "/proc/%u/comm", pid);
+  char name[64] = {};
+  const int fd = ::open(path, O_RDONLY | O_CLOEXEC);
+  ssize_t got = fd >= 0 ? ::read(fd, name, sizeof name - 1) : -1;
+  if (fd >= 0) ::close(fd);
+  while (got > 0 && (name[got - 1] == '\n' || name[got - 1] == '\0')) --got;
+  return got > 0 ? std::string(name, static_cast<std::size_t>(got)) : std::string();
 }
 
 }  // namespace horus::detail

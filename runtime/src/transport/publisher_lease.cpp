@@ -54,6 +54,8 @@ std::uint64_t settle_shared_base(RingControl& control, std::uint64_t proposed) n
 
 }  // namespace
 
+void prepare_publisher_leases() noexcept { covered_by_sleeper_barrier(); }
+
 bool ring_sleeper_barrier(const RingControl& control) noexcept {
   return !ring_leased(control) || global_barrier();
 }

@@ -18,9 +18,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <string>
 #include <utility>
+#include <vector>
 
 #include "horus/detail/created_segments.hpp"
+#include "horus/detail/process.hpp"
 #include "horus/error.hpp"
 
 namespace horus::detail {
@@ -341,6 +344,27 @@ void validate_segment_name(std::string_view what, std::string_view name) {
   }
 }
 
+/// The live processes holding the segment's typed part, as "pid 1234 (arm_driver)", for an
+/// error that must say who still uses the old type.
+std::string live_users_text(const ControlBlock& control) {
+  std::vector<std::uint32_t> pids;
+  for (const UserEntry& user : control.users) {
+    const std::uint64_t identity = user.process.load(std::memory_order_acquire);
+    const std::uint32_t pid = identity_pid(identity);
+    if ((user.roles.load(std::memory_order_relaxed) & kRoleNotifier) == 0 &&
+        identity_alive(identity) && std::find(pids.begin(), pids.end(), pid) == pids.end()) {
+      pids.push_back(pid);
+    }
+  }
+  std::string text;
+  for (const std::uint32_t pid : pids) {
+    text += text.empty() ? "pid " : ", pid ";
+    text += std::to_string(pid);
+    if (const std::string name = process_name(pid); !name.empty()) text += " (" + name + ")";
+  }
+  return text.empty() ? "a process that has just exited" : text;
+}
+
 bool segment_in_use(const ControlBlock& control) { return has_live_users(control, true); }
 
 std::string validate_control(const ControlBlock& control) {
@@ -449,8 +473,10 @@ ShmSegment ShmSegment::open_topic(std::string_view topic, const TypeDescriptor& 
     if (!usable && has_live_users(control, false)) {
       throw Error("topic '" + std::string(topic) + "' (" + path + ") carries " +
                   std::string(header.type_name, header.type_name_size) + " (fingerprint " +
-                  hex(header.fingerprint) + "); cannot open it as " + std::string(type.name) +
-                  " (fingerprint " + hex(type.fingerprint) + ")");
+                  hex(header.fingerprint) + "), open in " + live_users_text(control) +
+                  "; cannot open it as " + std::string(type.name) + " (fingerprint " +
+                  hex(type.fingerprint) +
+                  "): stop what uses the old type, or rebuild it with the same schema");
     }
   }
   if (!usable) {

@@ -59,13 +59,18 @@ std::vector<std::string> segment_names(const detail::NamespaceFolder& folder) {
   return names;
 }
 
+const detail::SlotHeader& slot_of(const std::byte* bytes, const LayoutHeader& header,
+                                  std::uint64_t ticket) {
+  return *reinterpret_cast<const detail::SlotHeader*>(
+      bytes + header.slots_offset + (ticket & (header.capacity - 1)) * header.slot_stride);
+}
+
 void count_traffic(const std::byte* bytes, const LayoutHeader& header, std::uint64_t written,
                    std::uint64_t since, TopicTraffic& traffic) {
   traffic.message_count = written;
   const std::uint64_t oldest = written > header.capacity ? written - header.capacity : 0;
   for (std::uint64_t ticket = std::max(since, oldest); ticket < written; ++ticket) {
-    const auto& slot = *reinterpret_cast<const detail::SlotHeader*>(
-        bytes + header.slots_offset + (ticket & (header.capacity - 1)) * header.slot_stride);
+    const detail::SlotHeader& slot = slot_of(bytes, header, ticket);
     const std::uint64_t committed = 2 * ticket + 2;
     if (slot.seq.load(std::memory_order_acquire) != committed) continue;
     const std::uint32_t size = slot.size.load(std::memory_order_relaxed);
@@ -74,6 +79,26 @@ void count_traffic(const std::byte* bytes, const LayoutHeader& header, std::uint
       ++traffic.counted;
       traffic.bytes += size;
     }
+  }
+  bool follows = false;  // whether the ticket just before was read, stamped `previous`
+  std::uint32_t previous = 0;
+  for (std::uint64_t ticket = oldest; ticket < written; ++ticket) {
+    const detail::SlotHeader& slot = slot_of(bytes, header, ticket);
+    const std::uint64_t committed = 2 * ticket + 2;
+    const bool read = slot.seq.load(std::memory_order_acquire) == committed;
+    const std::uint32_t sent = slot.send_time_s.load(std::memory_order_relaxed);
+    detail::seqlock_fence(std::memory_order_acquire);
+    if (!read || slot.seq.load(std::memory_order_relaxed) != committed) {
+      follows = false;
+      continue;
+    }
+    if (follows && sent > previous) {
+      if (!traffic.first_new_second) traffic.first_new_second = SendStamp{ticket, sent};
+      traffic.last_new_second = SendStamp{ticket, sent};
+    }
+    follows = true;
+    previous = sent;
+    traffic.newest = SendStamp{ticket, sent};
   }
 }
 

@@ -13,6 +13,11 @@ import horus
 PEER = os.environ.get("HORUS_PY_PEER", "")
 
 
+def pytest_configure(config):
+    config.addinivalue_line("markers", "quiet_machine: holds only where thread wake-ups keep "
+                            "100-200 us deadlines (ctest label quiet-machine, not in scripts/test)")
+
+
 @pytest.fixture(autouse=True)
 def namespace(monkeypatch, tmp_path):
     """Each test in its own topic namespace, removed afterwards with its log ring and presence

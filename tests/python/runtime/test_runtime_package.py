@@ -1,5 +1,6 @@
-"""The package as users get it: stubs for every name, and `cmake --install` where Debian's
-/usr/bin/python3 finds it."""
+"""The package as users get it: stubs for every name, `cmake --install` where Debian's
+/usr/bin/python3 finds it, and an import that says what to install where numpy or msgpack is
+missing."""
 from __future__ import annotations
 
 import ast
@@ -8,6 +9,8 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+
+import pytest
 
 import horus
 
@@ -78,3 +81,30 @@ def test_default_prefix_lands_on_debians_python_path(tmp_path):
     assert (staged / "horus" / "__init__.py").exists()
     result = _use_installed(staged)
     assert result.returncode == 0, result.stderr
+
+
+# Another interpreter than Debian's (pyenv's, a venv without system packages) loads the
+# extension but finds neither: a meta-path finder that refuses them stands for it.
+REFUSING = """
+import sys
+class Refuse:
+    def find_spec(self, name, path=None, target=None):
+        if name.partition(".")[0] in {missing!r}:
+            raise ModuleNotFoundError(f"No module named {{name!r}}", name=name)
+sys.meta_path.insert(0, Refuse())
+import pytest
+
+import horus
+"""
+
+
+@pytest.mark.parametrize("missing", [["msgpack"], ["numpy"], ["numpy", "msgpack"]])
+def test_import_says_what_to_install_when_numpy_or_msgpack_is_missing(missing):
+    child = subprocess.run([sys.executable, "-c", REFUSING.format(missing=missing)],
+                           capture_output=True, text=True)
+    assert child.returncode == 1
+    last = child.stderr.strip().splitlines()[-1]
+    assert last == (f"ImportError: horus needs numpy and msgpack, and {sys.executable} finds no "
+                    f"{missing[0]}: install Debian's python3-numpy and python3-msgpack (apt "
+                    "install python3-numpy python3-msgpack) and run Debian's /usr/bin/python3"), \
+        child.stderr

@@ -94,8 +94,20 @@ def test_deadline_miss_escalation_stops_the_scheduler_at_the_threshold():
     sched.tick_once()
     assert sched.stop_reason() == ""
     sched.tick_once()
-    assert sched.stop_reason() == "max_deadline_misses (3) reached"
+    assert sched.stop_reason().startswith(
+        "max_deadline_misses (3) reached: deadline misses by node 'slow' 3;"), sched.stop_reason()
     assert sched.get_node_stats("slow")["deadline_misses"] == 3
+
+
+def test_without_max_deadline_misses_misses_never_stop_the_scheduler():
+    # Seed 001: max_deadline_misses defaults to None in Python (100 is Rust's, and C++'s).
+    sched = Scheduler(tick_rate=1000)
+    sched.add(Node(name="slow", tick=lambda n: time.sleep(0.002), rate=1000, order=0,
+                   deadline=50 * us))
+    for _ in range(101):
+        sched.tick_once()
+    assert sched.get_node_stats("slow")["deadline_misses"] == 101
+    assert sched.stop_reason() == ""
 
 
 def test_context_manager_stops_and_shuts_down():
@@ -153,6 +165,33 @@ def test_stop_on_miss_stops_the_scheduler():
     sched.run(duration=5.0)
     assert sched.get_node_stats("safety_monitor")["total_ticks"] < 50
     assert sched.stop_reason() != ""
+
+
+def test_first_tick_of_a_run_is_a_warm_up():
+    # A node's first tick pays its one-time costs: run() times it but judges only later ticks
+    # (runtime/python/README.md, "Deadlines and the first tick").
+    def slow_first(node):
+        if horus.tick() == 0:
+            time.sleep(0.2)
+
+    sched = Scheduler(tick_rate=100)
+    sched.add(Node(name="safety", tick=slow_first, rate=10, order=0, deadline=50 * ms,
+                   on_miss="stop"))
+    assert sched.run(duration=0.5) == 0, sched.stop_reason()
+    stats = sched.get_node_stats("safety")
+    assert stats["total_ticks"] >= 2 and stats["max_tick_duration"] >= 0.2, stats
+    assert stats["deadline_misses"] == 0 and stats["budget_overruns"] == 0, stats
+
+    def slow_second(node):
+        if horus.tick() == 1:
+            time.sleep(0.2)
+
+    judged = Scheduler(tick_rate=100)
+    judged.add(Node(name="safety", tick=slow_second, rate=10, order=0, deadline=50 * ms,
+                    on_miss="stop"))
+    assert judged.run(duration=5.0) == 1
+    assert judged.stop_reason() == "node 'safety' missed its deadline (Miss::Stop)"
+    assert judged.get_node_stats("safety")["total_ticks"] == 2
 
 
 def test_failure_policy_skip_keeps_ticking_and_fatal_stops():

@@ -60,6 +60,8 @@ class ErasedTopic {
   std::ptrdiff_t read_latest() noexcept;
   /// What the last successful receive left (valid until the next receive).
   std::span<std::byte> received(std::size_t size) noexcept { return {buffer_.data(), size}; }
+  /// The ticket of the message try_recv() or recv() took last: its sequence on the topic.
+  std::uint64_t received_ticket() const noexcept { return endpoint_.next_ticket() - 1; }
 
   bool has_msg() const noexcept { return endpoint_.has_msg(); }
   TopicStats stats() const noexcept { return endpoint_.stats(); }

@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <string>
 
 namespace horus::detail {
 
@@ -39,5 +40,9 @@ bool identity_alive(std::uint64_t identity) noexcept;
 /// When the process with this identity started, in ns since the Unix epoch (to the kernel's
 /// clock tick), as tools show it; 0 when the identity's start time is unknown.
 std::int64_t identity_start_wall_ns(std::uint64_t identity) noexcept;
+
+/// The program a process runs, as the kernel names it (/proc/<pid>/comm: at most 15 characters),
+/// for messages that point at another process; "" when it cannot be read. A slow path.
+std::string process_name(std::uint32_t pid);
 
 }  // namespace horus::detail

@@ -8,6 +8,11 @@
 
 namespace horus::detail {
 
+/// Registers this process for the sleepers' membarrier now rather than when its first lease is
+/// taken (a topic's first send): the registration takes milliseconds, which a scheduler spends
+/// before its clock starts instead of inside a node's first tick. Once per process.
+void prepare_publisher_leases() noexcept;
+
 /// Held by at most one Topic handle of a topic at a time; released when the handle is
 /// destroyed. Its holder claims slots with plain stores: no read-modify-write per message. The
 /// handle of a process that died (kill -9) loses it to the next handle that asks, which
