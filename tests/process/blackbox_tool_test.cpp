@@ -18,6 +18,7 @@
 #include "horus/literals.hpp"
 #include "horus/scheduler.hpp"
 #include "horus/topic.hpp"
+#include "private_shm_root.hpp"
 
 using namespace horus::literals;
 
@@ -25,20 +26,7 @@ namespace {
 
 // Every test runs in its own process (gtest_discover_tests): the topics live under a private
 // root outside /dev/shm, removed when the test ends.
-struct PrivateShmRoot {
-  PrivateShmRoot() {
-    char pattern[] = "/tmp/horus_blackbox_tool_test_XXXXXX";
-    root = ::mkdtemp(pattern);
-    ::setenv("HORUS_SHM_DIR", root.c_str(), 1);
-    ::setenv("HORUS_NAMESPACE", "blackboxtool", 1);
-  }
-  ~PrivateShmRoot() {
-    std::error_code ignored;
-    std::filesystem::remove_all(root, ignored);
-  }
-  std::string root;
-};
-const PrivateShmRoot shm_root;
+const horus_test::PrivateShmRoot shm_root{"blackboxtool"};
 
 struct Outcome {
   int status;

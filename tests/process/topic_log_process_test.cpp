@@ -17,25 +17,12 @@
 #include <thread>
 
 #include "horus/topic.hpp"
+#include "private_shm_root.hpp"
 
 namespace {
 
 // The child, bin/horus and this process share a private root outside /dev/shm, removed at exit.
-struct PrivateShmRoot {
-  PrivateShmRoot() {
-    char pattern[] = "/tmp/horus_topic_log_process_XXXXXX";
-    root = ::mkdtemp(pattern);
-    ::setenv("HORUS_SHM_DIR", root.c_str(), 1);
-    ::setenv("HORUS_NAMESPACE", "verbose", 1);
-    ::unsetenv("HORUS_LOG_LEVEL");
-  }
-  ~PrivateShmRoot() {
-    std::error_code ignored;
-    std::filesystem::remove_all(root, ignored);
-  }
-  std::string root;
-};
-const PrivateShmRoot shm_root;
+const horus_test::PrivateShmRoot shm_root{"verbose"};
 
 std::string horus_log() {
   std::FILE* pipe = ::popen(HORUS_CLI " log 2>&1", "r");

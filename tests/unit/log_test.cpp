@@ -23,26 +23,13 @@
 #include "horus/literals.hpp"
 #include "horus/log.hpp"
 #include "horus/scheduler.hpp"
+#include "private_shm_root.hpp"
 
 namespace {
 
 // Every test runs in its own process (gtest_discover_tests), so this gives each one a private
 // shared-memory root before the first line opens the ring.
-struct PrivateShmRoot {
-  PrivateShmRoot() {
-    char pattern[] = "/tmp/horus_log_test_XXXXXX";
-    root = ::mkdtemp(pattern);
-    ::setenv("HORUS_SHM_DIR", root.c_str(), 1);
-    ::setenv("HORUS_NAMESPACE", "logtest", 1);
-    ::unsetenv("HORUS_LOG_LEVEL");
-  }
-  ~PrivateShmRoot() {
-    std::error_code ignored;
-    std::filesystem::remove_all(root, ignored);
-  }
-  std::string root;
-};
-const PrivateShmRoot shm_root;
+const horus_test::PrivateShmRoot shm_root{"logtest"};
 
 std::atomic<long> allocations{0};
 
@@ -261,8 +248,8 @@ TEST(Log, ReadLogOfANamespaceWithoutLinesIsEmpty) {
 }
 
 TEST(Log, ReadLogRejectsAFileThatIsNotALogRing) {
-  std::filesystem::create_directories(shm_root.root + "/@logs");
-  std::ofstream(shm_root.root + "/@logs/garbage") << std::string(4096, 'x');
+  std::filesystem::create_directories(shm_root.root() + "/@logs");
+  std::ofstream(shm_root.root() + "/@logs/garbage") << std::string(4096, 'x');
   try {
     horus::read_log("garbage");
     FAIL() << "expected horus::Error";

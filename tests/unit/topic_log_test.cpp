@@ -24,27 +24,14 @@
 #include "horus/log.hpp"
 #include "horus/scheduler.hpp"
 #include "horus/topic.hpp"
+#include "private_shm_root.hpp"
 #include "topic_test/blob.hpp"
 
 namespace {
 
 // Every test runs in its own process (gtest_discover_tests): a private root for its topics and
 // log ring, outside /dev/shm, removed when it ends.
-struct PrivateShmRoot {
-  PrivateShmRoot() {
-    char pattern[] = "/tmp/horus_topic_log_test_XXXXXX";
-    root = ::mkdtemp(pattern);
-    ::setenv("HORUS_SHM_DIR", root.c_str(), 1);
-    ::setenv("HORUS_NAMESPACE", "topiclog", 1);
-    ::unsetenv("HORUS_LOG_LEVEL");
-  }
-  ~PrivateShmRoot() {
-    std::error_code ignored;
-    std::filesystem::remove_all(root, ignored);
-  }
-  std::string root;
-};
-const PrivateShmRoot shm_root;
+const horus_test::PrivateShmRoot shm_root{"topiclog"};
 
 std::atomic<long> allocations{0};
 

@@ -12,6 +12,7 @@ import threading
 import time
 
 from . import _core
+from ._values import _fnv1a
 
 _CHECK_INTERVAL = 0.010  # as kServerCheckInterval: how late a dead server is noticed at worst
 _IDLE_WAKE = 0.2  # how often an idle server thread looks at its stop flag
@@ -51,13 +52,6 @@ class ServiceFailed(ServiceError):
 _STATUS_OF_KIND = {"service_failed": _STATUS_FAILED, "no_server": 2, "timeout": 3, "transport": 4}
 _ERROR_OF_STATUS = {_STATUS_OF_KIND[error.kind]: error
                     for error in (ServiceFailed, NoServerError, ServiceTimeout, TransportError)}
-
-
-def _fnv1a(text: str) -> int:
-    value = 0xCBF29CE484222325
-    for byte in text.encode():
-        value = ((value ^ byte) * 0x100000001B3) & 0xFFFFFFFFFFFFFFFF
-    return value
 
 
 def _align(value: int, alignment: int) -> int:

@@ -38,6 +38,8 @@ def _codecs():
 
 
 def _fnv1a(text: str) -> int:
+    """The fingerprint of the identities the runtime spells itself (plain values, service frames
+    and registrations): the 64-bit FNV-1a hash of their schema text, as detail::fnv1a computes."""
     value = 0xCBF29CE484222325
     for byte in text.encode():
         value = ((value ^ byte) * 0x100000001B3) & 0xFFFFFFFFFFFFFFFF
