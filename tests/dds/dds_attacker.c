@@ -4,11 +4,13 @@
      dds_attacker same-size DOMAIN N   N attack::SameSize samples (CmdVel's 16 bytes; stamp_nanos
                                        = 1000000 + i, angular = -7)
      dds_attacker longer DOMAIN N      N attack::Longer samples (CmdVel and 8 bytes more)
+     dds_attacker shorter DOMAIN N     N attack::Shorter samples (CmdVel cut short: 12 bytes)
    Option --untyped: the writer announces no XTypes type information (as a ROS 2 node's rmw
-   does), so DDS can only compare type names.
+   does), so DDS can only compare type names. Option --writers K: K writers (K GUIDs), each
+   writing the N samples in turn with the others (N * K in all).
    It writes once it has seen a reader of rt/cmd_vel (whether or not DDS matches it with that
    reader), 2 ms apart, then waits up to 10 s for the matched readers to acknowledge them, and
-   prints "wrote N". A timeout (20 s) finding a reader is exit status 1. */
+   prints "wrote N" (N * K). A timeout (20 s) finding a reader is exit status 1. */
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -16,6 +18,8 @@
 
 #include "attack.h"
 #include "dds/dds.h"
+
+#define MAX_WRITERS 64
 
 static bool reader_seen(dds_entity_t subscriptions)
 {
@@ -37,22 +41,31 @@ static bool reader_seen(dds_entity_t subscriptions)
 int main(int argc, char **argv)
 {
   bool untyped = false;
+  int writers = 1;
   int kept = 1;
   for (int i = 1; i < argc; i++)
   {
     if (strcmp(argv[i], "--untyped") == 0)
       untyped = true;
+    else if (strcmp(argv[i], "--writers") == 0 && i + 1 < argc)
+      writers = atoi(argv[++i]);
     else
       argv[kept++] = argv[i];
   }
-  if (kept != 4 || (strcmp(argv[1], "same-size") != 0 && strcmp(argv[1], "longer") != 0))
+  const dds_topic_descriptor_t *type = NULL;
+  if (kept == 4 && strcmp(argv[1], "same-size") == 0)
+    type = &attack_SameSize_desc;
+  else if (kept == 4 && strcmp(argv[1], "longer") == 0)
+    type = &attack_Longer_desc;
+  else if (kept == 4 && strcmp(argv[1], "shorter") == 0)
+    type = &attack_Shorter_desc;
+  if (type == NULL || writers < 1 || writers > MAX_WRITERS)
   {
-    fprintf(stderr, "usage: dds_attacker same-size|longer DOMAIN N [--untyped]\n");
+    fprintf(stderr, "usage: dds_attacker same-size|longer|shorter DOMAIN N [--untyped] "
+                    "[--writers K (1 to %d)]\n", MAX_WRITERS);
     return 2;
   }
-  const bool same_size = strcmp(argv[1], "same-size") == 0;
   const int count = atoi(argv[3]);
-  const dds_topic_descriptor_t *type = same_size ? &attack_SameSize_desc : &attack_Longer_desc;
   /* idlc's descriptor under CmdVel's type name, and without its type information if untyped. */
   const dds_topic_descriptor_t descriptor = {
     .m_size = type->m_size, .m_align = type->m_align,
@@ -67,11 +80,17 @@ int main(int argc, char **argv)
   dds_qos_t *qos = dds_create_qos();
   dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
   dds_qset_history(qos, DDS_HISTORY_KEEP_ALL, 0);
-  dds_entity_t writer = dds_create_writer(participant, topic, qos, NULL);
+  dds_entity_t writer[MAX_WRITERS];
+  bool made = true;
+  for (int w = 0; w < writers; w++)
+  {
+    writer[w] = dds_create_writer(participant, topic, qos, NULL);
+    made = made && writer[w] >= 0;
+  }
   dds_delete_qos(qos);
   dds_entity_t subscriptions =
       dds_create_reader(participant, DDS_BUILTIN_TOPIC_DCPSSUBSCRIPTION, NULL, NULL);
-  if (participant < 0 || topic < 0 || writer < 0 || subscriptions < 0)
+  if (participant < 0 || topic < 0 || !made || subscriptions < 0)
   {
     fprintf(stderr, "dds_attacker: cannot create its DDS entities\n");
     return 1;
@@ -94,16 +113,24 @@ int main(int argc, char **argv)
     attack_SameSize same = { .stamp_nanos = 1000000u + (uint64_t) i, .angular = -7.0f };
     attack_Longer longer = { .stamp_nanos = 1000000u + (uint64_t) i, .linear = 3.0f,
                              .angular = -7.0f, .extra = (uint64_t) i };
-    dds_return_t code = dds_write(writer, same_size ? (const void *) &same : (const void *) &longer);
-    if (code < 0)
+    attack_Shorter shorter = { .stamp_nanos = 1000000u + (uint64_t) i, .linear = 3.0f };
+    const void *sample = type == &attack_SameSize_desc ? (const void *) &same
+                         : type == &attack_Longer_desc ? (const void *) &longer
+                                                       : (const void *) &shorter;
+    for (int w = 0; w < writers; w++)
     {
-      fprintf(stderr, "dds_attacker: write: %s\n", dds_strretcode(code));
-      return 1;
+      dds_return_t code = dds_write(writer[w], sample);
+      if (code < 0)
+      {
+        fprintf(stderr, "dds_attacker: write: %s\n", dds_strretcode(code));
+        return 1;
+      }
     }
     dds_sleepfor(DDS_MSECS(2));
   }
-  dds_wait_for_acks(writer, DDS_SECS(10));
-  printf("wrote %d\n", count);
+  for (int w = 0; w < writers; w++)
+    dds_wait_for_acks(writer[w], DDS_SECS(10));
+  printf("wrote %d\n", count * writers);
   fflush(stdout);
   dds_delete(participant);
   return 0;

@@ -4,8 +4,11 @@ rt/cmd_vel while a good writer (namespace A's exporting bridge) feeds the same t
 the attacker reaches a HORUS subscriber in B, and B's bridge keeps carrying the good writer's
 messages. A writer of a different type matches no bridge reader (DDS checks the type information
 both announce); one that announces none is refused in one line, or taken on trust under
---accept-untyped-writers, and then each (writer, reason) of its bad samples is one line, the rest
-a count."""
+--accept-untyped-writers, and then each (writer, reason) of its bad samples (a field more, or
+cut short) is one line, the rest a count; writers past the report's cap (a small one here, through
+HORUS_BRIDGE_DROP_REPORT_CAP) are counted as other writers', not said. The report itself
+(horus._dds.DropReport, the C++ pumps' and the Python threads') is tested with a clock of the
+test's."""
 from __future__ import annotations
 
 import re
@@ -116,51 +119,119 @@ def test_a_same_size_writer_of_another_type_delivers_nothing(
             r"trust\)", said[0]), said
 
 
+TRUSTED = (r"horus bridge: topic 'cmd_vel': DDS writer ([0-9a-f]{32}) announces no type "
+           r"information: taking its horus::msg::dds_::CmdVel_ on trust "
+           r"\(--accept-untyped-writers\)")
+DECODE = "does not decode: a CDR sample does not decode as horus.msg.CmdVel: "
+
+
+# A field more (the decoder finds bytes left over) and a sample cut short (its body ends within
+# CmdVel's two floats, which the pump's plan reads as one 8-byte step).
+@pytest.mark.parametrize("kind, count, reason", [
+    ("longer", 500, "8 bytes are left over"),
+    ("shorter", 200, "8 bytes wanted at offset 8 of a 12-byte body")])
 def test_bad_samples_of_an_accepted_untyped_writer_are_one_line_and_a_count(
-        dds_domain, worlds, children, generated, dds_attacker):
+        kind, count, reason, dds_domain, worlds, children, generated, dds_attacker):
     subscriber, importer, received = _start(children, worlds, generated, dds_domain,
                                             "--accept-untyped-writers")
-    _attack(children, dds_attacker, dds_domain, "longer", "500", "--untyped")
+    _attack(children, dds_attacker, dds_domain, kind, str(count), "--untyped")
     after = _after_the_attack(subscriber, received)
     assert [m for m in received if not _good(m)] == []
     assert after == list(range(after[0], after[0] + AFTER)), f"the good writer's: {after}"
     said = _stop(importer)
 
     trusted = [line for line in said if "taking its" in line]
-    match = re.fullmatch(
-        r"horus bridge: topic 'cmd_vel': DDS writer ([0-9a-f]{32}) announces no type "
-        r"information: taking its horus::msg::dds_::CmdVel_ on trust \(--accept-untyped-writers\)",
-        trusted[0]) if len(trusted) == 1 else None
+    match = re.fullmatch(TRUSTED, trusted[0]) if len(trusted) == 1 else None
     assert match, said
     writer = match[1]
     first = [line for line in said if "a DDS sample from writer" in line]
     assert first == [
-        f"horus bridge: topic 'cmd_vel': a DDS sample from writer {writer} does not decode: a "
-        "CDR sample does not decode as horus.msg.CmdVel: 8 bytes are left over (failure 1 of "
-        "it); dropped it, and more of the same from that writer are counted, not said"], said
+        f"horus bridge: topic 'cmd_vel': a DDS sample from writer {writer} {DECODE}{reason} "
+        "(failure 1 of it); dropped it, and more of the same from that writer are counted, not "
+        "said"], said
     counts = [re.fullmatch(r"horus bridge: topic 'cmd_vel': dropped (\d+) more DDS samples for "
                            r"reasons said before \((\d+) failures of it so far\)", line)
               for line in said if line not in trusted + first]
     assert counts and all(counts), said
     # Every bad sample is counted, in a few lines (one every 5 s at most, and the rest at exit).
-    assert sum(int(match[1]) for match in counts) == 499 and counts[-1][2] == "500", said
-    assert len(counts) <= 3, said
+    assert sum(int(match[1]) for match in counts) == count - 1, said
+    assert counts[-1][2] == str(count) and len(counts) <= 3, said
 
 
-def test_the_python_threads_say_each_writer_and_reason_once_and_count_the_rest(
-        monkeypatch, capsys):
-    import horus_bridge
-    clock = [100.0]
-    monkeypatch.setattr(horus_bridge.time, "monotonic", lambda: clock[0])
-    drops = horus_bridge._DropReport("topic 'kinds'")
+def _count(line: str, topic: str) -> tuple[int, int, int] | None:
+    """A count line's samples for reasons said before, of other writers (past the report's cap),
+    and the topic's failures so far; None for another line."""
+    match = re.fullmatch(rf"horus bridge: topic '{topic}': dropped (\d+) more DDS samples(?:, "
+                         r"(\d+))? for reasons said before(?: and (\d+) of other writers)? "
+                         r"\((\d+) failures of it so far\)", line)
+    if match is None or (match[2] is None) != (match[3] is None):
+        return None
+    before, others = (int(match[1]), 0) if match[2] is None else (int(match[2]), int(match[3]))
+    return (before, others, int(match[4])) if before + others == int(match[1]) else None
+
+
+CAP = 4  # the drop report's cap the next test sets (HORUS_BRIDGE_DROP_REPORT_CAP)
+WRITERS, EACH = 10, 20
+
+
+def test_writers_past_the_cap_of_the_drop_report_are_counted_not_said(
+        monkeypatch, dds_domain, worlds, children, generated, dds_attacker):
+    monkeypatch.setenv("HORUS_BRIDGE_DROP_REPORT_CAP", str(CAP))  # the bridges' environment
+    subscriber, importer, received = _start(children, worlds, generated, dds_domain,
+                                            "--accept-untyped-writers")
+    _attack(children, dds_attacker, dds_domain, "longer", str(EACH), "--untyped", "--writers",
+            str(WRITERS))
+    after = _after_the_attack(subscriber, received)
+    assert [m for m in received if not _good(m)] == []
+    assert after == list(range(after[0], after[0] + AFTER)), f"the good writer's: {after}"
+    said = _stop(importer)
+
+    trusted = [line for line in said if re.fullmatch(TRUSTED, line)]
+    first = [re.fullmatch(rf"horus bridge: topic 'cmd_vel': a DDS sample from writer "
+                          rf"([0-9a-f]{{32}}) {re.escape(DECODE)}8 bytes are left over \(failure \d+ of "
+                          r"it\); dropped it, and more of the same from that writer are counted, "
+                          r"not said", line) for line in said if "a DDS sample from writer" in line]
+    # CAP writers said, each once; the next sample of another writer says the cap, once.
+    assert len(first) == CAP and all(first) and len({m[1] for m in first}) == CAP, said
+    full = [line for line in said if "its most" in line]
+    assert len(full) == 1 and re.fullmatch(
+        rf"horus bridge: topic 'cmd_vel': a DDS sample {re.escape(DECODE)}8 bytes are left over \(failure "
+        rf"\d+ of it\); dropped it: this topic has said {CAP} writers and reasons, its most, so "
+        r"the samples of others are counted as other writers', not said", full[0]), said
+    # The writers taken on trust: CAP said, one by one, then the rest only counted.
+    assert len(trusted) == CAP, said
+    unsaid = [line for line in said if "taken on trust were said" in line]
+    assert unsaid == [f"horus bridge: {CAP} DDS writers refused or taken on trust were said, the "
+                      "most the bridge keeps (HORUS_BRIDGE_DROP_REPORT_CAP): further ones are "
+                      "not"], said
+    counts = [_count(line, "cmd_vel") for line in said
+              if line not in trusted + unsaid and "a DDS sample" not in line]
+    assert counts and all(counts) and len(counts) <= 3, said
+    # The said writers' other samples, and all the others' but the one that said the cap.
+    assert sum(before for before, _, _ in counts) == CAP * (EACH - 1), said
+    assert sum(others for _, others, _ in counts) == (WRITERS - CAP) * EACH - 1, said
+    assert counts[-1][2] == WRITERS * EACH, said
+
+
+def _lines(said: list[str]) -> list[str]:
+    """What a thread says of `said` (DropReport's lines; "" for none), as a topic's lines."""
+    return [f"horus bridge: topic 'kinds': {line}" for line in said if line]
+
+
+def test_the_drop_report_says_each_writer_and_reason_once_and_counts_the_rest():
+    from horus import _dds
+    clock = 100.0
+    drops = _dds.DropReport()
+    said = []
     # 500 samples of one writer over 10 s, each a different size: one reason.
     for failure in range(1, 501):
-        drops.dropped("w1", f"does not decode: {failure} bytes are left over", failure)
-        clock[0] += 0.02
-    drops.dropped("w2", "does not decode: 8 bytes are left over", 501)
-    drops.due(501, now=float("inf"))
+        said.append(drops.dropped("w1", f"does not decode: {failure} bytes are left over",
+                                  failure, clock))
+        clock += 0.02
+    said.append(drops.dropped("w2", "does not decode: 8 bytes are left over", 501, clock))
+    said.append(drops.due(501, float("inf")))
 
-    said = capsys.readouterr().err.splitlines()
+    said = _lines(said)
     prefix = "horus bridge: topic 'kinds': "
     assert said[0] == (f"{prefix}a DDS sample from writer w1 does not decode: 1 bytes are left "
                        "over (failure 1 of it); dropped it, and more of the same from that "
@@ -173,3 +244,40 @@ def test_the_python_threads_say_each_writer_and_reason_once_and_count_the_rest(
               for line in said[1:2] + said[3:]]
     assert len(said) == 4 and all(counts), said
     assert sum(int(match[1]) for match in counts) == 499, said
+    assert drops.kept == 2 and _dds.DropReport.EVERY_S == 5.0
+
+
+def test_the_drop_report_keeps_cap_writers_and_reasons_and_counts_others_as_other_writers():
+    from horus import _dds
+    drops = _dds.DropReport(cap=3)
+    said = []
+    failure = 0
+    # 100 writers, each with two reasons: a participant making writers without end.
+    for writer in range(100):
+        for reason in ("does not decode: 8 bytes are left over", "was refused"):
+            failure += 1
+            said.append(drops.dropped(f"w{writer}", reason, failure, 1000.0 + failure))
+    # A writer past WriterGuids' cap (its GUID not looked up), and one said before.
+    said.append(drops.dropped(None, "does not decode: 8 bytes are left over", 201, 2000.0))
+    said.append(drops.dropped("w0", "was refused", 202, 2000.0))
+    said.append(drops.due(202, float("inf")))
+
+    said = _lines(said)
+    prefix = "horus bridge: topic 'kinds': "
+    assert drops.kept == 3 and _dds.DropReport.CAP == 1024
+    assert said[:3] == [
+        f"{prefix}a DDS sample from writer w0 does not decode: 8 bytes are left over (failure "
+        "1 of it); dropped it, and more of the same from that writer are counted, not said",
+        f"{prefix}a DDS sample from writer w0 was refused (failure 2 of it); dropped it, and "
+        "more of the same from that writer are counted, not said",
+        f"{prefix}a DDS sample from writer w1 does not decode: 8 bytes are left over (failure "
+        "3 of it); dropped it, and more of the same from that writer are counted, not said"]
+    assert said[3] == (f"{prefix}a DDS sample was refused (failure 4 of it); dropped it: this "
+                       "topic has said 3 writers and reasons, its most, so the samples of others "
+                       "are counted as other writers', not said")
+    counts = [_count(line, "kinds") for line in said[4:]]
+    assert counts and all(counts), said
+    # Counted every 5 s of the clock: about 200 s of drops, a line per 5 s at most.
+    assert len(counts) <= 200 // 5 + 2 and counts[-1][2] == 202, said
+    assert sum(before for before, _, _ in counts) == 1, said  # w0's refusal, said before
+    assert sum(others for _, others, _ in counts) == 202 - 4 - 1, said

@@ -93,3 +93,26 @@ def test_a_reader_of_typed_writers_only_matches_writers_of_its_type_alone(dds_do
     good.write(cmdvel(3))
     assert take(reader, 1) == [cmdvel(3)]
     assert reader.matched() == 1 and other_type.matched() == 0 and untyped.matched() == 0
+
+
+def test_take_names_each_sample_s_writer_by_handle_and_writer_guids_finds_and_caps_them(
+        dds_domain):
+    a, b, c = (_dds.Participant(dds_domain) for _ in range(3))
+    reader = _dds.Reader(c, "rt/cmd_vel", TYPE)
+    first, second = _dds.Writer(a, "rt/cmd_vel", TYPE), _dds.Writer(b, "rt/cmd_vel", TYPE)
+    wait_until(lambda: reader.matched() == 2, "both writers")
+    first.write(cmdvel(1))
+    second.write(cmdvel(2))
+    got: list = []
+    wait_until(lambda: got.extend(reader.take(0.1, writers=True)) or len(got) >= 2, "2 samples")
+    # A handle per sample (an int, nothing looked up); the GUID only when asked, once a writer.
+    assert [cdr for _, cdr in got] == [cmdvel(1), cmdvel(2)]
+    (one, _), (two, _) = got
+    assert isinstance(one, int) and isinstance(two, int) and one != two
+    guids = {p["participant"]: p["writer"] for p in c.publications()}
+    writers = _dds.WriterGuids(reader, cap=1)
+    assert writers.find(one) == guids[a.guid] and writers.kept == 1
+    # Past the cap a writer is not looked up (its samples are counted as other writers').
+    assert writers.find(two) is None and writers.kept == 1
+    assert writers.find(one) == guids[a.guid]
+    assert _dds.WriterGuids(reader).find(12345) == "unknown"  # DDS knows no such writer

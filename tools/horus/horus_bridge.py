@@ -22,7 +22,9 @@ Each writer and reader of a topic announces the XTypes type information idlc mak
 matches only writers that announce theirs and whose type DDS finds assignable to it: a writer of
 another layout under the same type name never delivers a sample. A writer that announces none (a
 ROS 2 node's rmw) is refused in one line, or taken on trust under --accept-untyped-writers. Bad
-samples that reach a reader all the same are one line per (writer, reason) and then a count.
+samples that reach a reader all the same are one line per (writer, reason) and then a count
+(horus._dds.DropReport, the C++ pumps' and the Python threads'), for at most
+HORUS_BRIDGE_DROP_REPORT_CAP (1024) pairs a topic; past them, other writers' are counted.
 
 Nothing crosses that no pattern names. DDS endpoints ignore their own participant, and a topic
 named by both directions is refused, so nothing a bridge writes comes back to it. One thread per
@@ -80,7 +82,6 @@ SERVICE_TIMEOUT_S = 10.0  # how long an exporting bridge waits for its local ser
 # ROS 2's messages the twins are (ros2_types) as IDL under rmw_cyclonedds's DDS names, for their
 # type information.
 ROS2_IDL = os.path.join(os.path.dirname(os.path.abspath(__file__)), "ros2_idl")
-DROPS_EVERY_S = 5.0  # samples dropped for a reason already said: a count line at most this often
 
 
 class BridgeError(Exception):
@@ -191,36 +192,16 @@ def _idlc_type_info(idl_root: str, dds_type: str, output: str) -> dict:
     return found
 
 
-class _DropReport:
-    """Samples of an imported topic dropped for what a writer sent: the first of each (writer,
-    reason) a line naming both, the rest counted, the count a line at most every DROPS_EVERY_S
-    (a writer can send bad samples as fast as the network carries them). A reason is its text
-    with the numbers left out, so a writer whose every sample has another size has one reason."""
-
-    def __init__(self, what: str) -> None:
-        self.what, self.said, self.unsaid, self.last_line = what, set(), 0, 0.0
-
-    def dropped(self, writer: str, reason: str, failure: int) -> None:
-        key = (writer, re.sub(r"[0-9]+", "#", reason))
-        now = time.monotonic()
-        if key not in self.said:
-            self.said.add(key)
-            self.last_line = now
-            _complain(f"{self.what}: a DDS sample from writer {writer} {reason} (failure "
-                      f"{failure} of it); dropped it, and more of the same from that writer are "
-                      "counted, not said")
-            return
-        self.unsaid += 1
-        self.due(failure)
-
-    def due(self, failures: int, now: float | None = None) -> None:
-        """Says the count of samples dropped unsaid, if any, once DROPS_EVERY_S has passed since
-        the last line (or `now` is infinite: the thread ends)."""
-        now = time.monotonic() if now is None else now
-        if self.unsaid and now - self.last_line >= DROPS_EVERY_S:
-            _complain(f"{self.what}: dropped {self.unsaid} more DDS samples for reasons said "
-                      f"before ({failures} failures of it so far)")
-            self.unsaid, self.last_line = 0, now
+def drop_report_cap(default: int) -> int:
+    """How many (writer, reason) pairs, and writers' GUIDs, an imported topic's report of dropped
+    samples keeps (horus._dds.DropReport): HORUS_BRIDGE_DROP_REPORT_CAP, else `default`."""
+    given = os.environ.get("HORUS_BRIDGE_DROP_REPORT_CAP")
+    if given is None:
+        return default
+    if not re.fullmatch(r"[0-9]+", given) or int(given) < 1:
+        raise BridgeError(f"HORUS_BRIDGE_DROP_REPORT_CAP wants a whole number, at least 1, not "
+                          f"{given!r}")
+    return int(given)
 
 
 def dds_topic_name(name: str) -> str:
@@ -328,11 +309,15 @@ class Bridge:
         self.stop = threading.Event()
         self.broken: str | None = None  # why a thread died of an unexpected error
         self.failures: dict[str, int] = {}  # per carried topic
+        self.drop_cap = drop_report_cap(dds.DropReport.CAP)
         self.threads: list[threading.Thread] = []
         self.pumps: dict[str, object] = {}  # POD topic name -> its horus._dds pump
         self.done: set[str] = set()  # local topic names exported or imported (or refused)
-        # DDS topic names refused, and writers refused or taken on trust (each said once).
-        self.refused: set[str] = set()
+        self.refused: set[str] = set()  # DDS topic names refused (each said once)
+        # DDS writers refused or taken on trust, each said once; past drop_cap of them only
+        # counted, so a participant that keeps making writers grows neither the bridge nor its log.
+        self.writers_said: set[str] = set()
+        self.writers_unsaid = 0
         self.services = Services(self, list(service_exports), list(service_imports),
                                  service_timeout)
 
@@ -511,7 +496,8 @@ class Bridge:
                     reader, cls, local, qos, twin = ready
                     frames = self._pool_frames(local)
                     if cls.__horus__.is_pod and not twin and frames is None:
-                        self._pump(self.dds.import_pump, reader, cls, local)
+                        self._pump(self.dds.import_pump, reader, cls, local,
+                                   drop_cap=self.drop_cap)
                     else:
                         self._spawn(f"topic '{name}'", self._pump_import, name, reader,
                                     _carrier(cls, twin, frames),
@@ -532,12 +518,26 @@ class Bridge:
         representation = publication["data_representation"]
         if representation == XCDR1:
             return False
-        if publication["writer"] not in self.refused:
-            self.refused.add(publication["writer"])
-            encoding = REPRESENTATIONS.get(representation, f"data representation {representation}")
-            _complain(f"cannot import topic '{name}' from DDS writer {publication['writer']}: it "
-                      f"writes {encoding}, the bridge reads XCDR1 only (DDS does not match them)")
+        encoding = REPRESENTATIONS.get(representation, f"data representation {representation}")
+        self._say_writer_once(publication["writer"], lambda: (
+            f"cannot import topic '{name}' from DDS writer {publication['writer']}: it writes "
+            f"{encoding}, the bridge reads XCDR1 only (DDS does not match them)"))
         return True
+
+    def _say_writer_once(self, writer: str, line) -> None:
+        """Says `line()` the first time `writer` is refused or taken on trust; past drop_cap
+        writers, says once that further ones are only counted, and counts them."""
+        if writer in self.writers_said:
+            return
+        if len(self.writers_said) < self.drop_cap:
+            self.writers_said.add(writer)
+            _complain(line())
+            return
+        self.writers_unsaid += 1
+        if self.writers_unsaid == 1:
+            _complain(f"{len(self.writers_said)} DDS writers refused or taken on trust were said, "
+                      "the most the bridge keeps (HORUS_BRIDGE_DROP_REPORT_CAP): further ones are "
+                      "not")
 
     def _refuse_untyped(self, name: str, publication: dict) -> bool:
         """Whether the writer of `publication` is refused for announcing no XTypes type
@@ -547,16 +547,15 @@ class Bridge:
         if publication["typed"]:
             return False
         writer = publication["writer"]
-        if writer not in self.refused:
-            self.refused.add(writer)
-            if self.accept_untyped:
-                _complain(f"topic '{name}': DDS writer {writer} announces no type information: "
-                          f"taking its {publication['type']} on trust (--accept-untyped-writers)")
-            else:
-                _complain(f"cannot import topic '{name}' from DDS writer {writer}: it announces "
-                          f"no type information, so DDS cannot check that its "
-                          f"{publication['type']} is the type's layout (--accept-untyped-writers "
-                          "takes such writers on trust)")
+        if self.accept_untyped:
+            self._say_writer_once(writer, lambda: (
+                f"topic '{name}': DDS writer {writer} announces no type information: taking its "
+                f"{publication['type']} on trust (--accept-untyped-writers)"))
+        else:
+            self._say_writer_once(writer, lambda: (
+                f"cannot import topic '{name}' from DDS writer {writer}: it announces no type "
+                f"information, so DDS cannot check that its {publication['type']} is the type's "
+                "layout (--accept-untyped-writers takes such writers on trust)"))
         return not self.accept_untyped
 
     def _import(self, name: str, publication: dict):
@@ -612,14 +611,20 @@ class Bridge:
 
     def _pump_import(self, name: str, reader, carrier, local) -> None:
         what = f"topic '{name}'"
-        drops = _DropReport(what)
+        # The C++ pumps' report (one line per writer and reason, then counts) and GUID lookup.
+        drops = self.dds.DropReport(self.drop_cap)
+        writers = self.dds.WriterGuids(reader, self.drop_cap)
 
-        def drop(writer: str, reason: str) -> None:
+        def say(line: str) -> None:
+            if line:
+                _complain(f"{what}: {line}")
+
+        def drop(writer: int, reason: str) -> None:
             count = self.failures[what] = self.failures.get(what, 0) + 1
-            drops.dropped(writer, reason, count)
+            say(drops.dropped(writers.find(writer), reason, count, time.monotonic()))
 
         while not self.stop.is_set():
-            drops.due(self.failures.get(what, 0))
+            say(drops.due(self.failures.get(what, 0), time.monotonic()))
             try:
                 received = reader.take(0.1, writers=True)
             except RuntimeError as error:
@@ -643,7 +648,7 @@ class Bridge:
                 if not delivered:
                     drop(writer, "was refused by the local topic (no room, or a stalled "
                          "publisher)")
-        drops.due(self.failures.get(what, 0), now=float("inf"))
+        say(drops.due(self.failures.get(what, 0), float("inf")))
 
     def run(self) -> int:
         """Carries topics until Ctrl+C or SIGTERM (0), or a thread's unexpected error (1)."""

@@ -302,7 +302,9 @@ class Reader : public Endpoint {
   Reader& operator=(const Reader&) = delete;
 
   // The samples that arrived, oldest first, waiting up to `timeout` seconds for the first: each
-  // its bytes, or (with `writers`) a tuple of its writer's GUID and its bytes.
+  // its bytes, or (with `writers`) a tuple of its writer's instance handle and its bytes. The
+  // handle, not the GUID: finding a GUID allocates and locks in DDS, and only a sample dropped
+  // needs one (WriterGuids).
   py::list take(double timeout, bool writers) {
     std::vector<std::pair<dds_instance_handle_t, std::string>> received;
     dds_return_t failure = 0;
@@ -319,7 +321,7 @@ class Reader : public Endpoint {
     py::list out;
     for (const auto& [writer, sample] : received) {
       if (writers) {
-        out.append(py::make_tuple(writer_guid(entity_, writer), py::bytes(sample)));
+        out.append(py::make_tuple(writer, py::bytes(sample)));
       } else {
         out.append(py::bytes(sample));
       }
@@ -455,6 +457,39 @@ py::object replay_frame(detail::PoolFrames& frames, const py::buffer& recorded) 
   return py::bytes(reinterpret_cast<const char*>(descriptor.data()), descriptor.size());
 }
 
+// A time.monotonic() reading as the steady clock's time point (seconds past its epoch); one
+// beyond the clock's range, inf included, is its last: a DropReport then says what it counted.
+std::chrono::steady_clock::time_point steady_at(double seconds) {
+  using Clock = std::chrono::steady_clock;
+  // Half the range: a cast of a double near its end could round past it and overflow.
+  constexpr double kLast = std::chrono::duration<double>(Clock::duration::max()).count() / 2;
+  if (!(seconds < kLast)) {  // NaN too
+    return Clock::time_point::max();
+  }
+  if (seconds <= -kLast) {
+    return Clock::time_point{};
+  }
+  return Clock::time_point(
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds)));
+}
+
+// WriterGuids over one reader, for the Python threads.
+class ReaderWriterGuids {
+ public:
+  ReaderWriterGuids(std::shared_ptr<Reader> reader, std::size_t cap)
+      : reader_(std::move(reader)), guids_(cap) {}
+
+  std::optional<std::string> find(dds_instance_handle_t writer) {
+    const std::string* guid = guids_.find(reader_->entity(), writer);
+    return guid == nullptr ? std::nullopt : std::optional(*guid);
+  }
+  std::size_t kept() const { return guids_.kept(); }
+
+ private:
+  std::shared_ptr<Reader> reader_;
+  WriterGuids guids_;
+};
+
 }  // namespace
 }  // namespace horus::dds_bridge
 
@@ -510,10 +545,56 @@ PYBIND11_MODULE(_dds, m) {
            "to this one (else writers of the same type name, whatever their layout).")
       .def("take", &Reader::take, py::arg("timeout"), py::arg("writers") = false,
            "The samples received (CDR bytes, oldest first), waiting up to timeout seconds; "
-           "with writers=True each is (the writer's GUID, its bytes).")
+           "with writers=True each is (the writer's instance handle, its bytes): WriterGuids "
+           "finds its GUID.")
       .def("matched", &Reader::matched, "How many writers match this reader now.")
       .def("deadlines_missed", &Reader::deadlines_missed,
            "How many times nothing arrived within this reader's deadline (deadline_ms).");
+
+  py::class_<ReaderWriterGuids>(
+      m, "WriterGuids",
+      "The GUIDs of the writers a reader matches, by the instance handle take(writers=True) "
+      "gives: looked up in DDS once a writer, at most `cap` kept (DropReport's cap).")
+      .def(py::init<std::shared_ptr<Reader>, std::size_t>(), py::arg("reader"),
+           py::arg("cap") = DropReport::kCap)
+      .def("find", &ReaderWriterGuids::find, py::arg("writer"),
+           "The GUID (hex) of the writer of that handle (\"unknown\" once DDS forgot it), or None "
+           "when `cap` others are kept already.")
+      .def_property_readonly("kept", &ReaderWriterGuids::kept, "How many GUIDs it keeps.");
+
+  py::class_<DropReport>(
+      m, "DropReport",
+      "The samples of an imported topic dropped for what a writer sent (the C++ pumps' report): "
+      "the first of each (writer, reason) a line, the rest counted, a count line at most every "
+      "EVERY_S; at most `cap` (writer, reason) pairs kept, past them the samples of other "
+      "writers and reasons counted as other writers'. Times are time.monotonic() seconds.")
+      .def(py::init<std::size_t>(), py::arg("cap") = DropReport::kCap)
+      .def_property_readonly_static(
+          "EVERY_S",
+          [](const py::object&) {
+            return std::chrono::duration<double>(DropReport::kEvery).count();
+          })
+      .def_property_readonly_static("CAP", [](const py::object&) { return DropReport::kCap; })
+      .def(
+          "dropped",
+          [](DropReport& self, const std::optional<std::string>& writer, const std::string& reason,
+             std::uint64_t failure, double now) {
+            return self.dropped(writer ? &*writer : nullptr, reason, failure, steady_at(now));
+          },
+          py::arg("writer"), py::arg("reason"), py::arg("failure"), py::arg("now"),
+          "The line to say (without the topic) of one more sample dropped, or \"\" when it is "
+          "only counted; writer: its GUID, None for one past WriterGuids' cap; failure: the "
+          "topic's running count of failures, this one included.")
+      .def(
+          "due",
+          [](DropReport& self, std::uint64_t failures, double now) {
+            return self.due(failures, steady_at(now));
+          },
+          py::arg("failures"), py::arg("now"),
+          "The line counting the samples dropped unsaid once EVERY_S has passed since the last "
+          "line (now=inf: whenever there are some, as a thread ends), or \"\".")
+      .def_property_readonly("kept", &DropReport::kept,
+                             "How many (writer, reason) pairs it keeps (cap at most).");
 
   py::class_<CdrPlan>(m, "CdrPlan",
                       "A POD type's CDR as steps over its struct bytes (dds_cdr.pod_plan).")
@@ -583,10 +664,12 @@ PYBIND11_MODULE(_dds, m) {
   m.def(
       "import_pump",
       [](const std::shared_ptr<Reader>& reader, const CdrPlan& plan, const py::dict& local,
-         std::string label) -> std::unique_ptr<Pump> {
+         std::string label, std::size_t drop_cap) -> std::unique_ptr<Pump> {
         return std::make_unique<ImportPump>(local_topic(local), plan, reader->entity(),
-                                            reader->topic(), std::move(label), reader);
+                                            reader->topic(), std::move(label), reader, drop_cap);
       },
       py::arg("reader"), py::arg("plan"), py::arg("local"), py::arg("label"),
-      "Carries what `reader` receives into the local topic `local` on a thread of its own.");
+      py::arg("drop_cap") = DropReport::kCap,
+      "Carries what `reader` receives into the local topic `local` on a thread of its own; "
+      "drop_cap: the cap of its DropReport and WriterGuids.");
 }

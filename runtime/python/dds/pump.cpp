@@ -77,37 +77,70 @@ void Pump::say(const std::string& text) const {
   [[maybe_unused]] const ssize_t written = ::write(STDERR_FILENO, line.data(), line.size());
 }
 
-std::string DropReport::dropped(const std::string& writer, const std::string& reason,
+std::string DropReport::dropped(const std::string* writer, const std::string& reason,
                                 std::uint64_t failure, std::chrono::steady_clock::time_point now) {
-  std::string kind;
-  for (const char c : reason) {
-    const bool digit = c >= '0' && c <= '9';
-    if (!digit) {
-      kind += c;
-    } else if (kind.empty() || kind.back() != '#') {
-      kind += '#';
+  if (writer != nullptr) {
+    std::string kind;
+    for (const char c : reason) {
+      const bool digit = c >= '0' && c <= '9';
+      if (!digit) {
+        kind += c;
+      } else if (kind.empty() || kind.back() != '#') {
+        kind += '#';
+      }
+    }
+    std::pair key{*writer, std::move(kind)};
+    if (said_.contains(key)) {
+      ++unsaid_;
+      return due(failure, now);
+    }
+    if (said_.size() < cap_) {
+      said_.insert(std::move(key));
+      last_line_ = now;
+      return "a DDS sample from writer " + *writer + " " + reason + " (failure " +
+             std::to_string(failure) +
+             " of it); dropped it, and more of the same from that writer are counted, not said";
     }
   }
-  if (said_.emplace(writer, std::move(kind)).second) {
+  if (!full_said_) {
+    full_said_ = true;
     last_line_ = now;
-    return "a DDS sample from writer " + writer + " " + reason + " (failure " +
-           std::to_string(failure) + " of it); dropped it, and more of the same from that writer " +
-           "are counted, not said";
+    return "a DDS sample " + reason + " (failure " + std::to_string(failure) +
+           " of it); dropped it: this topic has said " + std::to_string(cap_) +
+           " writers and reasons, its most, so the samples of others are counted as other "
+           "writers', not said";
   }
-  ++unsaid_;
+  ++others_;
   return due(failure, now);
 }
 
 std::string DropReport::due(std::uint64_t failures, std::chrono::steady_clock::time_point now) {
-  if (unsaid_ == 0 || now - last_line_ < kEvery) {
+  if ((unsaid_ == 0 && others_ == 0) || now - last_line_ < kEvery) {
     return {};
   }
-  const std::string line = "dropped " + std::to_string(unsaid_) +
-                           " more DDS samples for reasons said before (" +
-                           std::to_string(failures) + " failures of it so far)";
+  std::string line = "dropped " + std::to_string(unsaid_ + others_) + " more DDS samples";
+  if (others_ == 0) {
+    line += " for reasons said before";
+  } else {
+    line += ", " + std::to_string(unsaid_) + " for reasons said before and " +
+            std::to_string(others_) + " of other writers";
+  }
+  line += " (" + std::to_string(failures) + " failures of it so far)";
   unsaid_ = 0;
+  others_ = 0;
   last_line_ = now;
   return line;
+}
+
+const std::string* WriterGuids::find(dds_entity_t reader, dds_instance_handle_t writer) {
+  const auto known = guids_.find(writer);
+  if (known != guids_.end()) {
+    return &known->second;
+  }
+  if (guids_.size() >= cap_) {
+    return nullptr;
+  }
+  return &guids_.emplace(writer, writer_guid(reader, writer)).first->second;
 }
 
 void Pump::pause(std::chrono::milliseconds how_long) {
@@ -161,13 +194,16 @@ void ExportPump::send_to_dds(std::size_t size) {
 }
 
 ImportPump::ImportPump(const LocalTopic& local, CdrPlan plan, dds_entity_t reader,
-                       std::string dds_topic, std::string label, std::shared_ptr<void> keep_alive)
+                       std::string dds_topic, std::string label, std::shared_ptr<void> keep_alive,
+                       std::size_t drop_cap)
     : Pump(std::move(label), std::move(keep_alive)),
       local_(open_local(local, plan.pod_size())),
       plan_(std::move(plan)),
       reader_(reader),
       dds_topic_(std::move(dds_topic)),
-      message_(plan_.pod_size()) {
+      message_(plan_.pod_size()),
+      drops_(drop_cap),
+      writers_(drop_cap) {
   start([this] { loop(); });
   dds_listener_t* listener = dds_create_listener(this);
   dds_lset_data_available(listener, [](dds_entity_t, void* arg) {
@@ -225,11 +261,8 @@ void ImportPump::deliver(std::span<const std::byte> sample, dds_instance_handle_
 }
 
 void ImportPump::drop(dds_instance_handle_t writer, const std::string& reason) {
-  auto known = writers_.find(writer);
-  if (known == writers_.end()) {
-    known = writers_.emplace(writer, writer_guid(reader_, writer)).first;
-  }
-  say(drops_.dropped(known->second, reason, count_failure(), std::chrono::steady_clock::now()));
+  say(drops_.dropped(writers_.find(reader_, writer), reason, count_failure(),
+                     std::chrono::steady_clock::now()));
 }
 
 }  // namespace horus::dds_bridge

@@ -124,30 +124,60 @@ class ExportPump final : public Pump {
 /// Samples of one imported topic dropped for what a writer sent: the first of each (writer,
 /// reason) is a line naming both, the rest are counted and the count is a line at most every
 /// kEvery. A reason is its text with numbers left out, so a writer whose every sample is a
-/// different size still has one reason.
+/// different size still has one reason. A participant can make writers without end, so at most
+/// `cap` (writer, reason) pairs are kept: past them, one line says so and the samples of any other
+/// writer and reason are counted as other writers'. The Python threads use it too (horus._dds).
 class DropReport {
  public:
   static constexpr std::chrono::seconds kEvery{5};
+  static constexpr std::size_t kCap = 1024;
 
-  /// The line to say of one more sample dropped, or empty when it is only counted; `failure`:
-  /// the topic's running count of failures, this one included.
-  std::string dropped(const std::string& writer, const std::string& reason, std::uint64_t failure,
+  explicit DropReport(std::size_t cap = kCap) : cap_(cap) {}
+
+  /// The line to say of one more sample dropped, or empty when it is only counted; `writer`: its
+  /// GUID, or null for one of the writers past the cap (WriterGuids); `failure`: the topic's
+  /// running count of failures, this one included.
+  std::string dropped(const std::string* writer, const std::string& reason, std::uint64_t failure,
                       std::chrono::steady_clock::time_point now);
   /// The line counting the samples dropped unsaid, when there are some and kEvery has passed
   /// since the last line; else empty.
   std::string due(std::uint64_t failures, std::chrono::steady_clock::time_point now);
+  /// How many (writer, reason) pairs it keeps: `cap` at most.
+  std::size_t kept() const noexcept { return said_.size(); }
 
  private:
+  std::size_t cap_;
   std::set<std::pair<std::string, std::string>> said_;
-  std::uint64_t unsaid_ = 0;
+  bool full_said_ = false;    // the line saying the cap is reached went
+  std::uint64_t unsaid_ = 0;  // of pairs said before
+  std::uint64_t others_ = 0;  // of other writers and reasons, past the cap
   std::chrono::steady_clock::time_point last_line_{};
+};
+
+/// The GUIDs of the writers of dropped samples, by the instance handle a sample names its writer
+/// with: DDS allocates and locks to find a GUID, so it is looked up on a writer's first drop only,
+/// never for a sample delivered. At most `cap` are kept (a participant can make writers without
+/// end); with the same cap as the DropReport's, a writer past it would only be counted there.
+class WriterGuids {
+ public:
+  explicit WriterGuids(std::size_t cap = DropReport::kCap) : cap_(cap) {}
+
+  /// The GUID of `writer`, matched by `reader`, or null when `cap` others are kept already.
+  const std::string* find(dds_entity_t reader, dds_instance_handle_t writer);
+  std::size_t kept() const noexcept { return guids_.size(); }
+
+ private:
+  std::size_t cap_;
+  std::map<dds_instance_handle_t, std::string> guids_;
 };
 
 /// DDS reader -> local topic.
 class ImportPump final : public Pump {
  public:
+  /// `drop_cap`: the cap of its DropReport and WriterGuids.
   ImportPump(const LocalTopic& local, CdrPlan plan, dds_entity_t reader, std::string dds_topic,
-             std::string label, std::shared_ptr<void> keep_alive);
+             std::string label, std::shared_ptr<void> keep_alive,
+             std::size_t drop_cap = DropReport::kCap);
   ~ImportPump() override;
 
  private:
@@ -163,7 +193,7 @@ class ImportPump final : public Pump {
   std::string dds_topic_;
   std::vector<std::byte> message_;
   DropReport drops_;
-  std::map<dds_instance_handle_t, std::string> writers_;  // GUIDs of writers of dropped samples
+  WriterGuids writers_;
   std::mutex draining_;  // the listener and the thread: one take and delivery at a time, in order
 };
 
