@@ -13,6 +13,9 @@ runtime/remote/remote.capnp alone, as any third party could: nothing of HORUS's 
     attacker.py SCHEMA PORT CERTS stall
         5 subscriptions to every topic it may read, into a Sink that never answers (the
         robot's streams fill and stall); prints "granted G refused R", and holds them.
+    attacker.py SCHEMA PORT CERTS outside TOPIC
+        one subscription to TOPIC, which the policy does not let it read; prints "refused" (or
+        "granted") and ends its connection.
 """
 from __future__ import annotations
 
@@ -112,6 +115,11 @@ async def main() -> None:
                                                          server_hostname="robot")
     session = capnp.TwoPartyClient(stream).bootstrap().cast_as(remote.Session)
     topics = (await session.topics()).topics
+    if MODE == "outside":
+        _, failed = await refused([session.subscribe(topic=sys.argv[5], type="horus.msg.CmdVel",
+                                                     fingerprint=1, sink=Sink(), queue=1)])
+        print("refused" if failed else "granted", flush=True)
+        return
     if MODE == "stall":
         await stall(session, topics)
         return

@@ -1,22 +1,25 @@
 """An authenticated peer attacking the robot, played by a third-party client (attacker.py:
 pycapnp and remote.capnp only): 1,000 subscriptions to one topic, publishes of another type,
 fingerprint or size, messages of the wrong size and one over the connection's limit, and as
-many streams as it may hold, never acknowledged; and a peer with more connections than it may
-have. What must
-hold (docs/remote.md, "What an authenticated peer can do"): local code still opens the topic, another peer's
-stream keeps its rate, the robot's memory stays within its bound per peer, every refusal is
-logged once per kind with a count, and nothing wrong reaches a subscriber."""
+many streams as it may hold, never acknowledged; a peer with more connections than it may
+have, one reconnecting to be refused again, and a burst of refused connections. What must hold
+(docs/remote.md, "What an authenticated peer can do"): local code still opens the topic, another
+peer's stream keeps its rate, the robot's memory stays within its bound per peer, refused
+connections beyond a few are closed at once, every refusal is logged once per peer and kind
+with a count, and nothing wrong reaches a subscriber."""
 from __future__ import annotations
 
 import pathlib
 import re
+import socket
+import ssl
 import sys
 import time
 
 from conftest import SCHEMA, connect, serve
-from processes import wait_line
+from processes import wait_line, wait_until
 from test_link import PUBLISHER
-from test_resilience import STREAMER, Stamps, authenticated, resident_kib
+from test_resilience import STREAMER, Stamps, authenticated, resident_kib, streaming
 
 ATTACKER = str(pathlib.Path(__file__).resolve().parent / "attacker.py")
 # docs/remote.md: what one peer with one connection may cost the robot's memory, at most.
@@ -119,10 +122,13 @@ def test_a_thousand_subscriptions_to_one_topic_starve_nobody(children, worlds, c
     grown = peak_kib(server) - before
     assert grown < PEER_MEMORY_BOUND_KIB, f"the robot grew by {grown} KiB"
     assert server.poll() is None, server.errors.text()
-    log = server.errors.wait_for("more times (handle limit")
     kinds = {"handle limit": 996, "no such topic": 100, "another type": 100}
+    # Summed up within 5 s of each kind's first line.
+    wait_until(lambda: all(refusals(server.errors.text(), kind)[1] == count
+                           for kind, count in kinds.items()), "every refusal logged or counted")
+    log = server.errors.text()
     for kind, count in kinds.items():
-        lines, logged = refusals(server.errors.text(), kind)
+        lines, logged = refusals(log, kind)
         assert 1 <= lines <= 3 and logged == count, (kind, lines, logged, count, log)
     assert "attacker" in log and "cmd_vel" in log, log
 
@@ -143,8 +149,11 @@ def test_refused_publishes_are_logged_and_reach_no_subscriber(children, worlds, 
     # The one right message of the attack, and nothing else.
     assert wait_line(watcher, "") == "0 0.0 0.0"
     server.errors.wait_for("disconnected")
+    kinds = {"another type": 150, "wrong message": 50}
+    wait_until(lambda: all(refusals(server.errors.text(), kind)[1] == count
+                           for kind, count in kinds.items()), "every refusal logged or counted")
     text = server.errors.text()
-    for kind, count in {"another type": 150, "wrong message": 50}.items():
+    for kind, count in kinds.items():
         lines, logged = refusals(text, kind)
         assert 1 <= lines <= 3 and logged == count, (kind, lines, logged, count, text)
     over = [line for line in text.splitlines() if "over its limit" in line]
@@ -185,3 +194,67 @@ def test_a_peer_has_at_most_four_connections(children, worlds, certs):
     finally:
         for connection in held:
             connection.close()
+
+
+def test_a_peer_that_reconnects_is_logged_once_per_kind(children, worlds, certs):
+    robot, _ = worlds
+    children.python(PUBLISHER, robot.env())
+    server, port = serve(children, robot, certs, "attacker read cmd_vel")
+    # A connection each, asking for a topic outside the policy, one after another.
+    for _ in range(5):
+        attack = attacker(children, port, certs, "outside", "secret")
+        assert wait_line(attack, "") == "refused"
+        attack.wait(timeout=20)
+    kind = "read topic: not in the policy"
+    # The first refusal is a line; the next four, on other connections, are summed up (5 s
+    # after the first line at most), not each a first line again.
+    wait_until(lambda: refusals(server.errors.text(), kind)[1] == 5,
+               "the refusals of the later connections summed up")
+    text = server.errors.text()
+    first = [line for line in text.splitlines() if f"({kind}; more of this kind" in line]
+    assert len(first) == 1 and "attacker read topic secret" in first[0], text
+    lines, logged = refusals(text, kind)
+    assert lines == 2 and logged == 5, text
+
+
+def closed_at_once(peer) -> bool:
+    """Whether the robot closes `peer` within a second instead of keeping it to be told why."""
+    peer.settimeout(1.0)
+    try:
+        return peer.recv(1) == b""
+    except socket.timeout:
+        return False
+    except OSError:  # reset, or the TLS stream cut short
+        return True
+
+
+def test_a_burst_of_refused_connections_is_bounded(children, worlds, certs):
+    robot, laptop = worlds
+    server, port, _, stamps = streaming(children, robot, laptop, certs)
+    before = resident_kib(server)
+    stranger = ssl.SSLContext(ssl.PROTOCOL_TLS_CLIENT)
+    stranger.load_verify_locations(certs / "ca.crt")
+    stranger.load_cert_chain(certs / "stranger.crt", certs / "stranger.key")
+    # A certificate of our CA that no policy line names, opening connection after connection:
+    # each is refused; 4 are kept to be told why, the rest closed at once.
+    peers = []
+    try:
+        for _ in range(50):
+            raw = socket.create_connection(("127.0.0.1", port), timeout=10)
+            peers.append(stranger.wrap_socket(raw, server_hostname="robot"))
+        closed = sum(closed_at_once(peer) for peer in peers)
+        stamps.grow_by(50, "while refused connections came")
+        grown = resident_kib(server) - before
+    finally:
+        for peer in peers:
+            peer.close()
+    assert closed == 46, f"{closed} of 50 refused connections closed at once"
+    assert grown < PEER_MEMORY_BOUND_KIB, f"the robot grew by {grown} KiB"
+    assert server.poll() is None, server.errors.text()
+    text = server.errors.text()
+    assert text.count("refused stranger at 127.0.0.1:") == 4, text
+    kind = "refused connections over the limit"
+    wait_until(lambda: refusals(server.errors.text(), kind)[1] == 46,
+               "the connections closed at once logged and counted")
+    lines, _ = refusals(server.errors.text(), kind)
+    assert lines <= 3, server.errors.text()

@@ -6,7 +6,9 @@ outage), never a wait for its timeout, and calls are answered again once the lin
 A call the robot's server does not answer reaches the laptop's caller with the kind and text a
 caller on the robot would get: NoServerError, ServiceTimeout, TransportError. The first caller of
 a fresh laptop namespace is answered too, `horus service call` (which makes no reply topic of
-its own) included, and `horus remote status` counts as sent only the requests the robot got."""
+its own when it does not know the response type) included, and its unanswered call fails with
+its kind when its schemas tell the type; `horus remote status` counts as sent only the requests
+the robot got."""
 from __future__ import annotations
 
 import json
@@ -16,7 +18,7 @@ import subprocess
 import sys
 import time
 
-from conftest import HORUS, connect, free_port, serve
+from conftest import HORUS, SCHEMAS, connect, free_port, serve
 from peer_scripts import scale_server
 from processes import World, wait_line, wait_until
 
@@ -344,3 +346,35 @@ def test_a_first_callers_unanswered_call_fails_with_its_kind(children, worlds, c
     assert called.returncode == 1, called
     assert "no answer from Scale on the robot within 1000 ms" in called.stderr, called.stderr
     assert time.monotonic() - started < 25, "the call waited for its own timeout"
+
+
+def test_a_first_callers_call_no_side_ever_answered_fails_with_its_kind(children, worlds, certs,
+                                                                       generated, tmp_path):
+    robot, laptop = worlds
+    # A fresh robot whose server never answers in time (it sleeps 30 s), nobody having called
+    # it: no reply topic of the service exists on either side.
+    robot_server = talking(children, STOPPABLE_SERVER, env_with(robot, generated))
+    wait_line(robot_server, "ready")
+    _, port = serve(children, robot, certs, "laptop call Scale")
+    link = connect(children, laptop, certs, port, "--call-timeout", "1")
+    link.errors.wait_for("serving Scale of the robot here")
+    started = time.monotonic()
+    # The command, the first and only caller, knows the response type from the service's
+    # schema, opens its reply topic with it, and so can be told of the failure.
+    called = service_call(laptop, "{value: 1, factor: -30}", "--timeout", "30", "-I",
+                          str(SCHEMAS))
+    assert called.returncode == 1, called
+    assert "failed (Timeout): no answer from Scale on the robot within 1000 ms" in called.stderr, \
+        called.stderr
+    assert time.monotonic() - started < 20, "the call waited for its own timeout"
+    assert "cannot be told" not in link.errors.text(), link.errors.text()
+
+    # A Python client, first caller in another fresh namespace: its own reply topic tells the
+    # type.
+    other = World(tmp_path / "shm_c")
+    connect(children, other, certs, port, "--call-timeout", "1").errors.wait_for(
+        "serving Scale of the robot here")
+    caller = talking(children, CALLER, env_with(other, generated))
+    assert wait_line(caller, "server") == "server True"
+    assert ask(caller, "1 -30 20") == (
+        "error ServiceTimeout no answer from Scale on the robot within 1000 ms")

@@ -648,6 +648,39 @@ def _reply_topics(args, service: dict) -> tuple[dict | None, int]:
     return typed, next(index for index in range(len(taken) + 1) if index not in taken)
 
 
+# A response frame's status (horus/detail/service_frame.hpp) as the kind of error a client
+# raises: a forwarding server (the remote link's stand-in) answers a call it could not get
+# answered with the kind a caller beside the real server would get.
+_CALL_FAILURE_KINDS = {1: "ServiceFailed", 2: "NoServer", 3: "Timeout", 4: "Transport"}
+
+
+def _response_frames(args, service: dict, typed: dict | None):
+    """The frame of the service's responses: from a typed reply topic, else from the schema
+    folders (-I, else the installed schemas) when they declare the response type; None when
+    neither tells it."""
+    if typed is not None:
+        return _frame_payload(args, typed, service["response_type"], response=True)
+    try:
+        types = _described_types(args)
+    except CommandFailed:  # no schema folder, or none that reads: the type is not known here
+        return None
+    # Only a declaration of this very service (its fingerprint covers both types): an older
+    # schema of the response type would make a reply topic the server cannot open.
+    if not any(t.get("kind") == "service" and t.get("response") == service["response_type"]
+               and int(t["fingerprint"], 16) == service["fingerprint"] for t in types):
+        return None
+    described = next((t for t in types if t["name"] == service["response_type"]), None)
+    if described is None:
+        return None
+    from horus._service import _Frame
+    try:
+        cls = _message_class(described["name"], described["schema"],
+                             int(described["fingerprint"], 16))
+    except CommandFailed:  # a schema that does not compile alone: left to the server, as before
+        return None
+    return _Frame(cls, response=True)
+
+
 def service_call(args) -> int:
     from horus._service import _alive, _endpoint_id
     service = _find_service(args)
@@ -663,9 +696,13 @@ def service_call(args) -> int:
 
     typed, index = _reply_topics(args, service)
     reply_name = f"{args.service}.response.{index}"
-    responses = replies = None
-    if typed is not None:  # the response type is known: receive on the reply topic from the start
-        responses = _frame_payload(args, typed, service["response_type"], response=True)
+    replies = None
+    # With the response type known, the command receives on its reply topic from the start, as
+    # a client does: a server that forwards the call elsewhere (`horus remote connect`'s
+    # stand-in) can then always answer it, also with a failure that no server's answer ever
+    # showed it the type for.
+    responses = _response_frames(args, service, typed)
+    if responses is not None:
         replies = responses.open(reply_name)
         replies.try_recv()  # marks this handle a subscriber: other clients leave the index alone
     client_id, request_id = _endpoint_id(), 1
@@ -677,8 +714,8 @@ def service_call(args) -> int:
     while True:
         data = None
         if replies is None:
-            # The first call of this reply index: the server creates the topic with the response
-            # type when it answers, and its answer is then the topic's newest message.
+            # The response type is not known here: the server creates the topic with it when it
+            # answers, and its answer is then the topic's newest message.
             created = next((t for t in _topics(args) if t["name"] == reply_name), None)
             if created is not None and created["type_name"]:
                 responses = _frame_payload(args, created, service["response_type"], response=True)
@@ -692,7 +729,8 @@ def service_call(args) -> int:
             (got_client, got_request, status, error), response = responses.unpack(data, 4)
             if (got_client, got_request) == (client_id, request_id):
                 if status != 0:
-                    raise CommandFailed(f"service '{args.service}' failed: {error}")
+                    kind = _CALL_FAILURE_KINDS.get(status, f"status {status}")
+                    raise CommandFailed(f"service '{args.service}' failed ({kind}): {error}")
                 _show_message(_plain(response), args.json)
                 return EXIT_OK
             continue
@@ -700,8 +738,11 @@ def service_call(args) -> int:
             raise CommandFailed(f"the server of service '{args.service}' (pid "
                                 f"{service['server_pid']}) died before answering")
         if time.monotonic() >= deadline:
+            unknown = "" if responses is not None else (
+                f" (nothing here knows {service['response_type']}, the response type, so a "
+                "failure could not be told: -I DIR, the folder of its .hsrv file, lets it be)")
             raise CommandFailed(f"no response from service '{args.service}' within "
-                                f"{args.timeout:g} s")
+                                f"{args.timeout:g} s (Timeout){unknown}")
 
 
 def _announcements(args) -> list[tuple[dict, dict]]:
@@ -1143,7 +1184,7 @@ def bridge(args) -> int:
                                      args.export_service, args.import_service,
                                      args.transient_local, deadlines, args.service_timeout,
                                      args.ros2_types, args.accept_untyped_writers)
-    except RuntimeError as error:
+    except (RuntimeError, horus_bridge.BridgeError) as error:
         raise CommandFailed(str(error)) from None
     return bridge.run()
 
@@ -1314,6 +1355,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("value", help="the request's fields, e.g. '{a: 1, b: 2}'; fields left out are zero")
     sub.add_argument("--timeout", type=positive_float, default=5.0, metavar="SECONDS",
                      help="how long to wait for the response (default 5)")
+    sub.add_argument("-I", dest="include", action="append", metavar="DIR",
+                     help="schema folder declaring the response type, when no reply topic of "
+                          "the service tells it yet (default: the installed schemas)")
 
     message = group("msg", "message types of the installed (or given) schemas: list, show, hash")
     for name, handler, what in (

@@ -6,6 +6,7 @@
 #include <deque>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 
 #include "horus/service_registry.hpp"
@@ -47,7 +48,12 @@ constexpr std::size_t kMessageInFlightBytes = 1024;
 /// before the robot noticed that its last one was lost.
 constexpr int kConnectionsPerPeer = 4;
 /// After its first line, a kind of refusal is summed up at most this often.
-constexpr auto kRefusalSummaryInterval = std::chrono::seconds(5);
+constexpr kj::Duration kRefusalSummaryInterval = 5 * kj::SECONDS;
+/// Refused connections kept to be told why (kRefusalLinger), per certificate name and in all;
+/// beyond these a refused connection is closed at once: a peer of our CA that opens connection
+/// after connection holds no more of the robot than this.
+constexpr int kLingeringPerPeer = 4;
+constexpr int kLingeringInAll = 32;
 
 std::string hex(std::uint64_t value) {
   char text[17];
@@ -55,11 +61,13 @@ std::string hex(std::uint64_t value) {
   return text;
 }
 
-/// The refusals of a peer's connection, logged once per kind as they begin and then summed up:
-/// a peer that is refused a thousand times a second costs the log a line every few seconds.
-class Refusals {
+/// The refusals of a peer (all its connections, one after another or at once), logged once
+/// per kind as they begin and then summed up: a peer that is refused a thousand times a second,
+/// or reconnects a thousand times to be refused again, costs the log a line every few seconds.
+class Refusals final : private kj::TaskSet::ErrorHandler {
  public:
-  explicit Refusals(std::string peer) : peer_(std::move(peer)) {}
+  Refusals(std::string peer, kj::Timer& timer)
+      : peer_(std::move(peer)), timer_(timer), summaries_(*this) {}
   Refusals(const Refusals&) = delete;
   Refusals& operator=(const Refusals&) = delete;
   ~Refusals() {
@@ -74,31 +82,52 @@ class Refusals {
       say("refused to let %s %s (%s; more of this kind are counted)", peer_.c_str(), what.c_str(),
           kind.c_str());
       seen.logged = 1;
-      seen.logged_at = std::chrono::steady_clock::now();
-    } else if (std::chrono::steady_clock::now() - seen.logged_at >= kRefusalSummaryInterval) {
-      summarize(kind, seen);
+      seen.logged_at = timer_.now();
+      return;
     }
+    if (seen.summary_due) return;
+    // Summed up kRefusalSummaryInterval after the kind's last line, whether or not the peer
+    // is refused again (or still connected) by then.
+    seen.summary_due = true;
+    summaries_.add(timer_.atTime(seen.logged_at + kRefusalSummaryInterval).then([this, kind] {
+      Kind& due = kinds_[kind];
+      due.summary_due = false;
+      summarize(kind, due);
+    }));
   }
 
  private:
   struct Kind {
     std::uint64_t count = 0;
     std::uint64_t logged = 0;
-    std::chrono::steady_clock::time_point logged_at;
+    kj::TimePoint logged_at = kj::origin<kj::TimePoint>();
+    bool summary_due = false;
     std::string last;
   };
 
-  void summarize(const std::string& kind, Kind& seen) const {
+  void summarize(const std::string& kind, Kind& seen) {
     if (seen.count == seen.logged) return;
     say("refused to let %s %llu more times (%s), the last: %s", peer_.c_str(),
         static_cast<unsigned long long>(seen.count - seen.logged), kind.c_str(), seen.last.c_str());
     seen.logged = seen.count;
-    seen.logged_at = std::chrono::steady_clock::now();
+    seen.logged_at = timer_.now();
   }
+  void taskFailed(kj::Exception&&) override {}
 
   std::string peer_;
+  kj::Timer& timer_;
   std::map<std::string, Kind> kinds_;
+  /// Last: cancelled before what its continuations use.
+  kj::TaskSet summaries_;
 };
+
+/// "TYPE (fingerprint F)", or with `size` "TYPE (fingerprint F, N bytes)": one side's type of a
+/// topic, as a type mismatch names both.
+std::string type_text(const std::string& type, std::uint64_t fingerprint,
+                      std::optional<std::size_t> size = std::nullopt) {
+  return type + " (fingerprint " + hex(fingerprint) +
+         (size ? ", " + std::to_string(*size) + " bytes" : std::string()) + ")";
+}
 
 /// What the messages a connection's streams sent and the peer has not acknowledged yet cost,
 /// together. Cap'n Proto's own flow control gives each stream a window of its own: a peer
@@ -199,10 +228,17 @@ class PeerNetwork final : public capnp::TwoPartyVatNetwork {
 
 /// What all connections of one peer (one certificate name) hold of the robot.
 struct PeerHoldings {
+  PeerHoldings(const std::string& name, kj::Timer& timer)
+      : refusals(std::make_shared<Refusals>(name, timer)) {}
+
   int connections = 0;
+  /// Its refused connections being told why.
+  int lingering = 0;
   std::map<std::string, int> per_topic;
   int total = 0;
   std::shared_ptr<QueueBudget> budget = std::make_shared<QueueBudget>(kQueuedBytesPerPeer);
+  /// Shared with the sinks of the peer's publishes, which may outlive its sessions.
+  std::shared_ptr<Refusals> refusals;
 };
 
 /// One topic handle of a peer (a subscription or a publish), counted while it lasts.
@@ -259,7 +295,7 @@ class SessionImpl final : public wire::Session::Server {
         timer_(timer),
         next_call_(timer.now()),
         holdings_(std::move(holdings)),
-        refusals_(std::make_shared<Refusals>(peer_)) {}
+        refusals_(holdings_->refusals) {}
 
  protected:
   kj::Promise<void> topics(TopicsContext context) override {
@@ -301,10 +337,8 @@ class SessionImpl final : public wire::Session::Server {
     }
     if (info->type_name != params.getType().cStr() ||
         info->fingerprint != params.getFingerprint()) {
-      refused("another type", what,
-              "topic '" + name + "' is " + info->type_name + " (fingerprint " +
-                  hex(info->fingerprint) + ") on the robot, not " + params.getType().cStr() +
-                  " (fingerprint " + hex(params.getFingerprint()) + ")");
+      another_type(what, name, type_text(info->type_name, info->fingerprint),
+                   type_text(params.getType().cStr(), params.getFingerprint()));
     }
     const std::uint32_t queue = std::clamp(params.getQueue(), 1U, kLargestQueue);
     const std::string label = "topic " + name + " to " + peer_;
@@ -417,12 +451,9 @@ class SessionImpl final : public wire::Session::Server {
       if (here->type_name != info.type_name || here->fingerprint != info.fingerprint ||
           here->is_pod != info.is_pod ||
           (here->is_pod && here->max_message_size != info.max_message_size)) {
-        refused("another type", what,
-                "topic '" + info.name + "' is " + here->type_name + " (fingerprint " +
-                    hex(here->fingerprint) + ", " + std::to_string(here->max_message_size) +
-                    " bytes) on the robot, not " + info.type_name + " (fingerprint " +
-                    hex(info.fingerprint) + ", " + std::to_string(info.max_message_size) +
-                    " bytes)");
+        another_type(what, info.name,
+                     type_text(here->type_name, here->fingerprint, here->max_message_size),
+                     type_text(info.type_name, info.fingerprint, info.max_message_size));
       }
     }
     auto tell = [refusals = refusals_, what](const std::string& why) {
@@ -465,6 +496,14 @@ class SessionImpl final : public wire::Session::Server {
                             const std::string& why) const {
     refusals_->note(kind, what + ": " + why);
     refuse(why);
+  }
+
+  /// Refuses the peer's `what` of topic `name`, which is of type `here` on the robot, not of
+  /// the peer's type `theirs` (type_text()).
+  [[noreturn]] void another_type(const std::string& what, const std::string& name,
+                                 const std::string& here, const std::string& theirs) const {
+    refused("another type", what,
+            "topic '" + name + "' is " + here + " on the robot, not " + theirs);
   }
 
   /// A handle of `topic` for this peer, unless it holds as many as it may.
@@ -515,7 +554,7 @@ class SessionImpl final : public wire::Session::Server {
   /// What the peer was granted, logged the first time only on this connection: a peer that
   /// subscribes and drops a thousand times a second costs the log one line.
   std::set<std::string> announced_;
-  /// Shared with the sinks of the peer's publishes, which may outlive the session.
+  /// The peer's (holdings_), over all its connections.
   std::shared_ptr<Refusals> refusals_;
 };
 
@@ -601,18 +640,35 @@ class Server final : public kj::TaskSet::ErrorHandler {
             ? std::string(kInsecurePeer)
             : std::string(
                   kj::downcast<kj::TlsPeerIdentity>(*peer.peerIdentity).getCommonName().cStr());
+    // `text`: what the peer is told; `why`: what the log says.
     std::string text;
-    std::shared_ptr<PeerHoldings> held;
+    std::string why;
+    std::shared_ptr<PeerHoldings> held = holdings(name);
     if (!options_.policy.knows(name)) {
-      say("refused %s at %s: no policy line names it", name.c_str(), address.c_str());
+      why = "no policy line names it";
       text = "no policy line of this robot names peer '" + name + "'";
-    } else if ((held = holdings(name))->connections >= kConnectionsPerPeer) {
+    } else if (held->connections >= kConnectionsPerPeer) {
+      why =
+          "it has " + std::to_string(kConnectionsPerPeer) + " connections already, the most it may";
       text = "peer '" + name + "' has " + std::to_string(kConnectionsPerPeer) +
              " connections to this robot already, the most it may";
-      say("refused %s at %s: it has %d connections already, the most it may", name.c_str(),
-          address.c_str(), kConnectionsPerPeer);
     }
     if (!text.empty()) {
+      if (held->lingering >= kLingeringPerPeer || lingering_ >= kLingeringInAll) {
+        // Not kept to be told: dropped here, the stream closed as it goes.
+        held->refusals->note("refused connections over the limit",
+                             "connect from " + address + ": " + why + "; closed at once, " +
+                                 std::to_string(held->lingering) + " of its refused connections (" +
+                                 std::to_string(lingering_) + " in all) being told why already");
+        return kj::READY_NOW;
+      }
+      say("refused %s at %s: %s", name.c_str(), address.c_str(), why.c_str());
+      ++held->lingering;
+      ++lingering_;
+      auto uncounted = kj::defer([this, held] {
+        --held->lingering;
+        --lingering_;
+      });
       // Every call the peer makes fails with the reason, which it prints; then it is let go.
       auto refused = kj::heap<Connection>(
           kj::mv(peer.stream), [&text](LimitedMessageStream&) -> capnp::Capability::Client {
@@ -621,7 +677,7 @@ class Server final : public kj::TaskSet::ErrorHandler {
           });
       return refused->network.onDisconnect()
           .exclusiveJoin(timer_.afterDelay(kRefusalLinger))
-          .attach(kj::mv(refused));
+          .attach(kj::mv(refused), kj::mv(uncounted));
     }
     say("%s connected from %s", name.c_str(), address.c_str());
     auto connection = kj::heap<Connection>(
@@ -648,7 +704,7 @@ class Server final : public kj::TaskSet::ErrorHandler {
   /// What the connections of peer `name` hold, together.
   std::shared_ptr<PeerHoldings> holdings(const std::string& name) {
     std::shared_ptr<PeerHoldings>& held = holdings_[name];
-    if (!held) held = std::make_shared<PeerHoldings>();
+    if (!held) held = std::make_shared<PeerHoldings>(name, timer_);
     return held;
   }
 
@@ -656,7 +712,11 @@ class Server final : public kj::TaskSet::ErrorHandler {
   kj::Own<kj::ConnectionReceiver> listener_;
   kj::Maybe<kj::TlsContext&> tls_;
   kj::Timer& timer_;
+  /// Of every name our CA signed that connected: what its connections hold, its refusals.
   std::map<std::string, std::shared_ptr<PeerHoldings>> holdings_;
+  /// Refused connections being told why, of all peers.
+  int lingering_ = 0;
+  /// Last: its connections use the rest.
   kj::TaskSet connections_;
 };
 

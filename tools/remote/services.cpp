@@ -60,7 +60,8 @@ constexpr std::size_t kPodIdsBytes = 3 * sizeof(std::uint64_t);
 /// Why a failed call's caller is not answered: no reply topic, and no type to make it with.
 constexpr const char* kUntold =
     " (its caller cannot be told: its reply topic does not exist, and the type of the response "
-    "frames is not known here yet)";
+    "frames is not known here yet; `horus service call -I DIR`, the folder of the service's "
+    "schema, opens the topic with it)";
 constexpr std::uint8_t kFixArray = 0x90;
 
 bool is_fixarray(std::span<const std::byte> frame) {
