@@ -155,10 +155,13 @@ def _find_topic(args, name: str) -> dict:
 
 
 def _utc(seconds: float, digits: int = 0) -> str:
-    """A wall-clock time as ISO 8601 UTC, with `digits` decimals of the second."""
-    text = time.strftime("%Y-%m-%dT%H:%M:%S", time.gmtime(seconds))
+    """A wall-clock time as ISO 8601 UTC, with `digits` decimals of the second (rounded first,
+    so that 12.999 with two decimals is 13.00, not 12.00)."""
+    scale = 10 ** digits
+    units = round(seconds * scale)
+    text = time.strftime("%Y-%m-%dT%H:%M:%S", time.gmtime(units // scale))
     if digits:
-        text += f"{seconds % 1:.{digits}f}"[1:]
+        text += f".{units % scale:0{digits}d}"
     return text + "Z"
 
 
