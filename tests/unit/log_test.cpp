@@ -19,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "allocation_counter.hpp"
 #include "horus/error.hpp"
 #include "horus/literals.hpp"
 #include "horus/log.hpp"
@@ -31,7 +32,7 @@ namespace {
 // shared-memory root before the first line opens the ring.
 const horus_test::PrivateShmRoot shm_root{"logtest"};
 
-std::atomic<long> allocations{0};
+using horus_test::allocations;
 
 class Lambda : public horus::Node {
  public:
@@ -55,17 +56,6 @@ std::vector<horus::LogRecord> records_from(std::string_view source) {
 int evaluated(int& counter) { return ++counter; }
 
 }  // namespace
-
-// Counting replacements of the global allocator: GCC pairs the library's inline new with these
-// frees and warns, though the replaced operator new does call malloc.
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-void* operator new(std::size_t size) {
-  allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 TEST(Log, LinesFromATickCarryTheNodeNameInTheStableFormat) {
   horus::Scheduler sched;

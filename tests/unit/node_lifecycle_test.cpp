@@ -14,34 +14,13 @@
 
 #include "horus/literals.hpp"
 #include "horus/scheduler.hpp"
+#include "test_journal.hpp"
 
 using namespace horus::literals;
 
 namespace {
 
-// Every lifecycle call appends "<what>:<node>" to a shared journal.
-class Journal {
- public:
-  void add(std::string entry) {
-    std::lock_guard lock(mutex_);
-    entries_.push_back(std::move(entry));
-  }
-  std::vector<std::string> entries() const {
-    std::lock_guard lock(mutex_);
-    return entries_;
-  }
-  std::vector<std::string> only(const std::string& prefix) const {
-    std::vector<std::string> out;
-    for (const auto& e : entries()) {
-      if (e.rfind(prefix, 0) == 0) out.push_back(e);
-    }
-    return out;
-  }
-
- private:
-  mutable std::mutex mutex_;
-  std::vector<std::string> entries_;
-};
+using horus_test::Journal;
 
 class Recorder : public horus::Node {
  public:

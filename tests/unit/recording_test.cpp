@@ -17,6 +17,7 @@
 
 #include "horus/horus.hpp"
 #include "horus/recording.hpp"
+#include "recordings_folder.hpp"
 #include "topic_test/big.hpp"
 #include "topic_test/blob.hpp"
 #include "topic_test/other.hpp"
@@ -29,27 +30,7 @@ using topic_test::Blob;
 using topic_test::Other;
 using topic_test::Sample;
 
-/// A private recordings folder per test ($HORUS_RECORDINGS), removed afterwards.
-class RecordingsFolder {
- public:
-  RecordingsFolder()
-      : path_(std::filesystem::temp_directory_path() /
-              ("horus_recordings_" + std::to_string(::getpid()) + "_" +
-               ::testing::UnitTest::GetInstance()->current_test_info()->name())) {
-    std::filesystem::remove_all(path_);
-    ::setenv("HORUS_RECORDINGS", path_.c_str(), 1);
-  }
-  ~RecordingsFolder() {
-    ::unsetenv("HORUS_RECORDINGS");
-    std::filesystem::remove_all(path_);
-  }
-  RecordingsFolder(const RecordingsFolder&) = delete;
-  RecordingsFolder& operator=(const RecordingsFolder&) = delete;
-  const std::filesystem::path& path() const { return path_; }
-
- private:
-  std::filesystem::path path_;
-};
+using horus_test::RecordingsFolder;
 
 horus::RecorderOptions options_for(std::vector<std::string> topics) {
   horus::RecorderOptions options;

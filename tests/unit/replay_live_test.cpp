@@ -17,6 +17,7 @@
 
 #include "horus/horus.hpp"
 #include "horus/recording.hpp"
+#include "recordings_folder.hpp"
 #include "topic_test/sample.hpp"
 #include "topic_test_support.hpp"
 
@@ -24,26 +25,7 @@ namespace {
 
 using topic_test::Sample;
 
-/// A private recordings folder per test ($HORUS_RECORDINGS), removed afterwards.
-class RecordingsFolder {
- public:
-  RecordingsFolder()
-      : path_(std::filesystem::temp_directory_path() /
-              ("horus_replay_live_" + std::to_string(::getpid()) + "_" +
-               ::testing::UnitTest::GetInstance()->current_test_info()->name())) {
-    std::filesystem::remove_all(path_);
-    ::setenv("HORUS_RECORDINGS", path_.c_str(), 1);
-  }
-  ~RecordingsFolder() {
-    ::unsetenv("HORUS_RECORDINGS");
-    std::filesystem::remove_all(path_);
-  }
-  RecordingsFolder(const RecordingsFolder&) = delete;
-  RecordingsFolder& operator=(const RecordingsFolder&) = delete;
-
- private:
-  std::filesystem::path path_;
-};
+using horus_test::RecordingsFolder;
 
 horus::SchedulerConfig quiet_config() {
   return horus::SchedulerConfig{}.handle_signals(false).tick_rate(horus::Rate::hz(1000.0));

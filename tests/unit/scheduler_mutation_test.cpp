@@ -21,39 +21,14 @@
 #include "horus/presence.hpp"
 #include "horus/run.hpp"
 #include "horus/scheduler.hpp"
+#include "test_journal.hpp"
 #include "topic_test_support.hpp"
 
 using namespace horus::literals;
 
 namespace {
 
-// Every lifecycle call appends "<what>:<node>".
-class Journal {
- public:
-  void add(std::string entry) {
-    std::lock_guard lock(mutex_);
-    entries_.push_back(std::move(entry));
-  }
-  std::vector<std::string> entries() const {
-    std::lock_guard lock(mutex_);
-    return entries_;
-  }
-  std::vector<std::string> starting_with(const std::string& prefix) const {
-    std::vector<std::string> out;
-    for (const auto& e : entries()) {
-      if (e.rfind(prefix, 0) == 0) out.push_back(e);
-    }
-    return out;
-  }
-  std::size_t index_of(const std::string& entry) const {
-    const auto all = entries();
-    return static_cast<std::size_t>(std::find(all.begin(), all.end(), entry) - all.begin());
-  }
-
- private:
-  mutable std::mutex mutex_;
-  std::vector<std::string> entries_;
-};
+using horus_test::Journal;
 
 class Probe : public horus::Node {
  public:
@@ -145,7 +120,7 @@ TEST(RuntimeAdd, FromAnotherThreadStartsEachClassAndShutsDownInReverseOrder) {
   for (const std::string name : {"logger", "attitude", "planner", "uploader"}) {
     EXPECT_LT(journal.index_of("init:" + name), journal.index_of("tick:" + name)) << name;
   }
-  EXPECT_EQ(journal.starting_with("shutdown:"),
+  EXPECT_EQ(journal.only("shutdown:"),
             (std::vector<std::string>{"shutdown:uploader", "shutdown:logger", "shutdown:sensor",
                                       "shutdown:planner", "shutdown:attitude", "shutdown:base"}));
   EXPECT_EQ(sched.node_info("attitude")->state, horus::NodeState::Stopped);
@@ -176,7 +151,7 @@ TEST(RuntimeAdd, FromATickOfARealTimeThreadDoesNotDeadlock) {
   EXPECT_TRUE(eventually([&] { return sched.node_metrics("child_main")->total_ticks >= 3; }));
   sched.stop();
   loop.join();
-  EXPECT_EQ(journal.starting_with("shutdown:"),
+  EXPECT_EQ(journal.only("shutdown:"),
             (std::vector<std::string>{"shutdown:child_main", "shutdown:child", "shutdown:parent"}));
 }
 
@@ -201,7 +176,7 @@ TEST(RuntimeAdd, FromATickInDeterministicModeTicksAtItsRateFromTheNextCycle) {
   for (std::size_t i = 1; i < late->stamps().size(); ++i) {
     EXPECT_EQ(late->stamps()[i] - late->stamps()[i - 1], 40'000'000U) << i;
   }
-  EXPECT_EQ(journal.starting_with("shutdown:"),
+  EXPECT_EQ(journal.only("shutdown:"),
             (std::vector<std::string>{"shutdown:late", "shutdown:spawner"}));
 }
 

@@ -20,6 +20,7 @@
 #include <thread>
 #include <vector>
 
+#include "allocation_counter.hpp"
 #include "horus/literals.hpp"
 #include "horus/log.hpp"
 #include "horus/scheduler.hpp"
@@ -33,7 +34,7 @@ namespace {
 // log ring, outside /dev/shm, removed when it ends.
 const horus_test::PrivateShmRoot shm_root{"topiclog"};
 
-std::atomic<long> allocations{0};
+using horus_test::allocations;
 
 horus::TopicOptions verbose() {
   horus::TopicOptions options;
@@ -62,17 +63,6 @@ class Lambda : public horus::Node {
 };
 
 }  // namespace
-
-// Counting replacements of the global allocator: GCC pairs the library's inline new with these
-// frees and warns, though the replaced operator new does call malloc.
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-void* operator new(std::size_t size) {
-  allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 TEST(VerboseTopic, SendAndReceiveLinesCarryTheMessagesSummary) {
   horus::Topic<topic_test::Blob> out("blobs", verbose());
