@@ -16,7 +16,6 @@
 
 #include "bindings.hpp"
 #include "horus/clock.hpp"
-#include "horus/detail/publisher_lease.hpp"
 #include "horus/log.hpp"
 #include "horus/scheduler.hpp"
 #include "py_node.hpp"
@@ -212,9 +211,6 @@ void bind_scheduler(py::module_& m) {
              if (telemetry) config.telemetry(*telemetry);
              if (seed) config.seed(*seed);
              if (replay) config.replay(*replay);
-             // Ticks run Python under one lock: a node's first send must not hold it for the
-             // milliseconds the process's one-time set-up for publishing takes.
-             detail::prepare_publisher_leases();
              std::unique_ptr<Scheduler, ReleasingDeleter> sched(new Scheduler(std::move(config)));
              if (sched->capabilities().memory_locking) {
                // Pages stay locked, but are locked as they are first touched: CPython maps and

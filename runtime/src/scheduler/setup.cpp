@@ -14,6 +14,7 @@
 
 #include "horus/detail/created_segments.hpp"
 #include "horus/detail/errno_text.hpp"
+#include "horus/detail/publisher_lease.hpp"
 #include "horus/error.hpp"
 #include "horus/topic_registry.hpp"
 #include "logger.hpp"
@@ -111,6 +112,9 @@ SchedulerImpl::SchedulerImpl(SchedulerConfig config)
     }
     telemetry_ = std::make_unique<TelemetrySink>(config_.telemetry());
   }
+  // A node's first send must not spend the milliseconds of the process's one-time set-up for
+  // publishing inside its tick (and, in Python, under the one lock every node's tick needs).
+  prepare_publisher_leases();
   if (config_.rt()) probe_rt();
   try {
     presence_ = std::make_unique<PresenceAnnouncement>(current_namespace());
