@@ -361,13 +361,15 @@ class Resolver:
                     frames.append((nested, iter(self.message_edges(nested))))
         return cyclic
 
+    def field_span(self, qualified: str, field_name: str):
+        """Where message `qualified` declares its field `field_name`."""
+        return next(f.span for f in self.decls[qualified].item.fields if f.name == field_name)
+
     def report_cycle(self, nested: str, loop: list[tuple[str, str]], cyclic: set[str]) -> None:
         cyclic.update(q for q, _ in loop)
         path = " -> ".join(f"{q.rsplit('.', 1)[-1]}.{f}" for q, f in loop)
         owner, owner_field = loop[-1]
-        item = self.decls[owner].item
-        span = next(f.span for f in item.fields if f.name == owner_field)
-        self.reporter.error(span, f"message '{nested.rsplit('.', 1)[-1]}' contains itself "
+        self.reporter.error(self.field_span(owner, owner_field), f"message '{nested.rsplit('.', 1)[-1]}' contains itself "
                             f"({path} -> {nested.rsplit('.', 1)[-1]})",
                             "a message cannot hold itself, even through Vec or Option; "
                             "refer to the other item by an id instead")
@@ -386,9 +388,8 @@ class Resolver:
             if levels > MAX_MESSAGE_DEPTH:
                 too_deep.add(qualified)
                 if levels == MAX_MESSAGE_DEPTH + 1:
-                    item = self.decls[qualified].item
-                    span = next(f.span for f in item.fields if f.name == through)
-                    self.reporter.error(span, f"message '{item.name}' holds messages more than {MAX_MESSAGE_DEPTH} "
+                    self.reporter.error(self.field_span(qualified, through),
+                                        f"message '{qualified.rsplit('.', 1)[-1]}' holds messages more than {MAX_MESSAGE_DEPTH} "
                                         f"levels deep (through '{through}')",
                                         "flatten the chain: each type's schema text holds those of every "
                                         "type it holds")
