@@ -3,10 +3,12 @@
 // clean_namespace() / clean_presence() once the last one is gone, by the last Scheduler's
 // destructor (the folder), and by remove_namespace() regardless.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -105,6 +107,31 @@ TEST(NamespaceCleanup, KeptWhileALiveProcessUsesThemRemovedOnceItDies) {
   EXPECT_TRUE(objects(ns.name()).empty());
 }
 
+TEST(NamespaceCleanup, AnAnnouncementHalfWrittenByAKilledProcessIsCleaned) {
+  PrivateNamespace ns;
+  Child child("log_and_run", {});
+  ASSERT_TRUE(eventually([&] {
+    const auto presence = horus::list_presence(ns.name());
+    return presence.size() == 1 && presence[0].alive;
+  })) << "the child never announced";
+  const std::string folder = horus::list_namespace_objects(ns.name()).at(1).path;
+  const std::uint32_t dead_pid = static_cast<std::uint32_t>(child.pid());
+  child.kill();
+  // An announcement is written aside and renamed: a kill mid-write leaves the aside file.
+  const std::string dead_writer = folder + "/" + std::to_string(dead_pid) + ".7.tmp";
+  const std::string live_writer = folder + "/" + std::to_string(::getpid()) + ".7.tmp";
+  std::ofstream(dead_writer) << "horus-presence 1 ";
+  std::ofstream(live_writer) << "horus-presence 1 ";
+
+  EXPECT_EQ(horus::clean_presence(ns.name()), 2U) << "the dead announcement and its aside file";
+  EXPECT_FALSE(exists(dead_writer));
+  EXPECT_TRUE(exists(live_writer)) << "a live process may be writing its announcement";
+  EXPECT_TRUE(exists(folder));
+  std::filesystem::remove(live_writer);
+  EXPECT_EQ(horus::clean_presence(ns.name()), 0U);
+  EXPECT_FALSE(exists(folder));
+}
+
 TEST(NamespaceCleanup, TheLastSchedulerRemovesThePresenceFolder) {
   PrivateNamespace ns;
   // The namespace's presence folder as objects() lists it (a Scheduler may log, making a ring).
@@ -170,7 +197,8 @@ TEST(NamespaceCleanup, LiveWritersShareTheRingWhileCleaningKeepsIt) {
   second.kill();
   horus::clean_namespace(ns.name());
   horus::clean_presence(ns.name());
-  EXPECT_TRUE(objects(ns.name()).empty());
+  const auto left = objects(ns.name());
+  EXPECT_TRUE(left.empty()) << left.front().first << (left.front().second ? " in use" : "");
 }
 
 TEST(NamespaceCleanup, RemoveNamespaceRemovesEvenWhatALiveProcessUses) {

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <charconv>
 #include <chrono>
 #include <cinttypes>
 #include <condition_variable>
@@ -166,13 +167,21 @@ std::size_t clean_presence(std::string_view namespace_name) {
   if (folder.get() < 0) return 0;
   const std::string path = presence_path(name);
   std::size_t removed = 0;
-  for (const std::string& entry : entry_names(folder.get(), path)) {
-    std::uint64_t identity = 0;
-    const PresenceInfo info = read_entry(folder.get(), path, entry, identity);
-    // Only a readable announcement of a process known dead goes; anything else is left alone.
-    if (info.error.empty() && !info.alive && ::unlinkat(folder.get(), entry.c_str(), 0) == 0) {
-      ++removed;
+  for (const std::string& entry : entry_names(folder.get(), path, true)) {
+    bool dead = false;
+    if (entry.ends_with(".tmp")) {
+      // An announcement being written ("<pid>.<n>.tmp"): its writer was killed mid-write when
+      // that pid runs no more, and the half-written file would keep the folder forever.
+      std::uint32_t pid = 0;
+      const auto [end, error] = std::from_chars(entry.data(), entry.data() + entry.size(), pid);
+      dead = error == std::errc() && *end == '.' && !detail::identity_alive(pid);
+    } else {
+      std::uint64_t identity = 0;
+      const PresenceInfo info = read_entry(folder.get(), path, entry, identity);
+      // Only a readable announcement of a process known dead goes; anything else is left alone.
+      dead = info.error.empty() && !info.alive;
     }
+    if (dead && ::unlinkat(folder.get(), entry.c_str(), 0) == 0) ++removed;
   }
   detail::remove_presence_folder(name, false);
   return removed;
