@@ -6,6 +6,10 @@
 #                                       the standard messages (horus::msgs)
 #   P/share/horus/{generator,templates,schemas}   the generator package, its templates, the schemas
 #   P/share/horus/python/_horus_gen_support_v1.py the support module copied into Python outputs
+#   P/include/horus/bridge/..., P/lib/libhorus_bridge_core.a   horus::bridge_core
+#   P/include/horus/dds_bridge.hpp, P/include/horus/dds/..., P/lib/libhorus_dds.a,
+#   P/share/horus/dds/register_network_bridge.cpp
+#                                       horus::dds, the DDS bridge (built with Cyclone DDS only)
 #   P/bin/horus-gen                     the generator's command (configured from cmake/horus-gen.in
 #                                       with where the three above are, relative to it)
 # so that user projects do find_package(horus CONFIG) and call horus_generate().
@@ -36,6 +40,21 @@ if(TARGET horus_msgs)
   # The tensor pool and its types (runtime/src/pool) build on the standard messages.
   set_target_properties(horus_pool PROPERTIES EXPORT_NAME pool)
   list(APPEND horus_exported horus_pool)
+endif()
+# The bridges' shared core, and the DDS bridge (which carries pool-backed topics, so it needs the
+# pool): a user's C++ program whose scheduler calls network() links horus::dds. The package
+# config then finds Cyclone DDS (HORUS_DDS_INSTALLED).
+set_target_properties(horus_bridge_core PROPERTIES EXPORT_NAME bridge_core)
+list(APPEND horus_exported horus_bridge_core)
+install(DIRECTORY bridges/core/include/horus DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}")
+set(HORUS_DDS_INSTALLED OFF)
+if(TARGET horus_dds AND TARGET horus_pool)
+  set(HORUS_DDS_INSTALLED ON)
+  set_target_properties(horus_dds PROPERTIES EXPORT_NAME dds)
+  list(APPEND horus_exported horus_dds)
+  install(DIRECTORY bridges/dds/include/horus DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}")
+  install(FILES bridges/dds/src/register_network_bridge.cpp
+          DESTINATION "${CMAKE_INSTALL_DATADIR}/horus/dds")
 endif()
 install(TARGETS ${horus_exported} EXPORT horusTargets ARCHIVE DESTINATION "${CMAKE_INSTALL_LIBDIR}")
 install(DIRECTORY runtime/include/horus DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}")

@@ -107,8 +107,8 @@ def receive(topic, mode: str, total: int) -> dict:
 
 
 def dds_pong(domain: str, size: str) -> None:
-    """Echoes raw CDR samples of `ping` to `pong` through horus._dds (the bridge's endpoints)."""
-    from horus import _dds
+    """Echoes raw CDR samples of `ping` to `pong` through horus._core.dds (the bridge's endpoints)."""
+    from horus._core import dds as _dds
     participant = _dds.Participant(int(domain))
     reader = _dds.Reader(participant, "bench_ping", "bench::Raw_")
     writer = _dds.Writer(participant, "bench_pong", "bench::Raw_")
@@ -119,8 +119,8 @@ def dds_pong(domain: str, size: str) -> None:
 
 
 def dds_ping(domain: str, size: str, count: str) -> None:
-    """Round trip / 2 of raw CDR samples through horus._dds from Python, ping-pong."""
-    from horus import _dds
+    """Round trip / 2 of raw CDR samples through horus._core.dds from Python, ping-pong."""
+    from horus._core import dds as _dds
     participant = _dds.Participant(int(domain))
     writer = _dds.Writer(participant, "bench_ping", "bench::Raw_")
     reader = _dds.Reader(participant, "bench_pong", "bench::Raw_")
@@ -140,9 +140,9 @@ def dds_ping(domain: str, size: str, count: str) -> None:
 
 
 def dds_sub(domain: str, count: str) -> None:
-    """One-way latency of paced raw CDR samples through horus._dds from Python (no bridge)."""
+    """One-way latency of paced raw CDR samples through horus._core.dds from Python (no bridge)."""
     import struct
-    from horus import _dds
+    from horus._core import dds as _dds
     participant = _dds.Participant(int(domain))
     reader = _dds.Reader(participant, "bench_oneway", "bench::Raw_")
     print("ready", flush=True)
@@ -160,7 +160,7 @@ def dds_sub(domain: str, count: str) -> None:
 
 def dds_pub(domain: str, size: str, count: str, period_us: str) -> None:
     import struct
-    from horus import _dds
+    from horus._core import dds as _dds
     participant = _dds.Participant(int(domain))
     writer = _dds.Writer(participant, "bench_oneway", "bench::Raw_")
     while writer.matched() == 0:
@@ -179,11 +179,11 @@ def costs(kind: str) -> None:
     pumps run (timed here through a Python call each, so an upper bound), and what a Python
     thread did before (and still does for serialized types)."""
     import dds_cdr
-    from horus import _dds
+    from horus._core import dds as _dds
     cls = message_class(kind)
     codec = dds_cdr.CdrCodec(cls)
     info = cls.__horus__
-    plan = _dds.CdrPlan(info.name, info.size, dds_cdr.pod_plan(cls))
+    plan = _dds.CdrPlan.from_description(info.description)
     message = make(cls, 1)
     data = message.to_bytes()
     cdr = codec.encode(message)

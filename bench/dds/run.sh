@@ -3,10 +3,10 @@
 # publisher in namespace A to a subscriber in namespace B through two `horus bridge` processes on
 # Cyclone DDS over loopback, against Cyclone's own C ping-pong (`ddsperf`, round trip / 2) in the
 # same run, the same path with each bridge a horus.Network inside the publisher's and the
-# subscriber's processes, and the pieces in between (raw CDR ping-pong through horus._dds from Python; the
-# bridge's per-message conversion: the C++ CdrPlan its pumps run for these POD types, and the
-# Python codec serialized types still use). The issue's goal: the bridge adds <= 1.3x to DDS's
-# latency.
+# subscriber's processes, and the pieces in between (raw CDR ping-pong through horus._core.dds
+# from Python; the bridge's per-message conversion: the C++ CdrPlan its pumps run for these POD
+# types, and the Python codec of tests/dds/dds_cdr.py for comparison). The issue's goal: the
+# bridge adds <= 1.3x to DDS's latency.
 # Usage: bench/dds/run.sh [BUILD_DIR]   (default: build; needs ddsperf: Debian cyclonedds-tools)
 set -euo pipefail
 build=$(realpath "${1:-build}")
@@ -18,31 +18,78 @@ trap 'rm -rf "$work"' EXIT
   "$here/bench_dds.hmsg" >/dev/null
 export CYCLONEDDS_URI="file://$repo/docs/cyclonedds-loopback.xml"
 export HORUS_GEN_PROGRAM="$repo/generator/horus-gen"  # for the in-process bridges (horus.Network)
-export PYTHONPATH="$build/python:$build/schemas/horus_gen/horus_msgs/python:$work/gen/python:$repo/tools/horus:$here"
+export PYTHONPATH="$build/python:$build/schemas/horus_gen/horus_msgs/python:$work/gen/python:$repo/tests/dds:$here"  # tests/dds: dds_cdr, the Python CDR the costs compare
 mkdir -m 700 "$work/shm_a" "$work/shm_b"
 /usr/bin/python3 - "$build/bin/horus" "$work" "$here/bench.py" <<'PY'
-import json, os, random, re, statistics, subprocess, sys, time
+import json, os, queue, random, re, statistics, subprocess, sys, threading, time
 horus, work, bench = sys.argv[1:]
 domain = random.randrange(1, 190)  # DDS domains end at 232: the runs use up to domain + 30
 
 def env(side):
     return dict(os.environ, HORUS_SHM_DIR=f"{work}/shm_{side}", HORUS_NAMESPACE=f"bench_dds_{side}")
 
+# A child's stdout is read by a thread of its own into a queue, line by line, and its stderr goes
+# to a file: waiting for a line never blocks past a timeout, and a child that says much on stderr
+# (a bridge's failure lines) never stalls on a full pipe before its `ready`.
+class Child:
+    def __init__(self, argv, side=None, stdin=False):
+        self.errors = open(f"{work}/child-{time.monotonic_ns()}.err", "w+")
+        self.process = subprocess.Popen(argv, env=env(side) if side else None, text=True,
+                                        stdout=subprocess.PIPE, stderr=self.errors,
+                                        stdin=subprocess.PIPE if stdin else None)
+        self.lines = queue.Queue()
+        self.reader = threading.Thread(target=self._read, daemon=True)
+        self.reader.start()
+
+    def _read(self):
+        for line in self.process.stdout:
+            self.lines.put(line.rstrip("\n"))
+        self.lines.put(None)  # the end of its output
+
+    def said(self):
+        self.errors.seek(0)
+        return self.errors.read()
+
+    def wait_for(self, prefix, timeout=120):
+        """The first line starting with `prefix` (those before it are skipped)."""
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                line = self.lines.get(timeout=max(0.0, deadline - time.monotonic()))
+            except queue.Empty:
+                raise SystemExit(f"no line {prefix!r} within {timeout} s: {self.said()}") from None
+            if line is None:
+                raise SystemExit(f"expected {prefix!r}, the child ended: {self.said()}")
+            if line.startswith(prefix):
+                return line
+
+    def tell(self, text):
+        self.process.stdin.write(text)
+        self.process.stdin.flush()
+
+    def last_line(self, timeout=300):
+        """The last line it prints before it ends (it is waited for)."""
+        self.process.wait(timeout=timeout)
+        self.reader.join()
+        last = None
+        while (line := self.lines.get()) is not None:
+            last = line
+        return last
+
+    def kill(self):
+        self.process.kill()
+        self.process.wait()
+        self.reader.join()
+
 def start(argv, side=None, stdin=False):
-    return subprocess.Popen(argv, env=env(side) if side else None, text=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            stdin=subprocess.PIPE if stdin else None)
+    return Child(argv, side, stdin)
 
-def wait_for(process, prefix):
-    for line in process.stdout:
-        if line.startswith(prefix):
-            return line
-    raise SystemExit(f"expected {prefix!r}: {process.stderr.read()}")
+def wait_for(child, prefix):
+    return child.wait_for(prefix)
 
-def stop(*processes):
-    for process in processes:
-        process.kill()
-        process.communicate()
+def stop(*children):
+    for child in children:
+        child.kill()
 
 def through_bridges(kind, mode, count, period_us):
     global domain
@@ -57,14 +104,12 @@ def through_bridges(kind, mode, count, period_us):
     wait_for(exporter, "exporting 'bench'")
     wait_for(importer, "importing")
     time.sleep(1.0)  # the DDS reader and writer match
-    publisher.stdin.write("go\n")
-    publisher.stdin.flush()
-    result = json.loads(subscriber.communicate(timeout=300)[0].splitlines()[-1])
+    publisher.tell("go\n")
+    result = json.loads(subscriber.last_line())
     stop(publisher)
-    for process in (importer, exporter):
-        process.kill()
-        _, errors = process.communicate()
-        result.setdefault("bridge_errors", []).extend(errors.splitlines()[:3])
+    for child in (importer, exporter):
+        child.kill()
+        result.setdefault("bridge_errors", []).extend(child.said().splitlines()[:3])
     return result
 
 def in_process(kind, count, period_us):
@@ -80,9 +125,8 @@ def in_process(kind, count, period_us):
     wait_for(publisher, "exporting 'bench'")
     wait_for(subscriber, "importing")
     time.sleep(1.0)  # the DDS reader and writer match
-    publisher.stdin.write("go\n")
-    publisher.stdin.flush()
-    result = json.loads(subscriber.communicate(timeout=300)[0].splitlines()[-1])
+    publisher.tell("go\n")
+    result = json.loads(subscriber.last_line())
     stop(publisher)
     return result
 
@@ -94,9 +138,8 @@ def local_hop(kind, count, period_us):
     publisher = start(py + ["publish", kind, "latency", str(count), str(period_us)], "a",
                       stdin=True)
     wait_for(publisher, "ready")
-    publisher.stdin.write("go\n")
-    publisher.stdin.flush()
-    result = json.loads(subscriber.communicate(timeout=300)[0].splitlines()[-1])
+    publisher.tell("go\n")
+    result = json.loads(subscriber.last_line())
     stop(publisher)
     return result
 
@@ -105,7 +148,7 @@ def paced_dds(size, count, period_us):
     subscriber = start(py + ["dds-sub", str(domain + 30), str(count)])
     wait_for(subscriber, "ready")
     publisher = start(py + ["dds-pub", str(domain + 30), str(size), str(count), str(period_us)])
-    result = json.loads(subscriber.communicate(timeout=300)[0].splitlines()[-1])
+    result = json.loads(subscriber.last_line())
     stop(publisher)
     return result
 
@@ -151,7 +194,7 @@ print(f"load average at the end: {load:.2f}")
 print("One-way latency p50 / p99 in us; ratio = bridge / ddsperf.")
 print("| message | through two bridges | ddsperf ping-pong (C) | ratio p50 (p99) | "
       "through two in-process horus.Network | its ratio p50 (p99) | "
-      "horus._dds ping-pong from Python | horus._dds one-way, paced, Python | one HORUS hop, "
+      "horus._core.dds ping-pong from Python | horus._core.dds one-way, paced, Python | one HORUS hop, "
       "paced, Python | CdrPlan from Python (export; import) | the Python codec (export; import) |")
 print("|---|---|---|---|---|---|---|---|---|---|---|")
 def pair(r):

@@ -4,7 +4,14 @@
 //                               horus-remote's (the robot's certificate)
 //   rpc-ping PORT CERTS COUNT   COUNT echoes of a CmdVel's bytes to it (the laptop's certificate)
 //   topic-echo                  sends back each CmdVel of topic ping on topic pong
-//   topic-ping COUNT            COUNT CmdVels on ping, each waiting for its pong
+//   topic-ping COUNT NAME       COUNT CmdVels on ping, each waiting for its pong (the row NAME)
+//   topic-relay NEAR FAR [hand-off]
+//                               the link's topic hops without the link: ping of namespace NEAR
+//                               sent on to ping of FAR, pong of FAR back to pong of NEAR, each
+//                               direction a thread waiting on its topic (as a link's forwarder);
+//                               with hand-off, that thread hands each message to another one
+//                               through a queue and an eventfd the other waits on with epoll (as
+//                               a forwarder hands it to the event loop)
 //   stream-publish SECONDS      CmdVel on cmd_vel at 1 kHz, a 640x480 RGB image on camera (a
 //                               CompressedImage) and on pool_camera (a horus::Image) at 30 Hz
 //   stream-count SECONDS        the rates cmd_vel, camera and pool_camera arrive at, from the
@@ -12,12 +19,20 @@
 //
 // The pings print "<name> p50 P99 mean" in microseconds, the counter "<topic> RATE" in hertz.
 #include <capnp/rpc-twoparty.h>
+#include <sys/epoll.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
+#include <deque>
+#include <mutex>
 #include <numeric>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <thread>
@@ -108,13 +123,79 @@ int topic_echo() {
   }
 }
 
-int topic_ping(int count) {
+horus::TopicOptions in_namespace(const std::string& namespace_name) {
+  horus::TopicOptions options;
+  options.namespace_name = namespace_name;
+  return options;
+}
+
+/// Sends on each message of `from` to `to` until the process ends.
+void relay(horus::Topic<horus::msg::CmdVel>& from, horus::Topic<horus::msg::CmdVel>& to) {
+  for (;;) {
+    if (const auto message = from.recv(std::chrono::seconds(1))) to.send(*message);
+  }
+}
+
+/// As relay(), with the hand-off of a link's Forwarder between the thread that waits on `from`
+/// and the one that sends on `to`.
+void relay_handing_off(horus::Topic<horus::msg::CmdVel>& from,
+                       horus::Topic<horus::msg::CmdVel>& to) {
+  const int wake = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  const int events = ::epoll_create1(EPOLL_CLOEXEC);
+  epoll_event watched{};
+  watched.events = EPOLLIN;
+  if (wake < 0 || events < 0 || ::epoll_ctl(events, EPOLL_CTL_ADD, wake, &watched) != 0) {
+    throw std::runtime_error(std::string("cannot make an eventfd and its epoll: ") +
+                             std::strerror(errno));
+  }
+  std::mutex mutex;
+  std::deque<horus::msg::CmdVel> queue;
+  std::thread sender([&] {
+    for (;;) {
+      epoll_event ready{};
+      if (::epoll_wait(events, &ready, 1, -1) != 1) continue;
+      std::uint64_t count = 0;
+      static_cast<void>(::read(wake, &count, sizeof count));
+      std::unique_lock lock(mutex);
+      while (!queue.empty()) {
+        const horus::msg::CmdVel message = queue.front();
+        queue.pop_front();
+        lock.unlock();
+        to.send(message);
+        lock.lock();
+      }
+    }
+  });
+  for (;;) {
+    if (const auto message = from.recv(std::chrono::seconds(1))) {
+      std::lock_guard lock(mutex);
+      queue.push_back(*message);
+      const std::uint64_t one = 1;
+      static_cast<void>(::write(wake, &one, sizeof one));
+    }
+  }
+}
+
+int topic_relay(const std::string& near, const std::string& far, bool hand_off) {
+  horus::Topic<horus::msg::CmdVel> near_ping("ping", in_namespace(near));
+  horus::Topic<horus::msg::CmdVel> far_ping("ping", in_namespace(far));
+  horus::Topic<horus::msg::CmdVel> far_pong("pong", in_namespace(far));
+  horus::Topic<horus::msg::CmdVel> near_pong("pong", in_namespace(near));
+  const auto direction = hand_off ? relay_handing_off : relay;
+  std::thread outward([&] { direction(near_ping, far_ping); });
+  direction(far_pong, near_pong);
+  outward.join();
+  return 0;
+}
+
+int topic_ping(int count, const std::string& row) {
   horus::Topic<horus::msg::CmdVel> ping("ping");
   horus::Topic<horus::msg::CmdVel> pong("pong");
   std::vector<double> micros;
   std::uint64_t stamp = 0;
   int lost = 0;
-  // Until the link carries both ways, pings go unanswered: they are part of the warm-up.
+  // Until the link (or the relay) carries both ways, pings go unanswered: they are part of the
+  // warm-up.
   for (int answered = 0; answered < kWarmUp + count;) {
     horus::msg::CmdVel message;
     message.stamp_nanos = ++stamp;
@@ -131,7 +212,7 @@ int topic_ping(int count) {
     }
     if (answered++ >= kWarmUp) micros.push_back(micros_since(start));
   }
-  report("link_round_trip", std::move(micros));
+  report(row.c_str(), std::move(micros));
   if (lost > 0) std::fprintf(stderr, "topic-ping: %d pings unanswered after the warm-up\n", lost);
   return 0;
 }
@@ -205,7 +286,13 @@ int main(int argc, char** argv) {
       return rpc_ping(args[1], args[2], std::atoi(args[3].c_str()));
     }
     if (args.size() == 1 && args[0] == "topic-echo") return topic_echo();
-    if (args.size() == 2 && args[0] == "topic-ping") return topic_ping(std::atoi(args[1].c_str()));
+    if (args.size() == 3 && args[0] == "topic-ping") {
+      return topic_ping(std::atoi(args[1].c_str()), args[2]);
+    }
+    if ((args.size() == 3 || (args.size() == 4 && args[3] == "hand-off")) &&
+        args[0] == "topic-relay") {
+      return topic_relay(args[1], args[2], args.size() == 4);
+    }
     if (args.size() == 2 && args[0] == "stream-publish")
       return stream_publish(std::atof(args[1].c_str()));
     if (args.size() == 2 && args[0] == "stream-count")

@@ -10,7 +10,7 @@ import json
 import os
 import sys
 
-from . import graph
+from . import description, graph
 from .data import DataPaths
 from .diagnostics import Reporter
 from .lang import LANGUAGES, emitter, idl
@@ -43,7 +43,8 @@ def build_parser() -> argparse.ArgumentParser:
     generate.add_argument("--stamp", help="file to touch on success (the depfile's target)")
     common(commands.add_parser("check", help="parse and resolve only: report errors, write nothing; "
                                 "with .hnode files, also warn about topics nobody publishes or reads"))
-    describe = commands.add_parser("describe", help="tier, size, alignment, fingerprint, offsets, padding")
+    describe = commands.add_parser("describe", help="tier, size, alignment, fingerprint, offsets, padding "
+                                   "(--json: the type description, docs/type-description.md)")
     common(describe)
     describe.add_argument("--json", action="store_true", help="machine-readable output")
     describe.add_argument("--graph", action="store_true",
@@ -178,25 +179,10 @@ def _setting_text(value) -> str:
 
 
 def describe_json(model: Model) -> str:
-    items = []
-    for item in model.generated_items():
-        if isinstance(item, Node):
-            items.append({"kind": "node", "package": item.package, **graph.node_json(item)})
-            continue
-        entry: dict = {"name": item.qualified, "package": item.package, "fingerprint": f"0x{item.fingerprint:016x}"}
-        if isinstance(item, Service):
-            entry.update(kind="service", request=item.request.qualified, response=item.response.qualified,
-                         request_topic=item.request_topic, response_topic=item.response_topic)
-        elif isinstance(item, Enum):
-            entry.update(kind="enum", underlying=item.underlying.name,
-                         values={v.name: v.value for v in item.variants})
-        else:
-            assert isinstance(item, Message)
-            entry.update(kind="message", tier="pod" if item.is_pod else "serialized", size=item.size,
-                         alignment=item.alignment,
-                         fields=[{"name": f.name, "type": f.spelling, "offset": f.offset, "size": f.size}
-                                 for f in item.fields],
-                         padding=[{"offset": p.offset, "size": p.size} for p in item.padding],
-                         schema=item.schema, dds_type=idl.dds_type_name(model, item.qualified))
-        items.append(entry)
-    return json.dumps({"types": items}, indent=2) + "\n"
+    """The type description (docs/type-description.md) of every type of the inputs, each message
+    also with its DDS type name, and the nodes of the inputs (kind "node", as in the graph)."""
+    dds_types = {m.qualified: {"dds_type": idl.dds_type_name(model, m.qualified)}
+                 for m in model.generated_items() if isinstance(m, Message)}
+    tree = description.model_description(model, dds_types)
+    tree["types"] += [{"kind": "node", "package": n.package, **graph.node_json(n)} for n in model.generated_nodes()]
+    return json.dumps(tree, indent=2) + "\n"

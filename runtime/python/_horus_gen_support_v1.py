@@ -22,7 +22,7 @@ import struct
 
 # The contract between generated modules and this module (as HORUS_GENERATED_CONTRACT_VERSION in
 # horus/generated_contract.hpp is for C++): every generated module checks it on import.
-CONTRACT_VERSION = 1
+CONTRACT_VERSION = 2
 
 _NP = None
 _MSGPACK = None
@@ -881,18 +881,27 @@ class Nested(Codec):
 
 # -- type information -----------------------------------------------------------------------------
 
+def _info_item(info, key: str):
+    """`T.__horus__["description"]`: the public attributes of the type information by name too, as
+    the description's readers look them up (docs/generated-api.md)."""
+    if key.startswith("_") or key not in type(info).__slots__ or key in ("header", "owner"):
+        raise KeyError(key)
+    return getattr(info, key)
+
+
 class TypeInfo:
     """`T.__horus__`: a generated message's identity and layout (generated-api.md), and what the
     generic methods below need: field names, their codecs and offsets, the summary parts."""
     __slots__ = ("name", "package", "fingerprint", "is_pod", "size", "alignment", "schema", "topic",
-                 "fields", "codecs", "offsets", "summary", "header", "owner", "_dtype")
+                 "fields", "codecs", "offsets", "summary", "description", "header", "owner", "_dtype")
 
     def __init__(self, name: str, package: str, fingerprint: int, is_pod: bool, size: int | None,
                  alignment: int | None, schema: str, topic: str | None, fields: tuple, codecs: tuple,
-                 offsets: tuple, summary: tuple) -> None:
+                 offsets: tuple, summary: tuple, description: bytes) -> None:
         self.name, self.package, self.fingerprint, self.is_pod = name, package, fingerprint, is_pod
         self.size, self.alignment, self.schema, self.topic = size, alignment, schema, topic
         self.fields, self.codecs, self.offsets, self.summary = fields, codecs, offsets, summary
+        self.description = description
         self.header = _array_header(len(fields))
         self.owner = None
         self._dtype = None
@@ -910,17 +919,22 @@ class TypeInfo:
                 "itemsize": self.size})
         return self._dtype
 
+    __getitem__ = _info_item
+
     def __repr__(self) -> str:
         return f"<horus type {self.name} fingerprint 0x{self.fingerprint:016x}>"
 
 
 class EnumInfo:
     """`E.__horus__` of a generated enum."""
-    __slots__ = ("name", "package", "fingerprint", "schema", "underlying")
+    __slots__ = ("name", "package", "fingerprint", "schema", "underlying", "description")
 
-    def __init__(self, name: str, package: str, fingerprint: int, schema: str, underlying: str) -> None:
+    def __init__(self, name: str, package: str, fingerprint: int, schema: str, underlying: str,
+                 description: bytes) -> None:
         self.name, self.package, self.fingerprint = name, package, fingerprint
-        self.schema, self.underlying = schema, underlying
+        self.schema, self.underlying, self.description = schema, underlying, description
+
+    __getitem__ = _info_item
 
     def __repr__(self) -> str:
         return f"<horus enum {self.name} fingerprint 0x{self.fingerprint:016x}>"

@@ -23,8 +23,6 @@ def namespace(monkeypatch, tmp_path):
     monkeypatch.setenv("HORUS_SHM_DIR", str(root))
     name = f"cli_{uuid.uuid4().hex[:12]}"
     monkeypatch.setenv("HORUS_NAMESPACE", name)
-    # Types the command compiles from stored schemas are cached here, not in the user's cache.
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     monkeypatch.chdir(tmp_path)
     yield name
     shutil.rmtree(root, ignore_errors=True)

@@ -128,15 +128,21 @@ def test_offsets_and_refresh_intervals_are_bounded():
 
 
 def test_an_unexpected_failure_is_one_internal_error_line(tmp_path):
-    # A schema compiler that prints something other than JSON: nothing the command expects.
+    # A schema compiler whose package describes schemas as something other than a description
+    # (a string): nothing the command expects.
     generator = tmp_path / "horus-gen"
-    generator.write_text("#!/bin/sh\necho not json\n")
+    generator.write_text("#!/bin/sh\nexit 1\n")
     generator.chmod(0o755)
+    (tmp_path / "horus_gen").mkdir()
+    (tmp_path / "horus_gen" / "__init__.py").write_text(
+        "class SchemaCompileError(Exception):\n    pass\n\n\n"
+        "def describe_schema_text(name, text):\n    return 'not a description'\n\n\n"
+        "def describe_files(paths, include_dirs=()):\n    return 'not a description'\n")
     environment = dict(os.environ, HORUS_GEN_PROGRAM=str(generator))
     result = subprocess.run([HORUS, "msg", "list"], capture_output=True, text=True, timeout=30,
                             env=environment)
     assert result.returncode == 1, result
-    assert result.stderr.startswith("horus: internal error: JSONDecodeError: ")
+    assert result.stderr.startswith("horus: internal error: TypeError: "), result.stderr
     assert result.stderr.count("\n") == 1 and "Traceback" not in result.stderr
     debug = subprocess.run([HORUS, "msg", "list"], capture_output=True, text=True, timeout=30,
                            env=dict(environment, HORUS_DEBUG="1"))
@@ -672,6 +678,12 @@ def test_msg_list_show_and_hash_of_installed_types_match_the_live_segment(childr
     wait_ready(children.python(PUBLISH_CMDVEL.format(name="cmd_vel")))
     segment = json.loads(run_horus("topic", "info", "cmd_vel", "--json").stdout)
     assert int(fingerprint, 16) == segment["fingerprint"]
+    # The type description the segment carries, as hex digits (JSON has no bytes).
+    from horus.msg import CmdVel
+    assert "description" not in segment
+    assert bytes.fromhex(segment["description_hex"]) == CmdVel.__horus__.description
+    listed = json.loads(run_horus("topic", "list", "--json").stdout)
+    assert [t["description_hex"] for t in listed] == [segment["description_hex"]]
 
 
 def test_msg_show_of_a_user_type_given_with_I_with_its_padding(tmp_path):

@@ -327,8 +327,35 @@ def test_pub_with_a_type_creates_a_topic_nobody_opened_yet(tmp_path, user_types)
                        "cli_user.Pose", "-I", str(tmp_path / "user_schemas"), "--once")
     assert result.returncode == 0, result.stderr
     assert _echo_json("fresh_pose")["gear"] == "Drive"
+    # The topics it creates carry their type's description, as a generated type's do.
+    from horus import typedesc
+    for topic, type_name in (("fresh", "horus.msg.CmdVel"), ("fresh_route", "cli_user.Route")):
+        info = json.loads(run_horus("topic", "info", topic, "--json").stdout)
+        described = typedesc.message_class(bytes.fromhex(info["description_hex"])).__horus__
+        assert (described.name, described.fingerprint) == (type_name, info["fingerprint"])
     missing = run_horus("topic", "pub", "other", "{}", "--once")
     assert missing.returncode == 1 and "give --type TYPE" in missing.stderr
+
+
+def test_echo_without_a_carried_description_decodes_the_schema_text_and_refuses_a_contradicting_one():
+    from horus import _core
+    from horus.msg import Accel, CmdVel
+    info = CmdVel.__horus__
+
+    def opened(name: str, description: bytes):
+        handle = _core.Topic(name, info.name, info.fingerprint, info.schema, True, info.size,
+                             info.alignment, 64, 16 * 1024, False, description)
+        assert handle.send(CmdVel(linear=2.0).to_bytes())
+        return handle
+
+    textual = opened("textual", b"")
+    assert _echo_json("textual") == {"stamp_nanos": 0, "linear": 2.0, "angular": 0.0}
+    contradicting = opened("contradicting", Accel.__horus__.description)
+    result = run_horus("topic", "echo", "contradicting", "--once", "--timeout", "5")
+    assert result.returncode == 1 and result.stderr.count("\n") == 1, result
+    assert "stored with horus.msg.CmdVel" in result.stderr and "describes horus.msg.Accel" in \
+        result.stderr, result.stderr
+    del textual, contradicting
 
 
 def test_dict_topics_show_and_take_their_plain_value(children):

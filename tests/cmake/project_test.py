@@ -11,7 +11,10 @@
     project_test.py depends ... (same options)
         the same across two message libraries (tests/cmake/two_libraries, DEPENDS);
     project_test.py usage ... (same options)
-        horus_generate() misused or given a wrong schema fails configuration with a clear error.
+        horus_generate() misused or given a wrong schema fails configuration with a clear error;
+    project_test.py dds --build HORUS_BUILD --source tests/cmake/dds_program --work DIR ...
+        a program whose scheduler calls network(), linking horus::dds from the installation,
+        builds and starts the DDS bridge in its process.
 
 Every check prints what it expected and what came; the exit status is 1 on the first failure.
 """
@@ -111,6 +114,26 @@ def installed(args: argparse.Namespace) -> None:
         check_python(configured, app_prefix)
     else:
         print("note: the example generates no Python: its Python package is not checked")
+
+
+def dds(args: argparse.Namespace) -> None:
+    prefix = args.work / "prefix"
+    install_horus(args.build, prefix)
+    for path in ["include/horus/dds_bridge.hpp", "include/horus/bridge/topic_policy.hpp",
+                 "lib/libhorus_dds.a", "lib/libhorus_bridge_core.a",
+                 "share/horus/dds/register_network_bridge.cpp"]:
+        expect((prefix / path).exists(), f"the installation to hold {path}")
+    build_dir = args.work / "build"
+    shutil.rmtree(build_dir, ignore_errors=True)
+    configure(args.source, build_dir, prefix, args.generator)
+    build(build_dir)
+    # A domain of its own (the process id's), so that no other test's DDS traffic is met.
+    domain = 100 + os.getpid() % 100
+    env = dict(os.environ, HORUS_NAMESPACE=f"dds_program_{os.getpid()}")
+    ran = run([build_dir / "dds_program", domain], env=env, check=False)
+    expect(ran.returncode == 0, "the program to run its scheduler with the bridge", ran.stdout)
+    expect(f"bridge on DDS domain {domain}: exporting ['dds_program_nothing']" in ran.stdout,
+           "the bridge to start in the program's process (its first line)", ran.stdout)
 
 
 def check_python(configured: str, app_prefix: Path) -> None:
@@ -360,7 +383,7 @@ def usage(args: argparse.Namespace) -> None:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("mode", choices=["installed", "rebuild", "depends", "usage"])
+    parser.add_argument("mode", choices=["installed", "rebuild", "depends", "usage", "dds"])
     parser.add_argument("--build", type=Path, required=True, help="the horus build folder")
     parser.add_argument("--source", type=Path, required=True, help="examples/custom_messages")
     parser.add_argument("--work", type=Path, required=True, help="scratch folder (emptied)")
@@ -368,7 +391,8 @@ def main() -> int:
     args = parser.parse_args()
     args.work.mkdir(parents=True, exist_ok=True)
     try:
-        modes = {"installed": installed, "rebuild": rebuild, "depends": depends, "usage": usage}
+        modes = {"installed": installed, "rebuild": rebuild, "depends": depends, "usage": usage,
+                 "dds": dds}
         modes[args.mode](args)
     except Failure as failure:
         print(f"FAILED: {failure}", file=sys.stderr)

@@ -76,10 +76,10 @@ def kinds_class(generated):
 @pytest.fixture(scope="session")
 def dds_peer(generated, tmp_path_factory) -> str:
     """dds_peer.c built with idlc's C of the emitted IDL and of ROS 2's messages (the bridge's
-    tools/horus/ros2_idl/), as a Cyclone user would build it."""
+    bridges/dds/ros2_idl/), as a Cyclone user would build it."""
     build = tmp_path_factory.mktemp("dds_peer")
     sources = [str(HERE / "dds_peer.c")]
-    for idl in (generated / "idl", HERE.parent.parent / "tools" / "horus" / "ros2_idl"):
+    for idl in (generated / "idl", HERE.parent.parent / "bridges" / "dds" / "ros2_idl"):
         for path in sorted(idl.rglob("*.idl")):
             folder = build / path.parent.relative_to(idl)
             folder.mkdir(parents=True, exist_ok=True)

@@ -7,6 +7,10 @@
 //   horus_dds_network_peer import DOMAIN COUNT  imports cmd_vel, prints "seen S1 S2 ..." (-1 for
 //                                               altered content) after COUNT messages
 //   horus_dds_network_peer options DOMAIN       every Network field set, runs until stopped
+//   horus_dds_network_peer relay DOMAIN export|import|export-service|import-service PATTERN
+//                                               a scheduler that only carries the topics (or
+//                                               services) PATTERN names (types it was not
+//                                               compiled with too), until SIGINT or SIGTERM
 //   horus_dds_network_peer invalid              one line "refused: MESSAGE" per invalid Network
 //
 // A Scheduler that cannot start its bridge prints "error: MESSAGE" and exits with 2; one that
@@ -14,6 +18,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -62,6 +67,13 @@ class Listener : public horus::Node {
   horus::Topic<CmdVel> topic_{"cmd_vel", kRing};
   std::size_t count_;
   std::vector<std::int64_t> seen_;
+};
+
+// Does nothing: the scheduler of `relay` has a node only because a scheduler runs nodes.
+class Idle : public horus::Node {
+ public:
+  std::string_view name() const override { return "idle"; }
+  void tick() override {}
 };
 
 int run(horus::Network network, const std::shared_ptr<horus::Node>& node) {
@@ -130,12 +142,26 @@ int main(int argc, char** argv) {
                   .accept_untyped_writers = true},
                  std::make_shared<Talker>());
     }
+    if (role == "relay" && args.size() == 4) {
+      horus::Network network{.domain = std::stoi(args[1]), .depth = 1000};
+      const std::map<std::string, std::vector<std::string>*> kinds{
+          {"export", &network.export_},
+          {"import", &network.import_},
+          {"export-service", &network.export_services},
+          {"import-service", &network.import_services}};
+      if (const auto kind = kinds.find(args[2]); kind != kinds.end()) {
+        kind->second->push_back(args[3]);
+        return run(std::move(network), std::make_shared<Idle>());
+      }
+    }
     if (role == "invalid" && args.size() == 1) return invalid();
   } catch (const horus::Error& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
   }
-  std::fprintf(stderr, "usage: %s export DOMAIN | import DOMAIN COUNT | options DOMAIN | invalid\n",
+  std::fprintf(stderr,
+               "usage: %s export DOMAIN | import DOMAIN COUNT | options DOMAIN | relay DOMAIN "
+               "export|import|export-service|import-service PATTERN | invalid\n",
                argv[0]);
   return 2;
 }

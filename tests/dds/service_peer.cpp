@@ -8,7 +8,11 @@
 //                                 and Scale(1, 2) (0.5 s later), printing each result (with
 //                                 test_bridge_service.py's SERVER_WITH_KINDS: a remote Timeout,
 //                                 an answer that stops the server, a remote NoServer)
+//   horus_dds_service_peer serve  serves Scale as peer_scripts.scale_server does (a factor of 0
+//                                 fails), printing "ready", until SIGINT or SIGTERM
+#include <atomic>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <string>
 #include <thread>
@@ -58,6 +62,31 @@ int kinds() {
   return 0;
 }
 
+std::atomic<bool> stopping{false};
+
+int serve() {
+  auto server =
+      horus::ServiceServerBuilder<dds_test::Scale>()
+          .on_request([](const dds_test::ScaleRequest& request)
+                          -> horus::HandlerResult<dds_test::ScaleResponse> {
+            if (request.factor == 0) {
+              return std::string("a factor of 0");
+            }
+            char note[64];
+            std::snprintf(note, sizeof note, "%g times %g", request.value, request.factor);
+            return dds_test::ScaleResponse{request.value * request.factor, note};
+          })
+          .build();
+  std::signal(SIGINT, [](int) { stopping.store(true); });
+  std::signal(SIGTERM, [](int) { stopping.store(true); });
+  std::printf("ready\n");
+  std::fflush(stdout);
+  while (!stopping.load()) {
+    std::this_thread::sleep_for(50ms);
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -68,6 +97,9 @@ int main(int argc, char** argv) {
   if (role == "kinds") {
     return kinds();
   }
-  std::fprintf(stderr, "usage: %s call | once | kinds\n", argv[0]);
+  if (role == "serve") {
+    return serve();
+  }
+  std::fprintf(stderr, "usage: %s call | once | kinds | serve\n", argv[0]);
   return 2;
 }

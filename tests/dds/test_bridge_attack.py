@@ -7,8 +7,8 @@ both announce); one that announces none is refused in one line, or taken on trus
 --accept-untyped-writers, and then each (writer, reason) of its bad samples (a field more, or
 cut short) is one line, the rest a count; writers past the report's cap (a small one here, through
 HORUS_BRIDGE_DROP_REPORT_CAP) are counted as other writers', not said. The report itself
-(horus._dds.DropReport, the C++ pumps' and the Python threads') is tested with a clock of the
-test's."""
+(horus._core.dds.DropReport, the C++ pumps' and the Python threads') is tested with a clock of
+the test's."""
 from __future__ import annotations
 
 import re
@@ -219,7 +219,7 @@ def _lines(said: list[str]) -> list[str]:
 
 
 def test_the_drop_report_says_each_writer_and_reason_once_and_counts_the_rest():
-    from horus import _dds
+    from horus._core import dds as _dds
     clock = 100.0
     drops = _dds.DropReport()
     said = []
@@ -248,7 +248,7 @@ def test_the_drop_report_says_each_writer_and_reason_once_and_counts_the_rest():
 
 
 def test_the_drop_report_keeps_cap_writers_and_reasons_and_counts_others_as_other_writers():
-    from horus import _dds
+    from horus._core import dds as _dds
     drops = _dds.DropReport(cap=3)
     said = []
     failure = 0

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import pytest
 
-import horus_bridge
 from peer_scripts import RECEIVE_IN_ORDER
 from processes import Output, wait_line
 from test_bridge import (COUNT, HOLDER, PODS, RING, assert_in_order, bridge, python_env,
@@ -136,22 +135,6 @@ def test_a_name_dds_cannot_hold_is_refused_in_one_line_and_the_others_cross(
     out, errors = peer.communicate(timeout=60)
     assert peer.returncode == 0 and out.startswith("stamp_nanos="), errors
     assert said.lines == [said.wait_for("arm-1")], said.lines
-
-
-def test_names_map_one_to_one_and_an_ambiguous_dds_name_is_refused():
-    for name in ("motor.cmd", "emergency.stop", "camera.rgb", "cmd_vel", "a..b", "fleet.telemetry"):
-        dds_name = horus_bridge.dds_topic_name(name)
-        assert "." not in dds_name and horus_bridge.horus_topic_name(dds_name) == name, dds_name
-    assert horus_bridge.dds_topic_name("emergency.stop") == "rt/emergency/stop"
-    assert horus_bridge.horus_topic_name("rt/arm/state") == "arm.state"
-    with pytest.raises(horus_bridge.BridgeError, match="rt/arm.state and rt/arm/state would both "
-                       "be the local topic 'arm.state'"):
-        horus_bridge.horus_topic_name("rt/arm.state")
-    with pytest.raises(horus_bridge.BridgeError, match="a HORUS name is 1 to 200"):
-        horus_bridge.horus_topic_name("rt/arm:state")
-    with pytest.raises(horus_bridge.BridgeError, match="cannot hold its '-'"):
-        horus_bridge.dds_topic_name("arm-1")
-
 
 def test_an_xcdr2_writer_is_refused_naming_it_and_none_of_its_samples_arrive(
         dds_domain, worlds, children, generated, dds_peer):

@@ -111,3 +111,37 @@ def test_a_plain_dds_program_reads_an_image_with_its_pixels(
         assert fields == {"width": "8", "height": "6", "encoding": "2", "channels": "3",
                           "step": "24", "data_size": "144", "frame_id": "camera_link",
                           "data": made["pixels"](stamp).tobytes().hex()}, line
+
+
+@pytest.mark.parametrize("exporter", ["c++", "python"])
+def test_an_image_crosses_through_a_cpp_schedulers_bridge_with_its_pixels(
+        dds_domain, worlds, children, generated, exporter):
+    # The C++ bridge (bridges/dds/, in a C++ scheduler's process: network_peer.cpp) carries a
+    # pool-backed topic as the Python one does: the importing program fills blocks of B's pool
+    # from the frames of a C++ or a Python exporter (which reads A's blocks).
+    from test_network_cpp import NETWORK_PEER
+    source, target = worlds
+    subscriber = children.python(SUBSCRIBER, python_env(target, generated))
+    wait_line(subscriber, "ready")
+    publisher = children.python(PUBLISHER, python_env(source, generated))
+    wait_line(publisher, "ready")
+    importing = children.start([NETWORK_PEER, "relay", str(dds_domain), "import", "camera"],
+                               python_env(target, generated))
+    wait_line(importing, "bridge on DDS domain")
+    if exporter == "python":
+        exporting = bridge(children, source, generated, dds_domain, "--export", "camera")
+    else:
+        exporting = children.start([NETWORK_PEER, "relay", str(dds_domain), "export", "camera"],
+                                   python_env(source, generated))
+    assert wait_line(exporting, "exporting") == (
+        "exporting 'camera' (horus.msg.ImageDescriptor) as rt/camera "
+        "(horus::msg::dds_::ImageDescriptor_)")
+    out, errors = subscriber.communicate(timeout=90)
+    assert subscriber.returncode == 0, errors
+    lines = out.splitlines()
+    own_pool = lines[-1].split()[1]
+    images = [line.split() for line in lines[:-1]]
+    assert len(images) == COUNT, out
+    stamps = [int(image[0]) for image in images]
+    assert stamps == list(range(stamps[0], stamps[0] + COUNT)), out
+    assert all(image[1:] == ["True", "camera_link", "6x8x3", own_pool] for image in images), out

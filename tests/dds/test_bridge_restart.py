@@ -77,12 +77,12 @@ def test_an_exporting_bridge_stopped_or_killed_and_restarted_resumes_in_order(
 
 
 # Writes rt/<topic> as a plain DDS program would (no HORUS identity, the type information idlc
-# gives its IDL): a sample cut short, then a good one, once the importing bridge's reader matches.
+# gives its IDL, as the C++ bridge spells it): a sample cut short, then a good one, once the importing bridge's reader matches.
 BAD_THEN_GOOD = """
 import sys, time
-from horus import _dds
+from horus._core import dds as _dds
 from horus.msg import CmdVel
-import dds_cdr, horus_bridge
+import dds_cdr
 from dds_test import Kinds
 domain, topic = int(sys.argv[1]), sys.argv[2]
 good, dds_type = {
@@ -90,8 +90,9 @@ good, dds_type = {
     "cmd_vel": (CmdVel(stamp_nanos=7, linear=2.5), "horus::msg::dds_::CmdVel_")}[topic]
 participant = _dds.Participant(domain)
 info = type(good).__horus__
-writer = _dds.Writer(participant, "rt/" + topic, dds_type,
-                     **horus_bridge._Types().type_info(info.name, info.schema))
+_, type_info, type_map = _dds.type_on_wire(info.description)
+writer = _dds.Writer(participant, "rt/" + topic, dds_type, type_info=type_info,
+                     type_map=type_map)
 deadline = time.monotonic() + 30
 while writer.matched() == 0 and time.monotonic() < deadline:
     time.sleep(0.02)

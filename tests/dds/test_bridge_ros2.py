@@ -1,7 +1,7 @@
 """`horus bridge --ros2-types`: standard types cross as their ROS 2 twins (CmdVel as
 geometry_msgs/msg/Twist, Imu as sensor_msgs/msg/Imu, LaserScan as sensor_msgs/msg/LaserScan),
 read and written by a plain Cyclone DDS
-program built with idlc from ROS 2's messages as IDL (tools/horus/ros2_idl/, dds_peer.c), and
+program built with idlc from ROS 2's messages as IDL (bridges/dds/ros2_idl/, dds_peer.c), and
 between two bridges; a topic the option names whose type has no twin is refused in one line."""
 from __future__ import annotations
 

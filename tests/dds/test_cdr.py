@@ -9,7 +9,7 @@ import pytest
 
 import dds_cdr
 from processes import wait_line, wait_until
-from horus import _dds
+from horus._core import dds as _dds
 from horus.msg import CmdVel
 
 
@@ -109,3 +109,22 @@ def test_the_codec_reads_what_an_idlc_program_writes(dds_domain, kinds_class, dd
     assert message == expected
     peer.communicate(timeout=30)
     assert peer.returncode == 0
+
+
+def test_the_cpp_bridge_converts_serialized_types_as_dds_cdr_does(kinds_class):
+    # The C++ bridge's conversion of a serialized type (from its type description) writes the
+    # bytes dds_cdr writes and reads them back to the same message.
+    from dds_test import Inner
+    Kinds = kinds_class
+    codec, cpp = dds_cdr.CdrCodec(Kinds), _dds.SerializedCdr(Kinds.__horus__.description)
+    for message in (sample_kinds(Kinds), Kinds(), Kinds(maybe=1.0, inners=[Inner()], last=9)):
+        cdr = codec.encode(message)
+        assert cpp.encode(message.to_bytes()) == cdr
+        assert Kinds.from_bytes(cpp.decode(cdr)) == message
+    with pytest.raises(ValueError, match="does not decode as dds_test.Kinds: a count of 5 at "
+                                         "offset 32 runs past the 36-byte body"):
+        cpp.decode(codec.encode(sample_kinds(Kinds))[:40])
+    with pytest.raises(ValueError, match="encapsulation 0007 is XCDR2, and the bridge reads XCDR1"):
+        cpp.decode(b"\x00\x07\x00\x00" + codec.encode(Kinds())[4:])
+    with pytest.raises(ValueError, match="bytes are left over"):
+        cpp.decode(codec.encode(Kinds()) + bytes(8))

@@ -1,6 +1,6 @@
-"""horus._dds.CdrPlan (the bridge's C++ conversion of POD types, from dds_cdr.pod_plan) writes the
-same CDR as dds_cdr.CdrCodec and reads it back to the same struct bytes, for every POD type of
-the test schemas and of horus.msg."""
+"""horus._core.dds.CdrPlan (the bridge's C++ conversion of POD types, planned from the type
+description's offsets) writes the same CDR as dds_cdr.CdrCodec and reads it back to the same
+struct bytes, for every POD type of the test schemas and of horus.msg."""
 from __future__ import annotations
 
 import struct
@@ -10,7 +10,7 @@ import pytest
 
 import dds_cdr
 import horus.msg
-from horus import _dds
+from horus._core import dds as _dds
 
 
 def value_of(codec, seed: int):
@@ -47,7 +47,7 @@ def message_of(cls, seed: int = 1):
 
 def plan_of(cls):
     info = cls.__horus__
-    return _dds.CdrPlan(info.name, info.size, dds_cdr.pod_plan(cls))
+    return _dds.CdrPlan.from_description(info.description)
 
 
 def pod_classes(module):
@@ -89,7 +89,7 @@ def test_every_standard_pod_type_converts_as_the_codec_does(cls):
 
 def test_a_string_moves_what_follows_it_and_neighbouring_numbers_are_one_step(kinds_class):
     from dds_test import Pods
-    steps = dds_cdr.pod_plan(Pods)
+    steps = plan_of(Pods).steps
     assert steps[0] == ("copy", 0, 8, 1) and steps[1] == ("bool", 8, 1, 1)
     assert ("string", 44, 12, 1) in steps and ("copy", 64, 4, 3) in steps  # direction: one step
     short = Pods(label="", full="abcd", names=["", "x"])
@@ -131,6 +131,15 @@ def test_samples_that_do_not_fit_are_value_errors_naming_the_type(kinds_class):
         plan.decode(too_long)
     with pytest.raises(ValueError, match="is 168 bytes, not 3"):
         plan.encode(b"abc")
+
+
+def test_a_serialized_type_has_no_plan(kinds_class):
+    from dds_test import Kinds
+    with pytest.raises(ValueError, match="dds_test.Kinds is a serialized message: it has no POD "
+                                         "layout"):
+        _dds.CdrPlan.from_description(Kinds.__horus__.description)
+    with pytest.raises(RuntimeError):
+        _dds.CdrPlan.from_description(b"not a description")
 
 
 def test_a_plan_reaching_outside_the_struct_is_refused():

@@ -1,10 +1,10 @@
-"""horus._dds: raw-CDR writers and readers on Cyclone DDS, in one process on loopback."""
+"""horus._core.dds: raw-CDR writers and readers on Cyclone DDS, in one process on loopback."""
 from __future__ import annotations
 
 import struct
 
 from processes import wait_until
-from horus import _dds
+from horus._core import dds as _dds
 
 TYPE = "horus::msg::dds_::CmdVel_"
 
@@ -76,10 +76,9 @@ def test_one_topic_name_with_two_types_is_refused(dds_domain):
 
 
 def test_a_reader_of_typed_writers_only_matches_writers_of_its_type_alone(dds_domain):
-    import horus_bridge
     from horus.msg import CmdVel, Twist
-    types = horus_bridge._Types()
-    cmdvel_type, twist_type = (types.type_info(cls.__horus__.name, cls.__horus__.schema)
+    cmdvel_type, twist_type = (dict(zip(("type_info", "type_map"),
+                                        _dds.type_on_wire(cls.__horus__.description)[1:]))
                                for cls in (CmdVel, Twist))
     a, b, c, d = (_dds.Participant(dds_domain) for _ in range(4))
     reader = _dds.Reader(a, "rt/cmd_vel", TYPE, typed_writers_only=True, **cmdvel_type)
@@ -116,3 +115,19 @@ def test_take_names_each_sample_s_writer_by_handle_and_writer_guids_finds_and_ca
     assert writers.find(two) is None and writers.kept == 1
     assert writers.find(one) == guids[a.guid]
     assert _dds.WriterGuids(reader).find(12345) == "unknown"  # DDS knows no such writer
+
+
+def test_the_cpp_bridge_announces_the_type_information_of_horus_gens_idl(kinds_class):
+    # The C++ bridge spells the IDL from the type description, a DDS program has horus-gen
+    # write it: idlc must make the same XTypes type information of both, or DDS would see two
+    # types (assignable at best) where there is one.
+    import horus.msg
+    from dds_test import Pods
+    from horus_gen_types import HorusGenTypes
+    types = HorusGenTypes()
+    for cls in (kinds_class, Pods, horus.msg.CmdVel, horus.msg.Imu, horus.msg.ImageDescriptor):
+        info = cls.__horus__
+        name, type_info, type_map = _dds.type_on_wire(info.description)
+        assert name == types.dds_name(info.name, info.schema), info.name
+        expected = types.type_info(info.name, info.schema)
+        assert (type_info, type_map) == (expected["type_info"], expected["type_map"]), info.name

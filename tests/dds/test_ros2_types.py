@@ -1,14 +1,41 @@
-"""ros2_types: each ROS 2 twin's codec gives back what it was given (the fields both types have;
-the rest as docs/dds-bridge.md's table says), in the byte layout of the ROS 2 message."""
+"""The ROS 2 twins' C++ conversions (bridges/dds, horus/dds/ros2_twins.hpp, through
+horus._core.dds.TwinCodec): each gives back what it was given (the fields both types have; the
+rest as docs/dds-bridge.md's table says), in the byte layout of the ROS 2 message."""
 from __future__ import annotations
 
 import math
 import struct
+from types import SimpleNamespace
 
 import pytest
+from horus._core import dds
 from horus.msg import (CmdVel, Imu, LaserScan, Odometry, Point3, Pose2D, Pose3D, PoseStamped,
                        Quaternion, Twist)
-from ros2_types import TWINS, TwinCodec, twin_of, twins_of_dds_type
+
+TWINS = [SimpleNamespace(horus=horus, ros2=ros2, dds_type=dds_type)
+         for horus, ros2, dds_type in dds.ros2_twins()]
+
+
+def twin_of(horus_type: str):
+    return next((twin for twin in TWINS if twin.horus == horus_type), None)
+
+
+def twins_of_dds_type(dds_type: str) -> list:
+    return [twin for twin in TWINS if twin.dds_type == dds_type]
+
+
+class TwinCodec:
+    """Messages of the generated class `cls` through the C++ conversion of `twin`."""
+
+    def __init__(self, twin, cls) -> None:
+        self.cls, self.codec = cls, dds.TwinCodec(twin.horus)
+
+    def encode(self, message) -> bytes:
+        return self.codec.encode(message.to_bytes())
+
+    def decode(self, data):
+        return self.cls.from_bytes(self.codec.decode(bytes(data)))
+
 
 STAMP = 1_700_000_000_123_456_789
 

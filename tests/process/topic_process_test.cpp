@@ -27,8 +27,8 @@
 
 #include <horus/detail/process.hpp>
 #include <horus/detail/shm_segment.hpp>
-#include <horus/detail/topic_notifier.hpp>
-#include <horus/detail/topic_wait_set.hpp>
+#include <horus/internal/topic_notifier.hpp>
+#include <horus/internal/topic_wait_set.hpp>
 #include <horus/msg/generic_message.hpp>
 #include <horus/topic.hpp>
 #include <horus/topic_registry.hpp>

@@ -138,5 +138,6 @@ def test_describe_json_is_machine_readable():
     request = types[types["test_msgs.GetRobotPose"]["request"]]
     assert request["dds_type"] == "test_msgs::dds_::GetRobotPose_Request_"
     assert types["test_msgs.GetRobotPose"]["request_topic"] == "GetRobotPose.request"
-    assert types["test_msgs.Mode"]["values"] == {"Idle": 0, "Run": 1, "Fault": 200}
+    assert types["test_msgs.Mode"]["values"] == [{"name": "Idle", "value": 0}, {"name": "Run", "value": 1},
+                                                 {"name": "Fault", "value": 200}]
     assert int(pose["fingerprint"], 16) > 0

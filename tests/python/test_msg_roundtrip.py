@@ -68,12 +68,12 @@ class Filler:
         cls = getattr(self.msg, spelling.rsplit(".", 1)[-1])
         if described["kind"] == "enum":
             self.take()
-            return cls(next(iter(described["values"].values())))
+            return cls(described["values"][0]["value"])
         return self.message(spelling)
 
     def message(self, qualified: str):
         cls = getattr(self.msg, qualified.rsplit(".", 1)[-1])
-        return cls(**{f["name"]: self.value(f["type"]) for f in TYPES[qualified]["fields"]})
+        return cls(**{f["name"]: self.value(f["spelling"]) for f in TYPES[qualified]["fields"]})
 
 
 def fnv1a64(data: bytes) -> int:

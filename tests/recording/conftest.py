@@ -29,5 +29,4 @@ def recordings(monkeypatch, tmp_path):
     folder = tmp_path / "recordings"
     folder.mkdir()
     monkeypatch.setenv("HORUS_RECORDINGS", str(folder))
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     return folder

@@ -9,8 +9,8 @@
 #include <string>
 #include <type_traits>
 
-#include <horus/detail/json_string.hpp>
 #include <horus/detail/service_frame.hpp>
+#include <horus/internal/json_string.hpp>
 #include <horus/plain_value.hpp>
 #include <pyrt_test/add.hpp>
 #include <pyrt_test/echo.hpp>
@@ -49,7 +49,7 @@ void print_plain(T value) {
 }  // namespace
 
 int main() {
-  using horus::detail::ServiceRegistration;
+  using horus::ServiceRegistration;
   using horus::detail::ServiceRequestFrame;
   using horus::detail::ServiceResponseFrame;
   // Zeroed first, so that the padding of the samples is zero, as a topic's slot is.

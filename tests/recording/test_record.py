@@ -1,5 +1,6 @@
-"""`horus record` over recordings written by tools/horus/horus_mcap.py, checked with PyPI `mcap`
-(an MCAP reader that is not ours) and `jsonschema`; replay into a live subscriber process."""
+"""`horus record` over recordings written by horus.mcap (runtime/python/horus/mcap.py), checked
+with PyPI `mcap` (an MCAP reader that is not ours) and `jsonschema`; replay into a live subscriber
+process."""
 from __future__ import annotations
 
 import base64
@@ -15,7 +16,7 @@ from mcap.reader import make_reader
 from mcap.records import Chunk, DataEnd, Footer, MessageIndex
 from mcap.stream_reader import StreamReader
 
-import horus_mcap
+from horus import mcap as horus_mcap
 from horus.msg import CmdVel, CompressedImage, LaserScan, PoseStamped, TransformStamped
 
 HORUS = os.environ.get("HORUS_CLI", "")
@@ -26,17 +27,22 @@ def run_horus(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run([HORUS, *args], capture_output=True, text=True, timeout=60)
 
 
-def write_recording(path, topics: dict, *, fingerprint_of=None, chunk_size=4096) -> None:
-    """A recording as the recorder writes it: `topics` maps a topic to (class, [messages])."""
+def write_recording(path, topics: dict, *, fingerprint_of=None, chunk_size=4096,
+                    schema_text_of=None, description_of=None) -> None:
+    """A recording as the recorder writes it: `topics` maps a topic to (class, [messages]);
+    `schema_text_of` replaces a topic's stored schema text, `description_of` gives it a type
+    description (channel metadata horus.description)."""
     with open(path, "wb") as stream:
         writer = horus_mcap.Writer(stream, chunk_size=chunk_size)
         writer.add_metadata("horus.session", {"session": "test", "namespace": "t"})
         channels = {}
         for topic, (cls, _) in topics.items():
             meta = cls.__horus__
-            schema = writer.add_schema(meta.name, "horus.hmsg", meta.schema.encode())
+            text = (schema_text_of or {}).get(topic, meta.schema)
+            schema = writer.add_schema(meta.name, "horus.hmsg", text.encode())
             fingerprint = (fingerprint_of or {}).get(topic, meta.fingerprint)
             metadata = {"horus.fingerprint": f"{fingerprint:016x}", "horus.type": meta.name}
+            metadata.update(horus_mcap.description_metadata((description_of or {}).get(topic, b"")))
             if meta.is_pod:
                 metadata["horus.payload_size"] = str(meta.size)
             channels[topic] = writer.add_channel(
@@ -176,6 +182,33 @@ for _ in range({count}):
 """
 
 
+def test_export_and_replay_decode_with_the_description_a_channel_carries(tmp_path, children):
+    # A schema text that does not compile: only the carried description can decode the topic.
+    path = tmp_path / "described.mcap"
+    broken = {"cmd": "message horus.msg.CmdVel {\n  linear: f33,\n}\n"}
+    write_recording(path, {"cmd": (CmdVel, cmd_vels(5))}, schema_text_of=broken,
+                    description_of={"cmd": CmdVel.__horus__.description})
+    exported = export_validated(path, tmp_path / "described_foxglove.mcap")
+    assert [value["linear"] for _, _, value in exported] == [m.linear for m in cmd_vels(5)]
+    subscriber = children.python(SUBSCRIBER.format(count=5))
+    assert subscriber.stdout.readline().strip() == "ready"
+    replayed = run_horus("record", "replay", str(path), "--rate", "20")
+    assert replayed.returncode == 0, replayed.stderr
+    received, _ = subscriber.communicate(timeout=60)
+    assert received.split() == [m.to_bytes().hex() for m in cmd_vels(5)]
+
+    # A description of another type than the channel names is refused, naming both.
+    path = tmp_path / "mismatched.mcap"
+    write_recording(path, {"cmd": (CmdVel, cmd_vels(2))},
+                    description_of={"cmd": LaserScan.__horus__.description})
+    for action in (["export", str(path), "--foxglove", str(tmp_path / "out.mcap")],
+                   ["replay", str(path)]):
+        refused = run_horus("record", *action)
+        assert refused.returncode == 1 and refused.stderr.count("\n") == 1, refused
+        assert "horus.msg.LaserScan" in refused.stderr and "horus.msg.CmdVel" in refused.stderr, \
+            refused.stderr
+
+
 def test_replay_delivers_every_message_in_order_to_a_live_subscriber(tmp_path, children):
     messages = cmd_vels(200, offset=0.5)
     path = tmp_path / "r.mcap"
@@ -275,10 +308,18 @@ def standard_schema_files() -> list[str]:
     return sorted(os.path.join(folder, f) for f in os.listdir(folder) if f.endswith(".hmsg"))
 
 
+def without_descriptions(schema):
+    if isinstance(schema, dict):
+        return {k: without_descriptions(v) for k, v in schema.items() if k != "description"}
+    if isinstance(schema, list):
+        return [without_descriptions(v) for v in schema]
+    return schema
+
+
 def test_horus_gen_jsonschema_describes_what_the_export_writes_for_every_standard_type(tmp_path):
-    import dynamic_types
     import horus.msg
-    import horus_foxglove
+    from horus import foxglove as horus_foxglove
+    from horus import typedesc
     first = generate(tmp_path, "jsonschema", *standard_schema_files())
     schemas = {}
     for folder, _, names in os.walk(os.path.join(first, "jsonschema")):
@@ -301,8 +342,15 @@ def test_horus_gen_jsonschema_describes_what_the_export_writes_for_every_standar
         cls = getattr(horus.msg, title.rsplit(".", 1)[1], None)
         if cls is None or not hasattr(cls.__horus__, "fields"):
             continue  # an enum
-        value = horus_foxglove.plain_json(dynamic_types.to_plain(cls()))
+        value = horus_foxglove.plain_json(typedesc.to_plain(cls()))
         jsonschema.validate(value, schema)
+        # The export makes the same schema from the type's description (the schema text a
+        # recording stores has no doc comments: descriptions aside).
+        info = cls.__horus__
+        exported = horus_foxglove.generated_json_schema(
+            title, typedesc.load_type(info.name, info.schema, info.fingerprint))
+        assert without_descriptions(exported) == without_descriptions(
+            {k: v for k, v in schema.items() if k != "$comment"}), title
         checked += 1
     assert checked > 50
     # A value of the wrong kind is rejected, so the validation above can fail.

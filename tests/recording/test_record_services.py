@@ -12,9 +12,9 @@ import sys
 
 import pytest
 
-import dynamic_types
 import horus
-import horus_mcap
+from horus import mcap as horus_mcap
+from horus import typedesc
 from horus import Node, Scheduler
 from horus.msg import CmdVel, LaserScan
 
@@ -64,14 +64,14 @@ def test_every_runtime_defined_type_decodes_from_its_stored_schema_with_its_fing
     for described in types:
         fingerprint = int(described["fingerprint"], 16)
         assert fnv1a(described["schema"]) == fingerprint, described
-        cls = dynamic_types.load_type(described["name"], described["schema"], fingerprint)
+        cls = typedesc.load_type(described["name"], described["schema"], fingerprint)
         assert bool(cls.__horus__.is_pod) == described["pod"], described["name"]
         if described["pod"]:
             assert cls.__horus__.size == described["size"], described["name"]
             data = bytes.fromhex(described["bytes"])
             message = cls.from_bytes(data)
             assert message.to_bytes() == data, described["name"]
-            decoded[described["name"]] = dynamic_types.to_plain(message)
+            decoded[described["name"]] = typedesc.to_plain(message)
         else:
             assert type(cls.from_bytes(cls().to_bytes())) is cls
     assert decoded["horus.ServiceRegistration"] == {
@@ -86,11 +86,11 @@ def test_every_runtime_defined_type_decodes_from_its_stored_schema_with_its_fing
     assert decoded["u64"] == {"value": 2**63 + 1}
     assert decoded["[[u8; 4]; 2]"] == {"value": [[1, 2, 3, 4], [5, 6, 7, 8]]}
     # The Python runtime spells the frames as the C++ one does.
-    from horus._service import _Frame
+    from horus.introspection import ServiceFrame
     by_name = {t["name"]: t for t in types}
     for payload, response in ((pyrt_test.AddRequest, False), (pyrt_test.AddResponse, True),
                               (pyrt_test.EchoRequest, False), (pyrt_test.EchoResponse, True)):
-        frame = _Frame(payload, response=response)
+        frame = ServiceFrame(payload, response=response)
         assert (frame.schema, f"{frame.fingerprint:016x}") == (
             by_name[frame.name]["schema"], by_name[frame.name]["fingerprint"])
 
@@ -112,13 +112,13 @@ def echo(topic: str) -> dict:
 
 def test_a_recorded_service_session_is_echoed_exported_and_replayed(tmp_path, children, pyrt_test):
     assert SERVICE_PEER, "HORUS_PY_SERVICE_PEER: run through ctest (pytest_record)"
-    from horus._service import _registration_topic
+    from horus._core import ServiceRegistrationTopic
     out = tmp_path / "calls.mcap"
     recorder = start_recording(out)
     # Every topic is there and recorded before the server registers and the calls begin.
     commands = horus.Topic(CmdVel, "cmd")
     for service in (pyrt_test.Add, pyrt_test.Echo):
-        _registration_topic(service)  # the segment stays when the handle goes
+        ServiceRegistrationTopic(service.name)  # the segment stays when the handle goes
     add, echoes = horus.ServiceClient(pyrt_test.Add), horus.ServiceClient(pyrt_test.Echo)
     for topic in ("Add.request", "Add.response.0", "Add.service", "Echo.request", "Echo.response.0",
                   "Echo.service", "cmd"):

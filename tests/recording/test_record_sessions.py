@@ -16,7 +16,7 @@ import horus
 from horus import Node, Scheduler
 from horus.msg import CmdVel, CompressedImage
 
-import horus_mcap
+from horus import mcap as horus_mcap
 
 from conftest import check_file
 from processes import wait_until

@@ -1,15 +1,16 @@
 """An authenticated peer that attacks the robot (test_attacks.py), written with pycapnp from
-runtime/remote/remote.capnp alone, as any third party could: nothing of HORUS's own code.
+bridges/remote/remote.capnp alone, as any third party could: nothing of HORUS's own code.
 
     attacker.py SCHEMA PORT CERTS subscribe COUNT HOLD
         COUNT subscriptions to cmd_vel at once, then a tenth as many to a topic that does not
         exist and to generic as a CmdVel; prints "granted G refused R", holds what it was granted HOLD seconds,
         drops it all and prints "dropped".
     attacker.py SCHEMA PORT CERTS publish COUNT
-        COUNT publishes to cmd_vel with another type name, another fingerprint and another size
-        each, COUNT messages of the wrong size, then one message of zeros of the right size
-        (which a subscriber on the robot may get), then one over the connection's limit;
-        prints "refused TYPE FINGERPRINT SIZE MESSAGES" before the last.
+        COUNT publishes to cmd_vel with another type name, another fingerprint, another size
+        and bytes that are no type description each, COUNT messages of the wrong size, then one
+        message of zeros of the right size (which a subscriber on the robot may get), then one
+        over the connection's limit; prints "refused TYPE FINGERPRINT SIZE DESCRIPTION
+        MESSAGES" before the last.
     attacker.py SCHEMA PORT CERTS stall
         5 subscriptions to every topic it may read, into a Sink that never answers (the
         robot's streams fill and stall); prints "granted G refused R", and holds them.
@@ -75,7 +76,8 @@ async def subscribe(session, cmd_vel, count: int, hold: float) -> None:
 
 async def publish(session, cmd_vel, count: int) -> None:
     wrong = {"type": {"type": "horus.msg.Fake"}, "fingerprint": {"fingerprint": 12345},
-             "size": {"maxMessageSize": cmd_vel.maxMessageSize + 8}}
+             "size": {"maxMessageSize": cmd_vel.maxMessageSize + 8},
+             "description": {"description": b"\x92\x01\x02"}}
     counts = []
     for changes in wrong.values():
         _, failed = await refused([session.publish(info=info_of(cmd_vel, **changes))

@@ -18,7 +18,7 @@ GENERATOR = os.environ.get("HORUS_GEN_PROGRAM", "")
 SINK_PEER = os.environ.get("HORUS_REMOTE_SINK_PEER", "")
 SCHEMAS = pathlib.Path(__file__).resolve().parent / "schemas"
 # The wire interface, all a third-party client (attacker.py) is given.
-SCHEMA = pathlib.Path(__file__).resolve().parents[2] / "runtime" / "remote" / "remote.capnp"
+SCHEMA = pathlib.Path(__file__).resolve().parents[2] / "bridges" / "remote" / "remote.capnp"
 
 
 @pytest.fixture

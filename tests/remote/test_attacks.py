@@ -1,6 +1,7 @@
 """An authenticated peer attacking the robot, played by a third-party client (attacker.py:
 pycapnp and remote.capnp only): 1,000 subscriptions to one topic, publishes of another type,
-fingerprint or size, messages of the wrong size and one over the connection's limit, and as
+fingerprint or size or with bytes that are no type description, messages of the wrong size and
+one over the connection's limit, and as
 many streams as it may hold, never acknowledged; a peer with more connections than it may
 have, one reconnecting to be refused again, and a burst of refused connections. What must hold
 (docs/remote.md, "What an authenticated peer can do"): local code still opens the topic, another
@@ -141,7 +142,7 @@ def test_refused_publishes_are_logged_and_reach_no_subscriber(children, worlds, 
     before = resident_kib(server)
     attack = attacker(children, port, certs, "publish", "50")
     counts = [int(n) for n in wait_line(attack, "refused").split()[1:]]
-    assert counts == [50, 50, 50, 50], counts
+    assert counts == [50, 50, 50, 50, 50], counts
     server.errors.wait_for("over its limit")
     attack.wait(timeout=20)
     grown = peak_kib(server) - before
@@ -149,7 +150,7 @@ def test_refused_publishes_are_logged_and_reach_no_subscriber(children, worlds, 
     # The one right message of the attack, and nothing else.
     assert wait_line(watcher, "") == "0 0.0 0.0"
     server.errors.wait_for("disconnected")
-    kinds = {"another type": 150, "wrong message": 50}
+    kinds = {"another type": 150, "bad type description": 50, "wrong message": 50}
     wait_until(lambda: all(refusals(server.errors.text(), kind)[1] == count
                            for kind, count in kinds.items()), "every refusal logged or counted")
     text = server.errors.text()

@@ -129,6 +129,42 @@ def test_topics_mirrored_in_order_and_export_allowed_or_refused(children, worlds
     server.errors.wait_for("refused to let laptop write topic private")
 
 
+# Prints, for each topic named, its type and its type description's bytes in hex (its segment's).
+DESCRIPTIONS = """
+import sys, horus
+topics = {topic["name"]: topic for topic in horus._core.list_topics()}
+for name in sys.argv[1:]:
+    print(name, topics[name]["type_name"], topics[name]["description"].hex())
+"""
+
+
+def descriptions(children, world, *names: str) -> dict[str, tuple[str, str]]:
+    """Each topic's (type, description in hex) in `world`."""
+    out, _ = children.python(DESCRIPTIONS, world.env(), *names).communicate(timeout=60)
+    return {name: (type_name, description) for name, type_name, description in
+            (line.split() for line in out.splitlines())}
+
+
+def test_a_mirrored_topic_has_the_type_description_of_its_origin(children, worlds, certs):
+    # Only the link opens cmd_vel on the laptop and goal on the robot: their segments are made
+    # from the type the wire carried.
+    robot, laptop = worlds
+    children.python(PUBLISHER, robot.env())
+    children.python(LAPTOP_PUBLISHER, laptop.env())
+    server, port = serve(children, robot, certs, "laptop read cmd_vel", "laptop write goal")
+    client = connect(children, laptop, certs, port, "--import", "cmd_vel", "--export", "goal")
+    client.errors.wait_for("importing cmd_vel")
+    client.errors.wait_for("exporting goal")
+    server.errors.wait_for("laptop publishes to goal")
+
+    at_robot = descriptions(children, robot, "cmd_vel", "goal")
+    at_laptop = descriptions(children, laptop, "cmd_vel", "goal")
+    assert at_robot["cmd_vel"][0] == "horus.msg.CmdVel"
+    assert at_robot["cmd_vel"][1] != ""  # the publisher's type has a description
+    assert at_laptop["cmd_vel"] == at_robot["cmd_vel"]
+    assert at_robot["goal"] == at_laptop["goal"]
+
+
 def test_bad_arguments_exit_two_naming_the_problem_first(worlds):
     for args in (["serve", "--listen", "127.0.0.1:0", "--insecure", "--allow", "laptop peek *"],
                  ["serve", "--insecure"], ["connect", "--insecure"],

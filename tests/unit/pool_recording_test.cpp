@@ -14,8 +14,8 @@
 #include <vector>
 
 #include "horus/depth_image.hpp"
-#include "horus/detail/replayer.hpp"
 #include "horus/image.hpp"
+#include "horus/internal/replayer.hpp"
 #include "horus/point_cloud.hpp"
 #include "horus/pool_topic.hpp"
 #include "horus/recording.hpp"

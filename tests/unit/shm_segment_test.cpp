@@ -156,6 +156,14 @@ TEST(ShmSegment, ClaimsOffsetOutsideTheFileIsAnError) {
   EXPECT_NE(open_error("claims").find("invalid schema or slot offsets"), std::string::npos);
 }
 
+TEST(ShmSegment, DescriptionOutsideItsPlaceIsAnError) {
+  PrivateNamespace ns;
+  create("described");
+  overwrite(segment_path(ns, "described"), kControlSize + offsetof(LayoutHeader, description_size),
+            ~std::uint64_t{0});
+  EXPECT_NE(open_error("described").find("invalid type description"), std::string::npos);
+}
+
 // Publishers' claim words sit apart from every line a subscriber reads (and from its
 // neighbour, which the adjacent-line prefetcher pulls in); a payload that does not fit beside
 // the sequence word starts on the next line, so writing it never disturbs a polling reader.

@@ -10,8 +10,8 @@
 #include <vector>
 
 #include <horus/detail/shm_segment.hpp>
-#include <horus/detail/topic_notifier.hpp>
-#include <horus/detail/topic_wait_set.hpp>
+#include <horus/internal/topic_notifier.hpp>
+#include <horus/internal/topic_wait_set.hpp>
 #include <horus/topic.hpp>
 #include <horus/topic_registry.hpp>
 #include <topic_test/blob.hpp>

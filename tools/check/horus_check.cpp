@@ -249,6 +249,14 @@ std::string qualified(const NamedDecl* decl) {
   return name;
 }
 
+/// A type the runtime defines itself: directly in namespace horus, or in horus::detail.
+bool is_runtime_type(const NamedDecl* decl) {
+  const std::string name = qualified(decl);
+  if (name.rfind("horus::", 0) != 0) return false;
+  const std::string rest = name.substr(7);
+  return rest.find("::") == std::string::npos || rest.rfind("detail::", 0) == 0;
+}
+
 // Names a callee for a call chain: `fill_buffer`, `Worker::step`, `std::vector::push_back`.
 std::string callee_name(const FunctionDecl* function) {
   if (const auto* method = dyn_cast<CXXMethodDecl>(function)) {
@@ -734,11 +742,10 @@ class FactCollector : public RecursiveASTVisitor<FactCollector> {
         info->getTemplateArgs().size() == 0)
       return true;
     const RecordDecl* message = info->getTemplateArgs()[0].getAsType()->getAsRecordDecl();
-    // The runtime's own wire types (horus::detail: a service's registration, say) come with
-    // every service handle and never leave the machine, whose runtime lays them out: no schema
-    // of the user's to fix.
-    if (message == nullptr || message->getDefinition() == nullptr ||
-        qualified(message).rfind("horus::detail::", 0) == 0)
+    // The runtime's own wire types (horus::ServiceRegistration, the frames in horus::detail)
+    // come with every service handle and never leave the machine, whose runtime lays them out:
+    // no schema of the user's to fix. Generated types live in their package's namespace.
+    if (message == nullptr || message->getDefinition() == nullptr || is_runtime_type(message))
       return true;
     bool pod = false;
     std::string schema = qualified(message);

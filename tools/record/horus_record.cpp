@@ -13,7 +13,7 @@
 #include <string>
 #include <string_view>
 
-#include "horus/detail/pool_frames.hpp"
+#include "horus/pool_frames.hpp"
 #include "horus/recording.hpp"
 
 namespace {
@@ -57,7 +57,7 @@ void wait_for_end(const sigset_t& signals, double seconds) {
 
 int main(int argc, char** argv) {
   // Images, depth images, point clouds and tensors of other processes are kept with their data.
-  horus::detail::enable_pool_frames();
+  horus::enable_pool_frames();
   horus::RecorderOptions options;
   double duration = 0;
   for (int i = 1; i < argc; ++i) {

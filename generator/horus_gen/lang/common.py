@@ -12,7 +12,7 @@ from ..data import DataPaths
 # HORUS_GENERATED_CONTRACT_VERSION in runtime/include/horus/generated_contract.hpp and
 # CONTRACT_VERSION in runtime/python/_horus_gen_support_v1.py. Generated code checks it (C++ at
 # compile time, Python on import), so code generated for another runtime says so.
-CONTRACT_VERSION = 1
+CONTRACT_VERSION = 2
 
 if TYPE_CHECKING:
     import jinja2

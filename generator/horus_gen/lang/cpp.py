@@ -4,7 +4,7 @@ from __future__ import annotations
 import os
 import struct
 
-from .. import identity
+from .. import description, identity
 from ..data import DataPaths
 from ..model import (PRIMITIVES, Bytes, DynString, Enum, EnumRef, EnumValue, FailurePolicy, Field, FixedArray,
                      FixedString, Message, MessageRef, Model, Node, Optional, Primitive, Service, SummaryExpr,
@@ -134,6 +134,19 @@ def string_literal(text: str) -> str:
             out.append(f"\\{byte:03o}")
         previous = c
     return '"' + "".join(out) + '"'
+
+
+def bytes_literal(data: bytes, indent: str = "      ") -> str:
+    """`data` as adjacent C++ string literals, 32 bytes a line, and its length: the arguments of a
+    std::string_view over exactly these bytes (embedded NULs included). Printable ASCII stays as it
+    is; other bytes, quotes, backslashes and `?` (no trigraphs) are three-digit octal escapes, which
+    never run into the character after them."""
+    lines = []
+    for start in range(0, len(data), 32):
+        chunk = data[start:start + 32]
+        lines.append('"' + "".join(chr(b) if 0x20 <= b < 0x7F and chr(b) not in '"\\?' else f"\\{b:03o}"
+                                   for b in chunk) + '"')
+    return ("\n" + indent).join(lines or ['""']) + f", {len(data)}"
 
 
 def char_literal(byte: int) -> str:
@@ -392,7 +405,7 @@ FILTERS = {
     "node_horus_headers": node_horus_headers,
     "node_headers": node_headers, "nanoseconds": nanoseconds, "cpp_ref": cpp_ref,
     "basename": os.path.basename, "failure_policy": failure_policy,
-    "float_literal": float_literal,
+    "float_literal": float_literal, "bytes_literal": bytes_literal,
     "summary_type": summary_type, "summary_type_id": summary_type_id,
     "summary_enumerators": summary_enumerators, "summary_expression": summary_expression,
     "computes_summary": computes_summary, "schema_spelling": identity.spelling,
@@ -411,9 +424,11 @@ def emit(model: Model, data: DataPaths) -> dict[str, str]:
         elif isinstance(item, Service):
             template, context = "service.hpp.j2", {"service": item}
         elif isinstance(item, Enum):
-            template, context = "enum.hpp.j2", {"enum": item}
+            template, context = "enum.hpp.j2", {"enum": item,
+                                                "description": description.carried_bytes(model, item.qualified)}
         else:
-            template, context = "message.hpp.j2", {"message": item, "model": model}
+            template, context = "message.hpp.j2", {"message": item, "model": model,
+                                                   "description": description.carried_bytes(model, item.qualified)}
             if item.cpp_mixin is not None:
                 with open(item.cpp_mixin.source_path, encoding="utf-8") as handle:
                     files[os.path.join("cpp", mixin_path(item.package, item.cpp_mixin.relative))] = handle.read()

@@ -12,6 +12,7 @@ import keyword
 import os
 import struct
 
+from .. import description
 from ..data import DataPaths
 from ..model import (Bytes, DynString, Enum, EnumRef, EnumValue, Field, FixedArray, FixedString, Message,
                      MessageRef, Model, Node, Optional, Primitive, Service, SummaryExpr, SummaryPart, Type, Vec)
@@ -385,6 +386,12 @@ def string_literal(text: str) -> str:
     return repr(text)
 
 
+def bytes_literal(data: bytes, indent: str = "        ") -> str:
+    """`data` as a parenthesised run of bytes literals, 48 bytes a line."""
+    chunks = [repr(data[start:start + 48]) for start in range(0, len(data), 48)] or ["b''"]
+    return "(" + ("\n" + indent).join(chunks) + ")"
+
+
 MISS_POLICIES = {"Warn": "warn", "Skip": "skip", "SafeMode": "safe_mode", "Stop": "stop"}
 
 
@@ -448,7 +455,8 @@ FILTERS = {
     "raw_store": raw_store, "raw_load": raw_load, "raw_write": raw_write, "raw_read": raw_read,
     "docstring": docstring, "class_doc": class_doc, "summary_table": summary_table,
     "computes_summary": computes_summary, "summary_piece": summary_piece,
-    "string_literal": string_literal, "hex": lambda n: f"0x{n:016x}", "basename": os.path.basename,
+    "string_literal": string_literal, "bytes_literal": bytes_literal, "hex": lambda n: f"0x{n:016x}",
+    "basename": os.path.basename,
 }
 
 
@@ -467,7 +475,8 @@ def emit(model: Model, data: DataPaths) -> dict[str, str]:
             names = Names(item.package, item.name, [item.request.qualified, item.response.qualified])
             text = env.get_template("service.py.j2").render(service=item, names=names, **common)
         elif isinstance(item, Enum):
-            text = env.get_template("enum.py.j2").render(enum=item, **common)
+            text = env.get_template("enum.py.j2").render(
+                enum=item, description=description.carried_bytes(model, item.qualified), **common)
         else:
             names = Names(item.package, item.name, list(item.uses))
             mixin = None
@@ -480,7 +489,9 @@ def emit(model: Model, data: DataPaths) -> dict[str, str]:
                 if copy not in files:  # messages that share a helper module share one copy
                     with open(item.py_mixin.source_path, encoding="utf-8") as handle:
                         files[copy] = handle.read()
-            text = env.get_template("message.py.j2").render(message=item, names=names, mixin=mixin, **common)
+            text = env.get_template("message.py.j2").render(
+                message=item, names=names, mixin=mixin, description=description.carried_bytes(model, item.qualified),
+                **common)
         if path in files:
             raise ValueError(f"{item.qualified}: module {path} is generated twice (two names with one snake_case)")
         files[path] = text

@@ -7,4 +7,4 @@
 // with CONTRACT_VERSION in generator/horus_gen/lang/common.py and in
 // runtime/python/_horus_gen_support_v1.py (tests/python/test_contract_version.py keeps the three
 // equal).
-#define HORUS_GENERATED_CONTRACT_VERSION 1
+#define HORUS_GENERATED_CONTRACT_VERSION 2

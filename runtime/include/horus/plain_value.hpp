@@ -11,19 +11,26 @@
 //
 // On the wire a plain value is what the message `PlainValue { value: <name> }` would be: its
 // bytes for a fixed-size value, a MessagePack array of the one value for a string or a vector
-// (horus/msgpack.hpp). Tools that decode a topic from its stored schema read it as that message.
+// (horus/msgpack.hpp). So each carries the type description of that message
+// (TypeInfo<T>::description, docs/type-description.md): named, fingerprinted and with the schema
+// text of its identity, its one field `value` at offset 0, the summary the plain value's
+// log_summary() prints. It is built with the description encoder the first time it is read
+// (runtime/src/types/plain_value_description.cpp); Python builds the same bytes.
 #pragma once
 
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <type_traits>
 #include <vector>
 
+#include "horus/detail/service_description.hpp"
 #include "horus/detail/static_text.hpp"
 #include "horus/log_summary.hpp"
+#include "horus/type_description.hpp"
 #include "horus/type_info.hpp"
 
 namespace horus {
@@ -56,6 +63,20 @@ namespace detail {
 inline constexpr std::string_view kPlainValueSchemaOpen = "value ";
 inline constexpr std::string_view kPlainValueSchemaClose = "\n";
 
+/// The type description of the message `PlainValue { value: <name> }` a plain value is on the
+/// wire: `value_type` is the field's TYPE, `label` the summary's element label; `size` and
+/// `alignment` its POD layout (both 0 for a serialized value).
+std::string plain_value_description(std::string_view name, const TypeRef& value_type,
+                                    std::string_view label, std::size_t size,
+                                    std::size_t alignment);
+
+/// The TYPE of the plain value T, as horus-gen writes it for a field of that spelling.
+template <class T>
+TypeRef plain_value_type();
+
+template <class T>
+std::string plain_value_description_of();
+
 template <class T, const std::string_view& Name>
 struct PlainValueIdentity {
   using type = T;
@@ -64,6 +85,7 @@ struct PlainValueIdentity {
   static constexpr std::string_view schema =
       JoinedText<kPlainValueSchemaOpen, Name, kPlainValueSchemaClose>::value;
   static constexpr std::uint64_t fingerprint = fnv1a(schema);
+  static constexpr BuiltDescription<plain_value_description_of<T>> description{};
   static constexpr bool is_plain_value = true;
 };
 
@@ -106,6 +128,84 @@ template <class T, std::size_t N>
 inline constexpr std::string_view kElementLabel<std::array<T, N>> = TypeInfo<T>::name;
 template <class T>
 inline constexpr std::string_view kElementLabel<std::vector<T>> = TypeInfo<T>::name;
+
+template <class T>
+inline constexpr Primitive kPrimitiveOf{};
+template <>
+inline constexpr Primitive kPrimitiveOf<bool> = Primitive::Bool;
+template <>
+inline constexpr Primitive kPrimitiveOf<std::int8_t> = Primitive::I8;
+template <>
+inline constexpr Primitive kPrimitiveOf<std::int16_t> = Primitive::I16;
+template <>
+inline constexpr Primitive kPrimitiveOf<std::int32_t> = Primitive::I32;
+template <>
+inline constexpr Primitive kPrimitiveOf<std::int64_t> = Primitive::I64;
+template <>
+inline constexpr Primitive kPrimitiveOf<std::uint8_t> = Primitive::U8;
+template <>
+inline constexpr Primitive kPrimitiveOf<std::uint16_t> = Primitive::U16;
+template <>
+inline constexpr Primitive kPrimitiveOf<std::uint32_t> = Primitive::U32;
+template <>
+inline constexpr Primitive kPrimitiveOf<std::uint64_t> = Primitive::U64;
+template <>
+inline constexpr Primitive kPrimitiveOf<float> = Primitive::F32;
+template <>
+inline constexpr Primitive kPrimitiveOf<double> = Primitive::F64;
+
+template <class T>
+struct PlainValueTypeOf {
+  static TypeRef make() {
+    TypeRef type;
+    type.kind = TypeRef::Kind::Primitive;
+    type.primitive = kPrimitiveOf<T>;
+    return type;
+  }
+};
+template <>
+struct PlainValueTypeOf<std::string> {
+  static TypeRef make() {
+    TypeRef type;
+    type.kind = TypeRef::Kind::String;
+    return type;
+  }
+};
+template <class T, std::size_t N>
+struct PlainValueTypeOf<std::array<T, N>> {
+  static TypeRef make() {
+    TypeRef type;
+    type.kind = TypeRef::Kind::Array;
+    type.length = N;
+    type.element = std::make_shared<const TypeRef>(plain_value_type<T>());
+    return type;
+  }
+};
+template <class T>
+struct PlainValueTypeOf<std::vector<T>> {
+  static TypeRef make() {
+    TypeRef type;
+    type.kind = TypeRef::Kind::Vec;
+    type.element = std::make_shared<const TypeRef>(plain_value_type<T>());
+    return type;
+  }
+};
+
+template <class T>
+TypeRef plain_value_type() {
+  return PlainValueTypeOf<T>::make();
+}
+
+template <class T>
+std::string plain_value_description_of() {
+  using Info = TypeInfo<T>;
+  if constexpr (Info::is_pod) {
+    return plain_value_description(Info::name, plain_value_type<T>(), kElementLabel<T>, sizeof(T),
+                                   alignof(T));
+  } else {
+    return plain_value_description(Info::name, plain_value_type<T>(), kElementLabel<T>, 0, 0);
+  }
+}
 
 }  // namespace detail
 

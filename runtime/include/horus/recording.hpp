@@ -106,6 +106,10 @@ struct RecordedChannel {
   std::string topic;
   std::string message_encoding;  // "horus.pod", "horus.msgpack" or "json"
   std::map<std::string, std::string> metadata;
+  /// The topic's type description (MessagePack, "horus.typedesc"), from the metadata key
+  /// `horus.description`; empty when the file has none (written before recordings carried it,
+  /// or a type without one).
+  std::string description;
 };
 
 struct RecordedMessage {

@@ -176,12 +176,12 @@ class SchedulerConfig {
     return *this;
   }
 
-  /// Carry topics and services to and from other hosts over Cyclone DDS (docs/dds-bridge.md):
-  /// the scheduler runs `horus bridge` with these options, in its namespace, as a child process
-  /// from its construction until run() ends (or it is destroyed). A bridge that fails stops the
-  /// scheduler, and run() returns 1. The Scheduler's constructor throws horus::Error for an
-  /// invalid Network and when `horus` cannot be found or started ($HORUS_BRIDGE_PROGRAM, else
-  /// <prefix>/bin/horus, `horus` on PATH, the build tree's bin/horus).
+  /// Carry topics to and from other hosts over Cyclone DDS (docs/dds-bridge.md): the scheduler
+  /// runs the DDS bridge with these options, in its namespace, on threads of its own process
+  /// from its construction until run() ends (or it is destroyed); the program links horus::dds.
+  /// A bridge that fails stops the scheduler, and run() returns 1. The Scheduler's constructor
+  /// throws horus::Error for an invalid Network, options the bridge does not carry yet, and a
+  /// program not linked with horus::dds.
   SchedulerConfig& network(Network n) {
     network_ = std::move(n);
     return *this;

@@ -2,34 +2,31 @@
 // thread of their own.
 #pragma once
 
-#include <unistd.h>
-
 #include <atomic>
 #include <chrono>
 #include <concepts>
 #include <cstdint>
 #include <exception>
 #include <functional>
-#include <map>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <system_error>
 #include <thread>
 #include <type_traits>
 #include <utility>
 #include <variant>
+#include <vector>
 
+#include "horus/codec.hpp"
 #include "horus/detail/log_source.hpp"
-#include "horus/detail/service_channel.hpp"
-#include "horus/detail/service_frame.hpp"
 #include "horus/error.hpp"
 #include "horus/log.hpp"
-#include "horus/presence.hpp"
+#include "horus/raw_service.hpp"
 #include "horus/service_message.hpp"
 #include "horus/service_type.hpp"
 #include "horus/topic.hpp"
-#include "horus/topic_registry.hpp"
 
 namespace horus {
 
@@ -56,6 +53,8 @@ class ServiceServerBuilder;
 /// A running server: one thread that takes requests in arrival order and answers each with the
 /// handler's result. A handler that throws answers ServiceFailed and the server keeps serving.
 /// stop() (or destruction) finishes the request being handled and withdraws the registration.
+/// A typed layer over RawServiceServer (horus/raw_service.hpp): its serve loop, registration and
+/// reply topics are the byte-level server's; this one decodes requests and encodes answers.
 template <Service S>
 class ServiceServer {
  public:
@@ -76,22 +75,14 @@ class ServiceServer {
     if (!state_ || !state_->thread.joinable()) {
       return;
     }
-    state_->stopping.store(true, std::memory_order_release);
-    // A request frame with no client wakes the server thread from its recv() at once.
-    static_cast<void>(state_->waker.send(typename State::RequestFrame{}));
+    // Wakes the serving thread from its wait at once.
+    state_->server.stop();
     state_->thread.join();
-    const std::optional<detail::ServiceRegistration> current = state_->registration.read_latest();
-    if (current && current->server_instance == state_->instance) {
-      // Withdrawn, not erased: tools still list the service and its types, with no server.
-      detail::ServiceRegistration withdrawn = *current;
-      withdrawn.server_instance = 0;
-      withdrawn.server_pid = 0;
-      static_cast<void>(state_->registration.send(withdrawn));
-    }
+    state_->server.withdraw();
   }
 
   bool is_running() const noexcept {
-    return state_ && state_->thread.joinable() && !state_->stopping.load(std::memory_order_acquire);
+    return state_ && state_->thread.joinable() && !state_->server.stopped();
   }
 
   ServiceServerStats stats() const noexcept {
@@ -111,87 +102,67 @@ class ServiceServer {
   using Response = typename S::Response;
   using Handler = std::function<HandlerResult<Response>(Request&&)>;
 
-  /// Long enough to cost nothing while idle; the wake-up frame of stop() makes it irrelevant
-  /// unless that frame could not be sent.
+  /// Long enough to cost nothing while idle; stop() wakes the wait at once.
   static constexpr std::chrono::milliseconds kIdleWake{250};
-  /// Reply topic handles kept open; past this many (clients alive at once) they are re-opened.
-  static constexpr std::size_t kMaxReplyTopics = 256;
 
   struct State {
-    using RequestFrame = detail::ServiceRequestFrame<Request>;
-    using ResponseFrame = detail::ServiceResponseFrame<Response>;
-
-    State(Handler handler_in, const TopicOptions& options_in, std::string log_source_in)
+    /// Registers the server (horus::Error while another live one serves the service).
+    State(Handler handler_in, const TopicOptions& options, std::string log_source_in)
         : handler(std::move(handler_in)),
-          options(options_in),
           log_source(std::move(log_source_in)),
-          incoming(S::request_topic(), options),
-          waker(S::request_topic(), options),
-          registration(detail::registration_topic(S::name()),
-                       detail::registration_options(options)),
-          instance(detail::new_service_endpoint_id()),
-          announced(detail::ProcessUse{detail::ProcessUse::Kind::ServiceServer,
-                                       options.namespace_name, std::string(S::name()),
-                                       std::string(S::request_type_name()),
-                                       std::string(S::response_type_name())}) {}
+          server(raw_service_type<S>(), options) {}
 
     void serve() noexcept {
       static_cast<void>(detail::exchange_thread_log_source(log_source));
-      while (!stopping.load(std::memory_order_acquire)) {
-        std::optional<RequestFrame> request = incoming.recv(kIdleWake);
-        lost_requests.store(incoming.lost(), std::memory_order_relaxed);
-        if (!request || request->client_id == 0) {
-          continue;
+      while (!server.stopped()) {
+        std::optional<RawServiceServer::Request> request = server.next(kIdleWake);
+        lost_requests.store(server.lost_requests(), std::memory_order_relaxed);
+        if (request) {
+          answer(*request);
         }
-        answer(std::move(*request));
       }
     }
 
-    void answer(RequestFrame&& request) noexcept {
-      ResponseFrame reply = frame_of(request, [&] {
-        return respond(ServiceRequest<Request>{request.request_id, std::move(request.payload)});
-      });
+    void answer(RawServiceServer::Request& request) noexcept {
+      const ServiceCaller& caller = request.caller;
+      std::optional<Request> decoded = try_decode<Request>(std::span(
+          reinterpret_cast<const std::uint8_t*>(request.payload.data()), request.payload.size()));
+      if (!decoded) {
+        return;  // not a request of this type: it passes by, as on a typed request topic
+      }
+      ServiceResponse<Response> response =
+          respond(ServiceRequest<Request>{caller.request_id, std::move(*decoded)});
       requests.fetch_add(1, std::memory_order_relaxed);
-      if (reply.status != detail::kStatusOk) {
-        failures.fetch_add(1, std::memory_order_relaxed);
+      bool sent = false;
+      try {
+        if (response.ok && response.payload) {
+          const std::vector<std::uint8_t> bytes = encode(*response.payload);
+          sent = server.answer(caller, std::as_bytes(std::span(bytes)));
+        } else {
+          failures.fetch_add(1, std::memory_order_relaxed);
+          sent = server.fail(caller,
+                             ServiceError::service_failed(response.error.value_or(std::string())));
+        }
+      } catch (...) {
+        // Out of memory for the answer: the client still learns that the request failed.
+        if (response.ok) failures.fetch_add(1, std::memory_order_relaxed);
+        sent = fail_without_text(caller);
       }
-      Topic<ResponseFrame>* outgoing = reply_topic(request.reply_to);
-      if (outgoing == nullptr) {
+      if (!sent) {
         send_failures.fetch_add(1, std::memory_order_relaxed);
-        return;
-      }
-      if (!outgoing->send(reply)) {
-        send_failures.fetch_add(1, std::memory_order_relaxed);
-        // Tell the client why instead of leaving it to time out: a failure always fits.
-        reply = frame_of(request, [&] {
-          return ServiceResponse<Response>::failure(
-              request.request_id, "the response does not fit in a slot of " + outgoing->name() +
-                                      " (TopicOptions::max_message_size of its creator)");
-        });
-        static_cast<void>(outgoing->send(reply));
       }
     }
 
-    /// The handle on a client's reply topic, opened on its first request; nullptr when it cannot
-    /// be opened (the client then learns from its timeout).
-    Topic<ResponseFrame>* reply_topic(std::uint64_t index) noexcept {
-      const auto found = replies.find(index);
-      if (found != replies.end()) {
-        return &found->second;
-      }
+    bool fail_without_text(const ServiceCaller& caller) noexcept {
       try {
-        if (replies.size() >= kMaxReplyTopics) {
-          replies.clear();
-        }
-        return &replies.try_emplace(index, detail::reply_topic(S::response_topic(), index), options)
-                    .first->second;
+        return server.fail(caller, ServiceError::service_failed({}));
       } catch (...) {
-        return nullptr;
+        return false;
       }
     }
 
     /// The handler's answer: its response, or a failure with its error or what it threw.
-    ServiceResponse<Response> respond(ServiceRequest<Request>&& request) {
+    ServiceResponse<Response> respond(ServiceRequest<Request>&& request) noexcept {
       try {
         HandlerResult<Response> result = handler(std::move(request.payload));
         if (Response* response = std::get_if<0>(&result)) {
@@ -200,41 +171,25 @@ class ServiceServer {
         return ServiceResponse<Response>::failure(request.request_id,
                                                   std::move(std::get<1>(result)));
       } catch (const std::exception& e) {
-        return ServiceResponse<Response>::failure(request.request_id,
-                                                  std::string("the handler threw: ") + e.what());
+        return failure_of(request.request_id, std::string("the handler threw: ") + e.what());
       } catch (...) {
-        return ServiceResponse<Response>::failure(
-            request.request_id, "the handler threw an exception that is not a std::exception");
+        return failure_of(request.request_id,
+                          "the handler threw an exception that is not a std::exception");
       }
     }
 
-    /// The frame answering `request` with what `make_response` returns.
-    template <class MakeResponse>
-    static ResponseFrame frame_of(const RequestFrame& request,
-                                  MakeResponse&& make_response) noexcept {
+    /// A failure with `text`, or without it when there is no memory for it.
+    static ServiceResponse<Response> failure_of(std::uint64_t request_id, std::string_view text) {
       try {
-        return detail::response_frame(request.client_id, make_response());
+        return ServiceResponse<Response>::failure(request_id, std::string(text));
       } catch (...) {
-        // Out of memory for the error text: the client still learns that the request failed.
-        ResponseFrame reply{};
-        reply.client_id = request.client_id;
-        reply.request_id = request.request_id;
-        reply.status = detail::kStatusFailed;
-        return reply;
+        return ServiceResponse<Response>::failure(request_id, std::string());
       }
     }
 
     Handler handler;
-    TopicOptions options;
-    std::string log_source;        // what the handler's log lines carry
-    Topic<RequestFrame> incoming;  // the server thread's
-    /// Reply topics by index (the server thread's): as many as clients alive at once.
-    std::map<std::uint64_t, Topic<ResponseFrame>> replies;
-    Topic<RequestFrame> waker;  // stop()'s
-    Topic<detail::ServiceRegistration> registration;
-    std::uint64_t instance;
-    detail::AnnouncedUse announced;  // the server in this process's presence announcement
-    std::atomic<bool> stopping{false};
+    std::string log_source;   // what the handler's log lines carry
+    RawServiceServer server;  // next() and answers: the serving thread's
     std::atomic<std::uint64_t> requests{0};
     std::atomic<std::uint64_t> failures{0};
     std::atomic<std::uint64_t> lost_requests{0};
@@ -288,28 +243,11 @@ class ServiceServerBuilder {
     std::string log_source(log::current_node());
     if (log_source.empty()) log_source = S::name();
     auto state = std::make_unique<State>(handler_, options_, std::move(log_source));
-    const std::optional<detail::ServiceRegistration> current = state->registration.read_latest();
-    if (current && current->server_pid != 0 && !detail::server_process_gone(current->server_pid)) {
-      throw Error("service " + std::string(S::name()) + " in namespace " + namespace_name() +
-                  " already has a server (pid " + std::to_string(current->server_pid) + ")");
-    }
-    detail::ServiceRegistration registration{};
-    registration.server_instance = state->instance;
-    registration.fingerprint = S::fingerprint();
-    registration.request_type.try_assign(S::request_type_name());
-    registration.response_type.try_assign(S::response_type_name());
-    registration.server_pid = static_cast<std::uint64_t>(::getpid());
-    // The request handle is open already, so every request sent once this is visible reaches it.
-    if (!state->registration.send(registration)) {
-      throw Error("service " + std::string(S::name()) + ": cannot publish its registration");
-    }
     State* serving = state.get();
     try {
       state->thread = std::thread([serving] { serving->serve(); });
     } catch (const std::system_error& e) {
-      registration.server_instance = 0;
-      registration.server_pid = 0;
-      static_cast<void>(state->registration.send(registration));
+      state->server.withdraw();
       throw Error("service " + std::string(S::name()) +
                   ": cannot start the server thread: " + e.what());
     }
@@ -317,10 +255,6 @@ class ServiceServerBuilder {
   }
 
  private:
-  std::string namespace_name() const {
-    return options_.namespace_name.empty() ? horus::current_namespace() : options_.namespace_name;
-  }
-
   typename ServiceServer<S>::Handler handler_;
   TopicOptions options_;
 };

@@ -22,10 +22,10 @@
 #include "horus/detail/shm_segment.hpp"
 #include "horus/detail/slot_copy.hpp"
 #include "horus/detail/topic_endpoint.hpp"
-#include "horus/detail/topic_log.hpp"
 #include "horus/detail/topic_stream.hpp"
 #include "horus/msgpack.hpp"
 #include "horus/plain_value.hpp"
+#include "horus/topic_log.hpp"
 #include "horus/topic_stats.hpp"
 #include "horus/type_info.hpp"
 
@@ -55,13 +55,24 @@ struct TopicOptions {
   bool single_publisher = false;
   /// This handle logs every message it sends or receives (seed 002's verbose topics): one line
   /// with the message's summary in the runtime's log, at most 10 a second, then a count of the
-  /// lines suppressed (horus/detail/topic_log.hpp). Per handle, unlike the options above; see
+  /// lines suppressed (horus/topic_log.hpp). Per handle, unlike the options above; see
   /// also Topic::set_verbose. Off, send and receive pay one predictable branch for it.
   bool verbose = false;
 };
 
 template <TopicValue T>
 class Topic;
+
+namespace detail {
+
+/// The type description bytes TypeInfo<T> carries (type_info.hpp): every generated type, plain
+/// value and service frame has one.
+template <class T>
+std::string_view description_of() {
+  return std::string_view(TypeInfo<T>::description);
+}
+
+}  // namespace detail
 
 /// A slot of a POD topic lent for writing in place (zero copy); give it back with
 /// Topic::publish(). Its content is unspecified (an old message): write every field.
@@ -122,7 +133,7 @@ class Topic {
             name,
             detail::TypeDescriptor{TypeInfo<T>::name, TypeInfo<T>::fingerprint, TypeInfo<T>::schema,
                                    TypeInfo<T>::is_pod, TypeInfo<T>::is_pod ? sizeof(T) : 0,
-                                   alignof(T)},
+                                   alignof(T), detail::description_of<T>()},
             detail::SegmentOptions{options.capacity, options.max_message_size, options.mode,
                                    options.namespace_name, options.single_publisher})) {
     if constexpr (PodTopicValue<T>) {
@@ -150,7 +161,7 @@ class Topic {
     if (!on) {
       log_.reset();
     } else if (!log_) {
-      log_ = std::make_unique<detail::TopicLog>(name_);
+      log_ = std::make_unique<TopicLog>(name_);
     }
   }
   bool verbose() const noexcept { return log_ != nullptr; }
@@ -172,7 +183,7 @@ class Topic {
     if (sent) {
       detail::count_sent(this, name_);
       if (log_) [[unlikely]] {
-        log_->message(detail::TopicLogDirection::Send, msg);
+        log_->message(TopicLogDirection::Send, msg);
       }
     }
     return sent;
@@ -295,7 +306,7 @@ class Topic {
     if (got) {
       detail::count_received(this, name_, endpoint_.next_ticket());
       if (log_) [[unlikely]] {
-        log_->message(detail::TopicLogDirection::Recv, *msg);
+        log_->message(TopicLogDirection::Recv, *msg);
       }
     } else {
       msg.reset();
@@ -305,16 +316,16 @@ class Topic {
   /// publish() of a verbose handle: the summary is read from the slot before it is committed
   /// (after, the ring may reuse it), and logged once the message is published.
   [[gnu::cold]] bool publish_logged(Loan<T>&& loan) noexcept requires PodTopicValue<T> {
-    std::array<char, detail::TopicLog::kMaxSummary> buffer;
+    std::array<char, TopicLog::kMaxSummary> buffer;
     detail::SummaryWriter summary(buffer.data(), buffer.size());
     const bool admitted = log_->admit();
-    if (admitted) detail::TopicLog::summarize(summary, *loan);
+    if (admitted) TopicLog::summarize(summary, *loan);
     if (!loan.finish(sizeof(T))) {
       endpoint_.count_send_failure();
       return false;
     }
     detail::count_sent(this, name_);
-    if (admitted) log_->write(detail::TopicLogDirection::Send, summary.view());
+    if (admitted) log_->write(TopicLogDirection::Send, summary.view());
     return true;
   }
 
@@ -322,7 +333,7 @@ class Topic {
   detail::TopicEndpoint endpoint_;
   std::unique_ptr<T> spare_;
   std::vector<std::uint8_t> buffer_;
-  std::unique_ptr<detail::TopicLog> log_;  // null unless verbose
+  std::unique_ptr<TopicLog> log_;  // null unless verbose
 };
 
 }  // namespace horus

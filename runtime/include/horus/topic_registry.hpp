@@ -19,6 +19,9 @@ struct TopicInfo {
   std::uint64_t fingerprint = 0;
   /// Canonical schema text of the type, enough to decode the messages.
   std::string schema;
+  /// The type description bytes (MessagePack, "horus.typedesc"): the type's fields with offsets,
+  /// defaults and units, for tools that walk messages; empty when the type carries none.
+  std::string description;
   bool is_pod = false;
   std::size_t capacity = 0;
   /// Payload bytes per slot (sizeof(T) for POD types).
@@ -46,6 +49,9 @@ struct TopicInfo {
 
 /// HORUS_NAMESPACE, or "default".
 std::string current_namespace();
+
+/// The folder holding the topic segments of a namespace (empty: the current one).
+std::string namespace_directory(std::string_view namespace_name = {});
 
 /// The topics of a namespace (empty: the current one), sorted by name. A namespace nobody has
 /// used yet has none.
@@ -104,5 +110,10 @@ std::size_t clean_namespace(std::string_view namespace_name = {});
 /// use or not (tests, `horus clean -f`). Handles still open keep working on the unlinked memory
 /// but no longer meet new ones.
 void remove_namespace(std::string_view namespace_name);
+
+/// Unlinks the topic segments this process created that no live process has open any more, what
+/// a Scheduler does when it is destroyed (a program without one, such as a Python script, calls
+/// it itself); returns how many. Segments still in use are left alone.
+std::size_t remove_created_topics_nobody_uses();
 
 }  // namespace horus

@@ -20,11 +20,13 @@ namespace horus {
 ///   size         sizeof(T), also the wire size of a POD message
 ///   alignment    alignof(T)
 ///   schema       canonical schema text of T and every type it uses, so tools can decode any topic
+///   description  the type description of T and every type it uses (docs/type-description.md), as
+///                MessagePack bytes (std::string_view over a static array)
 ///   field_count  number of fields
 ///   padding      the byte ranges that are padding (POD only), zeroed by horus::encode
 ///   visit(msg, fn)  calls fn(std::string_view field_name, field&) for every field in order
-/// An enum's specialisation holds name, package, fingerprint, schema, is_enum = true, and
-/// to_string(E) (the enumerator name, or an empty view for a value outside the enum).
+/// An enum's specialisation holds name, package, fingerprint, schema, description, is_enum = true,
+/// and to_string(E) (the enumerator name, or an empty view for a value outside the enum).
 template <class T>
 struct TypeInfo;
 
@@ -41,6 +43,7 @@ concept Message = requires {
   { TypeInfo<T>::fingerprint } -> std::convertible_to<std::uint64_t>;
   { TypeInfo<T>::is_pod } -> std::convertible_to<bool>;
   { TypeInfo<T>::field_count } -> std::convertible_to<std::size_t>;
+  { TypeInfo<T>::description } -> std::convertible_to<std::string_view>;
 };
 
 /// True for generated messages that are plain old data (shared memory, zero copy).

@@ -19,5 +19,7 @@ void bind_introspection(pybind11::module_& m);
 void bind_recording(pybind11::module_& m);
 /// horus._core: the tensor pool, Image, DepthImage, PointCloud, Tensor and their topics.
 void bind_pool(pybind11::module_& m);
+// bridges/dds/python/bindings.cpp, built in where Cyclone DDS is (HORUS_PYTHON_DDS).
+void bind_dds(pybind11::module_& m);
 
 }  // namespace horus::python

@@ -19,4 +19,10 @@ PYBIND11_MODULE(_core, m) {
   horus::python::bind_introspection(m);
   horus::python::bind_recording(m);
   horus::python::bind_pool(m);
+#ifdef HORUS_PYTHON_DDS
+  auto dds = m.def_submodule("dds",
+                             "The DDS bridge's library (bridges/dds/): raw-CDR endpoints "
+                             "on Cyclone DDS, CDR plans and pumps.");
+  horus::python::bind_dds(dds);
+#endif
 }

@@ -24,14 +24,12 @@
 #include <vector>
 
 #include "bindings.hpp"
-#include "horus/detail/erased_topic.hpp"
 #include "horus/error.hpp"
+#include "horus/raw_topic.hpp"
 
 namespace py = pybind11;
 
 namespace horus::python {
-
-using detail::ErasedTopic;
 
 namespace {
 
@@ -197,11 +195,11 @@ PyObject* unpack_field(const std::byte* in, char format) noexcept {
 
 /// What a PodFastPath object owns besides its Python header.
 struct State {
-  py::object core;               // the horus._core.Topic that owns `topic`
-  ErasedTopic* topic = nullptr;  // owned by `core`
-  py::object cls;     // the message class (exact type: a subclass takes the general path)
-  py::object encode;  // msg -> bytes, raising the general path's errors
-  py::object view;    // cls.view, for try_recv(view=True)
+  py::object core;            // the horus._core.Topic that owns `topic`
+  RawTopic* topic = nullptr;  // owned by `core`
+  py::object cls;             // the message class (exact type: a subclass takes the general path)
+  py::object encode;          // msg -> bytes, raising the general path's errors
+  py::object view;            // cls.view, for try_recv(view=True)
   std::vector<ScalarField> fields;
   std::vector<std::byte> staging;  // the struct bytes being sent (padding stays zero)
 };
@@ -370,7 +368,7 @@ void bind_pod_fast_path(py::module_& m) {
         }
         State state;
         state.core = core;
-        state.topic = core.cast<ErasedTopic*>();
+        state.topic = core.cast<RawTopic*>();
         state.cls = cls;
         state.encode = std::move(encode);
         state.view = cls.attr("view");

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "bindings.hpp"
-#include "horus/detail/pool_frames.hpp"
+#include "horus/pool_frames.hpp"
 #include "horus/scheduler.hpp"
 
 namespace horus::python {
@@ -32,12 +32,12 @@ std::vector<std::string> strings(const std::vector<std::filesystem::path>& paths
   return out;
 }
 
-/// detail::PoolFrames of one recorded topic, for a replay written in Python.
+/// PoolFrames of one recorded topic, for a replay written in Python.
 class ReplayFrames {
  public:
   ReplayFrames(const std::string& type_name, std::uint64_t fingerprint,
                const std::string& namespace_name, std::size_t keep)
-      : frames_(detail::make_pool_frames(type_name, fingerprint, namespace_name, keep)) {
+      : frames_(make_pool_frames(type_name, fingerprint, namespace_name, keep)) {
     if (!frames_) {
       throw py::value_error(type_name + " (fingerprint " + std::to_string(fingerprint) +
                             ") is not a pool-backed type of this horus build");
@@ -54,7 +54,7 @@ class ReplayFrames {
   }
 
  private:
-  std::unique_ptr<detail::PoolFrames> frames_;
+  std::unique_ptr<PoolFrames> frames_;
 };
 
 }  // namespace

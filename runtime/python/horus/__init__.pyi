@@ -2,7 +2,16 @@
 import concurrent.futures
 import enum
 import os
+import threading
 from typing import Any, Awaitable, Callable, ClassVar, Generic, Literal, Mapping, Sequence, TypeVar, overload
+
+# Submodules a program imports itself (the runtime does not load them): the namespace seen from
+# outside its processes (the horus command's view), MCAP recordings, the Foxglove export, message
+# classes made from type descriptions.
+from . import foxglove as foxglove
+from . import introspection as introspection
+from . import mcap as mcap
+from . import typedesc as typedesc
 
 M = TypeVar("M")
 Req = TypeVar("Req")
@@ -127,6 +136,7 @@ class Network:
                  import_services: Sequence[str] = ..., service_timeout: float = ...,
                  ros2_types: Sequence[str] = ...,
                  accept_untyped_writers: bool = ...) -> None: ...
+    def serve(self, stop: threading.Event, namespace: str = ...) -> int: ...
 
 class Scheduler:
     def __init__(self, tick_rate: float = ..., rt: bool = ..., deterministic: bool = ...,

@@ -1,13 +1,29 @@
 """horus.Network: topics across hosts from inside a scheduler's process (docs/dds-bridge.md).
 
-The same bridge `horus bridge` runs (tools/horus/horus_bridge.py, installed beside this package)
-on a thread of this process, on Cyclone DDS through horus._dds, for the scheduler's lifetime.
+The C++ DDS bridge (horus._core.dds.DdsBridge, bridges/dds/) carries the topics, services and
+ROS 2 twins on threads of its own; serve() is its run, here on a thread of this process for the
+scheduler's lifetime, and in `horus bridge` (which runs it on its main thread).
 """
 from __future__ import annotations
 
+import importlib
 import threading
 
 from . import _core
+
+RESCAN_S = 0.5  # how often serve() looks whether the bridge stopped on its own
+
+
+def _type_description(type_name: str) -> bytes | None:
+    """A generated class's type description by its HORUS name, from the Python path (horus.msg,
+    a user package): how the bridge learns an exported service's response type before a local
+    call showed it."""
+    package, _, short = type_name.rpartition(".")
+    try:
+        meta = getattr(importlib.import_module(package), short).__horus__
+    except (ImportError, AttributeError, ValueError):
+        return None
+    return meta.description
 
 
 def _patterns(value, what: str) -> list[str]:
@@ -57,31 +73,45 @@ class Network:
         self.domain, self.reliable, self.depth = domain, bool(reliable), depth
         self.service_timeout = float(service_timeout)
         self.accept_untyped_writers = bool(accept_untyped_writers)
-        self._bridge = None
+        self._stopping: threading.Event | None = None
         self._thread: threading.Thread | None = None
         self.status = 0  # 1 once the bridge stopped on an error of its own (said on stderr)
 
+    def serve(self, stop: threading.Event, namespace: str = "") -> int:
+        """Runs the bridge in `namespace` (empty: the current one) until `stop` is set (0), or
+        until it stops on an error of its own (1, said on stderr): says its first line, then
+        the bridge says each topic and service it carries. RuntimeError when it cannot start."""
+        try:
+            from ._core import dds as _dds
+        except ImportError:
+            raise RuntimeError("the DDS bridge needs horus._core.dds: this horus was built "
+                               "without Cyclone DDS (Debian: cyclonedds-dev)") from None
+        print(f"bridge on DDS domain {self.domain}: exporting {self.export or 'nothing'}, "
+              f"importing {self.import_ or 'nothing'}; services: exporting "
+              f"{self.export_services or 'nothing'}, importing "
+              f"{self.import_services or 'nothing'}", flush=True)
+        bridge = _dds.DdsBridge(
+            namespace, self.export, self.import_, self.domain, self.reliable, self.depth,
+            self.transient_local, list(self.deadlines.items()), self.accept_untyped_writers,
+            self.ros2_types, export_services=self.export_services,
+            import_services=self.import_services, service_timeout=self.service_timeout,
+            find_type=_type_description)
+        try:
+            while not stop.is_set() and bridge.broken is None:
+                stop.wait(RESCAN_S)
+        finally:
+            bridge.stop()
+        return 0 if bridge.broken is None else 1  # the bridge said why
+
     def _start(self, on_failure) -> None:
         """Starts the bridge's thread; `on_failure()` runs if the bridge stops on its own."""
-        try:
-            from . import _dds
-        except ImportError:
-            raise RuntimeError("horus.Network needs horus._dds: this horus was built without "
-                               "Cyclone DDS (Debian: cyclonedds-dev)") from None
-        try:
-            import horus_bridge
-        except ImportError:
-            raise RuntimeError("horus.Network needs the module horus_bridge (installed beside "
-                               "the horus package; in a build tree, tools/horus on "
-                               "PYTHONPATH)") from None
-        self._bridge = horus_bridge.Bridge(
-            _core, _dds, "", self.export, self.import_, self.domain, self.reliable, self.depth,
-            self.export_services, self.import_services, self.transient_local,
-            list(self.deadlines.items()), self.service_timeout, self.ros2_types,
-            self.accept_untyped_writers)
+        if not hasattr(_core, "dds"):
+            raise RuntimeError("horus.Network needs horus._core.dds: this horus was built without "
+                               "Cyclone DDS (Debian: cyclonedds-dev)")
+        self._stopping = threading.Event()
 
         def serve() -> None:
-            self.status = self._bridge.serve()
+            self.status = self.serve(self._stopping)
             if self.status != 0:
                 on_failure()
 
@@ -90,7 +120,7 @@ class Network:
 
     def _stop(self, wait: bool) -> None:
         """Ends the bridge (its topics and services leave DDS); `wait`: until it has."""
-        if self._bridge is not None:
-            self._bridge.stop.set()
+        if self._stopping is not None:
+            self._stopping.set()
         if wait and self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join()

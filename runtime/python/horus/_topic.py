@@ -145,7 +145,8 @@ class Topic:
         self._pod = bool(meta.is_pod)
         self._core = _core.Topic(name, meta.name, meta.fingerprint, meta.schema, self._pod,
                                  meta.size if self._pod else 0, meta.alignment if self._pod else 1, capacity,
-                                 max_message_size, single_publisher)
+                                 max_message_size, single_publisher,
+                                 meta.description)
         self._decode = self.type.from_bytes
         self._encode = (_plain_encoder(name, plain) if self._plain else _values_encoder(self.type)
                         if self._values else _typed_encoder(name, self.type))

@@ -6,7 +6,9 @@ and its fingerprint the 64-bit FNV-1a hash of that text, so a C++ `Topic<double>
 `horus.Topic(float, ...)` open the same topic. On the wire a plain value is what the message
 `PlainValue { value: <name> }` would be: the value's bytes for a fixed size, else a MessagePack
 array of the one value. The codecs are the generated classes' own (_horus_gen_support_v1), so the
-bytes, the accepted values and the log summary are those of a message field of that type.
+bytes, the accepted values and the log summary are those of a message field of that type, and each
+carries the type description of that message (`description`, built by
+horus.typedesc.plain_value_description): the bytes C++'s `TypeInfo<T>::description` holds.
 
 Python's own types stand for one width each: float is f64, int i64, bool bool, str String,
 bytes Vec<u8>. Other types are spelled as in a schema (`"f32"`, `"[u8; 4]"`, `"Vec<f32>"`) or
@@ -48,11 +50,11 @@ def _fnv1a(text: str) -> int:
 
 class PlainValue:
     """One plain value type: its identity (`name`, `schema`, `fingerprint`, `is_pod`, `size`,
-    `alignment`) and its bytes (`to_bytes`, `from_bytes`), and `log_summary(value)`, the line
-    C++'s `horus::log_summary` prints for the same value."""
+    `alignment`, `description`) and its bytes (`to_bytes`, `from_bytes`), and
+    `log_summary(value)`, the line C++'s `horus::log_summary` prints for the same value."""
 
     __slots__ = ("name", "schema", "fingerprint", "is_pod", "size", "alignment", "_codec",
-                 "_label", "_struct")
+                 "_label", "_struct", "_description")
 
     def __init__(self, name: str) -> None:
         codec, label, alignment = _resolve(name)
@@ -64,6 +66,17 @@ class PlainValue:
         self.size = codec.size if self.is_pod else None
         self.alignment = alignment
         self._struct = struct.Struct("<" + codec.fmt) if self.is_pod and codec.fmt else None
+        self._description = None
+
+    @property
+    def description(self) -> bytes:
+        """The type description (MessagePack) of the message `PlainValue { value: <name> }`, made
+        the first time it is read: what a topic segment of this type stores."""
+        if self._description is None:
+            from . import typedesc
+
+            self._description = typedesc.plain_value_bytes(self.name)
+        return self._description
 
     @property
     def __horus__(self) -> "PlainValue":

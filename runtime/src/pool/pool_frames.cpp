@@ -1,7 +1,7 @@
 // PoolFrames for Image, DepthImage, PointCloud and Tensor: a recorder takes a reference on the
 // block a descriptor names the way a receiving Topic<T> does (pool_topic.hpp: valid_descriptor,
 // then acquire), and a replay makes a frame the way a sending Topic<T> keeps one alive.
-#include "horus/detail/pool_frames.hpp"
+#include "horus/pool_frames.hpp"
 
 #include <cstring>
 #include <optional>
@@ -130,9 +130,12 @@ std::unique_ptr<PoolFrames> make_frames(std::string_view type_name, std::uint64_
 }
 
 }  // namespace
+}  // namespace horus::detail
+
+namespace horus {
 
 void enable_pool_frames() noexcept {
-  pool_frames_factory().store(&make_frames, std::memory_order_release);
+  detail::pool_frames_factory().store(&detail::make_frames, std::memory_order_release);
 }
 
-}  // namespace horus::detail
+}  // namespace horus

@@ -11,9 +11,9 @@
 #include <string>
 #include <thread>
 
-#include "horus/detail/pool_frames.hpp"
 #include "horus/detail/process.hpp"
 #include "horus/error.hpp"
+#include "horus/pool_frames.hpp"
 #include "pool_layout.hpp"
 
 namespace horus::detail {

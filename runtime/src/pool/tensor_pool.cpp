@@ -18,11 +18,11 @@
 #include <random>
 #include <vector>
 
-#include "horus/detail/errno_text.hpp"
 #include "horus/detail/pool_mapping.hpp"
 #include "horus/detail/shm_access.hpp"
 #include "horus/detail/shm_segment.hpp"
 #include "horus/error.hpp"
+#include "horus/internal/errno_text.hpp"
 #include "pool_layout.hpp"
 
 namespace horus {

@@ -25,13 +25,13 @@
 #include <thread>
 #include <tuple>
 
-#include "horus/detail/errno_text.hpp"
-#include "horus/detail/json_string.hpp"
-#include "horus/detail/namespace_objects.hpp"
 #include "horus/detail/process.hpp"
 #include "horus/detail/shm_access.hpp"
 #include "horus/detail/shm_segment.hpp"
 #include "horus/error.hpp"
+#include "horus/internal/errno_text.hpp"
+#include "horus/internal/json_string.hpp"
+#include "horus/internal/namespace_objects.hpp"
 
 namespace horus {
 namespace {
@@ -232,7 +232,7 @@ PresenceAnnouncement::PresenceAnnouncement(std::string_view namespace_name)
   for (;;) {
     FileDescriptor folder = open_presence_folder(namespace_, true);
     // Held while this object lives, before the first announcement too: cleaners leave the folder
-    // alone meanwhile (detail/namespace_objects.hpp).
+    // alone meanwhile (internal/namespace_objects.hpp).
     if (::flock(folder.get(), LOCK_SH) != 0) {
       throw Error("cannot lock the presence directory " + presence_path(namespace_) + ": " +
                   errno_text(errno));

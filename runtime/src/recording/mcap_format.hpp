@@ -41,6 +41,14 @@ inline constexpr std::size_t kMessageFixed = 2 + 4 + 8 + 8;
 /// CRC-32 (ISO-HDLC, as zlib computes it), continued from `crc` (0 to start).
 std::uint32_t crc32(std::uint32_t crc, const void* data, std::size_t size) noexcept;
 
+/// The channel metadata key of a topic's type description (docs/recording.md): the bytes in
+/// base64, as channel metadata values are UTF-8 strings.
+inline constexpr std::string_view kDescriptionKey = "horus.description";
+/// Base64 (RFC 4648, standard alphabet, padded) of `bytes`.
+std::string base64_encode(std::string_view bytes);
+/// The bytes of base64 `text`; throws horus::Error naming `what` when it is not base64.
+std::string base64_decode(std::string_view text, const std::string& what);
+
 /// A growable byte buffer of little-endian records. Unlike std::vector, growing it leaves the
 /// new bytes uninitialised: a 6 MB image is copied into it once, not zeroed first.
 class Bytes {

@@ -6,8 +6,8 @@
 #include <cstring>
 #include <fstream>
 
-#include "horus/detail/errno_text.hpp"
 #include "horus/error.hpp"
+#include "horus/internal/errno_text.hpp"
 #include "horus/recording.hpp"
 #include "mcap_format.hpp"
 
@@ -104,6 +104,12 @@ void RecordingReader::read_records(const std::uint8_t* data, std::size_t size, b
         channel.topic = cursor.string();
         channel.message_encoding = cursor.string();
         channel.metadata = read_map(cursor);
+        const auto description = channel.metadata.find(std::string(mcap::kDescriptionKey));
+        if (description != channel.metadata.end()) {
+          channel.description = mcap::base64_decode(
+              description->second,
+              where + ": topic '" + channel.topic + "': " + std::string(mcap::kDescriptionKey));
+        }
         channels_[channel.id] = std::move(channel);
         break;
       }

@@ -9,8 +9,8 @@
 #include <cerrno>
 #include <cstring>
 
-#include "horus/detail/errno_text.hpp"
 #include "horus/error.hpp"
+#include "horus/internal/errno_text.hpp"
 
 namespace horus::detail {
 namespace {

@@ -14,15 +14,15 @@
 #include <thread>
 #include <vector>
 
-#include "horus/detail/json_string.hpp"
-#include "horus/detail/pool_frames.hpp"
 #include "horus/detail/ring.hpp"
 #include "horus/detail/send_clock.hpp"
 #include "horus/detail/shm_segment.hpp"
-#include "horus/detail/tick_log.hpp"
 #include "horus/detail/topic_endpoint.hpp"
 #include "horus/error.hpp"
+#include "horus/internal/json_string.hpp"
+#include "horus/internal/tick_log.hpp"
 #include "horus/log.hpp"
+#include "horus/pool_frames.hpp"
 #include "horus/recording.hpp"
 #include "horus/topic_registry.hpp"
 #include "mcap_writer.hpp"
@@ -214,7 +214,8 @@ class RecorderImpl {
                               info.schema,
                               info.is_pod,
                               info.is_pod ? info.max_message_size : 0,
-                              1};
+                              1,
+                              info.description};
     ShmSegment segment = ShmSegment::open_topic(
         info.name, type,
         SegmentOptions{info.capacity, info.max_message_size, 0600, namespace_, false});
@@ -226,6 +227,10 @@ class RecorderImpl {
                      {"horus.type", info.type_name}};
     if (info.is_pod)
       metadata.emplace_back("horus.payload_size", std::to_string(info.max_message_size));
+    // The description the segment carries: readers decode the recording from it rather than
+    // compile the schema text (docs/recording.md).
+    if (!info.description.empty())
+      metadata.emplace_back(mcap::kDescriptionKey, mcap::base64_encode(info.description));
     const std::string_view encoding = frames        ? kPoolEncoding
                                       : info.is_pod ? "horus.pod"
                                                     : "horus.msgpack";

@@ -1,7 +1,8 @@
-// detail::Replayer: see horus/detail/replayer.hpp and docs/recording.md.
-#include "horus/detail/replayer.hpp"
+// detail::Replayer: see horus/internal/replayer.hpp and docs/recording.md.
+#include "horus/internal/replayer.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <functional>
@@ -10,16 +11,17 @@
 #include <string_view>
 #include <utility>
 
-#include "horus/detail/created_segments.hpp"
-#include "horus/detail/pool_frames.hpp"
 #include "horus/detail/ring.hpp"
 #include "horus/detail/service_frame.hpp"
 #include "horus/detail/shm_segment.hpp"
 #include "horus/detail/topic_endpoint.hpp"
 #include "horus/error.hpp"
+#include "horus/internal/created_segments.hpp"
 #include "horus/log.hpp"
+#include "horus/pool_frames.hpp"
 #include "horus/recording.hpp"
 #include "horus/topic_registry.hpp"
+#include "horus/type_description.hpp"
 
 namespace horus::detail {
 namespace {
@@ -137,6 +139,29 @@ std::uint64_t parse_fingerprint(const RecordedChannel& channel, const std::strin
   return std::strtoull(found->second.c_str(), nullptr, 16);
 }
 
+std::string hex16(std::uint64_t value) {
+  char text[24];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(value));
+  return text;
+}
+
+/// Refuses a recorded type description that is not of the channel's type: the replayed segment
+/// would tell every tool that opens it another layout than its messages have.
+void check_description(const RecordedChannel& channel, const std::string& type_name,
+                       std::uint64_t fingerprint, const std::string& where) {
+  const std::string topic = where + ": topic '" + channel.topic + "': ";
+  try {
+    const TypeDescription description = TypeDescription::decode(channel.description);
+    const MessageType& root = description.root_message();
+    if (description.root == type_name && root.fingerprint == fingerprint) return;
+    throw Error(topic + "its type description is of " + description.root + " (fingerprint " +
+                hex16(root.fingerprint) + "), the channel's type is " + type_name +
+                " (fingerprint " + hex16(fingerprint) + "); refusing to replay it");
+  } catch (const TypeDescriptionError& e) {
+    throw Error(topic + "its type description cannot be read: " + e.what());
+  }
+}
+
 }  // namespace
 
 Replayer::Replayer(const std::filesystem::path& path, const std::string& namespace_name,
@@ -168,6 +193,7 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
     // answered twice, and a recorded registration would announce a server that is not there.
     if (is_service_type(type.name)) continue;
     const std::uint64_t fingerprint = parse_fingerprint(channel, where);
+    if (!channel.description.empty()) check_description(channel, type.name, fingerprint, where);
     const auto live = std::find_if(now.begin(), now.end(),
                                    [&](const TopicInfo& t) { return t.name == channel.topic; });
     if (live != now.end() && !live->type_name.empty() &&
@@ -191,12 +217,13 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
     for (const RecordedMessage& m : recording.messages()) {
       if (m.channel_id == id && !pool) largest = std::max(largest, m.data.size());
     }
-    planned.push_back(Planned{id, &channel,
-                              TypeDescriptor{type.name, fingerprint, type.data, pod, size, 1},
-                              SegmentOptions{live != now.end() ? live->capacity : 64,
-                                             std::max<std::size_t>(largest, std::size_t{16} * 1024),
-                                             0600, namespace_name, false},
-                              pool, live != now.end()});
+    planned.push_back(Planned{
+        id, &channel,
+        TypeDescriptor{type.name, fingerprint, type.data, pod, size, 1, channel.description},
+        SegmentOptions{live != now.end() ? live->capacity : 64,
+                       std::max<std::size_t>(largest, std::size_t{16} * 1024), 0600, namespace_name,
+                       false},
+        pool, live != now.end()});
   }
   std::map<std::uint16_t, std::pair<TopicEndpoint*, PoolFrames*>> endpoints;
   try {

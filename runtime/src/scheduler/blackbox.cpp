@@ -1,5 +1,5 @@
 #include "horus/blackbox.hpp"
-#include "horus/detail/errno_text.hpp"
+#include "horus/internal/errno_text.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>

@@ -13,8 +13,8 @@
 #include <thread>
 #include <tuple>
 
-#include "horus/detail/errno_text.hpp"
 #include "horus/error.hpp"
+#include "horus/internal/errno_text.hpp"
 #include "scheduler_impl.hpp"
 #include "signals.hpp"
 

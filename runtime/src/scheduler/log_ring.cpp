@@ -14,11 +14,11 @@
 #include <cstring>
 #include <optional>
 
-#include "horus/detail/errno_text.hpp"
-#include "horus/detail/namespace_objects.hpp"
 #include "horus/detail/shm_access.hpp"
 #include "horus/detail/shm_segment.hpp"
 #include "horus/error.hpp"
+#include "horus/internal/errno_text.hpp"
+#include "horus/internal/namespace_objects.hpp"
 
 namespace horus::detail {
 namespace {
@@ -159,7 +159,7 @@ LogRing open_shared_log_ring(std::string_view namespace_name) {
   const FileDescriptor folder = open_logs_folder(true);
   // Every writer keeps a shared lock on the ring while its mapping lives (the mapping holds the
   // open file description, and so the lock, past close and until the process exits): cleaners
-  // leave the ring alone meanwhile (detail/namespace_objects.hpp). Nobody holds the exclusive
+  // leave the ring alone meanwhile (internal/namespace_objects.hpp). Nobody holds the exclusive
   // lock but a cleaner, and only for as long as it takes to unlink.
   for (;;) {
     struct stat named {};

@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "horus/blackbox.hpp"
-#include "horus/detail/tick_log.hpp"
-#include "horus/detail/topic_notifier.hpp"
+#include "horus/internal/tick_log.hpp"
+#include "horus/internal/topic_notifier.hpp"
 #include "horus/scheduler.hpp"
 #include "tick_context.hpp"
 

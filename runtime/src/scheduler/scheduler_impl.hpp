@@ -15,8 +15,7 @@
 #include <vector>
 
 #include "horus/blackbox.hpp"
-#include "horus/detail/bridge_process.hpp"
-#include "horus/detail/replayer.hpp"
+#include "horus/internal/replayer.hpp"
 #include "horus/log.hpp"
 #include "horus/presence.hpp"
 #include "horus/recording.hpp"
@@ -261,9 +260,9 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   std::unique_ptr<Replayer> replayer_;
   bool recording_done_ = false;
   std::int64_t sim_now_ns_ = 0;
-  /// SchedulerConfig::network()'s `horus bridge`, from construction until run() ends. Last, so
+  /// SchedulerConfig::network()'s DDS bridge, from construction until run() ends. Last, so
   /// that it ends (and its watching thread, which may request_stop(), is joined) first.
-  std::unique_ptr<BridgeProcess> network_;
+  std::unique_ptr<NetworkRunner> network_;
 };
 
 }  // namespace horus::detail

@@ -12,10 +12,10 @@
 #include <iterator>
 #include <thread>
 
-#include "horus/detail/created_segments.hpp"
-#include "horus/detail/errno_text.hpp"
 #include "horus/detail/publisher_lease.hpp"
 #include "horus/error.hpp"
+#include "horus/internal/created_segments.hpp"
+#include "horus/internal/errno_text.hpp"
 #include "horus/topic_registry.hpp"
 #include "logger.hpp"
 #include "scheduler_impl.hpp"
@@ -123,9 +123,8 @@ SchedulerImpl::SchedulerImpl(SchedulerConfig config)
   }
   if (config_.network()) {
     try {
-      network_ = std::make_unique<BridgeProcess>(
-          *config_.network(), current_namespace(),
-          [this](const std::string& failure) { request_stop(failure, true); });
+      network_ = start_network(*config_.network(), current_namespace(),
+                               [this](const std::string& failure) { request_stop(failure, true); });
     } catch (const Error& e) {
       throw Error(where + "network: " + e.what());
     }

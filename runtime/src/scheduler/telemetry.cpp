@@ -8,8 +8,8 @@
 #include <cstring>
 #include <fstream>
 
-#include "horus/detail/json_string.hpp"
 #include "horus/error.hpp"
+#include "horus/internal/json_string.hpp"
 #include "scheduler_impl.hpp"
 
 namespace horus::detail {

@@ -19,16 +19,15 @@ std::vector<ServiceInfo> list_services(std::string_view namespace_name) {
   std::vector<ServiceInfo> services;
   for (const TopicInfo& topic : topics) {
     const std::string_view name = topic.name;
-    const std::string_view suffix = detail::kRegistrationSuffix;
-    if (topic.type_name != TypeInfo<detail::ServiceRegistration>::name ||
-        name.size() <= suffix.size() || name.substr(name.size() - suffix.size()) != suffix) {
+    const std::string_view suffix = kServiceRegistrationSuffix;
+    if (topic.type_name != TypeInfo<ServiceRegistration>::name || name.size() <= suffix.size() ||
+        name.substr(name.size() - suffix.size()) != suffix) {
       continue;
     }
     ServiceInfo info;
     info.name = std::string(name.substr(0, name.size() - suffix.size()));
-    const Topic<detail::ServiceRegistration> handle(topic.name,
-                                                    detail::registration_options(options));
-    if (const std::optional<detail::ServiceRegistration> current = handle.read_latest()) {
+    const Topic<ServiceRegistration> handle(topic.name, detail::registration_options(options));
+    if (const std::optional<ServiceRegistration> current = handle.read_latest()) {
       info.request_type = current->request_type.str();
       info.response_type = current->response_type.str();
       info.fingerprint = current->fingerprint;

@@ -1,5 +1,5 @@
 // The segments this process created, and their removal once nobody uses them.
-#include "horus/detail/created_segments.hpp"
+#include "horus/internal/created_segments.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>

@@ -11,8 +11,8 @@
 #include <utility>
 #include <vector>
 
-#include "horus/detail/errno_text.hpp"
 #include "horus/error.hpp"
+#include "horus/internal/errno_text.hpp"
 
 namespace horus::detail {
 

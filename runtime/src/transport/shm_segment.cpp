@@ -3,8 +3,8 @@
 // Every set-up step runs under flock(LOCK_EX) on the segment file: concurrent openers serialise,
 // and the kernel drops the lock of a process killed mid-set-up, so nobody waits on a dead one.
 #include "horus/detail/shm_segment.hpp"
-#include "horus/detail/errno_text.hpp"
 #include "horus/detail/shm_access.hpp"
+#include "horus/internal/errno_text.hpp"
 
 #include <fcntl.h>
 #include <sys/file.h>
@@ -22,9 +22,9 @@
 #include <utility>
 #include <vector>
 
-#include "horus/detail/created_segments.hpp"
 #include "horus/detail/process.hpp"
 #include "horus/error.hpp"
+#include "horus/internal/created_segments.hpp"
 
 namespace horus::detail {
 
@@ -215,6 +215,10 @@ LayoutHeader make_layout(const TypeDescriptor& type, const SegmentOptions& optio
     throw Error("schema of " + std::string(type.name) + " exceeds " +
                 std::to_string(kMaxSchemaSize) + " bytes (topic " + path + ")");
   }
+  if (type.description.size() > kMaxDescriptionSize) {
+    throw Error("type description of " + std::string(type.name) + " exceeds " +
+                std::to_string(kMaxDescriptionSize) + " bytes (topic " + path + ")");
+  }
   if (options.capacity == 0 || options.capacity > kMaxCapacity) {
     throw Error("topic capacity " + std::to_string(options.capacity) + " is not within 1.." +
                 std::to_string(kMaxCapacity) + " (topic " + path + ")");
@@ -251,7 +255,9 @@ LayoutHeader make_layout(const TypeDescriptor& type, const SegmentOptions& optio
       round_up(header.payload_offset + payload, std::max<std::uint64_t>(kCacheLine, alignment));
   header.schema_offset = kControlSize + sizeof(LayoutHeader);
   header.schema_size = type.schema.size();
-  header.claims_offset = round_up(header.schema_offset + header.schema_size, kCacheLine);
+  header.description_offset = header.schema_offset + header.schema_size;
+  header.description_size = type.description.size();
+  header.claims_offset = round_up(header.description_offset + header.description_size, kCacheLine);
   // Two free lines before the slots keep the last claims out of reach of the adjacent-line
   // prefetch of the first slot.
   header.slots_offset = round_up(
@@ -420,9 +426,15 @@ std::string validate_layout(const LayoutHeader& h, std::uint64_t file_size) {
     return "invalid slot geometry (stride " + std::to_string(h.slot_stride) + ", payload at " +
            std::to_string(h.payload_offset) + ")";
   }
+  if (h.description_offset != h.schema_offset + h.schema_size ||
+      h.description_size > kMaxDescriptionSize) {
+    return "invalid type description offset " + std::to_string(h.description_offset) + " / size " +
+           std::to_string(h.description_size);
+  }
   if (h.schema_offset != kControlSize + sizeof(LayoutHeader) || h.schema_size > kMaxSchemaSize ||
-      h.claims_offset < h.schema_offset + h.schema_size || h.claims_offset % kCacheLine != 0 ||
-      h.slots_offset > h.total_size || h.claims_offset > h.slots_offset ||
+      h.claims_offset < h.description_offset + h.description_size ||
+      h.claims_offset % kCacheLine != 0 || h.slots_offset > h.total_size ||
+      h.claims_offset > h.slots_offset ||
       h.slots_offset - h.claims_offset < h.capacity * sizeof(SlotClaim) ||
       h.slots_offset % kCacheLine != 0 || h.slots_offset % h.type_alignment != 0) {
     return "invalid schema or slot offsets";
@@ -488,6 +500,8 @@ ShmSegment ShmSegment::open_topic(std::string_view topic, const TypeDescriptor& 
     allocate(fd.get(), header.total_size, path);
     write_all(fd.get(), &header, sizeof header, kControlSize, path);
     write_all(fd.get(), type.schema.data(), type.schema.size(), header.schema_offset, path);
+    write_all(fd.get(), type.description.data(), type.description.size(), header.description_offset,
+              path);
     start_publishers_afresh(control.ring, options.single_publisher);
     control.layout_ready.store(1, std::memory_order_release);
     remember_created_segment(options.namespace_name, name, options.mode);

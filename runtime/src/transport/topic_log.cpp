@@ -1,4 +1,4 @@
-#include "horus/detail/topic_log.hpp"
+#include "horus/topic_log.hpp"
 
 #include <algorithm>
 #include <cstdio>
@@ -7,7 +7,7 @@
 
 #include "horus/log.hpp"
 
-namespace horus::detail {
+namespace horus {
 namespace {
 
 std::int64_t coarse_now_ns() noexcept {
@@ -21,6 +21,8 @@ std::int64_t coarse_now_ns() noexcept {
 constexpr std::int64_t kWindowNs = 1'000'000'000;
 
 }  // namespace
+
+namespace detail {
 
 void SummaryWriter::text(std::string_view s) noexcept {
   const std::size_t n = std::min(s.size(), size_ - used_);
@@ -45,6 +47,8 @@ void SummaryWriter::number(unsigned long long value) noexcept {
   const int n = std::snprintf(digits, sizeof digits, "%llu", value);
   text({digits, static_cast<std::size_t>(std::max(n, 0))});
 }
+
+}  // namespace detail
 
 TopicLog::TopicLog(std::string_view topic) : topic_(topic) {}
 
@@ -77,4 +81,4 @@ void TopicLog::report_suppressed() noexcept {
   suppressed_ = 0;
 }
 
-}  // namespace horus::detail
+}  // namespace horus

@@ -12,9 +12,9 @@
 
 #include "horus/detail/futex.hpp"
 #include "horus/detail/shm_segment.hpp"
-#include "horus/detail/topic_notifier.hpp"
-#include "horus/detail/topic_wait_set.hpp"
 #include "horus/error.hpp"
+#include "horus/internal/topic_notifier.hpp"
+#include "horus/internal/topic_wait_set.hpp"
 
 namespace horus::detail {
 

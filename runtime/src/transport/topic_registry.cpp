@@ -1,6 +1,6 @@
 // Reading segments for tools: validated like any opener, mapped read-only, under a shared lock.
 #include "horus/topic_registry.hpp"
-#include "horus/detail/errno_text.hpp"
+#include "horus/internal/errno_text.hpp"
 
 #include <dirent.h>
 #include <fcntl.h>
@@ -14,10 +14,10 @@
 #include <cstring>
 #include <optional>
 
-#include "horus/detail/created_segments.hpp"
-#include "horus/detail/namespace_objects.hpp"
 #include "horus/detail/shm_segment.hpp"
 #include "horus/error.hpp"
+#include "horus/internal/created_segments.hpp"
+#include "horus/internal/namespace_objects.hpp"
 
 namespace horus {
 
@@ -180,6 +180,8 @@ void inspect(const detail::NamespaceFolder& folder, TopicInfo& info,
       info.fingerprint = header.fingerprint;
       info.schema.assign(reinterpret_cast<const char*>(bytes + header.schema_offset),
                          header.schema_size);
+      info.description.assign(reinterpret_cast<const char*>(bytes + header.description_offset),
+                              header.description_size);
       info.is_pod = header.is_pod != 0;
       info.capacity = header.capacity;
       info.max_message_size = header.payload_capacity;
@@ -252,6 +254,14 @@ void remove_folder_if_empty(const detail::NamespaceFolder& folder) {
 }  // namespace
 
 std::string current_namespace() { return detail::current_namespace(); }
+
+std::string namespace_directory(std::string_view namespace_name) {
+  return detail::namespace_directory(namespace_name);
+}
+
+std::size_t remove_created_topics_nobody_uses() {
+  return detail::remove_created_segments_nobody_uses();
+}
 
 std::vector<TopicInfo> list_topics(std::string_view namespace_name) {
   const detail::NamespaceFolder folder =

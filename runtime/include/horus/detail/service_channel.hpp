@@ -20,6 +20,7 @@
 
 #include "horus/detail/process.hpp"
 #include "horus/detail/service_frame.hpp"
+#include "horus/error.hpp"
 #include "horus/presence.hpp"
 #include "horus/service_error.hpp"
 #include "horus/service_result.hpp"
@@ -83,9 +84,184 @@ inline std::uint64_t free_reply_index(std::string_view response_topic,
   return index;
 }
 
+inline std::size_t reply_subscribers(const std::string& name, const std::string& namespace_name) {
+  for (const TopicInfo& topic : list_topics(namespace_name)) {
+    if (topic.name == name) {
+      return topic.subscribers;
+    }
+  }
+  return 0;
+}
+
 inline TopicOptions registration_options(TopicOptions options) {
   options.capacity = kRegistrationCapacity;
   return options;
+}
+
+/// Reply topic handles a server keeps open; past this many (clients alive at once) they are
+/// re-opened.
+inline constexpr std::size_t kMaxServerReplyTopics = 256;
+
+/// The instance of the live server `current` registers, or NoServer (none registered) /
+/// Transport (it crashed). Typed and raw clients share these verdicts and their texts.
+inline ServiceResult<std::uint64_t> live_server_of(
+    const std::optional<ServiceRegistration>& current, std::string_view service,
+    std::string_view namespace_name) {
+  if (!current || current->server_pid == 0) {
+    return ServiceError::no_server("no server for " + std::string(service) + " in namespace " +
+                                   std::string(namespace_name));
+  }
+  // A syscall on every call, not the /proc read of server_process_gone: a zombie server is
+  // found out by the first check while waiting.
+  if (!process_alive(static_cast<std::uint32_t>(current->server_pid))) {
+    return ServiceError::transport("the server of " + std::string(service) + " (pid " +
+                                   std::to_string(current->server_pid) + ") died");
+  }
+  return current->server_instance;
+}
+
+/// Why the server a request went to (`instance`) will never answer it (it crashed, stopped or
+/// was replaced), if it won't; `current` is the latest registration.
+inline std::optional<ServiceError> lost_server(const std::optional<ServiceRegistration>& current,
+                                               std::uint64_t instance, std::string_view service) {
+  const std::string name(service);
+  if (!current || current->server_pid == 0) {
+    return ServiceError::transport("the server of " + name + " stopped before answering");
+  }
+  if (current->server_instance != instance) {
+    return ServiceError::transport("the server of " + name +
+                                   " was restarted; the request was lost");
+  }
+  if (server_process_gone(current->server_pid)) {
+    return ServiceError::transport("the server of " + name + " (pid " +
+                                   std::to_string(current->server_pid) + ") died before answering");
+  }
+  return std::nullopt;
+}
+
+inline ServiceError no_answer_in_time(std::string_view service) {
+  return ServiceError::timeout("no answer from " + std::string(service) + " in time");
+}
+
+/// Why a request topic refused a request.
+inline ServiceError refused_request(std::string_view request_topic, bool oversized) {
+  return ServiceError::transport(
+      oversized ? "the request does not fit in a slot of " + std::string(request_topic) +
+                      " (TopicOptions::max_message_size of its creator)"
+                : "the request topic " + std::string(request_topic) +
+                      " refused the message (a publisher stalled in its slot)");
+}
+
+/// The failure a server sends instead of a response its client's reply topic refused.
+inline std::string oversized_response(std::string_view reply_topic) {
+  return "the response does not fit in a slot of " + std::string(reply_topic) +
+         " (TopicOptions::max_message_size of its creator)";
+}
+
+/// The error a response frame's status and text stand for; none for kStatusOk. A status this
+/// runtime does not know is a failure of the server.
+inline std::optional<ServiceError> error_of_status(std::uint32_t status, std::string text) {
+  switch (status) {
+    case kStatusOk:
+      return std::nullopt;
+    case kStatusNoServer:
+      return ServiceError::no_server(std::move(text));
+    case kStatusTimeout:
+      return ServiceError::timeout(std::move(text));
+    case kStatusTransport:
+      return ServiceError::transport(std::move(text));
+    default:
+      return ServiceError::service_failed(std::move(text));
+  }
+}
+
+/// The response frame status that carries `kind` to the caller.
+constexpr std::uint32_t status_of(ServiceErrorKind kind) noexcept {
+  switch (kind) {
+    case ServiceErrorKind::NoServer:
+      return kStatusNoServer;
+    case ServiceErrorKind::Timeout:
+      return kStatusTimeout;
+    case ServiceErrorKind::Transport:
+      return kStatusTransport;
+    case ServiceErrorKind::ServiceFailed:
+      break;
+  }
+  return kStatusFailed;
+}
+
+/// Opens (with `open(name)`) a reply topic of `response_topic` that no other live client
+/// receives on, and its index. Threads of one process take turns; two processes that pick the
+/// same index at the same moment both see it taken twice, and pick again after a random pause.
+/// After a few collisions in a row the client shares the topic, which answers' client ids keep
+/// correct.
+template <class Open>
+auto open_free_reply_topic(std::string_view response_topic, const std::string& namespace_name,
+                           std::uint64_t& index, Open&& open) {
+  static std::mutex picking;
+  const std::lock_guard<std::mutex> lock(picking);
+  for (int attempt = 0;; ++attempt) {
+    index = free_reply_index(response_topic, namespace_name);
+    const std::string name = reply_topic(response_topic, index);
+    auto replies = open(name);
+    // Marks the handle as a subscriber, so other clients see the index taken (and tools count
+    // it). Nothing sent before it opened is visible: nothing of ours is discarded.
+    if constexpr (requires { replies->try_recv(); }) {
+      static_cast<void>(replies->try_recv());
+    } else {
+      static_cast<void>(replies.try_recv());
+    }
+    if (attempt >= kMaxReplyCollisions || reply_subscribers(name, namespace_name) <= 1) {
+      return replies;
+    }
+    const auto noise =
+        static_cast<std::uint64_t>(::getpid()) * 7919U +
+        static_cast<std::uint64_t>(std::chrono::steady_clock::now().time_since_epoch().count());
+    std::this_thread::sleep_for(
+        std::chrono::microseconds(100 + static_cast<std::int64_t>(noise % 1900U)));
+  }
+}
+
+/// Publishes `registered` (a new server's record, this process's pid) on `registration`, once
+/// no live server is registered: typed and raw servers claim a service alike. Throws
+/// horus::Error naming the live server, or when the record cannot be published.
+inline void claim_registration(Topic<ServiceRegistration>& registration,
+                               const ServiceRegistration& registered, std::string_view service,
+                               std::string_view namespace_name) {
+  const std::optional<ServiceRegistration> current = registration.read_latest();
+  if (current && current->server_pid != 0 && !server_process_gone(current->server_pid)) {
+    throw Error("service " + std::string(service) + " in namespace " + std::string(namespace_name) +
+                " already has a server (pid " + std::to_string(current->server_pid) + ")");
+  }
+  if (!registration.send(registered)) {
+    throw Error("service " + std::string(service) + ": cannot publish its registration");
+  }
+}
+
+/// Withdraws `registered` if it is still the latest record: withdrawn, not erased, so tools
+/// still list the service and its types, with no server, and waiting clients fail at once.
+inline void withdraw_registration(Topic<ServiceRegistration>& registration,
+                                  const ServiceRegistration& registered) {
+  const std::optional<ServiceRegistration> current = registration.read_latest();
+  if (current && current->server_instance == registered.server_instance) {
+    ServiceRegistration withdrawn = registered;
+    withdrawn.server_instance = 0;
+    withdrawn.server_pid = 0;
+    static_cast<void>(registration.send(withdrawn));
+  }
+}
+
+/// The record of a new server of `service` in this process.
+inline ServiceRegistration server_registration(std::uint64_t instance, std::uint64_t fingerprint,
+                                               std::string_view request_type,
+                                               std::string_view response_type) {
+  ServiceRegistration registered{};
+  registered.server_instance = instance;
+  registered.fingerprint = fingerprint;
+  registered.request_type.try_assign(request_type);
+  registered.response_type.try_assign(response_type);
+  registered.server_pid = static_cast<std::uint64_t>(::getpid());
+  return registered;
 }
 
 /// One request on its way: what the caller needs to wait for its answer.
@@ -94,44 +270,84 @@ struct SentRequest {
   std::uint64_t server_instance;
 };
 
-/// A client's three topic handles (request, response, registration) and its pending calls.
-/// Used by one thread at a time, like a Topic.
+/// The frames of a typed service, as ServiceChannel sends and receives them for
+/// ServiceClient<S> and AsyncServiceClient<S>. The other wire is the raw layer's bytes
+/// (RawServiceWire, raw_service.cpp): one channel, so typed and raw clients behave alike.
 template <Service S>
-class ServiceChannel {
- public:
+struct TypedServiceWire {
   using Request = typename S::Request;
   using Response = typename S::Response;
-  using RequestFrame = ServiceRequestFrame<Request>;
-  using ResponseFrame = ServiceResponseFrame<Response>;
+  /// What the reply topic delivers.
+  using Answer = ServiceResponseFrame<Response>;
+  using RequestTopic = Topic<ServiceRequestFrame<Request>>;
+  using ReplyTopic = Topic<Answer>;
+
+  std::string_view name() const noexcept { return S::name(); }
+  std::string_view request_topic() const noexcept { return S::request_topic(); }
+  std::string_view response_topic() const noexcept { return S::response_topic(); }
+  std::string_view request_type_name() const noexcept { return S::request_type_name(); }
+  std::string_view response_type_name() const noexcept { return S::response_type_name(); }
+
+  RequestTopic open_requests(const TopicOptions& options) const {
+    return RequestTopic(S::request_topic(), options);
+  }
+  ReplyTopic open_replies(const std::string& name, const TopicOptions& options) const {
+    return ReplyTopic(name, options);
+  }
+  static std::uint64_t oversized(const RequestTopic& requests) noexcept {
+    return requests.stats().oversized;
+  }
+  bool send(RequestTopic& requests, std::uint64_t client_id, std::uint64_t reply_to,
+            std::uint64_t request_id, const Request& request) const {
+    return requests.send(
+        request_frame(client_id, reply_to, ServiceRequest<Request>{request_id, request}));
+  }
+  std::optional<Answer> recv(ReplyTopic& replies, std::chrono::nanoseconds timeout) const {
+    return replies.recv(timeout);
+  }
+  std::optional<Answer> try_recv(ReplyTopic& replies) const { return replies.try_recv(); }
+  static std::uint64_t client_of(const Answer& answer) noexcept { return answer.client_id; }
+  static std::uint64_t request_of(const Answer& answer) noexcept { return answer.request_id; }
+  static ServiceResult<Response> result_of(Answer&& answer) {
+    const std::uint32_t status = answer.status;
+    if (status == kStatusOk || status == kStatusFailed) {
+      return response_of(std::move(answer)).into_result();
+    }
+    return *error_of_status(status, std::string(std::string_view(answer.error)));
+  }
+};
+
+/// A client's three topic handles (request, reply, registration) and its pending calls, over
+/// the frames of `Wire` (TypedServiceWire<S>, or the raw layer's bytes). Used by one thread at
+/// a time, like a Topic.
+template <class Wire>
+class BasicServiceChannel {
+ public:
+  using Request = typename Wire::Request;
+  using Response = typename Wire::Response;
+  using Answer = typename Wire::Answer;
   using Clock = std::chrono::steady_clock;
 
-  explicit ServiceChannel(const TopicOptions& options)
-      : namespace_(options.namespace_name.empty() ? horus::current_namespace()
+  explicit BasicServiceChannel(const TopicOptions& options, Wire wire = Wire())
+      : wire_(std::move(wire)),
+        namespace_(options.namespace_name.empty() ? horus::current_namespace()
                                                   : options.namespace_name),
-        requests_(S::request_topic(), options),
-        responses_(open_reply_topic(options, namespace_, reply_index_)),
-        registration_(registration_topic(S::name()), registration_options(options)),
+        requests_(wire_.open_requests(options)),
+        replies_(open_free_reply_topic(
+            wire_.response_topic(), namespace_, reply_index_,
+            [&](const std::string& name) { return wire_.open_replies(name, options); })),
+        registration_(service_registration_topic(wire_.name()), registration_options(options)),
         client_id_(new_service_endpoint_id()),
-        announced_(ProcessUse{ProcessUse::Kind::ServiceClient, namespace_, std::string(S::name()),
-                              std::string(S::request_type_name()),
-                              std::string(S::response_type_name())}) {}
+        announced_(ProcessUse{ProcessUse::Kind::ServiceClient, namespace_,
+                              std::string(wire_.name()), std::string(wire_.request_type_name()),
+                              std::string(wire_.response_type_name())}) {}
 
+  const Wire& wire() const noexcept { return wire_; }
   std::uint64_t client_id() const noexcept { return client_id_; }
 
   /// The live server's instance, or NoServer (none registered) / Transport (it crashed).
   ServiceResult<std::uint64_t> live_server() {
-    const std::optional<ServiceRegistration> current = registration_.read_latest();
-    if (!current || current->server_pid == 0) {
-      return ServiceError::no_server("no server for " + std::string(S::name()) + " in namespace " +
-                                     namespace_);
-    }
-    // A syscall on every call, not the /proc read of server_process_gone: a zombie server is
-    // found out by the first check while waiting.
-    if (!process_alive(static_cast<std::uint32_t>(current->server_pid))) {
-      return ServiceError::transport("the server of " + std::string(S::name()) + " (pid " +
-                                     std::to_string(current->server_pid) + ") died");
-    }
-    return current->server_instance;
+    return live_server_of(registration_.read_latest(), wire_.name(), namespace_);
   }
 
   /// Waits (asleep on the registration topic) until a live server is registered.
@@ -161,21 +377,22 @@ class ServiceChannel {
     if (track) {
       pending_.emplace(request_id, std::nullopt);
     }
-    const std::uint64_t oversized_before = requests_.stats().oversized;
-    if (!requests_.send(request_frame(client_id_, reply_index_,
-                                      ServiceRequest<Request>{request_id, request}))) {
+    const std::uint64_t oversized_before = Wire::oversized(requests_);
+    bool sent = false;
+    try {
+      sent = wire_.send(requests_, client_id_, reply_index_, request_id, request);
+    } catch (...) {
       forget(request_id);
-      return ServiceError::transport(
-          requests_.stats().oversized != oversized_before
-              ? "the request does not fit in a slot of " + std::string(S::request_topic()) +
-                    " (TopicOptions::max_message_size of its creator)"
-              : "the request topic " + std::string(S::request_topic()) +
-                    " refused the message (a publisher stalled in its slot)");
+      throw;
+    }
+    if (!sent) {
+      forget(request_id);
+      return refused_request(wire_.request_topic(), Wire::oversized(requests_) != oversized_before);
     }
     return SentRequest{request_id, *server};
   }
 
-  /// Blocks until the answer to `sent` arrives (asleep on the response topic's futex), the
+  /// Blocks until the answer to `sent` arrives (asleep on the reply topic's futex), the
   /// deadline passes, or the server is found gone.
   ServiceResult<Response> wait(const SentRequest& sent, Clock::time_point deadline) {
     Clock::time_point next_check = Clock::now() + kServerCheckInterval;
@@ -185,7 +402,7 @@ class ServiceChannel {
         forget(sent.request_id);
         return timeout_error();
       }
-      if (std::optional<ResponseFrame> answer = take(sent.request_id)) {
+      if (std::optional<Answer> answer = take(sent.request_id)) {
         return to_result(std::move(*answer));
       }
       if (now >= next_check) {
@@ -195,31 +412,32 @@ class ServiceChannel {
         }
         next_check = now + kServerCheckInterval;
       }
-      if (std::optional<ResponseFrame> frame =
-              responses_.recv(std::min(deadline, next_check) - now)) {
-        if (frame->client_id == client_id_ && frame->request_id == sent.request_id) {
+      if (std::optional<Answer> answer =
+              wire_.recv(replies_, std::min(deadline, next_check) - now)) {
+        if (Wire::client_of(*answer) == client_id_ &&
+            Wire::request_of(*answer) == sent.request_id) {
           forget(sent.request_id);
-          return to_result(std::move(*frame));
+          return to_result(std::move(*answer));
         }
-        route(std::move(*frame));
+        route(std::move(*answer));
       }
     }
   }
 
   /// Files every answer that has arrived, without blocking.
   void drain() {
-    while (std::optional<ResponseFrame> frame = responses_.try_recv()) {
-      route(std::move(*frame));
+    while (std::optional<Answer> answer = wire_.try_recv(replies_)) {
+      route(std::move(*answer));
     }
   }
 
   /// The answer to a tracked request, once it has been filed; the request is then forgotten.
-  std::optional<ResponseFrame> take(std::uint64_t request_id) {
+  std::optional<Answer> take(std::uint64_t request_id) {
     const auto found = pending_.find(request_id);
     if (found == pending_.end() || !found->second) {
       return std::nullopt;
     }
-    std::optional<ResponseFrame> answer = std::move(found->second);
+    std::optional<Answer> answer = std::move(found->second);
     pending_.erase(found);
     return answer;
   }
@@ -229,97 +447,41 @@ class ServiceChannel {
 
   /// Why the server will never answer `sent` (it crashed, stopped or was replaced), if it won't.
   std::optional<ServiceError> check_server(const SentRequest& sent) {
-    const std::optional<ServiceRegistration> current = registration_.read_latest();
-    const std::string service(S::name());
-    if (!current || current->server_pid == 0) {
-      return ServiceError::transport("the server of " + service + " stopped before answering");
-    }
-    if (current->server_instance != sent.server_instance) {
-      return ServiceError::transport("the server of " + service +
-                                     " was restarted; the request was lost");
-    }
-    if (server_process_gone(current->server_pid)) {
-      return ServiceError::transport("the server of " + service + " (pid " +
-                                     std::to_string(current->server_pid) +
-                                     ") died before answering");
-    }
-    return std::nullopt;
+    return lost_server(registration_.read_latest(), sent.server_instance, wire_.name());
   }
 
-  ServiceError timeout_error() const {
-    return ServiceError::timeout("no answer from " + std::string(S::name()) + " in time");
-  }
+  ServiceError timeout_error() const { return no_answer_in_time(wire_.name()); }
 
-  static ServiceResult<Response> to_result(ResponseFrame&& frame) {
-    const auto text = [&frame] { return std::string(std::string_view(frame.error)); };
-    switch (frame.status) {
-      case kStatusNoServer:
-        return ServiceError::no_server(text());
-      case kStatusTimeout:
-        return ServiceError::timeout(text());
-      case kStatusTransport:
-        return ServiceError::transport(text());
-      default:
-        return response_of(std::move(frame)).into_result();
-    }
+  static ServiceResult<Response> to_result(Answer&& answer) {
+    return Wire::result_of(std::move(answer));
   }
 
  private:
-  /// Opens a reply topic no other live client receives on. Threads of one process take turns;
-  /// two processes that pick the same index at the same moment both see it taken twice, and
-  /// pick again after a random pause. After a few collisions in a row the client shares the
-  /// topic, which answers' client ids keep correct.
-  static Topic<ResponseFrame> open_reply_topic(const TopicOptions& options,
-                                               const std::string& namespace_name,
-                                               std::uint64_t& index) {
-    static std::mutex picking;
-    const std::lock_guard<std::mutex> lock(picking);
-    for (int attempt = 0;; ++attempt) {
-      index = free_reply_index(S::response_topic(), namespace_name);
-      const std::string name = reply_topic(S::response_topic(), index);
-      Topic<ResponseFrame> replies(name, options);
-      // Marks the handle as a subscriber, so other clients see the index taken (and tools count
-      // it). Nothing sent before it opened is visible: nothing of ours is discarded.
-      static_cast<void>(replies.try_recv());
-      if (attempt >= kMaxReplyCollisions || reply_subscribers(name, namespace_name) <= 1) {
-        return replies;
-      }
-      const auto noise = static_cast<std::uint64_t>(::getpid()) * 7919U +
-                         static_cast<std::uint64_t>(Clock::now().time_since_epoch().count());
-      std::this_thread::sleep_for(
-          std::chrono::microseconds(100 + static_cast<std::int64_t>(noise % 1900U)));
-    }
-  }
-
-  static std::size_t reply_subscribers(const std::string& name, const std::string& namespace_name) {
-    for (const TopicInfo& topic : list_topics(namespace_name)) {
-      if (topic.name == name) {
-        return topic.subscribers;
-      }
-    }
-    return 0;
-  }
-
-  void route(ResponseFrame&& frame) {
-    if (frame.client_id != client_id_) {
+  void route(Answer&& answer) {
+    if (Wire::client_of(answer) != client_id_) {
       return;
     }
-    const auto found = pending_.find(frame.request_id);
+    const auto found = pending_.find(Wire::request_of(answer));
     if (found != pending_.end() && !found->second) {
-      found->second = std::move(frame);
+      found->second = std::move(answer);
     }
   }
 
+  Wire wire_;
   std::string namespace_;
-  Topic<RequestFrame> requests_;
+  typename Wire::RequestTopic requests_;
   std::uint64_t reply_index_ = 0;
-  Topic<ResponseFrame> responses_;
+  typename Wire::ReplyTopic replies_;
   Topic<ServiceRegistration> registration_;
   std::uint64_t client_id_;
   AnnouncedUse announced_;  // the client in this process's presence announcement
   std::uint64_t last_request_id_ = 0;
   /// Tracked (async) requests, with their answer once filed.
-  std::unordered_map<std::uint64_t, std::optional<ResponseFrame>> pending_;
+  std::unordered_map<std::uint64_t, std::optional<Answer>> pending_;
 };
+
+/// The channel of ServiceClient<S> and AsyncServiceClient<S>.
+template <Service S>
+using ServiceChannel = BasicServiceChannel<TypedServiceWire<S>>;
 
 }  // namespace horus::detail

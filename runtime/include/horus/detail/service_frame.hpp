@@ -2,9 +2,10 @@
 // (not generated from a schema: they are templates over the service's own messages).
 //
 //   <Service>.request       ServiceRequestFrame<Request>    {client_id, request_id, reply_to,
-//   payload} <Service>.response.<k>  ServiceResponseFrame<Response>  {client_id, request_id,
-//   status, error, payload} <Service>.service       ServiceRegistration             the live
-//   server: pid, instance, types
+//                                                            payload}
+//   <Service>.response.<k>  ServiceResponseFrame<Response>  {client_id, request_id, status,
+//                                                            error, payload}
+//   <Service>.service       ServiceRegistration (horus/service_registration.hpp): the live server
 //
 // Each client receives on a reply topic of its own (`reply_to` = k, the smallest index no live
 // client uses): on one shared response topic, a client preempted for a few milliseconds while
@@ -15,7 +16,9 @@
 // frame, copied straight into the slot (no MessagePack, no allocation), and a serialized one is
 // encoded once, straight into the slot, as an element of the frame's MessagePack array. Each
 // frame's type name and fingerprint derive from its payload's, so a client and a server that
-// disagree on a service's types fail to open its topics with the transport's "another type" error.
+// disagree on a service's types fail to open its topics with the transport's "another type" error;
+// its type description is built from its payload's (detail/service_description.hpp).
+// The wire format as a whole: runtime/src/service/README.md.
 #pragma once
 
 #include <algorithm>
@@ -27,11 +30,13 @@
 #include <type_traits>
 #include <utility>
 
+#include "horus/detail/service_description.hpp"
 #include "horus/detail/static_text.hpp"
 #include "horus/fixed_string.hpp"
 #include "horus/message.hpp"
 #include "horus/msgpack.hpp"
 #include "horus/service_message.hpp"
+#include "horus/service_registration.hpp"
 
 namespace horus::detail {
 
@@ -160,48 +165,22 @@ ServiceResponse<Res> response_of(ServiceResponseFrame<Res>&& frame) {
                                        std::string(std::string_view(frame.error)));
 }
 
-/// The server of a service, as it announces itself on `<Service>.service` (the latest message
-/// counts). server_pid 0: the server stopped and withdrew.
-struct ServiceRegistration {
-  /// Unique per ServiceServer object: tells a restarted server from the one a request went to.
-  std::uint64_t server_instance{};
-  std::uint64_t fingerprint{};
-  FixedString<256> request_type{};
-  FixedString<256> response_type{};
-  std::uint64_t server_pid{};
-
-  std::string log_summary() const {
-    std::string out = "ServiceRegistration{server_instance: ";
-    summary::append_field(out, server_instance, "", "");
-    out += ", fingerprint: ";
-    summary::append_field(out, fingerprint, "", "");
-    out += ", request_type: ";
-    summary::append_field(out, request_type, "", "");
-    out += ", response_type: ";
-    summary::append_field(out, response_type, "", "");
-    out += ", server_pid: ";
-    summary::append_field(out, server_pid, "", "");
-    out += "}";
-    return out;
-  }
-  bool operator==(const ServiceRegistration&) const = default;
-};
-
 /// The reply topic number `index` of a service.
 inline std::string reply_topic(std::string_view response_topic, std::uint64_t index) {
   return std::string(response_topic) + "." + std::to_string(index);
 }
 
-inline constexpr std::string_view kRegistrationSuffix = ".service";
-
-/// The topic that holds a service's registration.
-inline std::string registration_topic(std::string_view service_name) {
-  return std::string(service_name) + std::string(kRegistrationSuffix);
+/// The description of the frames of `Payload` (TypeInfo<Frame>::description).
+template <Message Payload, bool Response>
+std::string frame_description() {
+  return service_frame_description(TypeInfo<Payload>::name,
+                                   std::string_view(TypeInfo<Payload>::description), Response);
 }
 
 /// The identity every frame's TypeInfo shares: a name and schema built from the payload's, so two
-/// sides that disagree on the payload type disagree on the frame type too.
-template <class Frame, Message Payload, const std::string_view& NameOpen,
+/// sides that disagree on the payload type disagree on the frame type too. The text is joined
+/// here at compile time from the pieces service_frame_schema() joins at run time.
+template <class Frame, Message Payload, bool Response, const std::string_view& NameOpen,
           const std::string_view& Fields>
 struct FrameTypeInfo {
   using type = Frame;
@@ -212,6 +191,7 @@ struct FrameTypeInfo {
       JoinedText<kSchemaOpen, name, Fields, TypeInfo<Payload>::name, kSchemaClose,
                  TypeInfo<Payload>::schema>::value;
   static constexpr std::uint64_t fingerprint = fnv1a(schema);
+  static constexpr BuiltDescription<frame_description<Payload, Response>> description{};
   static constexpr bool is_pod = TypeInfo<Payload>::is_pod;
   static constexpr std::size_t size = sizeof(type);
   static constexpr std::size_t alignment = alignof(type);
@@ -223,7 +203,7 @@ struct FrameTypeInfo {
 
 template <horus::Message Req>
 struct horus::TypeInfo<horus::detail::ServiceRequestFrame<Req>>
-    : horus::detail::FrameTypeInfo<horus::detail::ServiceRequestFrame<Req>, Req,
+    : horus::detail::FrameTypeInfo<horus::detail::ServiceRequestFrame<Req>, Req, false,
                                    horus::detail::kRequestFrameName,
                                    horus::detail::kRequestFrameFields> {
   static constexpr std::size_t field_count = 4;
@@ -240,7 +220,7 @@ struct horus::TypeInfo<horus::detail::ServiceRequestFrame<Req>>
 template <horus::Message Res>
 struct horus::TypeInfo<horus::detail::ServiceResponseFrame<Res>>
     : horus::detail::FrameTypeInfo<
-          horus::detail::ServiceResponseFrame<Res>, Res, horus::detail::kResponseFrameName,
+          horus::detail::ServiceResponseFrame<Res>, Res, true, horus::detail::kResponseFrameName,
           horus::TypeInfo<Res>::is_pod ? horus::detail::kResponseFrameFieldsPod
                                        : horus::detail::kResponseFrameFieldsSerialized> {
   static constexpr std::size_t field_count = 5;
@@ -254,37 +234,3 @@ struct horus::TypeInfo<horus::detail::ServiceResponseFrame<Res>>
     fn("payload", msg.payload);
   }
 };
-
-template <>
-struct horus::TypeInfo<horus::detail::ServiceRegistration> {
-  using type = horus::detail::ServiceRegistration;
-  static constexpr std::string_view name = "horus.ServiceRegistration";
-  static constexpr std::string_view package = "horus";
-  static constexpr std::string_view schema =
-      "message horus.ServiceRegistration {\n"
-      "  server_instance: u64,\n"
-      "  fingerprint: u64,\n"
-      "  request_type: string<256>,\n"
-      "  response_type: string<256>,\n"
-      "  server_pid: u64,\n"
-      "}\n";
-  static constexpr std::uint64_t fingerprint = horus::detail::fnv1a(schema);
-  static constexpr bool is_pod = true;
-  static constexpr std::size_t size = sizeof(type);
-  static constexpr std::size_t alignment = alignof(type);
-  static constexpr std::size_t field_count = 5;
-  static constexpr std::array<horus::PaddingRange, 0> padding{};
-
-  template <class Msg, class Fn>
-  static constexpr void visit(Msg& msg, Fn&& fn) {
-    fn("server_instance", msg.server_instance);
-    fn("fingerprint", msg.fingerprint);
-    fn("request_type", msg.request_type);
-    fn("response_type", msg.response_type);
-    fn("server_pid", msg.server_pid);
-  }
-};
-
-static_assert(sizeof(horus::detail::ServiceRegistration) == 536 &&
-                  offsetof(horus::detail::ServiceRegistration, server_pid) == 528,
-              "horus.ServiceRegistration has no padding: its layout is shared between processes");

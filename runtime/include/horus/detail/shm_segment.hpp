@@ -7,6 +7,9 @@
 //                        Exists alone while only TopicNotifiers know the topic.
 //   [4096, ...)          LayoutHeader: type identity (name, fingerprint) and geometry.
 //   [schema_offset, ..)  the schema text, so tools can decode without the type.
+//   [description_offset, ..)  the type description (MessagePack, "horus.typedesc"), so tools can
+//                        walk messages without parsing the schema text; empty only when the
+//                        creator (a raw opener) gave none.
 //   [claims_offset, ..)  `capacity` SlotClaims: the publishers' side of each slot.
 //   [slots_offset, ..)   `capacity` slots of `slot_stride` bytes: SlotHeader, then the payload.
 //
@@ -29,12 +32,13 @@ namespace horus::detail {
 
 inline constexpr std::uint64_t kControlMagic = 0x4c54435355524f48ULL;  // "HORUSCTL"
 inline constexpr std::uint64_t kLayoutMagic = 0x504f545355524f48ULL;   // "HORUSTOP"
-inline constexpr std::uint32_t kSegmentVersion = 7;
+inline constexpr std::uint32_t kSegmentVersion = 8;
 inline constexpr std::size_t kControlSize = 4096;
 inline constexpr std::uint64_t kCacheLine = 64;
 inline constexpr std::size_t kMaxUsers = 128;
 inline constexpr std::size_t kMaxTypeName = 256;
 inline constexpr std::size_t kMaxSchemaSize = std::size_t{1} << 20;
+inline constexpr std::size_t kMaxDescriptionSize = std::size_t{1} << 20;
 inline constexpr std::size_t kMaxCapacity = std::size_t{1} << 20;
 inline constexpr std::size_t kMaxSlotPayload = std::size_t{1} << 30;
 
@@ -89,6 +93,8 @@ struct LayoutHeader {
   std::uint64_t claims_offset;
   std::uint64_t slots_offset;
   std::uint64_t total_size;
+  std::uint64_t description_offset;  // from the start of the file, right after the schema
+  std::uint64_t description_size;
 };
 
 /// What a segment records about the message type it carries.
@@ -99,6 +105,8 @@ struct TypeDescriptor {
   bool is_pod;
   std::size_t size;  // sizeof(T) of a POD type
   std::size_t alignment;
+  /// The type description bytes; empty when the type carries none.
+  std::string_view description{};
 };
 
 /// Set-up choices; only the creator's apply, later openers adopt the segment as it is.

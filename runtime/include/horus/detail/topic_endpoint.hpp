@@ -1,7 +1,7 @@
 // The byte-level side of one topic handle, whatever its message type: the slot claim (lease,
 // single publisher, shared ring), the commit, the receive loop and the blocking wait. Written
-// once for horus::Topic<T> (type known at compile time) and the Python binding's ErasedTopic
-// (type known at run time), so both follow one slot protocol and can share a segment.
+// once for horus::Topic<T> (type known at compile time) and horus::RawTopic (type known at run
+// time: the Python binding's, the bridges'), so both follow one slot protocol and share a segment.
 #pragma once
 
 #include <algorithm>

@@ -1,0 +1,441 @@
+#include "link.hpp"
+
+#include "horus/bridge/identity.hpp"
+#include "horus/tensor_pool.hpp"
+#include "horus/type_description.hpp"
+
+#include <sys/eventfd.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdarg>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+
+namespace horus::remote {
+
+namespace {
+
+/// `text` as a JSON string literal, quotes included (the status file's stream labels).
+std::string json_string(std::string_view text) {
+  std::string out = "\"";
+  for (const char c : text) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char escaped[8];
+      std::snprintf(escaped, sizeof(escaped), "\\u%04x", static_cast<unsigned>(c));
+      out += escaped;
+    } else {
+      out += c;
+    }
+  }
+  return out + "\"";
+}
+
+/// How long the reader thread waits on its topic before looking whether it should stop.
+constexpr auto kReaderWakeUp = std::chrono::milliseconds(100);
+/// At most one drop report per stream in this interval.
+constexpr auto kDropReportInterval = std::chrono::seconds(5);
+/// A peer that connects but never finishes the TLS handshake is dropped after this.
+constexpr auto kHandshakeTimeout = 10 * kj::SECONDS;
+
+std::string read_file(const std::string& path, const std::string& hint) {
+  std::ifstream file(path);
+  if (!file) {
+    throw std::runtime_error("cannot read " + path + hint);
+  }
+  std::ostringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+/// The event loop's (use_event_port).
+kj::UnixEventPort* event_port = nullptr;
+
+kj::AutoCloseFd new_eventfd() {
+  const int fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  if (fd < 0)
+    throw std::runtime_error(std::string("cannot make an eventfd: ") + std::strerror(errno));
+  return kj::AutoCloseFd(fd);
+}
+
+/// The live forwarders of this process, for its status file.
+std::mutex forwarders_mutex;
+std::vector<const Forwarder*> forwarders;
+
+/// What a queued message costs beyond its bytes (its entry, its allocation), charged to a
+/// QueueBudget with them.
+constexpr std::size_t kQueuedRecordBytes = 64;
+
+/// Room for the message framing around the largest payload.
+constexpr std::size_t kFramingBytes = 4096;
+
+/// The frames of a topic's type, when it is pool-backed. `keep`: how many frames made again
+/// hold their blocks (as many as the topic's ring gives out).
+std::unique_ptr<PoolFrames> pool_frames(const RawTopic& topic, const std::string& namespace_name,
+                                        std::size_t keep) {
+  return make_pool_frames(topic.type().name, topic.type().fingerprint, namespace_name, keep);
+}
+
+}  // namespace
+
+void LimitedMessageStream::make_room(std::size_t payload_bytes) {
+  limit_words_ = std::max(limit_words_, (payload_bytes + kFramingBytes) / sizeof(capnp::word) + 1);
+}
+
+kj::Promise<kj::Maybe<capnp::MessageReaderAndFds>> LimitedMessageStream::tryReadMessage(
+    kj::ArrayPtr<kj::AutoCloseFd> fd_space, capnp::ReaderOptions options,
+    kj::ArrayPtr<capnp::word> scratch_space) {
+  options.traversalLimitInWords = limit_words_;
+  auto read = inner_.tryReadMessage(fd_space, options, scratch_space);
+  if (!on_read_failure_) return read;
+  return read.catch_(
+      [this](kj::Exception&& e) -> kj::Promise<kj::Maybe<capnp::MessageReaderAndFds>> {
+        on_read_failure_(e);
+        return kj::mv(e);
+      });
+}
+
+bool QueueBudget::take(std::size_t bytes) noexcept {
+  const std::size_t before = used_.fetch_add(bytes);
+  if (before == 0 || before + bytes <= limit_) return true;
+  used_.fetch_sub(bytes);
+  return false;
+}
+
+capnp::ReaderOptions LimitedMessageStream::network_options() {
+  capnp::ReaderOptions options;
+  options.traversalLimitInWords = kLargestMessageWords;
+  return options;
+}
+
+void use_event_port(kj::UnixEventPort& port) { event_port = &port; }
+
+void say(const char* format, ...) {
+  std::va_list arguments;
+  va_start(arguments, format);
+  std::string line = "horus-remote: ";
+  char text[1024];
+  std::vsnprintf(text, sizeof text, format, arguments);
+  va_end(arguments);
+  line += text;
+  line += '\n';
+  std::fputs(line.c_str(), stderr);
+}
+
+void refuse(const std::string& text) {
+  kj::throwFatalException(
+      kj::Exception(kj::Exception::Type::FAILED, __FILE__, __LINE__, kj::heapString(text)));
+}
+
+void describe(const TopicInfo& info, wire::TopicInfo::Builder out) {
+  out.setName(info.name);
+  out.setType(info.type_name);
+  out.setFingerprint(info.fingerprint);
+  out.setSchema(info.schema);
+  out.setIsPod(info.is_pod);
+  out.setMaxMessageSize(static_cast<std::uint32_t>(info.max_message_size));
+  out.setCapacity(static_cast<std::uint32_t>(info.capacity));
+  out.setDescription(kj::arrayPtr(reinterpret_cast<const capnp::byte*>(info.description.data()),
+                                  info.description.size()));
+}
+
+TopicInfo topic_info(wire::TopicInfo::Reader info) {
+  TopicInfo out;
+  out.name = info.getName();
+  out.type_name = info.getType();
+  out.fingerprint = info.getFingerprint();
+  out.schema = info.getSchema();
+  out.is_pod = info.getIsPod();
+  out.max_message_size = info.getMaxMessageSize();
+  out.capacity = info.getCapacity();
+  const capnp::Data::Reader description = info.getDescription();
+  out.description.assign(reinterpret_cast<const char*>(description.begin()), description.size());
+  return out;
+}
+
+std::optional<std::string> description_problem(const TopicInfo& info) {
+  if (info.description.empty()) return std::nullopt;
+  try {
+    const TypeDescription description = TypeDescription::decode(info.description);
+    const MessageType& root = description.root_message();
+    if (description.root == info.type_name && root.fingerprint == info.fingerprint) {
+      return std::nullopt;
+    }
+    return "its type description is of " + description.root + " (fingerprint " +
+           bridge::fingerprint_hex(root.fingerprint) + "), not of " + info.type_name +
+           " (fingerprint " + bridge::fingerprint_hex(info.fingerprint) + ")";
+  } catch (const TypeDescriptionError& e) {
+    return std::string("its type description is not one: ") + e.what();
+  }
+}
+
+std::unique_ptr<RawTopic> open_topic(const TopicInfo& info, const std::string& namespace_name) {
+  TopicOptions options;
+  options.capacity = info.capacity;
+  options.max_message_size = info.max_message_size;
+  options.namespace_name = namespace_name;
+  return std::make_unique<RawTopic>(
+      info.name,
+      TypeIdentity{info.type_name, info.fingerprint, info.schema, info.is_pod,
+                   info.is_pod ? info.max_message_size : 0, 1, info.description},
+      options);
+}
+
+Forwarder::Forwarder(std::unique_ptr<RawTopic> topic, wire::Sink::Client sink,
+                     std::size_t queue_limit, std::string label, const std::string& namespace_name,
+                     std::shared_ptr<QueueBudget> budget)
+    : topic_(std::move(topic)),
+      frames_(pool_frames(*topic_, namespace_name, 1)),
+      sink_(std::move(sink)),
+      queue_limit_(queue_limit),
+      label_(std::move(label)),
+      budget_(std::move(budget)),
+      wake_(new_eventfd()),
+      wake_observer_(*event_port, wake_, kj::UnixEventPort::FdObserver::OBSERVE_READ),
+      reader_([this] { read_loop(); }) {
+  std::lock_guard lock(forwarders_mutex);
+  forwarders.push_back(this);
+}
+
+Forwarder::~Forwarder() {
+  {
+    std::lock_guard lock(forwarders_mutex);
+    forwarders.erase(std::find(forwarders.begin(), forwarders.end(), this));
+  }
+  stopping_.store(true);
+  reader_.join();
+  if (budget_) {
+    for (const Queued& message : queue_) {
+      budget_->give_back(message.bytes.size() + kQueuedRecordBytes);
+    }
+  }
+  if (dropped() != 0) {
+    say("%s: ended after %llu messages sent, %llu dropped", label_.c_str(),
+        static_cast<unsigned long long>(sent()), static_cast<unsigned long long>(dropped()));
+  }
+}
+
+void Forwarder::read_loop() {
+  while (!stopping_.load()) {
+    const std::ptrdiff_t size = topic_->recv(kReaderWakeUp);
+    if (size < 0) {
+      continue;
+    }
+    const std::uint64_t sequence = topic_->received_ticket();
+    // What the ring overwrote before this thread read it is left out of the stream too.
+    const std::uint64_t lost = topic_->stats().lost - lost_;
+    lost_ += lost;
+    const std::span<std::byte> bytes = topic_->received(static_cast<std::size_t>(size));
+    std::vector<std::byte> message;
+    if (frames_) {
+      const std::size_t recorded =
+          frames_->record(bytes.data(), bytes.size(), [&message](std::size_t room) {
+            message.resize(room);
+            return reinterpret_cast<std::uint8_t*>(message.data());
+          });
+      // 0: the block was freed or reused since (a local subscriber would refuse it too).
+      if (recorded == 0) {
+        counts_->dropped.fetch_add(lost + 1);
+        continue;
+      }
+      message.resize(recorded);
+    } else {
+      message.assign(bytes.begin(), bytes.end());
+    }
+    {
+      // Counted with the queue locked: a message taken off it goes with the drops of those older.
+      std::lock_guard lock(mutex_);
+      counts_->dropped.fetch_add(lost);
+      if (queue_.size() >= queue_limit_) drop_oldest();
+      const std::size_t cost = message.size() + kQueuedRecordBytes;
+      bool fits = !budget_ || budget_->take(cost);
+      while (!fits && !queue_.empty()) {
+        drop_oldest();
+        fits = budget_->take(cost);
+      }
+      if (!fits) {  // the peer's other streams hold its budget
+        counts_->dropped.fetch_add(1);
+        continue;
+      }
+      queue_.push_back(Queued{sequence, std::move(message)});
+      if (waiting_) {
+        const std::uint64_t one = 1;
+        static_cast<void>(::write(wake_, &one, sizeof one));
+        waiting_ = false;
+      }
+    }
+    // Here, not where messages are sent: a peer that stopped reading stops the sending too.
+    report_drops();
+  }
+}
+
+void Forwarder::drop_oldest() {
+  if (budget_) budget_->give_back(queue_.front().bytes.size() + kQueuedRecordBytes);
+  queue_.pop_front();
+  counts_->dropped.fetch_add(1);
+}
+
+void Forwarder::report_drops() {
+  const std::uint64_t dropped = this->dropped();
+  const auto now = std::chrono::steady_clock::now();
+  if (dropped == reported_drops_ || now - last_report_ < kDropReportInterval) {
+    return;
+  }
+  say("%s: %llu messages dropped so far (the link is slower than the publisher; latest wins)",
+      label_.c_str(), static_cast<unsigned long long>(dropped));
+  reported_drops_ = dropped;
+  last_report_ = now;
+}
+
+kj::Promise<void> Forwarder::run() {
+  std::unique_lock lock(mutex_);
+  if (queue_.empty()) {
+    // Woken through an eventfd the loop watches, not a kj cross-thread fulfiller (a promise
+    // made, locked and queued per message): bench/remote/RESULTS.md, "Experiments".
+    waiting_ = true;
+    lock.unlock();
+    return wake_observer_.whenBecomesReadable().then([this] {
+      std::uint64_t count = 0;
+      static_cast<void>(::read(wake_, &count, sizeof count));
+      return run();
+    });
+  }
+  const Queued message = std::move(queue_.front());
+  queue_.pop_front();
+  if (budget_) budget_->give_back(message.bytes.size() + kQueuedRecordBytes);
+  const std::uint64_t dropped_so_far = dropped();
+  lock.unlock();
+  auto request = sink_.messageRequest();
+  request.setSequence(message.sequence);
+  request.setDropped(dropped_so_far);
+  request.setData(kj::arrayPtr(reinterpret_cast<const capnp::byte*>(message.bytes.data()),
+                               message.bytes.size()));
+  counts_->sent.fetch_add(1);
+  return request.send().then([this] { return run(); });
+}
+
+TopicSink::TopicSink(std::shared_ptr<RawTopic> topic, std::string label,
+                     const std::string& namespace_name,
+                     std::function<void(const std::string&)> refused)
+    : topic_(std::move(topic)),
+      frames_(pool_frames(*topic_, namespace_name, topic_->capacity())),
+      label_(std::move(label)),
+      refused_(std::move(refused)),
+      largest_message_(topic_->payload_capacity()) {
+  if (frames_) {
+    TensorPoolOptions options;
+    options.namespace_name = namespace_name;
+    largest_message_ += TensorPool::open("default", options).block_size();
+  }
+}
+
+TopicSink::~TopicSink() noexcept(false) {
+  if (dropped_ != 0) {
+    say("%s: ended after %llu messages received, %llu dropped by the sender", label_.c_str(),
+        static_cast<unsigned long long>(received_), static_cast<unsigned long long>(dropped_));
+  }
+}
+
+kj::Promise<void> TopicSink::message(MessageContext context) {
+  const auto params = context.getParams();
+  const capnp::Data::Reader data = params.getData();
+  const TypeIdentity& type = topic_->type();
+  std::span<const std::byte> message(reinterpret_cast<const std::byte*>(data.begin()), data.size());
+  std::string wrong;
+  if (frames_) {
+    try {
+      message = frames_->replay(std::span(data.begin(), data.size()));
+      if (message.empty()) wrong = "a malformed frame of " + type.name;
+    } catch (const Error& e) {  // the pool has no free block: this frame is lost, as on a drop
+      say("%s: %s", label_.c_str(), e.what());
+      return kj::READY_NOW;
+    }
+  } else if (type.is_pod && data.size() != type.size) {
+    wrong = "a " + type.name + " is " + std::to_string(type.size) + " bytes, not " +
+            std::to_string(data.size());
+  } else if (data.size() > topic_->payload_capacity()) {
+    wrong = "a message of " + std::to_string(data.size()) + " bytes is over the topic's limit of " +
+            std::to_string(topic_->payload_capacity());
+  }
+  if (!wrong.empty()) {
+    if (refused_) {
+      refused_(wrong);
+    } else {
+      say("%s: %s; the stream ends", label_.c_str(), wrong.c_str());
+    }
+    refuse(label_ + ": " + wrong);
+  }
+  topic_->send(message);
+  ++received_;
+  dropped_ = params.getDropped();
+  return kj::READY_NOW;
+}
+
+Credentials load_credentials(const std::string& folder, const std::string& name) {
+  const std::string hint = " (make it with: horus remote keygen " + folder + " " + name + ")";
+  const std::string authority = read_file(folder + "/ca.crt", hint);
+  const std::string certificate = read_file(folder + "/" + name + ".crt", hint);
+  const std::string key = read_file(folder + "/" + name + ".key", hint);
+  return Credentials{kj::TlsCertificate(authority),
+                     kj::TlsKeypair{kj::TlsPrivateKey(key), kj::TlsCertificate(certificate)}};
+}
+
+kj::Own<kj::TlsContext> tls_context(const Credentials& credentials, kj::Timer& timer) {
+  kj::TlsContext::Options options;
+  options.useSystemTrustStore = false;
+  options.verifyClients = true;
+  options.trustedCertificates = kj::arrayPtr(&credentials.authority, 1);
+  options.defaultKeypair = credentials.own;
+  options.timer = timer;
+  options.acceptTimeout = kHandshakeTimeout;
+  return kj::heap<kj::TlsContext>(kj::mv(options));
+}
+
+std::string status_path(const std::string& namespace_name) {
+  const char* runtime = std::getenv("XDG_RUNTIME_DIR");
+  const std::string folder = runtime != nullptr && *runtime != '\0'
+                                 ? std::string(runtime) + "/horus-remote"
+                                 : "/tmp/horus-remote-" + std::to_string(::getuid());
+  ::mkdir(folder.c_str(), 0700);
+  return folder + "/" + namespace_name + "." + std::to_string(::getpid()) + ".json";
+}
+
+void write_status(const std::string& path, const char* role) {
+  std::string text =
+      "{\"pid\": " + std::to_string(::getpid()) + ", \"role\": \"" + role + "\", \"streams\": [";
+  {
+    std::lock_guard lock(forwarders_mutex);
+    for (const Forwarder* forwarder : forwarders) {
+      if (text.back() != '[') text += ", ";
+      text += "{\"stream\": " + json_string(forwarder->label()) +
+              ", \"sent\": " + std::to_string(forwarder->sent()) +
+              ", \"dropped\": " + std::to_string(forwarder->dropped()) + "}";
+    }
+  }
+  text += "]}\n";
+  const std::string partial = path + ".partial";
+  if (std::FILE* file = std::fopen(partial.c_str(), "w")) {
+    std::fputs(text.c_str(), file);
+    std::fclose(file);
+    std::rename(partial.c_str(), path.c_str());
+  }
+}
+
+std::string address_of(kj::PeerIdentity& identity) {
+  if (auto* tls = dynamic_cast<kj::TlsPeerIdentity*>(&identity)) {
+    return tls->getNetworkIdentity().toString().cStr();
+  }
+  return identity.toString().cStr();
+}
+
+}  // namespace horus::remote

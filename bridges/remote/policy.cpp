@@ -1,0 +1,63 @@
+#include "policy.hpp"
+
+#include "horus/bridge/topic_policy.hpp"
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace horus::remote {
+
+void Policy::add(std::string_view line, const std::string& where) {
+  std::istringstream words{std::string(line)};
+  std::string peer;
+  std::string access;
+  std::string pattern;
+  std::string extra;
+  words >> peer >> access >> pattern;
+  if (pattern.empty() || (words >> extra)) {
+    throw std::invalid_argument(where + ": '" + std::string(line) +
+                                "' is not 'PEER read|write|call PATTERN'");
+  }
+  Access kind = Access::Read;
+  if (access == "read") {
+    kind = Access::Read;
+  } else if (access == "write") {
+    kind = Access::Write;
+  } else if (access == "call") {
+    kind = Access::Call;
+  } else {
+    throw std::invalid_argument(where + ": '" + access + "' is not read, write or call");
+  }
+  rules_.push_back(Rule{peer, kind, pattern});
+}
+
+void Policy::load(const std::string& path) {
+  std::ifstream file(path);
+  if (!file) {
+    throw std::invalid_argument("cannot read the policy file " + path);
+  }
+  std::string line;
+  for (int number = 1; std::getline(file, line); ++number) {
+    const auto first = line.find_first_not_of(" \t");
+    if (first == std::string::npos || line[first] == '#') {
+      continue;
+    }
+    add(line, path + ":" + std::to_string(number));
+  }
+}
+
+bool Policy::knows(const std::string& peer) const {
+  return std::any_of(rules_.begin(), rules_.end(),
+                     [&](const Rule& rule) { return bridge::glob_matches(peer, rule.peer); });
+}
+
+bool Policy::allows(const std::string& peer, Access access, const std::string& name) const {
+  return std::any_of(rules_.begin(), rules_.end(), [&](const Rule& rule) {
+    return rule.access == access && bridge::glob_matches(peer, rule.peer) &&
+           bridge::glob_matches(name, rule.pattern);
+  });
+}
+
+}  // namespace horus::remote

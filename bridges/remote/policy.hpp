@@ -1,0 +1,38 @@
+// What each peer of `horus-remote serve` may do, by the name its certificate carries: lines
+// "PEER read|write|call PATTERN" (globs as every bridge reads them, bridges/core: Python's
+// fnmatchcase, '*' also crosses '.', a backslash is itself), from --allow and --policy files.
+// Everything not allowed is denied.
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace horus::remote {
+
+enum class Access { Read, Write, Call };
+
+class Policy {
+ public:
+  /// Adds one rule; throws std::invalid_argument naming `where` (the option or file:line) when
+  /// the line is not "PEER read|write|call PATTERN".
+  void add(std::string_view line, const std::string& where);
+  /// Adds the rules of a file: one a line, blank lines and lines starting with # skipped.
+  void load(const std::string& path);
+
+  /// Whether there is no rule at all: every peer is refused.
+  bool empty() const noexcept { return rules_.empty(); }
+  /// Whether any rule names `peer`: a peer no rule names is refused at the door.
+  bool knows(const std::string& peer) const;
+  bool allows(const std::string& peer, Access access, const std::string& name) const;
+
+ private:
+  struct Rule {
+    std::string peer;
+    Access access;
+    std::string pattern;
+  };
+  std::vector<Rule> rules_;
+};
+
+}  // namespace horus::remote
