@@ -1,6 +1,7 @@
 #include "link.hpp"
 
 #include "horus/bridge/identity.hpp"
+#include "horus/json_string.hpp"
 #include "horus/tensor_pool.hpp"
 #include "horus/type_description.hpp"
 
@@ -22,24 +23,6 @@
 namespace horus::remote {
 
 namespace {
-
-/// `text` as a JSON string literal, quotes included (the status file's stream labels).
-std::string json_string(std::string_view text) {
-  std::string out = "\"";
-  for (const char c : text) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char escaped[8];
-      std::snprintf(escaped, sizeof(escaped), "\\u%04x", static_cast<unsigned>(c));
-      out += escaped;
-    } else {
-      out += c;
-    }
-  }
-  return out + "\"";
-}
 
 /// How long the reader thread waits on its topic before looking whether it should stop.
 constexpr auto kReaderWakeUp = std::chrono::milliseconds(100);

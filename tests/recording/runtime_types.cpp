@@ -10,7 +10,7 @@
 #include <type_traits>
 
 #include <horus/detail/service_frame.hpp>
-#include <horus/internal/json_string.hpp>
+#include <horus/json_string.hpp>
 #include <horus/plain_value.hpp>
 #include <pyrt_test/add.hpp>
 #include <pyrt_test/echo.hpp>
@@ -35,9 +35,8 @@ void print(const T* sample) {
   std::printf(
       "{\"name\":%s,\"fingerprint\":\"%016llx\",\"schema\":%s,\"pod\":%s,\"size\":%zu,"
       "\"bytes\":\"%s\"}\n",
-      horus::detail::json_string(Info::name).c_str(),
-      static_cast<unsigned long long>(Info::fingerprint),
-      horus::detail::json_string(Info::schema).c_str(), Info::is_pod ? "true" : "false", sizeof(T),
+      horus::json_string(Info::name).c_str(), static_cast<unsigned long long>(Info::fingerprint),
+      horus::json_string(Info::schema).c_str(), Info::is_pod ? "true" : "false", sizeof(T),
       bytes.c_str());
 }
 

@@ -30,8 +30,8 @@
 #include "horus/detail/shm_segment.hpp"
 #include "horus/error.hpp"
 #include "horus/internal/errno_text.hpp"
-#include "horus/internal/json_string.hpp"
 #include "horus/internal/namespace_objects.hpp"
+#include "horus/json_string.hpp"
 
 namespace horus {
 namespace {

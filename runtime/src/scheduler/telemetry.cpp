@@ -9,7 +9,7 @@
 #include <fstream>
 
 #include "horus/error.hpp"
-#include "horus/internal/json_string.hpp"
+#include "horus/json_string.hpp"
 #include "scheduler_impl.hpp"
 
 namespace horus::detail {

@@ -1,12 +1,12 @@
-// A JSON string literal for any text: the escaping that the telemetry snapshot and the recorded
-// tick records share.
+// A JSON string literal for any text: the escaping that the telemetry snapshot, presence records
+// and tools' status files share.
 #pragma once
 
 #include <cstdio>
 #include <string>
 #include <string_view>
 
-namespace horus::detail {
+namespace horus {
 
 /// `text` as a JSON string literal, quotes included.
 inline std::string json_string(std::string_view text) {
@@ -26,4 +26,4 @@ inline std::string json_string(std::string_view text) {
   return out + "\"";
 }
 
-}  // namespace horus::detail
+}  // namespace horus
