@@ -1,4 +1,4 @@
-// Tensor pool benchmark (issue 20), two processes (fork) pinned to CPUs 0 and 1:
+// Tensor pool benchmark, two processes (fork) pinned to CPUs 0 and 1:
 //  - latency: from send(img) to the first pixel read by the receiver, for 640x480, 1080p and 4K
 //    RGB, against (a) a 16 B topic message (the descriptor's own cost) and (b) (a) plus a memcpy
 //    of the frame (the least a copying transport pays). A ping-pong: the sender sends a frame,

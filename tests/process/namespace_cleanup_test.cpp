@@ -1,4 +1,4 @@
-// A namespace's log ring and presence folder (issue 23's "no /dev/shm growth", issue 18's `horus
+// A namespace's log ring and presence folder (no /dev/shm growth; `horus
 // shm clean`): kept while a live process writes the ring or runs a Scheduler there, removed by
 // clean_namespace() / clean_presence() once the last one is gone, by the last Scheduler's
 // destructor (the folder), and by remove_namespace() regardless.

@@ -78,7 +78,7 @@ class PrivateNamespace {
   ~PrivateNamespace() {
     horus::remove_namespace(name_);
     ::unsetenv("HORUS_NAMESPACE");
-    // Nothing of the namespace may outlive the test (issue 23: no /dev/shm growth).
+    // Nothing of the namespace may outlive the test (no /dev/shm growth).
     std::error_code ignored;
     if (std::filesystem::exists(horus::detail::namespace_directory(name_), ignored)) {
       ADD_FAILURE() << "namespace folder " << horus::detail::namespace_directory(name_) << " left";

@@ -1,4 +1,4 @@
-// Recording (issue 19): sessions written by a Recorder and by SchedulerConfig::recording(true),
+// Recording: sessions written by a Recorder and by SchedulerConfig::recording(true),
 // read back with RecordingReader; losses counted; deterministic replay; a changed type refused.
 // The independent check of the same files (PyPI `mcap`) is tests/python/runtime/test_recording.py.
 #include <gmock/gmock.h>

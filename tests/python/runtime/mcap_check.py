@@ -1,4 +1,4 @@
-"""The independent check of a recording file (issue 19), shared by the suites that read files
+"""The independent check of a recording file, shared by the suites that read files
 with PyPI `mcap` (pytest_runtime_recording, pytest_record): every CRC, the summary's too, and
 every index pointing where it says."""
 from __future__ import annotations

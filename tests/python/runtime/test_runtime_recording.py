@@ -1,4 +1,4 @@
-"""Session recordings (issue 19) read by a reader that is not ours: PyPI `mcap`, from the test-only
+"""Session recordings read by a reader that is not ours: PyPI `mcap`, from the test-only
 venv of scripts/dev-venv (ctest entry pytest_runtime_recording). A Python session recorded by
 Scheduler(recording=True), a C++ one by horus-record, and a horus-record killed with kill -9."""
 from __future__ import annotations
