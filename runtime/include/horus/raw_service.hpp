@@ -21,6 +21,7 @@
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -211,7 +212,9 @@ class RawServiceServer {
   std::optional<Request> next(std::chrono::nanoseconds timeout);
   /// Answers `caller` with the response `payload`. False when the reply topic could not take it
   /// (too large: the caller is then told so as a ServiceFailed, or the topic cannot be opened).
-  bool answer(const ServiceCaller& caller, std::span<const std::byte> payload);
+  /// `on_refused` runs before the caller is told, so what it counts is seen by then.
+  bool answer(const ServiceCaller& caller, std::span<const std::byte> payload,
+              const std::function<void()>& on_refused = {});
   /// Answers `caller` with a failure: ServiceFailed for a handler's error, or the kind a call this
   /// server forwarded elsewhere got (NoServer, Timeout, Transport).
   bool fail(const ServiceCaller& caller, const ServiceError& failure);

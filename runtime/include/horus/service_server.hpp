@@ -134,10 +134,15 @@ class ServiceServer {
           respond(ServiceRequest<Request>{caller.request_id, std::move(*decoded)});
       requests.fetch_add(1, std::memory_order_relaxed);
       bool sent = false;
+      bool counted = false;
       try {
         if (response.ok && response.payload) {
           const std::vector<std::uint8_t> bytes = encode(*response.payload);
-          sent = server.answer(caller, std::as_bytes(std::span(bytes)));
+          // Counted before the client hears of the refusal, so its stats() show it then.
+          sent = server.answer(caller, std::as_bytes(std::span(bytes)), [this, &counted] {
+            send_failures.fetch_add(1, std::memory_order_relaxed);
+            counted = true;
+          });
         } else {
           failures.fetch_add(1, std::memory_order_relaxed);
           sent = server.fail(caller,
@@ -148,7 +153,7 @@ class ServiceServer {
         if (response.ok) failures.fetch_add(1, std::memory_order_relaxed);
         sent = fail_without_text(caller);
       }
-      if (!sent) {
+      if (!sent && !counted) {
         send_failures.fetch_add(1, std::memory_order_relaxed);
       }
     }

@@ -530,14 +530,17 @@ std::optional<RawServiceServer::Request> RawServiceServer::next(std::chrono::nan
   return std::nullopt;
 }
 
-bool RawServiceServer::answer(const ServiceCaller& caller, std::span<const std::byte> payload) {
+bool RawServiceServer::answer(const ServiceCaller& caller, std::span<const std::byte> payload,
+                              const std::function<void()>& on_refused) {
   RawTopic* outgoing = state_->reply_topic(caller.reply_to);
   if (outgoing == nullptr) {
+    if (on_refused) on_refused();
     return false;
   }
   if (outgoing->send(state_->responses.response(caller, payload))) {
     return true;
   }
+  if (on_refused) on_refused();
   // Tell the client why instead of leaving it to time out: a failure always fits.
   static_cast<void>(
       fail(caller, ServiceError::service_failed(detail::oversized_response(outgoing->name()))));
