@@ -75,7 +75,7 @@ TEST(DdsBridgeUserData, APlainWriterHasNoneAndAnotherShapeIsRefused) {
 
 TEST(DdsBridgeTypes, TheDdsTypeNameIsRos2sAsTheGeneratedIdlSpellsIt) {
   const auto description = horus::TypeDescription::decode(
-      std::string_view(horus::detail::description_of<horus::msg::CmdVel>()));
+      std::string_view(horus::TypeInfo<horus::msg::CmdVel>::description));
   EXPECT_EQ(dds_type_name(description, description.root_message()), "horus::msg::dds_::CmdVel_");
   const std::string idl = idl_of(description);
   EXPECT_NE(idl.find("@final\nstruct CmdVel_ {\n  uint64 stamp_nanos;\n  float linear;\n  "

@@ -35,11 +35,6 @@ using service_test::EchoResponse;
 constexpr auto kLong = 10s;
 
 template <class T>
-horus::TypeIdentity identity() {
-  return horus::type_identity<T>();
-}
-
-template <class T>
 std::vector<std::byte> bytes_of(const T& message) {
   const std::vector<std::uint8_t> encoded = horus::encode(message);
   const auto* first = reinterpret_cast<const std::byte*>(encoded.data());
@@ -50,14 +45,6 @@ template <class T>
 T message_of(const std::vector<std::byte>& bytes) {
   return horus::decode<T>(
       std::span(reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size()));
-}
-
-template <horus::Service S>
-horus::RawServiceType raw_type() {
-  return {std::string(S::name()),           std::string(S::request_topic()),
-          std::string(S::response_topic()), S::fingerprint(),
-          identity<typename S::Request>(),  identity<typename S::Response>(),
-          bytes_of(typename S::Request{}),  bytes_of(typename S::Response{})};
 }
 
 class ServiceRawTest : public ::testing::Test {
@@ -79,7 +66,8 @@ class ServiceRawTest : public ::testing::Test {
 template <class Frame, class Payload>
 void expect_frame_type_of(bool response) {
   using Info = horus::TypeInfo<Frame>;
-  const horus::TypeIdentity frame = horus::service_frame_type(identity<Payload>(), response);
+  const horus::TypeIdentity frame =
+      horus::service_frame_type(horus::type_identity<Payload>(), response);
   EXPECT_EQ(frame.name, Info::name);
   EXPECT_EQ(frame.schema, Info::schema);
   EXPECT_EQ(frame.fingerprint, Info::fingerprint);
@@ -155,8 +143,8 @@ TEST(ServiceRawFrames, TheRegistrationIsDescribedWithItsLayout) {
 }
 
 TEST(ServiceRawFrames, APayloadDescriptionOfAnotherTypeIsRefused) {
-  horus::TypeIdentity payload = identity<EchoRequest>();
-  payload.description = identity<ComputeRequest>().description;
+  horus::TypeIdentity payload = horus::type_identity<EchoRequest>();
+  payload.description = horus::type_identity<ComputeRequest>().description;
   EXPECT_THROW(horus::service_frame_type(payload, false), horus::TypeDescriptionError);
 }
 
@@ -173,7 +161,7 @@ TEST(ServiceRawFrames, AreTheTypedFrames) {
 }
 
 TEST(ServiceRawFrames, ReadWhatTheTypedFramesHold) {
-  const horus::ServiceFrameCodec echoes(identity<EchoResponse>(), true);
+  const horus::ServiceFrameCodec echoes(horus::type_identity<EchoResponse>(), true);
   horus::detail::ServiceResponseFrame<EchoResponse> typed{};
   typed.client_id = 300;
   typed.request_id = 70000;
@@ -198,7 +186,7 @@ TEST(ServiceRawFrames, ReadWhatTheTypedFramesHold) {
   EXPECT_EQ(decoded.status, horus::detail::kStatusNoServer);
   EXPECT_EQ(decoded.error, "none there");
 
-  const horus::ServiceFrameCodec computes(identity<ComputeRequest>(), false);
+  const horus::ServiceFrameCodec computes(horus::type_identity<ComputeRequest>(), false);
   const ComputeRequest request{4, 5, 0, 0};
   const std::vector<std::byte> pod = computes.request({1, 2, 3}, bytes_of(request));
   const auto typed_request = message_of<horus::detail::ServiceRequestFrame<ComputeRequest>>(pod);
@@ -221,8 +209,8 @@ TEST_F(ServiceRawTest, RawClientCallsATypedServerPodAndSerialized) {
   auto echo = horus::ServiceServerBuilder<Echo>()
                   .on_request([](const EchoRequest& r) { return EchoResponse{r.text + r.text}; })
                   .build();
-  horus::RawServiceClient computes(raw_type<Compute>());
-  horus::RawServiceClient echoes(raw_type<Echo>());
+  horus::RawServiceClient computes(horus::raw_service_type<Compute>());
+  horus::RawServiceClient echoes(horus::raw_service_type<Echo>());
   auto sum = computes.call(bytes_of(ComputeRequest{2, 40, 0, 0}), kLong);
   ASSERT_TRUE(sum) << sum.error().to_string();
   EXPECT_EQ(message_of<ComputeResponse>(*sum).sum, 42);
@@ -235,7 +223,7 @@ TEST_F(ServiceRawTest, RawClientCallsATypedServerPodAndSerialized) {
 }
 
 TEST_F(ServiceRawTest, TypedClientCallsARawServerWhichAnswersWithEveryKind) {
-  horus::RawServiceServer server(raw_type<Echo>());
+  horus::RawServiceServer server(horus::raw_service_type<Echo>());
   std::thread serving([&server] {
     while (!server.stopped()) {
       std::optional<horus::RawServiceServer::Request> request = server.next(1s);
@@ -265,15 +253,15 @@ TEST_F(ServiceRawTest, TypedClientCallsARawServerWhichAnswersWithEveryKind) {
 }
 
 TEST_F(ServiceRawTest, OneLiveServerAndNoServerAtOnce) {
-  horus::RawServiceClient client(raw_type<Compute>());
+  horus::RawServiceClient client(horus::raw_service_type<Compute>());
   const auto started = std::chrono::steady_clock::now();
   EXPECT_EQ(client.call(bytes_of(ComputeRequest{}), kLong).error().kind(),
             ServiceErrorKind::NoServer);
   EXPECT_LT(std::chrono::steady_clock::now() - started, 1s);
   EXPECT_FALSE(client.wait_for_server(20ms));
-  horus::RawServiceServer server(raw_type<Compute>());
+  horus::RawServiceServer server(horus::raw_service_type<Compute>());
   EXPECT_TRUE(client.wait_for_server(kLong));
-  EXPECT_THROW(horus::RawServiceServer{raw_type<Compute>()}, horus::Error);
+  EXPECT_THROW(horus::RawServiceServer{horus::raw_service_type<Compute>()}, horus::Error);
   EXPECT_THROW(horus::ServiceServerBuilder<Compute>()
                    .on_request([](const ComputeRequest&) { return ComputeResponse{}; })
                    .build(),
@@ -284,8 +272,8 @@ TEST_F(ServiceRawTest, OneLiveServerAndNoServerAtOnce) {
 }
 
 TEST_F(ServiceRawTest, AWrongSizedPodPayloadIsRefusedWithItsSizes) {
-  horus::RawServiceServer server(raw_type<Compute>());
-  horus::RawServiceClient client(raw_type<Compute>());
+  horus::RawServiceServer server(horus::raw_service_type<Compute>());
+  horus::RawServiceClient client(horus::raw_service_type<Compute>());
   const std::vector<std::byte> short_request(3);
   EXPECT_THROW(
       {

@@ -130,36 +130,12 @@ template <class T>
 inline constexpr std::string_view kElementLabel<std::vector<T>> = TypeInfo<T>::name;
 
 template <class T>
-inline constexpr Primitive kPrimitiveOf{};
-template <>
-inline constexpr Primitive kPrimitiveOf<bool> = Primitive::Bool;
-template <>
-inline constexpr Primitive kPrimitiveOf<std::int8_t> = Primitive::I8;
-template <>
-inline constexpr Primitive kPrimitiveOf<std::int16_t> = Primitive::I16;
-template <>
-inline constexpr Primitive kPrimitiveOf<std::int32_t> = Primitive::I32;
-template <>
-inline constexpr Primitive kPrimitiveOf<std::int64_t> = Primitive::I64;
-template <>
-inline constexpr Primitive kPrimitiveOf<std::uint8_t> = Primitive::U8;
-template <>
-inline constexpr Primitive kPrimitiveOf<std::uint16_t> = Primitive::U16;
-template <>
-inline constexpr Primitive kPrimitiveOf<std::uint32_t> = Primitive::U32;
-template <>
-inline constexpr Primitive kPrimitiveOf<std::uint64_t> = Primitive::U64;
-template <>
-inline constexpr Primitive kPrimitiveOf<float> = Primitive::F32;
-template <>
-inline constexpr Primitive kPrimitiveOf<double> = Primitive::F64;
-
-template <class T>
 struct PlainValueTypeOf {
   static TypeRef make() {
     TypeRef type;
     type.kind = TypeRef::Kind::Primitive;
-    type.primitive = kPrimitiveOf<T>;
+    // A number's or bool's plain-value name is its primitive's spelling.
+    type.primitive = *primitive_named(TypeInfo<T>::name);
     return type;
   }
 };

@@ -55,7 +55,7 @@ TypeIdentity type_identity() {
   identity.is_pod = TypeInfo<T>::is_pod;
   identity.size = TypeInfo<T>::is_pod ? sizeof(T) : 0;
   identity.alignment = alignof(T);
-  identity.description = detail::description_of<T>();
+  identity.description = std::string(std::string_view(TypeInfo<T>::description));
   return identity;
 }
 

@@ -133,28 +133,25 @@ class ServiceServer {
       ServiceResponse<Response> response =
           respond(ServiceRequest<Request>{caller.request_id, std::move(*decoded)});
       requests.fetch_add(1, std::memory_order_relaxed);
-      bool sent = false;
-      bool counted = false;
+      const auto count_send_failure = [this] {
+        send_failures.fetch_add(1, std::memory_order_relaxed);
+      };
       try {
         if (response.ok && response.payload) {
           const std::vector<std::uint8_t> bytes = encode(*response.payload);
           // Counted before the client hears of the refusal, so its stats() show it then.
-          sent = server.answer(caller, std::as_bytes(std::span(bytes)), [this, &counted] {
-            send_failures.fetch_add(1, std::memory_order_relaxed);
-            counted = true;
-          });
+          server.answer(caller, std::as_bytes(std::span(bytes)), count_send_failure);
         } else {
           failures.fetch_add(1, std::memory_order_relaxed);
-          sent = server.fail(caller,
-                             ServiceError::service_failed(response.error.value_or(std::string())));
+          if (!server.fail(caller,
+                           ServiceError::service_failed(response.error.value_or(std::string())))) {
+            count_send_failure();
+          }
         }
       } catch (...) {
         // Out of memory for the answer: the client still learns that the request failed.
         if (response.ok) failures.fetch_add(1, std::memory_order_relaxed);
-        sent = fail_without_text(caller);
-      }
-      if (!sent && !counted) {
-        send_failures.fetch_add(1, std::memory_order_relaxed);
+        if (!fail_without_text(caller)) count_send_failure();
       }
     }
 

@@ -63,17 +63,6 @@ struct TopicOptions {
 template <TopicValue T>
 class Topic;
 
-namespace detail {
-
-/// The type description bytes TypeInfo<T> carries (type_info.hpp): every generated type, plain
-/// value and service frame has one.
-template <class T>
-std::string_view description_of() {
-  return std::string_view(TypeInfo<T>::description);
-}
-
-}  // namespace detail
-
 /// A slot of a POD topic lent for writing in place (zero copy); give it back with
 /// Topic::publish(). Its content is unspecified (an old message): write every field.
 /// Dropping it unpublished releases the slot without sending anything. It must not outlive
@@ -133,7 +122,7 @@ class Topic {
             name,
             detail::TypeDescriptor{TypeInfo<T>::name, TypeInfo<T>::fingerprint, TypeInfo<T>::schema,
                                    TypeInfo<T>::is_pod, TypeInfo<T>::is_pod ? sizeof(T) : 0,
-                                   alignof(T), detail::description_of<T>()},
+                                   alignof(T), std::string_view(TypeInfo<T>::description)},
             detail::SegmentOptions{options.capacity, options.max_message_size, options.mode,
                                    options.namespace_name, options.single_publisher})) {
     if constexpr (PodTopicValue<T>) {

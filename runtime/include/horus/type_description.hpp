@@ -47,6 +47,8 @@ enum class Primitive : std::uint8_t { Bool, U8, U16, U32, U64, I8, I16, I32, I64
 
 /// "bool", "u8", ... "f64".
 std::string_view primitive_name(Primitive primitive) noexcept;
+/// The primitive spelled `name` ("bool", "u8", ... "f64"); none for any other text.
+std::optional<Primitive> primitive_named(std::string_view name) noexcept;
 /// Bytes of the primitive in a POD message (bool: 1).
 std::size_t primitive_size(Primitive primitive) noexcept;
 

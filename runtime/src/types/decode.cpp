@@ -156,9 +156,9 @@ std::string packed(const msgpack::object* value) {
 }
 
 Primitive primitive_named(std::string_view name, const std::string& path) {
-  const auto it = std::find(kPrimitiveNames.begin(), kPrimitiveNames.end(), name);
-  if (it == kPrimitiveNames.end()) fail(path, "\"" + std::string(name) + "\" is not a primitive");
-  return static_cast<Primitive>(it - kPrimitiveNames.begin());
+  const std::optional<Primitive> primitive = horus::primitive_named(name);
+  if (!primitive) fail(path, "\"" + std::string(name) + "\" is not a primitive");
+  return *primitive;
 }
 
 std::uint64_t fingerprint_of(const Node& entry) {
@@ -417,6 +417,12 @@ std::size_t message_height(const TypeDescription& description, std::size_t index
 
 std::string_view primitive_name(Primitive primitive) noexcept {
   return kPrimitiveNames[static_cast<std::size_t>(primitive)];
+}
+
+std::optional<Primitive> primitive_named(std::string_view name) noexcept {
+  const auto it = std::find(kPrimitiveNames.begin(), kPrimitiveNames.end(), name);
+  if (it == kPrimitiveNames.end()) return std::nullopt;
+  return static_cast<Primitive>(it - kPrimitiveNames.begin());
 }
 
 std::size_t primitive_size(Primitive primitive) noexcept {
