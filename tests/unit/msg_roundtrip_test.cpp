@@ -28,6 +28,8 @@
 #include <type_traits>
 #include <vector>
 
+#include "every_field.hpp"
+
 #ifndef HORUS_GOLDEN_DIR
 #error "HORUS_GOLDEN_DIR must name tests/golden"
 #endif
@@ -36,59 +38,6 @@ namespace {
 
 using namespace horus::msg;
 
-template <class T>
-struct IsStdArray : std::false_type {};
-template <class E, std::size_t N>
-struct IsStdArray<std::array<E, N>> : std::true_type {};
-template <class T>
-struct IsVector : std::false_type {};
-template <class E>
-struct IsVector<std::vector<E>> : std::true_type {};
-template <class T>
-struct IsOptional : std::false_type {};
-template <class E>
-struct IsOptional<std::optional<E>> : std::true_type {};
-template <class T>
-struct IsFixedString : std::false_type {};
-template <std::size_t N>
-struct IsFixedString<horus::FixedString<N>> : std::true_type {};
-
-template <class T>
-void fill(T& value, std::uint64_t& k) {
-  if constexpr (std::is_same_v<T, bool>) {
-    value = (k++ % 2) == 1;
-  } else if constexpr (std::is_enum_v<T>) {
-    ++k;
-    value = static_cast<T>(0);
-  } else if constexpr (std::is_floating_point_v<T>) {
-    value = static_cast<T>(static_cast<double>(k++) + 0.25);
-  } else if constexpr (std::is_unsigned_v<T>) {
-    value = static_cast<T>(k++);
-  } else if constexpr (std::is_signed_v<T>) {
-    constexpr std::uint64_t modulus = std::uint64_t{1} << (sizeof(T) * 8 - 1);
-    value = static_cast<T>(-static_cast<std::int64_t>(k++ % modulus));
-  } else if constexpr (IsFixedString<T>::value) {
-    const std::string text = "s" + std::to_string(k++);
-    value.assign(std::string_view(text).substr(0, T::capacity()));
-  } else if constexpr (std::is_same_v<T, std::string>) {
-    value = "text" + std::to_string(k++);
-  } else if constexpr (std::is_same_v<T, std::vector<std::uint8_t>>) {
-    value = {static_cast<std::uint8_t>(k), static_cast<std::uint8_t>(k + 1),
-             static_cast<std::uint8_t>(k + 2)};
-    ++k;
-  } else if constexpr (IsStdArray<T>::value) {
-    for (auto& element : value) fill(element, k);
-  } else if constexpr (IsVector<T>::value) {
-    value.resize(2);
-    for (auto& element : value) fill(element, k);
-  } else if constexpr (IsOptional<T>::value) {
-    value.emplace();
-    fill(*value, k);
-  } else {
-    static_assert(horus::Message<T>, "a field type the filler does not know");
-    horus::TypeInfo<T>::visit(value, [&k](std::string_view, auto& field) { fill(field, k); });
-  }
-}
 
 std::uint64_t fnv1a64(const std::vector<std::uint8_t>& bytes) {
   std::uint64_t hash = 0xcbf29ce484222325ULL;
@@ -160,7 +109,7 @@ class Roundtrip : public ::testing::Test {
         horus::TypeInfo<T>::name.substr(horus::TypeInfo<T>::name.rfind('.') + 1));
     auto value = std::make_unique<T>();
     std::uint64_t k = 1;
-    fill(*value, k);
+    horus_test::fill_every_field(*value, k);
     const std::vector<std::uint8_t> bytes = horus::encode(*value);
     if constexpr (horus::TypeInfo<T>::is_pod) {
       EXPECT_EQ(bytes.size(), sizeof(T)) << name;

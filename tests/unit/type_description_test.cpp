@@ -20,6 +20,8 @@
 #include <variant>
 #include <vector>
 
+#include "every_field.hpp"
+
 namespace {
 
 using horus::MessageType;
@@ -576,54 +578,6 @@ void check_standard_types(TypeList<Ts...>) {
   (check_standard_type<Ts>(), ...);
 }
 
-// A value with every field set (non-empty Vecs and strings, options present, numbers of every
-// sign), so that walking it reaches every kind of value.
-template <class T>
-struct IsStdArray : std::false_type {};
-template <class E, std::size_t N>
-struct IsStdArray<std::array<E, N>> : std::true_type {};
-template <class T>
-struct IsVector : std::false_type {};
-template <class E>
-struct IsVector<std::vector<E>> : std::true_type {};
-template <class T>
-struct IsOptional : std::false_type {};
-template <class E>
-struct IsOptional<std::optional<E>> : std::true_type {};
-template <class T>
-struct IsFixedString : std::false_type {};
-template <std::size_t N>
-struct IsFixedString<horus::FixedString<N>> : std::true_type {};
-
-template <class T>
-void fill(T& value, std::uint64_t& k) {
-  if constexpr (std::is_same_v<T, bool>) {
-    value = (k++ % 2) == 1;
-  } else if constexpr (std::is_enum_v<T>) {
-    value = static_cast<T>(k++ % 2);
-  } else if constexpr (std::is_floating_point_v<T>) {
-    value = static_cast<T>(static_cast<double>(k++) + 0.25);
-  } else if constexpr (std::is_unsigned_v<T>) {
-    value = static_cast<T>(k++ * 37);
-  } else if constexpr (std::is_signed_v<T>) {
-    value = static_cast<T>(-static_cast<std::int64_t>(k++ * 37 % 100));
-  } else if constexpr (IsFixedString<T>::value) {
-    const std::string text = "s" + std::to_string(k++);
-    value.assign(std::string_view(text).substr(0, T::capacity()));
-  } else if constexpr (std::is_same_v<T, std::string>) {
-    value = "text" + std::to_string(k++);
-  } else if constexpr (IsStdArray<T>::value) {
-    for (auto& element : value) fill(element, k);
-  } else if constexpr (IsVector<T>::value) {
-    value.resize(2);
-    for (auto& element : value) fill(element, k);
-  } else if constexpr (IsOptional<T>::value) {
-    value.emplace();
-    fill(*value, k);
-  } else {
-    horus::TypeInfo<T>::visit(value, [&k](std::string_view, auto& field) { fill(field, k); });
-  }
-}
 
 /// Writes back what the walk reports as MessagePack, knowing only the TypeRefs it is given: the
 /// bytes equal msgpack-cxx's packing of the same value when every value and type arrived.
@@ -712,7 +666,7 @@ void check_walk(const TypeDescription& description) {
   SCOPED_TRACE(std::string(horus::TypeInfo<T>::name));
   auto value = std::make_unique<T>();
   std::uint64_t k = 1;
-  fill(*value, k);
+  horus_test::fill_every_field(*value, k, horus_test::Enums::Alternate);
   Repacker repacker;
   horus::walk_message(description, description.root_message(), horus::encode(*value), repacker);
   EXPECT_EQ(repacker.bytes(), horus::detail::Msgpack<T>::pack(*value))
