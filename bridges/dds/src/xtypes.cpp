@@ -90,17 +90,40 @@ std::vector<std::string> split_package(const std::string& package) {
   }
 }
 
+// A type without a package is a plain value (`f32`, `[f32; 3]`, `Vec<u8>`, `String`: the
+// message its description makes of it): its IDL lives in the module horus::plain.
+constexpr std::string_view kPlainValuePackage = "horus.plain";
+
 std::vector<std::string> modules(const std::string& package) {
   std::vector<std::string> out;
-  for (const std::string& segment : split_package(package)) {
+  for (const std::string& segment :
+       split_package(package.empty() ? std::string(kPlainValuePackage) : package)) {
     out.push_back(identifier(segment));
   }
   out.emplace_back("dds_");
   return out;
 }
 
+// A plain value's name as an identifier: each run of characters IDL does not allow in one is an
+// underscore (`[f32; 3]` is f32_3, `Vec<u8>` Vec_u8), none at either end.
+std::string identifier_of_plain_value(const std::string& name) {
+  std::string out;
+  for (const char c : name) {
+    if (std::isalnum(static_cast<unsigned char>(c)) != 0) {
+      out += c;
+    } else if (!out.empty() && out.back() != '_') {
+      out += '_';
+    }
+  }
+  while (!out.empty() && out.back() == '_') {
+    out.pop_back();
+  }
+  return out;
+}
+
 std::string short_name(const std::string& qualified, const std::string& package) {
-  return package.empty() ? qualified : qualified.substr(package.size() + 1);
+  return package.empty() ? identifier_of_plain_value(qualified)
+                         : qualified.substr(package.size() + 1);
 }
 
 std::string scoped(const std::string& qualified, const std::string& package) {
