@@ -8,12 +8,23 @@ from __future__ import annotations
 
 import contextlib
 import json
+import os
 import statistics
 import sys
 import time
 
 WARMUP = 200  # messages discarded at the start of each latency run
 THROUGHPUT_S = 3.0  # how long the publisher floods in a throughput run
+
+
+def say(text: str) -> None:
+    """One line on stdout in one write(2). print() makes two (the text, then its newline) when
+    stdout is unbuffered (PYTHONUNBUFFERED, python -u), and a line the bridge's threads write
+    between them is glued to the text: `ready` swallows the `exporting 'bench'` run.sh waits for
+    next (or the other way round)."""
+    data = (text + "\n").encode()
+    while data:
+        data = data[os.write(1, data):]
 
 
 def message_class(kind: str):
@@ -49,7 +60,7 @@ def publish(kind: str, mode: str, count: str, period_us: str, domain: str | None
     cls = message_class(kind)
     topic = horus.Topic(cls, "bench")
     with in_process(domain, export=["bench"]):
-        print("ready", flush=True)
+        say("ready")
         sys.stdin.readline()  # run.sh says go once both bridges carry the topic
         period = int(period_us) * 1e-6
         next_send = time.monotonic()
@@ -62,7 +73,7 @@ def publish(kind: str, mode: str, count: str, period_us: str, domain: str | None
                 # Sleeping, not spinning (two cores): each message is stamped when it is sent.
                 next_send += period
                 time.sleep(max(0.0, next_send - time.monotonic()))
-        print("sent", seq, flush=True)
+        say(f"sent {seq}")
 
 
 def subscribe(kind: str, mode: str, count: str, domain: str | None = None) -> None:
@@ -70,9 +81,9 @@ def subscribe(kind: str, mode: str, count: str, domain: str | None = None) -> No
     cls = message_class(kind)
     topic = horus.Topic(cls, "bench")
     with in_process(domain, import_=["bench"]):
-        print("ready", flush=True)
+        say("ready")
         result = receive(topic, mode, int(count))
-    print(json.dumps(result), flush=True)
+    say(json.dumps(result))
 
 
 def receive(topic, mode: str, total: int) -> dict:
@@ -112,7 +123,7 @@ def dds_pong(domain: str, size: str) -> None:
     participant = _dds.Participant(int(domain))
     reader = _dds.Reader(participant, "bench_ping", "bench::Raw_")
     writer = _dds.Writer(participant, "bench_pong", "bench::Raw_")
-    print("ready", flush=True)
+    say("ready")
     while True:
         for sample in reader.take(1.0):
             writer.write(sample)
@@ -136,7 +147,7 @@ def dds_ping(domain: str, size: str, count: str) -> None:
         if i >= WARMUP:
             halves.append((time.perf_counter_ns() - start) / 2e3)
     halves.sort()
-    print(json.dumps({"p50": halves[len(halves) // 2], "p99": halves[int(len(halves) * 0.99)]}))
+    say(json.dumps({"p50": halves[len(halves) // 2], "p99": halves[int(len(halves) * 0.99)]}))
 
 
 def dds_sub(domain: str, count: str) -> None:
@@ -145,7 +156,7 @@ def dds_sub(domain: str, count: str) -> None:
     from horus._core import dds as _dds
     participant = _dds.Participant(int(domain))
     reader = _dds.Reader(participant, "bench_oneway", "bench::Raw_")
-    print("ready", flush=True)
+    say("ready")
     latencies = []
     while len(latencies) < int(count):
         for sample in reader.take(5.0):
@@ -154,8 +165,8 @@ def dds_sub(domain: str, count: str) -> None:
             if seq >= WARMUP:
                 latencies.append((now - stamp) / 1e3)
     latencies.sort()
-    print(json.dumps({"p50": latencies[len(latencies) // 2],
-                      "p99": latencies[int(len(latencies) * 0.99)]}), flush=True)
+    say(json.dumps({"p50": latencies[len(latencies) // 2],
+                    "p99": latencies[int(len(latencies) * 0.99)]}))
 
 
 def dds_pub(domain: str, size: str, count: str, period_us: str) -> None:
@@ -197,7 +208,7 @@ def costs(kind: str) -> None:
             best.append((time.perf_counter_ns() - start) / n / 1e3)
         return statistics.median(best)
 
-    print(json.dumps({
+    say(json.dumps({
         "export: from_bytes + encode": per_call(lambda: codec.encode(cls.from_bytes(data))),
         "import: decode + to_bytes": per_call(lambda: codec.decode(cdr).to_bytes()),
         "export: CdrPlan.encode": per_call(lambda: plan.encode(data)),

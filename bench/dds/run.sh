@@ -1,17 +1,38 @@
 #!/usr/bin/env bash
-# bench/dds: one-way latency (p50/p99) and throughput of CmdVel (16 B) and a 1.5 KB message from a
-# publisher in namespace A to a subscriber in namespace B through two `horus bridge` processes on
-# Cyclone DDS over loopback, against Cyclone's own C ping-pong (`ddsperf`, round trip / 2) in the
-# same run, the same path with each bridge a horus.Network inside the publisher's and the
-# subscriber's processes, and the pieces in between (raw CDR ping-pong through horus._core.dds
-# from Python; the bridge's per-message conversion: the C++ CdrPlan its pumps run for these POD
-# types, and the Python codec of tests/dds/dds_cdr.py for comparison). The issue's goal: the
-# bridge adds <= 1.3x to DDS's latency.
-# Usage: bench/dds/run.sh [BUILD_DIR]   (default: build; needs ddsperf: Debian cyclonedds-tools)
+# bench/dds: the DDS bridge's latency on Cyclone DDS over loopback against Cyclone's own C
+# ping-pong (`ddsperf`, round trip / 2), in one run. Writes nothing; prints the tables RESULTS.md
+# records.
+#
+# 1. C++ ping-pong of CmdVel (16 B), round trip / 2 (dds_pingpong.cpp), repetitions interleaved
+#    with ddsperf's:
+#    (a) each process's scheduler carries its topics over DDS itself (SchedulerConfig::network):
+#        the pinging one in namespace A exports `ping` and imports `pong`, the echoing one in
+#        namespace B the reverse. Goal: <= 1.3x ddsperf.
+#    (b) the same processes without network(), each beside a bridge process of its namespace (a
+#        horus::dds::DdsBridge). Goal: <= 1.3x (ddsperf + two HORUS topic hops), the hops measured
+#        in the same run as a ping-pong over local topics between two processes of one namespace.
+# 2. What send() does in the sending thread (with strace): on a topic nobody exports, and on one
+#    its scheduler's Network exports.
+# 3. Python publishers (bench.py): one-way latency (p50/p99) and throughput of CmdVel and a 1.5 KB
+#    message through two `horus bridge` processes and through horus.Network in each process, and
+#    the pieces in between (raw CDR ping-pong through horus._core.dds from Python; the bridge's
+#    per-message conversion: the C++ CdrPlan its pumps run for these POD types, and the Python
+#    codec of tests/dds/dds_cdr.py for comparison).
+# Usage: bench/dds/run.sh [BUILD_DIR] [REPETITIONS]   (default: build, 5)
+# BUILD_DIR is a configured build that finds Cyclone DDS (Debian: cyclonedds-dev);
+# the run needs ddsperf (Debian: cyclonedds-tools) and, for part 2, strace.
 set -euo pipefail
 build=$(realpath "${1:-build}")
+repetitions="${2:-5}"
 here=$(cd "$(dirname "$0")" && pwd)
 repo=$(cd "$here/../.." && pwd)
+# Under the lock the shared build tree's other users take, where there is one.
+if ! flock /tmp/horus-build.lock cmake --build "$build" --target dds_pingpong horus_python \
+    >/dev/null; then
+  echo "run.sh: cannot build dds_pingpong in $build (configured with Debian's cyclonedds-dev" \
+       "installed?)" >&2
+  exit 1
+fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 /usr/bin/python3 "$repo/generator/horus-gen" generate --lang python --out "$work/gen" \
@@ -19,6 +40,14 @@ trap 'rm -rf "$work"' EXIT
 export CYCLONEDDS_URI="file://$repo/docs/cyclonedds-loopback.xml"
 export HORUS_GEN_PROGRAM="$repo/generator/horus-gen"  # for the in-process bridges (horus.Network)
 export PYTHONPATH="$build/python:$build/schemas/horus_gen/horus_msgs/python:$work/gen/python:$repo/tests/dds:$here"  # tests/dds: dds_cdr, the Python CDR the costs compare
+# Unbuffered, Python writes a line's text and its newline apart (print() in `horus bridge`), and a
+# line the bridge's C++ threads write between the two is glued to that text.
+unset PYTHONUNBUFFERED
+echo "$(date -u '+%Y-%m-%d %H:%M:%S UTC'), load average $(cut -d' ' -f1-3 /proc/loadavg)," \
+  "$(nproc) CPUs, Cyclone DDS $(dpkg-query -W -f='${Version}' cyclonedds-tools 2>/dev/null || echo '?')"
+echo
+/usr/bin/python3 "$here/pingpong.py" "$build/bench/dds/dds_pingpong" "$work" "$repetitions"
+echo
 mkdir -m 700 "$work/shm_a" "$work/shm_b"
 /usr/bin/python3 - "$build/bin/horus" "$work" "$here/bench.py" <<'PY'
 import json, os, queue, random, re, statistics, subprocess, sys, threading, time
@@ -189,9 +218,8 @@ for kind, size in (("cmdvel", 16), ("blob", 1512)):
                                      text=True, check=True).stdout)
     rows.append((kind, size, latency, throughput, floor, raw, cost, paced, hop, networks))
 
-load = os.getloadavg()[0]
-print(f"load average at the end: {load:.2f}")
-print("One-way latency p50 / p99 in us; ratio = bridge / ddsperf.")
+print("Python publishers (bench.py), paced at 500 a second: one-way latency p50 / p99 in us; "
+      "ratio = bridge / ddsperf.")
 print("| message | through two bridges | ddsperf ping-pong (C) | ratio p50 (p99) | "
       "through two in-process horus.Network | its ratio p50 (p99) | "
       "horus._core.dds ping-pong from Python | horus._core.dds one-way, paced, Python | one HORUS hop, "
@@ -219,3 +247,5 @@ for kind, size, latency, throughput, *_ in rows:
     for line in latency.get("bridge_errors", []) + throughput.get("bridge_errors", []):
         print(f"{kind}: a bridge said: {line}")
 PY
+echo
+echo "load average at the end: $(cut -d' ' -f1-3 /proc/loadavg), $(date -u '+%H:%M:%S UTC')"

@@ -14,6 +14,8 @@
 //                               a forwarder hands it to the event loop)
 //   stream-publish SECONDS      CmdVel on cmd_vel at 1 kHz, a 640x480 RGB image on camera (a
 //                               CompressedImage) and on pool_camera (a horus::Image) at 30 Hz
+//   topic-wait                  how horus-remote would wait on its topics in this environment
+//                               (link.hpp: describe_topic_wait)
 //   stream-count SECONDS        the rates cmd_vel, camera and pool_camera arrive at, from the
 //                               first message on
 //
@@ -82,8 +84,9 @@ class EchoImpl final : public Echo::Server {
 
 int rpc_serve(const std::string& certs) {
   auto io = kj::setupAsyncIo();
-  const auto credentials = horus::remote::load_credentials(certs, "robot");
-  auto tls = horus::remote::tls_context(credentials, io.provider->getTimer());
+  const auto credentials = horus::bridge::load_tls_credentials(certs, "robot");
+  auto tls = horus::bridge::tls_context(credentials, io.provider->getTimer(),
+                                        horus::remote::kHandshakeTimeout);
   auto address = io.provider->getNetwork().parseAddress("127.0.0.1:0").wait(io.waitScope);
   auto port = address->listen();
   std::printf("port %u\n", port->getPort());
@@ -96,8 +99,9 @@ int rpc_serve(const std::string& certs) {
 
 int rpc_ping(const std::string& port, const std::string& certs, int count) {
   auto io = kj::setupAsyncIo();
-  const auto credentials = horus::remote::load_credentials(certs, "laptop");
-  auto tls = horus::remote::tls_context(credentials, io.provider->getTimer());
+  const auto credentials = horus::bridge::load_tls_credentials(certs, "laptop");
+  auto tls = horus::bridge::tls_context(credentials, io.provider->getTimer(),
+                                        horus::remote::kHandshakeTimeout);
   auto address = io.provider->getNetwork().parseAddress("127.0.0.1:" + port).wait(io.waitScope);
   auto stream = tls->wrapClient(address->connect().wait(io.waitScope), "robot").wait(io.waitScope);
   capnp::TwoPartyClient client(*stream);
@@ -292,6 +296,10 @@ int main(int argc, char** argv) {
     if ((args.size() == 3 || (args.size() == 4 && args[3] == "hand-off")) &&
         args[0] == "topic-relay") {
       return topic_relay(args[1], args[2], args.size() == 4);
+    }
+    if (args.size() == 1 && args[0] == "topic-wait") {
+      std::printf("%s\n", horus::remote::describe_topic_wait().c_str());
+      return 0;
     }
     if (args.size() == 2 && args[0] == "stream-publish")
       return stream_publish(std::atof(args[1].c_str()));

@@ -229,7 +229,7 @@ class Link {
         if (const std::optional<std::string> problem = description_problem(remote)) {
           throw Error(*problem);
         }
-        local = open_topic(remote, options_.namespace_name);
+        local = RawTopic::open_recorded(remote, options_.namespace_name);
       } catch (const std::exception& e) {
         mirrors_.imported.erase(name);
         refused_.insert(name);
@@ -264,7 +264,7 @@ class Link {
     const std::string name = local.name;
     std::unique_ptr<RawTopic> topic;
     try {
-      topic = open_topic(local, options_.namespace_name);
+      topic = RawTopic::open_recorded(local, options_.namespace_name);
     } catch (const std::exception& e) {
       refused_.insert(name);
       say("cannot export %s: %s", name.c_str(), e.what());
@@ -308,7 +308,8 @@ class Link {
       }
     }
     try {
-      auto requests = open_topic(topic_info(info.getRequest()), options_.namespace_name);
+      auto requests =
+          RawTopic::open_recorded(topic_info(info.getRequest()), options_.namespace_name);
       auto mirror = kj::heap<ServiceMirror>(info, options_.namespace_name, options_.call_timeout);
       ServiceMirror* serving = mirror.get();
       serving->connect(session_, &messages_);
@@ -426,13 +427,15 @@ class Client {
 int connect(const ConnectOptions& options) {
   EventLoop loop;
   kj::Own<kj::TlsContext> tls;
-  kj::Maybe<Credentials> credentials;
+  kj::Maybe<bridge::TlsCredentials> credentials;
   if (options.insecure) {
     say("WARNING: --insecure: plain TCP, no authentication, no encryption");
   } else {
-    credentials = load_credentials(options.certs, options.name);
-    tls = tls_context(KJ_ASSERT_NONNULL(credentials), loop.io.provider->getTimer());
+    credentials = bridge::load_tls_credentials(options.certs, options.name);
+    tls = bridge::tls_context(KJ_ASSERT_NONNULL(credentials), loop.io.provider->getTimer(),
+                              kHandshakeTimeout);
   }
+  say("%s", describe_topic_wait().c_str());
   Client client(options, loop,
                 tls ? kj::Maybe<kj::TlsContext&>(*tls) : kj::Maybe<kj::TlsContext&>(nullptr));
   loop.run_until_stopped(client.run(), options.namespace_name, "connect");

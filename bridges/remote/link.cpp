@@ -1,6 +1,7 @@
 #include "link.hpp"
 
 #include "horus/bridge/identity.hpp"
+#include "horus/error.hpp"
 #include "horus/json_string.hpp"
 #include "horus/tensor_pool.hpp"
 #include "horus/type_description.hpp"
@@ -15,31 +16,16 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
-#include <sstream>
 #include <stdexcept>
+#include <string_view>
 #include <utility>
 
 namespace horus::remote {
 
 namespace {
 
-/// How long the reader thread waits on its topic before looking whether it should stop.
-constexpr auto kReaderWakeUp = std::chrono::milliseconds(100);
 /// At most one drop report per stream in this interval.
 constexpr auto kDropReportInterval = std::chrono::seconds(5);
-/// A peer that connects but never finishes the TLS handshake is dropped after this.
-constexpr auto kHandshakeTimeout = 10 * kj::SECONDS;
-
-std::string read_file(const std::string& path, const std::string& hint) {
-  std::ifstream file(path);
-  if (!file) {
-    throw std::runtime_error("cannot read " + path + hint);
-  }
-  std::ostringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
 
 /// The event loop's (use_event_port).
 kj::UnixEventPort* event_port = nullptr;
@@ -162,104 +148,162 @@ std::optional<std::string> description_problem(const TopicInfo& info) {
   }
 }
 
-std::unique_ptr<RawTopic> open_topic(const TopicInfo& info, const std::string& namespace_name) {
-  TopicOptions options;
-  options.capacity = info.capacity;
-  options.max_message_size = info.max_message_size;
-  options.namespace_name = namespace_name;
-  return std::make_unique<RawTopic>(
-      info.name,
-      TypeIdentity{info.type_name, info.fingerprint, info.schema, info.is_pod,
-                   info.is_pod ? info.max_message_size : 0, 1, info.description},
-      options);
+namespace {
+
+/// HORUS_REMOTE_NO_IO_URING=1: the reader threads, where the kernel would offer more (to test
+/// them, and to compare the two).
+bool reader_threads_asked() {
+  const char* no_io_uring = std::getenv("HORUS_REMOTE_NO_IO_URING");
+  return no_io_uring != nullptr && std::string_view(no_io_uring) == "1";
 }
+
+}  // namespace
+
+TopicWait topic_wait() {
+  static const TopicWait wait = !reader_threads_asked() && bridge::TopicWatch::supported()
+                                    ? TopicWait::EventLoop
+                                    : TopicWait::ReaderThread;
+  return wait;
+}
+
+std::string describe_topic_wait() {
+  if (topic_wait() == TopicWait::EventLoop) {
+    return "local topics are waited on in the event loop (io_uring futex waits)";
+  }
+  return std::string("local topics are waited on by a reader thread each (") +
+         (reader_threads_asked() ? "HORUS_REMOTE_NO_IO_URING=1"
+                                 : "no io_uring futex waits here: they need Linux 6.7 or later "
+                                   "with io_uring allowed") +
+         ")";
+}
+
+namespace {
+
+/// The event loop's watch on `topic`, or null where a reader thread waits instead (said once per
+/// topic when the kernel refuses a ring of its own).
+std::unique_ptr<bridge::TopicWatch> watch_if_offered(RawTopic& topic, const std::string& label) {
+  if (topic_wait() != TopicWait::EventLoop) return nullptr;
+  try {
+    return std::make_unique<bridge::TopicWatch>(topic);
+  } catch (const Error& e) {
+    say("%s: %s; a reader thread waits on it instead", label.c_str(), e.what());
+    return nullptr;
+  }
+}
+
+}  // namespace
 
 Forwarder::Forwarder(std::unique_ptr<RawTopic> topic, wire::Sink::Client sink,
                      std::size_t queue_limit, std::string label, const std::string& namespace_name,
                      std::shared_ptr<QueueBudget> budget)
-    : topic_(std::move(topic)),
-      frames_(pool_frames(*topic_, namespace_name, 1)),
+    : bridge::Forwarder("horus-remote: " + label, nullptr),
+      source_(std::move(topic), namespace_name),
       sink_(std::move(sink)),
       queue_limit_(queue_limit),
       label_(std::move(label)),
       budget_(std::move(budget)),
-      wake_(new_eventfd()),
-      wake_observer_(*event_port, wake_, kj::UnixEventPort::FdObserver::OBSERVE_READ),
-      reader_([this] { read_loop(); }) {
+      watch_(watch_if_offered(source_.topic(), label_)),
+      wake_(watch_ ? kj::AutoCloseFd() : new_eventfd()),
+      observer_(*event_port, watch_ ? watch_->fd() : wake_.get(),
+                kj::UnixEventPort::FdObserver::OBSERVE_READ) {
+  if (!watch_) start([this] { read_loop(); });
   std::lock_guard lock(forwarders_mutex);
   forwarders.push_back(this);
 }
 
-Forwarder::~Forwarder() {
+Forwarder::~Forwarder() noexcept {
   {
     std::lock_guard lock(forwarders_mutex);
     forwarders.erase(std::find(forwarders.begin(), forwarders.end(), this));
   }
-  stopping_.store(true);
-  reader_.join();
+  stop();
   if (budget_) {
     for (const Queued& message : queue_) {
       budget_->give_back(message.bytes.size() + kQueuedRecordBytes);
     }
   }
   if (dropped() != 0) {
-    say("%s: ended after %llu messages sent, %llu dropped", label_.c_str(),
-        static_cast<unsigned long long>(sent()), static_cast<unsigned long long>(dropped()));
+    say("ended after " + std::to_string(sent()) + " messages sent, " + std::to_string(dropped()) +
+        " dropped");
   }
 }
 
 void Forwarder::read_loop() {
-  while (!stopping_.load()) {
-    const std::ptrdiff_t size = topic_->recv(kReaderWakeUp);
-    if (size < 0) {
+  while (!stopping()) {
+    // The one wait on the topic of a reader thread (the event loop's is watch_topic()'s).
+    const std::optional<bridge::Frame> frame = source_.next(kPoll);
+    if (!frame) {
+      count_lost();  // frames skipped for their reused blocks, counted as met
       continue;
     }
-    const std::uint64_t sequence = topic_->received_ticket();
-    // What the ring overwrote before this thread read it is left out of the stream too.
-    const std::uint64_t lost = topic_->stats().lost - lost_;
-    lost_ += lost;
-    const std::span<std::byte> bytes = topic_->received(static_cast<std::size_t>(size));
-    std::vector<std::byte> message;
-    if (frames_) {
-      const std::size_t recorded =
-          frames_->record(bytes.data(), bytes.size(), [&message](std::size_t room) {
-            message.resize(room);
-            return reinterpret_cast<std::uint8_t*>(message.data());
-          });
-      // 0: the block was freed or reused since (a local subscriber would refuse it too).
-      if (recorded == 0) {
-        counts_->dropped.fetch_add(lost + 1);
-        continue;
-      }
-      message.resize(recorded);
-    } else {
-      message.assign(bytes.begin(), bytes.end());
+    queue(*frame);
+    take_waiting();
+  }
+}
+
+kj::Promise<void> Forwarder::watch_topic() {
+  watch_->complete();
+  bool took_all = take_waiting();
+  // arm() refuses while a message is there: one came since take_waiting() looked.
+  while (took_all && !watch_->arm()) took_all = take_waiting();
+  if (!took_all) {
+    // Lets the sends go first; the topic is read again right after.
+    return kj::evalLater([this] { return watch_topic(); });
+  }
+  return observer_.whenBecomesReadable().then([this] { return watch_topic(); });
+}
+
+bool Forwarder::take_waiting() {
+  for (std::size_t taken = 0; taken < source_.topic().capacity(); ++taken) {
+    if (stopping()) return true;
+    const std::optional<bridge::Frame> frame = source_.try_next();
+    if (!frame) {
+      count_lost();
+      return true;
     }
-    {
-      // Counted with the queue locked: a message taken off it goes with the drops of those older.
-      std::lock_guard lock(mutex_);
-      counts_->dropped.fetch_add(lost);
-      if (queue_.size() >= queue_limit_) drop_oldest();
-      const std::size_t cost = message.size() + kQueuedRecordBytes;
-      bool fits = !budget_ || budget_->take(cost);
-      while (!fits && !queue_.empty()) {
-        drop_oldest();
-        fits = budget_->take(cost);
-      }
-      if (!fits) {  // the peer's other streams hold its budget
-        counts_->dropped.fetch_add(1);
-        continue;
-      }
-      queue_.push_back(Queued{sequence, std::move(message)});
-      if (waiting_) {
+    queue(*frame);
+  }
+  return false;
+}
+
+void Forwarder::count_lost() {
+  // What the ring overwrote before the reader took it, and frames whose block was freed or
+  // reused since (a local subscriber would refuse them too), are left out of the stream.
+  const std::uint64_t lost = source_.lost() - lost_;
+  lost_ += lost;
+  counts_->dropped.fetch_add(lost);
+}
+
+void Forwarder::queue(const bridge::Frame& frame) {
+  std::vector<std::byte> message(frame.bytes.begin(), frame.bytes.end());
+  {
+    // Counted with the queue locked: a message taken off it goes with the drops of those older.
+    std::lock_guard lock(mutex_);
+    count_lost();
+    if (queue_.size() >= queue_limit_) drop_oldest();
+    const std::size_t cost = message.size() + kQueuedRecordBytes;
+    bool fits = !budget_ || budget_->take(cost);
+    while (!fits && !queue_.empty()) {
+      drop_oldest();
+      fits = budget_->take(cost);
+    }
+    if (!fits) {  // the peer's other streams hold its budget
+      counts_->dropped.fetch_add(1);
+      return;
+    }
+    queue_.push_back(Queued{frame.sequence, std::move(message)});
+    if (waiting_) {
+      waiting_ = false;
+      if (watch_) {
+        queued_->fulfill();
+      } else {
         const std::uint64_t one = 1;
         static_cast<void>(::write(wake_, &one, sizeof one));
-        waiting_ = false;
       }
     }
-    // Here, not where messages are sent: a peer that stopped reading stops the sending too.
-    report_drops();
   }
+  // Here, not where messages are sent: a peer that stopped reading stops the sending too.
+  report_drops();
 }
 
 void Forwarder::drop_oldest() {
@@ -274,24 +318,38 @@ void Forwarder::report_drops() {
   if (dropped == reported_drops_ || now - last_report_ < kDropReportInterval) {
     return;
   }
-  say("%s: %llu messages dropped so far (the link is slower than the publisher; latest wins)",
-      label_.c_str(), static_cast<unsigned long long>(dropped));
+  say(std::to_string(dropped) +
+      " messages dropped so far (the link is slower than the publisher; latest wins)");
   reported_drops_ = dropped;
   last_report_ = now;
 }
 
 kj::Promise<void> Forwarder::run() {
+  if (!watch_) return send_queued();
+  // evalNow: a first read that throws ends the stream as a later one would.
+  return send_queued().exclusiveJoin(kj::evalNow([this] { return watch_topic(); }));
+}
+
+kj::Promise<void> Forwarder::reader_queued() {
+  if (watch_) {
+    auto queued = kj::newPromiseAndFulfiller<void>();
+    queued_ = kj::mv(queued.fulfiller);
+    return kj::mv(queued.promise);
+  }
+  // Woken through an eventfd the loop watches, not a kj cross-thread fulfiller (a promise
+  // made, locked and queued per message): bench/remote/RESULTS.md, "Experiments".
+  return observer_.whenBecomesReadable().then([this] {
+    std::uint64_t count = 0;
+    static_cast<void>(::read(wake_, &count, sizeof count));
+  });
+}
+
+kj::Promise<void> Forwarder::send_queued() {
   std::unique_lock lock(mutex_);
   if (queue_.empty()) {
-    // Woken through an eventfd the loop watches, not a kj cross-thread fulfiller (a promise
-    // made, locked and queued per message): bench/remote/RESULTS.md, "Experiments".
     waiting_ = true;
     lock.unlock();
-    return wake_observer_.whenBecomesReadable().then([this] {
-      std::uint64_t count = 0;
-      static_cast<void>(::read(wake_, &count, sizeof count));
-      return run();
-    });
+    return reader_queued().then([this] { return send_queued(); });
   }
   const Queued message = std::move(queue_.front());
   queue_.pop_front();
@@ -304,7 +362,7 @@ kj::Promise<void> Forwarder::run() {
   request.setData(kj::arrayPtr(reinterpret_cast<const capnp::byte*>(message.bytes.data()),
                                message.bytes.size()));
   counts_->sent.fetch_add(1);
-  return request.send().then([this] { return run(); });
+  return request.send().then([this] { return send_queued(); });
 }
 
 TopicSink::TopicSink(std::shared_ptr<RawTopic> topic, std::string label,
@@ -364,26 +422,6 @@ kj::Promise<void> TopicSink::message(MessageContext context) {
   return kj::READY_NOW;
 }
 
-Credentials load_credentials(const std::string& folder, const std::string& name) {
-  const std::string hint = " (make it with: horus remote keygen " + folder + " " + name + ")";
-  const std::string authority = read_file(folder + "/ca.crt", hint);
-  const std::string certificate = read_file(folder + "/" + name + ".crt", hint);
-  const std::string key = read_file(folder + "/" + name + ".key", hint);
-  return Credentials{kj::TlsCertificate(authority),
-                     kj::TlsKeypair{kj::TlsPrivateKey(key), kj::TlsCertificate(certificate)}};
-}
-
-kj::Own<kj::TlsContext> tls_context(const Credentials& credentials, kj::Timer& timer) {
-  kj::TlsContext::Options options;
-  options.useSystemTrustStore = false;
-  options.verifyClients = true;
-  options.trustedCertificates = kj::arrayPtr(&credentials.authority, 1);
-  options.defaultKeypair = credentials.own;
-  options.timer = timer;
-  options.acceptTimeout = kHandshakeTimeout;
-  return kj::heap<kj::TlsContext>(kj::mv(options));
-}
-
 std::string status_path(const std::string& namespace_name) {
   const char* runtime = std::getenv("XDG_RUNTIME_DIR");
   const std::string folder = runtime != nullptr && *runtime != '\0'
@@ -394,8 +432,10 @@ std::string status_path(const std::string& namespace_name) {
 }
 
 void write_status(const std::string& path, const char* role) {
-  std::string text =
-      "{\"pid\": " + std::to_string(::getpid()) + ", \"role\": \"" + role + "\", \"streams\": [";
+  std::string text = "{\"pid\": " + std::to_string(::getpid()) + ", \"role\": \"" + role +
+                     "\", \"topic_wait\": \"" +
+                     (topic_wait() == TopicWait::EventLoop ? "event_loop" : "reader_thread") +
+                     "\", \"streams\": [";
   {
     std::lock_guard lock(forwarders_mutex);
     for (const Forwarder* forwarder : forwarders) {

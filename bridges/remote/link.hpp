@@ -9,6 +9,7 @@
 #include <kj/compat/tls.h>
 
 #include <atomic>
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
@@ -17,9 +18,12 @@
 #include <mutex>
 #include <optional>
 #include <string>
-#include <thread>
 #include <vector>
 
+#include "horus/bridge/forwarder.hpp"
+#include "horus/bridge/frame_source.hpp"
+#include "horus/bridge/tls.hpp"
+#include "horus/bridge/topic_watch.hpp"
 #include "horus/pool_frames.hpp"
 #include "horus/raw_topic.hpp"
 #include "horus/topic_registry.hpp"
@@ -79,8 +83,8 @@ class LimitedMessageStream final : public capnp::MessageStream {
   std::function<void(const kj::Exception&)> on_read_failure_;
 };
 
-/// The event port of this process's event loop (which Forwarders watch their reader threads
-/// on); set once, by the loop's maker, before any Forwarder exists.
+/// The event port of this process's event loop (on which Forwarders watch their topics or their
+/// reader threads); set once, by the loop's maker, before any Forwarder exists.
 void use_event_port(kj::UnixEventPort& port);
 
 /// One line on stderr, "horus-remote: ...".
@@ -97,9 +101,6 @@ TopicInfo topic_info(wire::TopicInfo::Reader info);
 /// (one that decodes, whose root is the type, with its fingerprint), or nothing when they are or
 /// are empty: a topic created with them must not mislead what reads it.
 std::optional<std::string> description_problem(const TopicInfo& info);
-/// Opens (or creates) `info.name` in `namespace_name` with the type and sizes of `info`; throws
-/// horus::Error naming both types when the topic exists with another.
-std::unique_ptr<RawTopic> open_topic(const TopicInfo& info, const std::string& namespace_name);
 
 /// What a Forwarder counts of its stream. Shared with a sink on this side that may not pass a
 /// message on (a service's mirror answering a request itself), which then takes it back.
@@ -122,27 +123,39 @@ class QueueBudget {
   std::atomic<std::size_t> used_{0};
 };
 
-/// Streams the messages of a local topic into a peer's Sink: a thread waits on the topic and
-/// queues at most `queue_limit` messages (the oldest dropped beyond that: latest wins when the
-/// link is slower than the publisher); the event loop sends them with Cap'n Proto's streaming
-/// flow control, so a slow peer holds the queue at its bound, never more. A frame of a
-/// pool-backed type (Image, DepthImage, PointCloud, Tensor) of `namespace_name` is queued as
-/// the recorder keeps it: its descriptor and the data of its block, copied as it is read. Each
-/// message goes with its ticket on the topic as its sequence; every message left out (dropped
-/// from the queue, overwritten in the ring before the thread read it, a frame whose block was
-/// reused) is counted as dropped, and shows as a gap in the sequence. With a `budget`, the queue
-/// also holds no more than the budget (shared with other Forwarders) lets it: the oldest
-/// messages are dropped first, then the new one.
-class Forwarder {
+/// How this process's Forwarders wait on their topics: in the event loop itself (an io_uring
+/// futex wait of a bridge::TopicWatch, observed beside the sockets) where the kernel offers it,
+/// else, or with HORUS_REMOTE_NO_IO_URING=1 in the environment, a reader thread each that hands
+/// the messages to the loop. Decided once per process.
+enum class TopicWait { EventLoop, ReaderThread };
+TopicWait topic_wait();
+/// The startup line's words for topic_wait(), and why when it is the reader thread.
+std::string describe_topic_wait();
+
+/// Streams the messages of a local topic into a peer's Sink: a reader (the event loop itself, or
+/// a thread of its own: topic_wait()) takes the topic's messages as they come and queues at most
+/// `queue_limit` of them (the oldest dropped beyond that: latest wins when the link is slower
+/// than the publisher); the event loop sends them with Cap'n Proto's streaming flow control, so
+/// a slow peer holds the queue at its bound, never more. The topic is read through a
+/// bridge::FrameSource: a frame of a pool-backed type (Image, DepthImage, PointCloud, Tensor) of
+/// `namespace_name` is queued as the recorder keeps it, its descriptor and the data of its block,
+/// copied as it is read. Each message goes with its ticket on the topic as its sequence; every
+/// message left out (dropped from the queue, overwritten in the ring before the reader read it,
+/// a frame whose block was reused) is counted as dropped, and shows as a gap in the sequence.
+/// With a `budget`, the queue also holds no more than the budget (shared with other Forwarders)
+/// lets it: the oldest messages are dropped first, then the new one. Only the wait differs
+/// between the two readers: both take frames with take_waiting() and queue them with queue().
+class Forwarder final : public bridge::Forwarder {
  public:
   Forwarder(std::unique_ptr<RawTopic> topic, wire::Sink::Client sink, std::size_t queue_limit,
             std::string label, const std::string& namespace_name,
             std::shared_ptr<QueueBudget> budget = nullptr);
-  Forwarder(const Forwarder&) = delete;
-  Forwarder& operator=(const Forwarder&) = delete;
-  ~Forwarder();
+  /// noexcept as its base's: kj's handles it holds are declared to throw from their destructors
+  /// so that kj can report a bug; none is expected here, and one would end the process.
+  ~Forwarder() noexcept override;
 
-  /// Sends until the sink fails (the peer dropped it, or the connection ended).
+  /// Sends until the sink fails (the peer dropped it, or the connection ended); where the event
+  /// loop waits on the topic, reads it from here on as well. Called once.
   kj::Promise<void> run();
   std::uint64_t sent() const noexcept { return counts_->sent.load(); }
   std::uint64_t dropped() const noexcept { return counts_->dropped.load(); }
@@ -154,42 +167,60 @@ class Forwarder {
     std::uint64_t sequence;
     std::vector<std::byte> bytes;
   };
+  /// The reader thread's loop: waits on the topic (the one place that does), then takes what
+  /// else is there.
   void read_loop();
+  /// The event loop's reader: takes what the topic holds, then arms the watch and waits for
+  /// its descriptor; again when it turns readable. Ends only by throwing (the kernel refused a
+  /// wait, no memory for a frame), which ends the stream.
+  kj::Promise<void> watch_topic();
+  /// Queues the frames the topic holds now, without waiting, at most a ring's worth (a
+  /// publisher faster than the copying does not keep the reader here); whether it took all.
+  bool take_waiting();
+  /// Queues `frame` for the event loop, dropping what the queue limit and the budget want.
+  void queue(const bridge::Frame& frame);
+  /// Counts as dropped what the source lost since this was last called; with mutex_ held when a
+  /// frame is queued after those (a message taken off the queue goes with the drops before it).
+  void count_lost();
   void report_drops();
   /// Drops the oldest queued message; with mutex_ held.
   void drop_oldest();
+  /// Sends the queued messages, waiting for the reader when there are none.
+  kj::Promise<void> send_queued();
+  /// Resolves once the reader queued a message after send_queued() set waiting_.
+  kj::Promise<void> reader_queued();
 
-  std::unique_ptr<RawTopic> topic_;
-  /// Set for a pool-backed type.
-  std::unique_ptr<PoolFrames> frames_;
+  bridge::FrameSource source_;
   wire::Sink::Client sink_;
   std::size_t queue_limit_;
   std::string label_;
   std::shared_ptr<QueueBudget> budget_;
   std::mutex mutex_;
   std::deque<Queued> queue_;
-  /// Written by the reader thread when the event loop waits for its next message (`waiting_`),
-  /// and watched by the loop.
+  /// The event loop's wait on the topic; null where a reader thread waits instead.
+  std::unique_ptr<bridge::TopicWatch> watch_;
+  /// The reader thread's: written when the event loop waits for its next message (`waiting_`).
   kj::AutoCloseFd wake_;
-  kj::UnixEventPort::FdObserver wake_observer_;
+  /// Watches watch_'s descriptor (event loop reader) or wake_ (reader thread).
+  kj::UnixEventPort::FdObserver observer_;
+  /// The event loop reader's: fulfilled when send_queued() waits for its next message.
+  kj::Own<kj::PromiseFulfiller<void>> queued_;
   bool waiting_ = false;
-  std::atomic<bool> stopping_{false};
   std::shared_ptr<StreamCounts> counts_ = std::make_shared<StreamCounts>();
-  /// The reader thread's: the topic's count of messages it lost as read last; what
-  /// report_drops() said last, and when.
+  /// The reader's: the source's count of messages it lost as counted last; what report_drops()
+  /// said last, and when.
   std::uint64_t lost_ = 0;
   std::uint64_t reported_drops_ = 0;
   std::chrono::steady_clock::time_point last_report_{};
-  /// Last: started once everything it reads is there.
-  std::thread reader_;
 };
 
 /// Where a horus-remote process of `namespace_name` says how its streams are doing (`horus remote
 /// status` reads it): $XDG_RUNTIME_DIR/horus-remote/, else /tmp/horus-remote-UID/, one
 /// NAMESPACE.PID.json per process.
 std::string status_path(const std::string& namespace_name);
-/// Writes the status file of this process (`role`: serve or connect): every live Forwarder's
-/// label, messages sent and dropped. Replaced whole (a reader never sees half of it).
+/// Writes the status file of this process (`role`: serve or connect): how its Forwarders wait
+/// on their topics (topic_wait(): event_loop or reader_thread), every live Forwarder's label,
+/// messages sent and dropped. Replaced whole (a reader never sees half of it).
 void write_status(const std::string& path, const char* role);
 
 /// Writes what a peer streams into a local topic: POD messages of exactly the type's size,
@@ -221,15 +252,8 @@ class TopicSink final : public wire::Sink::Server {
   std::uint64_t dropped_ = 0;
 };
 
-/// The certificate folder of `horus remote keygen`: DIR/ca.crt and DIR/NAME.{crt,key}.
-struct Credentials {
-  kj::TlsCertificate authority;
-  kj::TlsKeypair own;
-};
-/// Throws std::runtime_error naming the missing or unreadable file.
-Credentials load_credentials(const std::string& folder, const std::string& name);
-/// Mutual TLS trusting only the folder's CA: a peer must present a certificate it signed.
-kj::Own<kj::TlsContext> tls_context(const Credentials& credentials, kj::Timer& timer);
+/// A peer that connects but never finishes the TLS handshake is dropped after this.
+constexpr auto kHandshakeTimeout = 10 * kj::SECONDS;
 
 /// "HOST:PORT" of a peer's stream, or of its TLS connection's underlying one.
 std::string address_of(kj::PeerIdentity& identity);

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "policy.hpp"
+#include "horus/bridge/peer_policy.hpp"
 
 namespace horus::remote {
 
@@ -24,7 +24,7 @@ struct ServeOptions {
   std::string certs;
   std::string name;
   std::string namespace_name;
-  Policy policy;
+  bridge::PeerPolicy policy;
   bool insecure = false;
 };
 

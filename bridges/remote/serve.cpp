@@ -10,12 +10,15 @@
 #include <set>
 
 #include "horus/bridge/identity.hpp"
+#include "horus/bridge/peer_policy.hpp"
 #include "horus/service_registry.hpp"
 #include "link.hpp"
 #include "remote.hpp"
 #include "services.hpp"
 
 namespace horus::remote {
+
+using bridge::Access;
 
 namespace {
 
@@ -539,7 +542,7 @@ class SessionImpl final : public wire::Session::Server {
   /// `info`'s topic, for the peer to `what`.
   std::unique_ptr<RawTopic> opened(const std::string& what, const TopicInfo& info) const {
     try {
-      return open_topic(info, options_.namespace_name);
+      return RawTopic::open_recorded(info, options_.namespace_name);
     } catch (const std::exception& e) {
       refused("cannot open", what, e.what());
     }
@@ -621,21 +624,10 @@ class Server final : public kj::TaskSet::ErrorHandler {
 
   /// What a failed TLS handshake says of the peer, from OpenSSL's reason.
   std::string handshake_failure(const std::string& why) const {
-    const auto says = [&why](const char* text) { return why.find(text) != std::string::npos; };
-    if (says("peer did not return a certificate")) return "it presented no certificate";
-    if (says("certificate verify failed")) {
-      return "its certificate does not verify against our CA";
-    }
-    // The peer's alerts: it did not accept our certificate.
-    if (says("alert unknown ca")) return "it does not trust our CA: its ca.crt is another's";
-    if (says("alert bad certificate") || says("alert certificate unknown")) {
-      return "it did not accept our certificate, named '" + options_.name +
-             "': a peer that connects by address needs --server-name " + options_.name;
-    }
-    if (says("wrong version number") || says("http request") || says("packet length too long")) {
-      return "it does not speak TLS: a peer run with --insecure?";
-    }
-    return "its TLS handshake failed";
+    return bridge::handshake_failure(
+        why, {.server_name = options_.name,
+              .expect_name = "a peer that connects by address needs --server-name " + options_.name,
+              .plain_client = "a peer run with --insecure?"});
   }
 
   kj::Promise<void> serve(kj::AuthenticatedStream peer, const std::string& address) {
@@ -729,7 +721,7 @@ class Server final : public kj::TaskSet::ErrorHandler {
 int serve(const ServeOptions& options) {
   EventLoop loop;
   kj::Own<kj::TlsContext> tls;
-  kj::Maybe<Credentials> credentials;
+  kj::Maybe<bridge::TlsCredentials> credentials;
   if (options.policy.empty()) {
     say("WARNING: no --allow or --policy rule: every peer will be refused");
   }
@@ -737,8 +729,9 @@ int serve(const ServeOptions& options) {
     say("WARNING: --insecure: plain TCP, no authentication, no encryption; every peer is '%s'",
         kInsecurePeer);
   } else {
-    credentials = load_credentials(options.certs, options.name);
-    tls = tls_context(KJ_ASSERT_NONNULL(credentials), loop.io.provider->getTimer());
+    credentials = bridge::load_tls_credentials(options.certs, options.name);
+    tls = bridge::tls_context(KJ_ASSERT_NONNULL(credentials), loop.io.provider->getTimer(),
+                              kHandshakeTimeout);
   }
   auto address =
       loop.io.provider->getNetwork().parseAddress(options.listen).wait(loop.io.waitScope);
@@ -747,6 +740,7 @@ int serve(const ServeOptions& options) {
   Server server(options, kj::mv(listener),
                 tls ? kj::Maybe<kj::TlsContext&>(*tls) : kj::Maybe<kj::TlsContext&>(nullptr),
                 loop.io.provider->getTimer());
+  say("%s", describe_topic_wait().c_str());
   std::printf("serving namespace %s on port %u\n", options.namespace_name.c_str(), port);
   std::fflush(stdout);
   loop.run_until_stopped(server.accept_next(), options.namespace_name, "serve");

@@ -2,9 +2,8 @@
 
 #include <unistd.h>
 
-#include <charconv>
-#include <cstring>
-#include <thread>
+#include <memory>
+#include <span>
 #include <utility>
 
 #include "zero_message.hpp"
@@ -20,8 +19,6 @@ TopicOptions namespace_options(const std::string& namespace_name) {
   options.namespace_name = namespace_name;
   return options;
 }
-
-std::string response_topic(const std::string& service) { return service + ".response"; }
 
 /// Why a failed call's caller is not answered: no reply topic, and no type to make it with.
 constexpr const char* kUntold =
@@ -41,27 +38,21 @@ ServiceError failure_of(Kind kind, std::string text) {
   }
 }
 
+/// The kind a robot's caller gave up with, as the link carries it.
+Kind kind_of(ServiceErrorKind failure) {
+  switch (failure) {
+    case ServiceErrorKind::NoServer:
+      return Kind::NO_SERVER;
+    case ServiceErrorKind::Timeout:
+      return Kind::TIMEOUT;
+    default:
+      return Kind::TRANSPORT;
+  }
+}
+
 }  // namespace
 
 bool is_service_topic(const TopicInfo& info) { return is_service_type(info.type_name); }
-
-std::optional<TopicInfo> reply_topic_type(const std::string& service,
-                                          const std::string& namespace_name,
-                                          std::optional<std::uint64_t> index) {
-  const std::string prefix = response_topic(service) + ".";
-  for (TopicInfo& info : list_topics(namespace_name)) {
-    const std::string_view name = info.name;
-    if (info.type_name.empty() || !info.error.empty() || !name.starts_with(prefix)) continue;
-    const std::string_view suffix = name.substr(prefix.size());
-    std::uint64_t number = 0;
-    const auto [end, error] = std::from_chars(suffix.data(), suffix.data() + suffix.size(), number);
-    if (error == std::errc() && end == suffix.data() + suffix.size() && !suffix.empty() &&
-        (!index || *index == number)) {
-      return std::move(info);
-    }
-  }
-  return std::nullopt;
-}
 
 std::vector<std::byte> failure_frame(const TopicInfo& frame_type, std::uint64_t client_id,
                                      std::uint64_t request_id, const ServiceError& failure) {
@@ -75,143 +66,30 @@ std::vector<std::byte> failure_frame(const TopicInfo& frame_type, std::uint64_t 
 
 ServiceRelay::ServiceRelay(const std::string& service, const TopicInfo& request,
                            std::optional<TopicInfo> response, const std::string& namespace_name)
-    : service_(service),
-      namespace_(namespace_name),
-      client_id_(new_service_endpoint_id()),
-      reply_index_(free_service_reply_index(response_topic(service), namespace_name)),
-      requests_(open_topic(request, namespace_name)),
-      response_(response ? std::move(response) : reply_topic_type(service, namespace_name)),
-      replies_(open_replies(response_)),
-      registration_(service, namespace_options(namespace_name)),
-      worker_([this] { work(); }) {}
-
-ServiceRelay::~ServiceRelay() {
-  stopping_.store(true);
-  wake_.notify_one();
-  worker_.join();
-}
+    : caller_(service, request, std::move(response), namespace_name, " on the robot",
+              [namespace_name](const TopicInfo& info) {
+                return RawTopic::open_recorded(info, namespace_name);
+              }) {}
 
 kj::Promise<ServiceRelay::Outcome> ServiceRelay::call(std::vector<std::byte> frame,
                                                       std::chrono::milliseconds timeout) {
   auto outcome = std::make_shared<Outcome>();
   auto done = kj::newPromiseAndCrossThreadFulfiller<void>();
-  {
-    std::lock_guard lock(mutex_);
-    jobs_.push_back(Job{std::move(frame), timeout, outcome, kj::mv(done.fulfiller)});
-  }
-  wake_.notify_one();
+  // Shared: a std::function is copyable, the fulfiller is not.
+  auto fulfiller =
+      std::make_shared<kj::Own<kj::CrossThreadPromiseFulfiller<void>>>(kj::mv(done.fulfiller));
+  caller_.call(std::move(frame), timeout,
+               [outcome, fulfiller](bridge::LocalServiceCaller::Outcome called) {
+                 outcome->response_type = std::move(called.response_type);
+                 if (called.answer) {
+                   outcome->answer = std::move(*called.answer);
+                 } else {
+                   outcome->kind = kind_of(called.answer.error().kind());
+                   outcome->failure = called.answer.error().message();
+                 }
+                 (*fulfiller)->fulfill();
+               });
   return done.promise.then([outcome]() { return std::move(*outcome); });
-}
-
-std::unique_ptr<RawTopic> ServiceRelay::open_replies(const std::optional<TopicInfo>& frames) {
-  if (!frames) return nullptr;
-  TopicInfo reply = *frames;
-  reply.name = service_reply_topic(response_topic(service_), reply_index_);
-  return open_topic(reply, namespace_);
-}
-
-void ServiceRelay::work() {
-  // A subscriber now: free_reply_index counts the index as taken.
-  if (replies_) replies_->try_recv();
-  for (;;) {
-    Job job;
-    {
-      std::unique_lock lock(mutex_);
-      wake_.wait(lock, [&] { return stopping_.load() || !jobs_.empty(); });
-      if (stopping_.load()) return;
-      job = std::move(jobs_.front());
-      jobs_.pop_front();
-    }
-    *job.outcome = ask(job);
-    job.outcome->response_type = response_;
-    job.done->fulfill();
-  }
-}
-
-// The kinds and texts of a local client's, naming the robot.
-std::optional<ServiceRelay::Outcome> ServiceRelay::server_missing(std::uint64_t instance) {
-  const std::optional<ServiceRegistration> current = registration_.latest();
-  if (!current || current->server_pid == 0) {
-    return Outcome{{},
-                   Kind::TRANSPORT,
-                   "the server of " + service_ + " on the robot stopped before answering"};
-  }
-  if (current->server_instance != instance) {
-    return Outcome{
-        {},
-        Kind::TRANSPORT,
-        "the server of " + service_ + " on the robot was restarted; the request was lost"};
-  }
-  if (service_server_gone(current->server_pid)) {
-    return Outcome{{},
-                   Kind::TRANSPORT,
-                   "the server of " + service_ + " on the robot (pid " +
-                       std::to_string(current->server_pid) + ") died before answering"};
-  }
-  return std::nullopt;
-}
-
-ServiceRelay::Outcome ServiceRelay::ask(const Job& job) {
-  const std::optional<ServiceRegistration> current = registration_.latest();
-  if (!current || current->server_pid == 0) {
-    return {{}, Kind::NO_SERVER, "no server for " + service_ + " on the robot"};
-  }
-  if (service_server_gone(current->server_pid)) {
-    return {{},
-            Kind::TRANSPORT,
-            "the server of " + service_ + " on the robot (pid " +
-                std::to_string(current->server_pid) + ") died"};
-  }
-  const std::uint64_t request_id = ++last_request_;
-  const std::array<std::uint64_t, 3> ids{client_id_, request_id, reply_index_};
-  if (!requests_->send(with_service_frame_ids(job.frame, requests_->type().is_pod, ids))) {
-    return {
-        {}, Kind::TRANSPORT, "the robot's request topic of " + service_ + " refused the request"};
-  }
-  const auto deadline = std::chrono::steady_clock::now() + job.timeout;
-  for (;;) {
-    const auto now = std::chrono::steady_clock::now();
-    if (now >= deadline || stopping_.load()) {
-      return {{},
-              Kind::TIMEOUT,
-              "no answer from " + service_ + " on the robot within " +
-                  std::to_string(job.timeout.count()) + " ms"};
-    }
-    const auto wait =
-        std::min<std::chrono::nanoseconds>(deadline - now, kServiceServerCheckInterval);
-    if (!replies_) {
-      // The server makes the reply topic as it answers, the answer then its newest message.
-      if (std::optional<TopicInfo> made = reply_topic_type(service_, namespace_, reply_index_)) {
-        response_ = std::move(made);
-        replies_ = open_replies(response_);
-        if (auto answered = answer(replies_->read_latest(), request_id)) {
-          return std::move(*answered);
-        }
-      } else if (auto missing = server_missing(current->server_instance)) {
-        return std::move(*missing);
-      } else {
-        std::this_thread::sleep_for(wait);
-      }
-      continue;
-    }
-    const std::ptrdiff_t size = replies_->recv(wait);
-    if (size >= 0) {
-      if (auto answered = answer(size, request_id)) return std::move(*answered);
-    } else if (auto missing = server_missing(current->server_instance)) {
-      return std::move(*missing);
-    }
-  }
-}
-
-std::optional<ServiceRelay::Outcome> ServiceRelay::answer(std::ptrdiff_t size,
-                                                          std::uint64_t request_id) {
-  if (size < 0) return std::nullopt;
-  const std::span<std::byte> reply = replies_->received(static_cast<std::size_t>(size));
-  const auto answered = service_frame_ids(reply, replies_->type().is_pod);
-  if (!answered || (*answered)[0] != client_id_ || (*answered)[1] != request_id) {
-    return std::nullopt;
-  }
-  return Outcome{std::vector<std::byte>(reply.begin(), reply.end()), Kind::NONE, {}};
 }
 
 ServiceMirror::ServiceMirror(wire::ServiceInfo::Reader info, const std::string& namespace_name,
@@ -285,12 +163,11 @@ ServiceMirror::Reply* ServiceMirror::reply_topic(std::uint64_t index) {
   if (const auto known = replies_.find(index); known != replies_.end()) return &known->second;
   std::optional<TopicInfo> info = reply_topic_type(service_, namespace_name_, index);
   if (!info && response_) {  // made as the server makes it when it answers
-    info = response_;
-    info->name = service_reply_topic(response_topic(service_), index);
+    info = bridge::reply_topic_info(service_, *response_, index);
   }
   if (!info) return nullptr;
   try {
-    auto topic = open_topic(*info, namespace_name_);
+    auto topic = RawTopic::open_recorded(*info, namespace_name_);
     learn(*info);
     return &replies_.emplace(index, Reply{std::move(*info), std::move(topic)}).first->second;
   } catch (const std::exception& e) {

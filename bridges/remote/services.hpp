@@ -5,19 +5,16 @@
 #pragma once
 
 #include <array>
-#include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <cstdint>
-#include <deque>
 #include <map>
 #include <memory>
 #include <optional>
-#include <span>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "horus/bridge/service_relay.hpp"
 #include "horus/raw_service.hpp"
 #include "horus/raw_topic.hpp"
 #include "horus/topic.hpp"
@@ -28,12 +25,7 @@ namespace horus::remote {
 /// Whether a topic carries a service's frames or registration rather than messages of its own.
 bool is_service_topic(const TopicInfo& info);
 
-/// A reply topic of `service` in the namespace that has its type (`index`: that one, else any):
-/// what the service's response frames are. None before a server answered there, or a typed
-/// client opened one (a server makes a client's reply topic as it answers it).
-std::optional<TopicInfo> reply_topic_type(const std::string& service,
-                                          const std::string& namespace_name,
-                                          std::optional<std::uint64_t> index = std::nullopt);
+using bridge::reply_topic_type;
 
 /// The response frame a server elsewhere would have sent to say it gave no answer: `failure`
 /// of kind NoServer, Timeout or Transport (its text cut as a POD frame cuts it). `frame_type` is
@@ -42,19 +34,13 @@ std::optional<TopicInfo> reply_topic_type(const std::string& service,
 std::vector<std::byte> failure_frame(const TopicInfo& frame_type, std::uint64_t client_id,
                                      std::uint64_t request_id, const ServiceError& failure);
 
-/// The robot's end of one service for one peer: a thread that sends each request to the live
-/// server and waits for its answer on a reply topic of its own. Until the type of the response
-/// frames is known (from the peer, or a typed reply topic here) that topic is the one the
-/// server makes as it answers, found the way `horus service call` finds it.
+/// The robot's end of one service for one peer: bridge::LocalServiceCaller's frames, each call's
+/// outcome a promise on the event loop that asked.
 class ServiceRelay {
  public:
   /// The server's response frame, or why there is none (`kind` none: answered); the type of the
   /// response frames when known (always with an answer).
   struct Outcome {
-    Outcome() = default;
-    Outcome(std::vector<std::byte> frame, wire::CallFailure::Kind why, std::string text)
-        : answer(std::move(frame)), kind(why), failure(std::move(text)) {}
-
     std::vector<std::byte> answer;
     wire::CallFailure::Kind kind = wire::CallFailure::Kind::NONE;
     std::string failure;
@@ -64,45 +50,12 @@ class ServiceRelay {
   /// `response`: the type of the response frames, when the peer knows it.
   ServiceRelay(const std::string& service, const TopicInfo& request,
                std::optional<TopicInfo> response, const std::string& namespace_name);
-  ServiceRelay(const ServiceRelay&) = delete;
-  ServiceRelay& operator=(const ServiceRelay&) = delete;
-  ~ServiceRelay();
 
   /// The server's response frame to `frame`, or why there is none.
   kj::Promise<Outcome> call(std::vector<std::byte> frame, std::chrono::milliseconds timeout);
 
  private:
-  struct Job {
-    std::vector<std::byte> frame;
-    std::chrono::milliseconds timeout{};
-    /// Written by the worker before it says done.
-    std::shared_ptr<Outcome> outcome;
-    kj::Own<kj::CrossThreadPromiseFulfiller<void>> done;
-  };
-  void work();
-  Outcome ask(const Job& job);
-  /// The answer to `request_id` in the reply just received (`size` bytes), if it is one.
-  std::optional<Outcome> answer(std::ptrdiff_t size, std::uint64_t request_id);
-  std::optional<Outcome> server_missing(std::uint64_t instance);
-  /// Opens the reply topic of this relay with the type of `frames`.
-  std::unique_ptr<RawTopic> open_replies(const std::optional<TopicInfo>& frames);
-
-  std::string service_;
-  std::string namespace_;
-  std::uint64_t client_id_;
-  std::uint64_t reply_index_;
-  std::unique_ptr<RawTopic> requests_;
-  /// The type of the response frames, once known; the reply topic, open from then on.
-  std::optional<TopicInfo> response_;
-  std::unique_ptr<RawTopic> replies_;
-  ServiceRegistrationTopic registration_;
-  std::uint64_t last_request_ = 0;
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  std::deque<Job> jobs_;
-  std::atomic<bool> stopping_{false};
-  /// Last: started once everything it uses is there.
-  std::thread worker_;
+  bridge::LocalServiceCaller caller_;
 };
 
 /// The peer's end of one of the robot's services: registered as its server in the local

@@ -23,8 +23,9 @@ int main(int argc, char** argv) {
     return 2;
   }
   auto io = kj::setupAsyncIo();
-  const auto credentials = horus::remote::load_credentials(argv[2], "laptop");
-  auto tls = horus::remote::tls_context(credentials, io.provider->getTimer());
+  const auto credentials = horus::bridge::load_tls_credentials(argv[2], "laptop");
+  auto tls = horus::bridge::tls_context(credentials, io.provider->getTimer(),
+                                        horus::remote::kHandshakeTimeout);
   auto address = io.provider->getNetwork()
                      .parseAddress(std::string("127.0.0.1:") + argv[1])
                      .wait(io.waitScope);

@@ -61,8 +61,8 @@ int main(int argc, char** argv) {
   const std::string topic = argv[3];
   auto io = kj::setupAsyncIo();
   kj::Timer& timer = io.provider->getTimer();
-  const auto credentials = horus::remote::load_credentials(argv[2], "laptop");
-  auto tls = horus::remote::tls_context(credentials, timer);
+  const auto credentials = horus::bridge::load_tls_credentials(argv[2], "laptop");
+  auto tls = horus::bridge::tls_context(credentials, timer, horus::remote::kHandshakeTimeout);
   auto address = io.provider->getNetwork()
                      .parseAddress(std::string("127.0.0.1:") + argv[1])
                      .wait(io.waitScope);

@@ -38,7 +38,6 @@ namespace {
 
 using namespace horus::msg;
 
-
 std::uint64_t fnv1a64(const std::vector<std::uint8_t>& bytes) {
   std::uint64_t hash = 0xcbf29ce484222325ULL;
   for (std::uint8_t b : bytes) {

@@ -148,6 +148,45 @@ TEST(ServiceRawFrames, APayloadDescriptionOfAnotherTypeIsRefused) {
   EXPECT_THROW(horus::service_frame_type(payload, false), horus::TypeDescriptionError);
 }
 
+// The frames' identity as a reply topic records it, read back into the payload's: POD and
+// serialized, requests and responses.
+template <class Payload>
+void expect_payload_read_back(bool response) {
+  const horus::TypeIdentity payload = horus::type_identity<Payload>();
+  const horus::TypeIdentity read =
+      horus::service_payload_type(horus::service_frame_type(payload, response), response);
+  EXPECT_EQ(read.name, payload.name);
+  EXPECT_EQ(read.fingerprint, payload.fingerprint);
+  EXPECT_EQ(read.schema, payload.schema);
+  EXPECT_EQ(read.is_pod, payload.is_pod);
+  EXPECT_EQ(read.size, payload.is_pod ? payload.size : 0U);
+  EXPECT_EQ(read.alignment, payload.is_pod ? payload.alignment : 1U);
+  EXPECT_EQ(horus::TypeDescription::decode(read.description).encode(),
+            horus::TypeDescription::decode(payload.description).encode());
+}
+
+TEST(ServiceRawFrames, GiveTheirPayloadTypeBack) {
+  expect_payload_read_back<ComputeRequest>(false);
+  expect_payload_read_back<ComputeResponse>(true);
+  expect_payload_read_back<EchoRequest>(false);
+  expect_payload_read_back<EchoResponse>(true);
+}
+
+TEST(ServiceRawFrames, WhatIsNotTheirFramesGivesNoPayloadType) {
+  const horus::TypeIdentity requests =
+      horus::service_frame_type(horus::type_identity<EchoRequest>(), false);
+  EXPECT_THROW(horus::service_payload_type(requests, true), horus::Error);  // not responses
+  EXPECT_THROW(horus::service_payload_type(horus::type_identity<EchoRequest>(), false),
+               horus::Error);
+  horus::TypeIdentity forged = requests;
+  forged.fingerprint ^= 1;
+  EXPECT_THROW(horus::service_payload_type(forged, false), horus::Error);
+  forged = requests;
+  forged.description =
+      horus::service_frame_type(horus::type_identity<ComputeRequest>(), false).description;
+  EXPECT_THROW(horus::service_payload_type(forged, false), horus::Error);
+}
+
 TEST(ServiceRawFrames, AreTheTypedFrames) {
   using horus::detail::ServiceRequestFrame;
   using horus::detail::ServiceResponseFrame;

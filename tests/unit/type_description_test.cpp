@@ -578,7 +578,6 @@ void check_standard_types(TypeList<Ts...>) {
   (check_standard_type<Ts>(), ...);
 }
 
-
 /// Writes back what the walk reports as MessagePack, knowing only the TypeRefs it is given: the
 /// bytes equal msgpack-cxx's packing of the same value when every value and type arrived.
 class Repacker final : public horus::MessageVisitor {

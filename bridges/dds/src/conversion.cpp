@@ -1,6 +1,7 @@
 #include "horus/dds/conversion.hpp"
 
 #include <stdexcept>
+#include <string>
 #include <utility>
 
 namespace horus::dds_bridge {
@@ -48,16 +49,12 @@ class PoolConversion final : public Conversion {
   PoolConversion(CdrPlan plan, std::unique_ptr<PoolFrames> frames)
       : plan_(std::move(plan)), frames_(std::move(frames)) {}
 
-  void to_dds(std::span<const std::byte> message, std::vector<std::byte>& sample) override {
-    const std::size_t size =
-        frames_->record(message.data(), message.size(), [this](std::size_t wanted) {
-          recorded_.resize(wanted);
-          return reinterpret_cast<std::uint8_t*>(recorded_.data());
-        });
-    if (size == 0) {
-      throw std::runtime_error("its pool block was freed or reused before the bridge read it");
+  void to_dds(std::span<const std::byte> frame, std::vector<std::byte>& sample) override {
+    if (frame.size() < plan_.pod_size()) {
+      throw std::invalid_argument("a frame of " + std::to_string(frame.size()) +
+                                  " bytes is shorter than its descriptor's " +
+                                  std::to_string(plan_.pod_size()));
     }
-    const std::span<const std::byte> frame(recorded_.data(), size);
     plan_.encode(frame.data(), sample, frame.subspan(plan_.pod_size()));
   }
 
@@ -80,8 +77,8 @@ class PoolConversion final : public Conversion {
 
  private:
   CdrPlan plan_;
-  std::unique_ptr<PoolFrames> frames_;
-  std::vector<std::byte> recorded_;  // a frame: the descriptor, then its block's data
+  std::unique_ptr<PoolFrames> frames_;  // makes the imported frames again
+  std::vector<std::byte> recorded_;     // a frame: the descriptor, then its block's data
   std::vector<std::byte> data_;
 };
 

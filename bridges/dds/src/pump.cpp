@@ -1,5 +1,7 @@
 #include "horus/dds/pump.hpp"
 
+#include <memory>
+#include <optional>
 #include <stdexcept>
 #include <utility>
 
@@ -8,16 +10,23 @@
 namespace horus::dds_bridge {
 namespace {
 
-RawTopic open_local(const LocalTopic& local) {
+TopicOptions options_of(const LocalTopic& local) {
   TopicOptions options;
   options.capacity = local.capacity;
   options.max_message_size = local.max_message_size;
   options.namespace_name = local.namespace_name;
   options.single_publisher = local.single_publisher;
-  return {local.name,
-          TypeIdentity{local.type_name, local.fingerprint, local.schema, local.is_pod,
-                       local.is_pod ? local.size : 0, local.alignment, local.description},
-          options};
+  return options;
+}
+
+TypeIdentity type_of(const LocalTopic& local) {
+  return {
+      local.type_name, local.fingerprint, local.schema, local.is_pod, local.is_pod ? local.size : 0,
+      local.alignment, local.description};
+}
+
+RawTopic open_local(const LocalTopic& local) {
+  return {local.name, type_of(local), options_of(local)};
 }
 
 }  // namespace
@@ -92,7 +101,8 @@ ExportPump::ExportPump(const LocalTopic& local, std::unique_ptr<Conversion> conv
                        dds_entity_t writer, const ddsi_sertype* type, std::string dds_topic,
                        bool latched, std::string label, std::shared_ptr<void> keep_alive)
     : Forwarder(std::move(label), std::move(keep_alive)),
-      local_(open_local(local)),
+      local_(std::make_unique<RawTopic>(local.name, type_of(local), options_of(local)),
+             local.namespace_name),
       conversion_(std::move(conversion)),
       writer_(writer),
       type_(type),
@@ -104,21 +114,32 @@ ExportPump::ExportPump(const LocalTopic& local, std::unique_ptr<Conversion> conv
 void ExportPump::loop() {
   // A latched topic's last message, sent before this handle opened, is what a late joiner on DDS
   // should get; one that arrived since is taken below anyway.
-  if (latched_ && !local_.has_msg()) {
-    if (const std::ptrdiff_t size = local_.read_latest(); size >= 0) {
-      send_to_dds(static_cast<std::size_t>(size));
+  if (latched_ && !local_.topic().has_msg()) {
+    if (const std::optional<bridge::Frame> frame = local_.latest()) {
+      send_to_dds(frame->bytes);
     }
   }
   while (!stopping()) {
-    if (const std::ptrdiff_t size = local_.recv(kPoll); size >= 0) {
-      send_to_dds(static_cast<std::size_t>(size));
+    const std::optional<bridge::Frame> frame = local_.next(kPoll);
+    say_stale_frames();  // skipped before this frame
+    if (frame) {
+      send_to_dds(frame->bytes);
     }
   }
 }
 
-void ExportPump::send_to_dds(std::size_t size) {
+void ExportPump::say_stale_frames() {
+  for (; stale_said_ < local_.stale(); ++stale_said_) {
+    failed(
+        "a message does not encode as CDR: its pool block was freed or reused before the bridge "
+        "read it",
+        "dropped it");
+  }
+}
+
+void ExportPump::send_to_dds(std::span<const std::byte> frame) {
   try {
-    conversion_->to_dds(local_.received(size), sample_);
+    conversion_->to_dds(frame, sample_);
   } catch (const std::exception& error) {  // a message of another process that does not encode
     failed(std::string("a message does not encode as CDR: ") + error.what(), "dropped it");
     return;

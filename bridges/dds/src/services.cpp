@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "horus/bridge/identity.hpp"
+#include "horus/bridge/service_relay.hpp"
 #include "horus/dds/cdr_plan.hpp"
 #include "horus/dds/conversion.hpp"
 #include "horus/dds/user_data.hpp"
@@ -43,7 +44,7 @@ void say(const std::string& text) { line_to(STDOUT_FILENO, text); }
 void complain(const std::string& text) { line_to(STDERR_FILENO, "horus bridge: " + text); }
 
 // One line for a failure of a carried service, with its running count.
-void failed(const std::string& what, std::uint64_t& count, const std::string& why,
+void failed(const std::string& what, std::atomic<std::uint64_t>& count, const std::string& why,
             const std::string& then) {
   complain(what + ": " + why + " (failure " + std::to_string(++count) + " of it); " + then);
 }
@@ -190,29 +191,6 @@ TypeIdentity described_type(std::string description) {
   return out;
 }
 
-TypeIdentity frame_payload_type(const std::string& frame_topic, const std::string& description,
-                                const std::string& payload_name) {
-  TypeDescription frames = TypeDescription::decode(std::string_view(description));
-  // A frame's description is its payload's with the frame appended (the payload's user).
-  if (frames.messages.empty() || frames.messages.back().name != frames.root ||
-      frames.find_message(payload_name) == nullptr) {
-    throw std::runtime_error("its topic " + frame_topic + " does not describe frames of " +
-                             payload_name);
-  }
-  frames.messages.pop_back();
-  frames.root = payload_name;
-  const MessageType& message = frames.message(payload_name);
-  TypeIdentity out;
-  out.name = message.name;
-  out.fingerprint = message.fingerprint;
-  out.schema = message.schema;
-  out.is_pod = message.is_pod;
-  out.size = message.size;
-  out.alignment = message.is_pod ? message.alignment : 1;
-  out.description = frames.encode();
-  return out;
-}
-
 // -- export: a local server, called from DDS ----------------------------------------------------
 
 class ServiceRelays::Exported {
@@ -225,12 +203,12 @@ class ServiceRelays::Exported {
         response_(std::move(response)),
         request_type_(request_.dds_type(name, "Request_")),
         response_type_(response_.dds_type(name, "Response_")),
-        client_(raw_type(name, fingerprint, request_, response_), in_namespace(namespace_name)),
         reader_(participant, kRequestPrefix + name + "Request", TypeOnWire{request_type_, {}, {}},
                 qos, false),
         writer_(participant, kReplyPrefix + name + kReplySuffix, TypeOnWire{response_type_, {}, {}},
                 qos, service_user_data({name, fingerprint, request_.type, response_.type})),
-        timeout_(std::chrono::duration_cast<std::chrono::nanoseconds>(timeout)),
+        timeout_(std::chrono::ceil<std::chrono::milliseconds>(timeout)),
+        caller_(raw_type(name, fingerprint, request_, response_), namespace_name),
         thread_([this] { answer_calls(); }) {}
 
   ~Exported() {
@@ -249,7 +227,6 @@ class ServiceRelays::Exported {
   void answer_calls() {
     const std::string what = "service '" + name_ + "'";
     std::vector<std::byte> message;
-    std::vector<std::byte> cdr;
     while (!stopping_.load()) {
       std::vector<std::pair<dds_instance_handle_t, std::string>> received;
       try {
@@ -271,21 +248,29 @@ class ServiceRelays::Exported {
                  "dropped it");
           continue;
         }
-        std::vector<std::byte> reply;
-        ServiceResult<std::vector<std::byte>> answer = client_.call(message, timeout_);
-        try {
-          if (answer) {
-            response_.conversion->to_dds(*answer, cdr);
-            reply = with_header(cdr, request.caller, request.sequence);
-          } else {
-            reply = with_header(failure_body(answer.error().to_string()), request.caller,
-                                -request.sequence);
-          }
-          writer_.write(reply);
-        } catch (const std::exception& error) {
-          failed(what, failures_, error.what(), "the caller gets no reply");
-        }
+        caller_.call(message, timeout_,
+                     [this, caller = request.caller,
+                      sequence = request.sequence](bridge::LocalServiceCaller::Outcome called) {
+                       reply(called.answer, caller, sequence);
+                     });
       }
+    }
+  }
+
+  // On the caller's worker: the server's answer, or why there is none, to the DDS caller.
+  void reply(const ServiceResult<std::vector<std::byte>>& answer, std::uint64_t caller,
+             std::int64_t sequence) {
+    try {
+      std::vector<std::byte> sample;
+      if (answer) {
+        response_.conversion->to_dds(*answer, reply_cdr_);
+        sample = with_header(reply_cdr_, caller, sequence);
+      } else {
+        sample = with_header(failure_body(answer.error().to_string()), caller, -sequence);
+      }
+      writer_.write(sample);
+    } catch (const std::exception& error) {
+      failed("service '" + name_ + "'", failures_, error.what(), "the caller gets no reply");
     }
   }
 
@@ -294,11 +279,13 @@ class ServiceRelays::Exported {
   Payload response_;
   std::string request_type_;
   std::string response_type_;
-  RawServiceClient client_;
   Reader reader_;
   Writer writer_;
-  std::chrono::nanoseconds timeout_;
-  std::uint64_t failures_ = 0;
+  std::chrono::milliseconds timeout_;
+  std::atomic<std::uint64_t> failures_{0};
+  std::vector<std::byte> reply_cdr_;  // the worker's
+  // After what its worker's replies use, so it is stopped first.
+  bridge::LocalServiceCaller caller_;
   std::atomic<bool> stopping_{false};
   std::thread thread_;  // last: started once everything it uses is there
 };
@@ -517,8 +504,13 @@ void ServiceRelays::export_service(const std::string& name, const std::string& r
       undescribed = topic.name;
       continue;
     }
-    (requests ? request : response) =
-        frame_payload_type(topic.name, topic.description, requests ? request_type : response_type);
+    TypeIdentity payload = service_payload_type(type_identity_of(topic), !requests);
+    const std::string& registered = requests ? request_type : response_type;
+    if (payload.name != registered) {
+      throw std::runtime_error("its topic " + topic.name + " carries frames of " + payload.name +
+                               ", not of " + registered);
+    }
+    (requests ? request : response) = std::move(payload);
   }
   if (!request && lookup_) {
     request = lookup_(request_type);

@@ -90,6 +90,12 @@ struct ServiceCaller {
 /// of `<Service>.request` and `<Service>.response.<k>`, equal to the typed frames'.
 TypeIdentity service_frame_type(const TypeIdentity& payload, bool response);
 
+/// The payload type of a service's frames, read back from the frames' identity (a request
+/// topic's, or a reply topic's as its segment records it): what service_frame_type() was given,
+/// description included. Throws horus::Error naming `frames` when they are not a service's
+/// request (`response` false) or response frames.
+TypeIdentity service_payload_type(const TypeIdentity& frames, bool response);
+
 /// Whether a topic of this type carries a service's frames or registrations rather than
 /// messages of its own.
 bool is_service_type(std::string_view type_name) noexcept;

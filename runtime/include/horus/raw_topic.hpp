@@ -9,9 +9,12 @@
 // (pool_frames.hpp) turns them into bytes that stand alone and back.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -59,14 +62,43 @@ TypeIdentity type_identity() {
   return identity;
 }
 
+struct TopicInfo;
+
+/// The type a topic's segment records (a TopicInfo of list_topics()), as a TypeIdentity: what a
+/// tool or bridge opens the topic with when it knows the topic only by its segment.
+TypeIdentity type_identity_of(const TopicInfo& info);
+
+/// What a waiter outside the handle sleeps on until the topic has a message for it
+/// (RawTopic::begin_wait): an event loop's io_uring futex wait, futex_waitv beside other words.
+struct TopicWaitWord {
+  /// The topic's futex word, 32 bits in memory shared between processes: wait on it as a shared
+  /// futex (without FUTEX_PRIVATE_FLAG or FUTEX2_PRIVATE), which a publisher's FUTEX_WAKE reaches.
+  const std::atomic<std::uint32_t>* word;
+  /// The value to sleep on: the futex wait compares it, so a send since begin_wait (which
+  /// changed the word) ends the wait at once rather than being missed.
+  std::uint32_t expected;
+  /// Zero: a send wakes the sleeper. Otherwise a message already on its way may arrive without
+  /// a wake-up (a publisher that took its ticket before the announcement): sleep at most this
+  /// long, then end the wait and look again, as recv() does.
+  std::chrono::nanoseconds recheck_after;
+};
+
 class RawTopic {
  public:
   /// Opens (or creates) `name` for `type`; throws horus::Error as Topic<T> does (another type,
   /// a corrupt segment, no room).
   RawTopic(std::string name, TypeIdentity type, const TopicOptions& options);
+  /// Opens the topic `info` describes (a TopicInfo of list_topics(namespace_name)) with the type,
+  /// capacity and slot size its segment records; throws horus::Error as the constructor does
+  /// (the topic was recreated with another type meanwhile, ...).
+  static std::unique_ptr<RawTopic> open_recorded(const TopicInfo& info,
+                                                 const std::string& namespace_name);
   RawTopic(const RawTopic&) = delete;
   RawTopic& operator=(const RawTopic&) = delete;
-  ~RawTopic() { release_loan(); }
+  ~RawTopic() {
+    end_wait();
+    release_loan();
+  }
 
   const std::string& name() const noexcept { return name_; }
   const TypeIdentity& type() const noexcept { return type_; }
@@ -88,6 +120,20 @@ class RawTopic {
   std::ptrdiff_t try_recv() noexcept;
   /// As try_recv(), waiting up to `timeout` asleep on the topic's futex.
   std::ptrdiff_t recv(std::chrono::nanoseconds timeout) noexcept;
+  /// The first half of recv()'s slow path, for a waiter that sleeps by its own means (an event
+  /// loop): announces this handle as a sleeper, so that publishers wake the topic's futex, with
+  /// recv()'s barrier, then looks at the ring once more. Empty when there is something to read
+  /// now (try_recv() until it returns -1, then begin again); nothing stays announced then.
+  /// Otherwise sleep on the word, then call end_wait() and read: whatever a publisher commits
+  /// after this call either changes the word before the sleep (the wait returns at once) or
+  /// wakes it. Non-blocking, no allocation. A begin_wait() while one is begun ends that one
+  /// first; a handle waits once at a time, and not beside a recv() of its own.
+  std::optional<TopicWaitWord> begin_wait() noexcept;
+  /// Withdraws begin_wait()'s announcement once the sleep ended (woken, timed out, cancelled):
+  /// left in place, it would make every send pay a futex wake. Does nothing when none is held;
+  /// the destructor calls it.
+  void end_wait() noexcept;
+
   /// The newest message ever sent into the receive buffer; its size, or -1.
   std::ptrdiff_t read_latest() noexcept;
   /// What the last successful receive left (valid until the next receive).
@@ -114,6 +160,8 @@ class RawTopic {
   std::vector<std::byte> spare_;
   detail::Claim loan_{nullptr, 0, false, false};
   bool loaned_ = false;
+  /// A counted sleeper announcement of begin_wait() is held.
+  bool waiting_ = false;
 };
 
 }  // namespace horus

@@ -7,6 +7,7 @@ scheduler's lifetime, and in `horus bridge` (which runs it on its main thread).
 from __future__ import annotations
 
 import importlib
+import sys
 import threading
 
 from . import _core
@@ -86,10 +87,13 @@ class Network:
         except ImportError:
             raise RuntimeError("the DDS bridge needs horus._core.dds: this horus was built "
                                "without Cyclone DDS (Debian: cyclonedds-dev)") from None
-        print(f"bridge on DDS domain {self.domain}: exporting {self.export or 'nothing'}, "
-              f"importing {self.import_ or 'nothing'}; services: exporting "
-              f"{self.export_services or 'nothing'}, importing "
-              f"{self.import_services or 'nothing'}", flush=True)
+        # One write, line and newline together: under PYTHONUNBUFFERED print() writes them
+        # apart, and a line of another thread could land between.
+        sys.stdout.write(f"bridge on DDS domain {self.domain}: exporting "
+                         f"{self.export or 'nothing'}, importing {self.import_ or 'nothing'}; "
+                         f"services: exporting {self.export_services or 'nothing'}, importing "
+                         f"{self.import_services or 'nothing'}\n")
+        sys.stdout.flush()
         bridge = _dds.DdsBridge(
             namespace, self.export, self.import_, self.domain, self.reliable, self.depth,
             self.transient_local, list(self.deadlines.items()), self.accept_untyped_writers,

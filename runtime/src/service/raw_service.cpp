@@ -14,6 +14,7 @@
 #include "horus/detail/service_frame.hpp"
 #include "horus/error.hpp"
 #include "horus/presence.hpp"
+#include "horus/type_description.hpp"
 
 namespace horus {
 
@@ -204,6 +205,40 @@ TypeIdentity service_frame_type(const TypeIdentity& payload, bool response) {
     frame.size = aligned(aligned(head, payload.alignment) + payload.size, alignment);
   }
   return frame;
+}
+
+TypeIdentity service_payload_type(const TypeIdentity& frames, bool response) {
+  const std::string_view prefix = response ? detail::kResponseFrameName : detail::kRequestFrameName;
+  const std::string what = std::string(response ? "response" : "request") + " frames";
+  if (!frames.name.starts_with(prefix) || !frames.name.ends_with('>') ||
+      frames.name.size() <= prefix.size() + 1) {  // the prefix ends with '<'
+    throw Error(frames.name + " is not a service's " + what);
+  }
+  const std::string payload_name =
+      frames.name.substr(prefix.size(), frames.name.size() - prefix.size() - 1);
+  // A frame's description is its payload's with the frame type appended as the root.
+  TypeDescription description = TypeDescription::decode(frames.description);
+  if (description.messages.empty() || description.messages.back().name != frames.name ||
+      description.find_message(payload_name) == nullptr) {
+    throw Error("the description of " + frames.name + " does not describe " + what + " of " +
+                payload_name);
+  }
+  description.messages.pop_back();
+  description.root = payload_name;
+  const MessageType& message = description.message(payload_name);
+  TypeIdentity payload;
+  payload.name = message.name;
+  payload.fingerprint = message.fingerprint;
+  payload.schema = message.schema;
+  payload.is_pod = message.is_pod;
+  payload.size = message.is_pod ? message.size : 0;
+  payload.alignment = message.is_pod ? std::max<std::size_t>(message.alignment, 1) : 1;
+  payload.description = description.encode();
+  if (service_frame_type(payload, response).fingerprint != frames.fingerprint) {
+    throw Error(frames.name + " (fingerprint " + std::to_string(frames.fingerprint) +
+                ") are not the " + what + " its description's " + payload_name + " makes");
+  }
+  return payload;
 }
 
 bool is_service_type(std::string_view type_name) noexcept {

@@ -4,8 +4,29 @@
 #include <utility>
 
 #include "horus/detail/message_count.hpp"
+#include "horus/topic_registry.hpp"
 
 namespace horus {
+
+TypeIdentity type_identity_of(const TopicInfo& info) {
+  TypeIdentity identity;
+  identity.name = info.type_name;
+  identity.fingerprint = info.fingerprint;
+  identity.schema = info.schema;
+  identity.is_pod = info.is_pod;
+  identity.size = info.is_pod ? info.max_message_size : 0;
+  identity.description = info.description;
+  return identity;
+}
+
+std::unique_ptr<RawTopic> RawTopic::open_recorded(const TopicInfo& info,
+                                                  const std::string& namespace_name) {
+  TopicOptions options;
+  options.capacity = info.capacity;
+  options.max_message_size = info.max_message_size;
+  options.namespace_name = namespace_name;
+  return std::make_unique<RawTopic>(info.name, type_identity_of(info), options);
+}
 
 RawTopic::RawTopic(std::string name, TypeIdentity type, const TopicOptions& options)
     : name_(std::move(name)),
@@ -102,6 +123,24 @@ std::ptrdiff_t RawTopic::recv(std::chrono::nanoseconds timeout) noexcept {
     return got >= 0;
   });
   return got;
+}
+
+std::optional<TopicWaitWord> RawTopic::begin_wait() noexcept {
+  end_wait();
+  const auto announcement = endpoint_.announce_wait();
+  if (!announcement) {
+    return std::nullopt;
+  }
+  waiting_ = announcement->counted;
+  return TopicWaitWord{&endpoint_.ring().control->notify, announcement->seen,
+                       announcement->recheck_after};
+}
+
+void RawTopic::end_wait() noexcept {
+  if (waiting_) {
+    waiting_ = false;
+    endpoint_.withdraw_wait();
+  }
 }
 
 std::ptrdiff_t RawTopic::read_latest() noexcept {

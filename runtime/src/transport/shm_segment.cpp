@@ -10,6 +10,7 @@
 #include <sys/file.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -613,6 +614,19 @@ void ShmSegment::withdraw_sleeper() noexcept {
     control().users[user_index_].sleepers.fetch_sub(1, std::memory_order_relaxed);
   }
   ring_remove_sleeper(control().ring);
+}
+
+bool ring_reclaim_due() noexcept {
+  constexpr std::int64_t kReclaimIntervalNs = 50'000'000;
+  thread_local std::int64_t next_search_ns = 0;
+  timespec now{};
+  ::clock_gettime(CLOCK_MONOTONIC_COARSE, &now);  // the vDSO's: no syscall
+  const std::int64_t now_ns = std::int64_t{now.tv_sec} * 1'000'000'000 + now.tv_nsec;
+  if (now_ns < next_search_ns) {
+    return false;
+  }
+  next_search_ns = now_ns + kReclaimIntervalNs;
+  return true;
 }
 
 void ring_reclaim_dead_sleepers(const RingView& ring) noexcept {

@@ -271,13 +271,18 @@ inline Claim ring_claim(const RingView& ring, std::uint32_t pid) noexcept {
 /// would make every later send wake nobody, with a syscall, until the topic is recreated.
 void ring_reclaim_dead_sleepers(const RingView& ring) noexcept;
 
+/// Whether this thread may search for dead sleepers now: at most once in 50 ms. A
+/// wake that finds nobody is also what a live sleeper about to sleep causes, often on a busy
+/// ring, and each search asks the kernel whether each sleeper's process lives (kill, /proc).
+bool ring_reclaim_due() noexcept;
+
 /// Wakes the sleepers a claim saw (also for a claim that got no slot: they wait for its ticket).
 /// A wake that finds nobody asleep is the sign of a sleeper that died (or of one about to sleep,
 /// which notices the bumped word): only then is the users table searched, on a path that has
 /// made a syscall anyway.
 inline void ring_wake(const RingView& ring) noexcept {
   ring.control->notify.fetch_add(1, std::memory_order_seq_cst);
-  if (futex_wake_all(ring.control->notify) == 0) {
+  if (futex_wake_all(ring.control->notify) == 0 && ring_reclaim_due()) {
     ring_reclaim_dead_sleepers(ring);
   }
 }

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <optional>
 #include <utility>
 
 #include "horus/detail/futex.hpp"
@@ -141,6 +142,41 @@ class TopicEndpoint {
     }
   }
 
+  /// What a waiter that sleeps on the topic's futex by its own means (RawTopic::begin_wait)
+  /// learns from announcing itself.
+  struct WaitAnnouncement {
+    /// `notify` as read before the announcement: a wake-up since then changed it.
+    std::uint32_t seen;
+    /// Counted in the sleeper bits, so withdraw_wait() must follow the sleep (a full sleeper
+    /// count is not, and then the sleep is in slices).
+    bool counted;
+    /// Zero, or how long to sleep at a time when a publisher may not wake this waiter.
+    std::chrono::nanoseconds recheck_after;
+  };
+
+  /// receive_within's announcement for a waiter that sleeps by its own means: the same steps in
+  /// the same order (the futex word read, the sleeper announced, the barrier, a last look at the
+  /// ring), except that the last look takes nothing. Empty, with nothing left announced, when
+  /// the next receive has something to take.
+  std::optional<WaitAnnouncement> announce_wait() noexcept {
+    mark(kRoleSubscriber);
+    RingControl& control = *ring_.control;
+    const std::uint32_t seen = control.notify.load(std::memory_order_seq_cst);
+    const std::uint64_t claimed_before = segment_.announce_sleeper();
+    const bool counted = claimed_before != UINT64_MAX;
+    const bool announced = ring_sleeper_barrier(control);
+    if (readable()) {
+      if (counted) {
+        segment_.withdraw_sleeper();
+      }
+      return std::nullopt;
+    }
+    const bool unannounced = !counted || !announced || cursor_.next < claimed_before;
+    return WaitAnnouncement{seen, counted, unannounced ? kSlice : std::chrono::nanoseconds::zero()};
+  }
+  /// Withdraws a counted announcement of announce_wait(), once its sleep ended.
+  void withdraw_wait() noexcept { segment_.withdraw_sleeper(); }
+
   /// Waits up to `timeout` for `receive(check_stall)` to take a message, asleep on the topic's
   /// futex (no polling); whether it took one.
   template <class Receive>
@@ -177,6 +213,22 @@ class TopicEndpoint {
  private:
   /// How long a sleeper that may have missed its wake-up sleeps at a time.
   static constexpr std::chrono::nanoseconds kSlice = std::chrono::microseconds(50);
+
+  /// Whether the next receive has something to take (a message, or a lap to catch up on), once
+  /// a ticket whose writer is gone has been skipped as a stall-checking receive skips it.
+  bool readable() noexcept {
+    for (;;) {
+      if (ring_ready(ring_, cursor_)) {
+        return true;
+      }
+      if (!ring_writer_gone(ring_, cursor_)) {
+        return false;
+      }
+      ++cursor_.lost;
+      ++cursor_.next;
+      cursor_.stall_since_ns = 0;
+    }
+  }
 
   ShmSegment segment_;
   RingView ring_;

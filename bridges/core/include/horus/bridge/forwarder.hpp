@@ -1,7 +1,8 @@
 // The shape of a bridge's per-topic worker: one thread that moves a topic's frames (a message's
 // bytes, or a pool descriptor with its block's data) between the local HORUS topic and the other
 // side, with its stop, its counters and its failure lines. Each bridge gives it a loop (the DDS
-// bridge's export and import pumps, bridges/dds/).
+// bridge's export and import pumps, bridges/dds/; the remote link's forwarder, bridges/remote/),
+// which reads a local topic through a FrameSource (frame_source.hpp).
 // Failures follow docs/dds-bridge.md "When something fails": one line on stderr per failure with
 // the topic's running count, an operation retried after kRetry with the same frame (nothing is
 // reordered), a frame that cannot be converted or delivered dropped. The thread never dies of a

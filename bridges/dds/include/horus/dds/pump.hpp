@@ -1,6 +1,7 @@
 // The per-message path of a topic through the bridge: one C++ thread per carried topic (a
-// bridge::Forwarder, bridges/core/). An export pump waits on the local HORUS topic, turns each
-// message into CDR with the type's Conversion and writes it with dds_writecdr. An import pump
+// bridge::Forwarder, bridges/core/). An export pump waits on the local HORUS topic through a
+// bridge::FrameSource (a pool-backed type's frames recorded with their block's data), turns each
+// frame into CDR with the type's Conversion and writes it with dds_writecdr. An import pump
 // takes the samples with dds_takecdr, turns each back into a message and publishes it, from the
 // reader's data-available listener (in Cyclone's receive thread: no thread of its own to wake
 // per message); its thread takes what a failed take left behind.
@@ -25,6 +26,7 @@
 
 #include "dds/dds.h"
 #include "horus/bridge/forwarder.hpp"
+#include "horus/bridge/frame_source.hpp"
 #include "horus/dds/conversion.hpp"
 #include "horus/raw_topic.hpp"
 
@@ -57,10 +59,14 @@ class ExportPump final : public bridge::Forwarder {
 
  private:
   void loop();
-  /// Writes the message of `size` bytes the handle received, retrying a failed write.
-  void send_to_dds(std::size_t size);
+  /// Writes a frame the source gave, retrying a failed write.
+  void send_to_dds(std::span<const std::byte> frame);
+  /// A failure line for each pool frame the source skipped since the last call (its block was
+  /// freed or reused before the pump read it).
+  void say_stale_frames();
 
-  RawTopic local_;
+  bridge::FrameSource local_;
+  std::uint64_t stale_said_ = 0;
   std::unique_ptr<Conversion> conversion_;
   dds_entity_t writer_;
   const ddsi_sertype* type_;

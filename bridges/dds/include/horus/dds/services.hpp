@@ -9,7 +9,8 @@
 // instead of the response (a ROS 2 client ignores it, and times out); the importing side fails
 // its caller with that kind.
 //
-// Exporting: a local service's live server answers calls from DDS through a RawServiceClient.
+// Exporting: a local service's live server answers calls from DDS through a RawServiceClient on
+// the worker of a bridge::LocalServiceCaller (bridges/core), which writes each reply.
 // Importing: a service an exporting bridge offers on DDS (its reply writer's user data names the
 // service and both payload types, with their descriptions) gets a RawServiceServer here that
 // relays each call to DDS.
@@ -36,12 +37,6 @@ using dds::TypeLookup;
 /// The type a carried description (TypeInfo<T>::description, a Python class's) is of; throws
 /// horus::TypeDescriptionError for bytes that are no carried description of a message.
 TypeIdentity described_type(std::string description);
-
-/// The payload type of a service's frame topic (its request topic, or a reply topic): the
-/// message `payload_name` of the frame's `description` (not empty), with a description of its
-/// own. Throws std::runtime_error when it describes no frames of that payload.
-TypeIdentity frame_payload_type(const std::string& frame_topic, const std::string& description,
-                                const std::string& payload_name);
 
 /// The service half of a DdsBridge: exported and imported services by pattern, each on a thread
 /// of its own; scan() (the bridge's thread, every half second) starts and ends them.

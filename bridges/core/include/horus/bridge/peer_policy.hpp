@@ -1,18 +1,19 @@
-// What each peer of `horus-remote serve` may do, by the name its certificate carries: lines
-// "PEER read|write|call PATTERN" (globs as every bridge reads them, bridges/core: Python's
-// fnmatchcase, '*' also crosses '.', a backslash is itself), from --allow and --policy files.
-// Everything not allowed is denied.
+// What each peer of a bridge may do, by the name it is known by (the remote link's peer
+// certificate, a live view's token): lines "PEER read|write|call PATTERN" (globs as every bridge
+// reads them, topic_policy.hpp: Python's fnmatchcase, '*' also crosses '.', a backslash is
+// itself), from options and policy files. Everything not allowed is denied.
 #pragma once
 
 #include <string>
 #include <string_view>
 #include <vector>
 
-namespace horus::remote {
+namespace horus::bridge {
 
+/// What a peer asks to do with a name: read a topic, write a topic, call a service.
 enum class Access { Read, Write, Call };
 
-class Policy {
+class PeerPolicy {
  public:
   /// Adds one rule; throws std::invalid_argument naming `where` (the option or file:line) when
   /// the line is not "PEER read|write|call PATTERN".
@@ -35,4 +36,4 @@ class Policy {
   std::vector<Rule> rules_;
 };
 
-}  // namespace horus::remote
+}  // namespace horus::bridge

@@ -1,4 +1,4 @@
-#include "policy.hpp"
+#include "horus/bridge/peer_policy.hpp"
 
 #include "horus/bridge/topic_policy.hpp"
 
@@ -7,9 +7,9 @@
 #include <sstream>
 #include <stdexcept>
 
-namespace horus::remote {
+namespace horus::bridge {
 
-void Policy::add(std::string_view line, const std::string& where) {
+void PeerPolicy::add(std::string_view line, const std::string& where) {
   std::istringstream words{std::string(line)};
   std::string peer;
   std::string access;
@@ -33,7 +33,7 @@ void Policy::add(std::string_view line, const std::string& where) {
   rules_.push_back(Rule{peer, kind, pattern});
 }
 
-void Policy::load(const std::string& path) {
+void PeerPolicy::load(const std::string& path) {
   std::ifstream file(path);
   if (!file) {
     throw std::invalid_argument("cannot read the policy file " + path);
@@ -48,16 +48,16 @@ void Policy::load(const std::string& path) {
   }
 }
 
-bool Policy::knows(const std::string& peer) const {
+bool PeerPolicy::knows(const std::string& peer) const {
   return std::any_of(rules_.begin(), rules_.end(),
-                     [&](const Rule& rule) { return bridge::glob_matches(peer, rule.peer); });
+                     [&](const Rule& rule) { return glob_matches(peer, rule.peer); });
 }
 
-bool Policy::allows(const std::string& peer, Access access, const std::string& name) const {
+bool PeerPolicy::allows(const std::string& peer, Access access, const std::string& name) const {
   return std::any_of(rules_.begin(), rules_.end(), [&](const Rule& rule) {
-    return rule.access == access && bridge::glob_matches(peer, rule.peer) &&
-           bridge::glob_matches(name, rule.pattern);
+    return rule.access == access && glob_matches(peer, rule.peer) &&
+           glob_matches(name, rule.pattern);
   });
 }
 
-}  // namespace horus::remote
+}  // namespace horus::bridge
