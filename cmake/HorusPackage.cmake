@@ -10,6 +10,9 @@
 #   P/include/horus/dds_bridge.hpp, P/include/horus/dds/..., P/lib/libhorus_dds.a,
 #   P/share/horus/dds/register_network_bridge.cpp
 #                                       horus::dds, the DDS bridge (built with Cyclone DDS only)
+#   P/include/horus/live_view.hpp, P/include/horus/view/..., P/lib/libhorus_view{,_codecs}.a,
+#   P/share/horus/view/register_scheduler_view.cpp
+#                                       horus::view, the live view (built with Cap'n Proto only)
 #   P/bin/horus-gen                     the generator's command (configured from cmake/horus-gen.in
 #                                       with where the three above are, relative to it)
 # so that user projects do find_package(horus CONFIG) and call horus_generate().
@@ -55,6 +58,18 @@ if(TARGET horus_dds AND TARGET horus_pool)
   install(DIRECTORY bridges/dds/include/horus DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}")
   install(FILES bridges/dds/src/register_network_bridge.cpp
           DESTINATION "${CMAKE_INSTALL_DATADIR}/horus/dds")
+endif()
+# The live view (built with Cap'n Proto only): a user's C++ program whose scheduler calls view()
+# links horus::view. The package config then finds Cap'n Proto (HORUS_VIEW_INSTALLED).
+set(HORUS_VIEW_INSTALLED OFF)
+if(TARGET horus_view AND TARGET horus_pool)
+  set(HORUS_VIEW_INSTALLED ON)
+  set_target_properties(horus_view PROPERTIES EXPORT_NAME view)
+  set_target_properties(horus_view_codecs PROPERTIES EXPORT_NAME view_codecs)
+  list(APPEND horus_exported horus_view horus_view_codecs)
+  install(DIRECTORY bridges/view/include/horus DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}")
+  install(FILES bridges/view/src/register_scheduler_view.cpp
+          DESTINATION "${CMAKE_INSTALL_DATADIR}/horus/view")
 endif()
 install(TARGETS ${horus_exported} EXPORT horusTargets ARCHIVE DESTINATION "${CMAKE_INSTALL_LIBDIR}")
 install(DIRECTORY runtime/include/horus DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}")

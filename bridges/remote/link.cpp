@@ -17,7 +17,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <stdexcept>
-#include <string_view>
 #include <utility>
 
 namespace horus::remote {
@@ -148,21 +147,8 @@ std::optional<std::string> description_problem(const TopicInfo& info) {
   }
 }
 
-namespace {
-
-/// HORUS_REMOTE_NO_IO_URING=1: the reader threads, where the kernel would offer more (to test
-/// them, and to compare the two).
-bool reader_threads_asked() {
-  const char* no_io_uring = std::getenv("HORUS_REMOTE_NO_IO_URING");
-  return no_io_uring != nullptr && std::string_view(no_io_uring) == "1";
-}
-
-}  // namespace
-
 TopicWait topic_wait() {
-  static const TopicWait wait = !reader_threads_asked() && bridge::TopicWatch::supported()
-                                    ? TopicWait::EventLoop
-                                    : TopicWait::ReaderThread;
+  static const TopicWait wait = bridge::choose_topic_wait(kNoIoUring);
   return wait;
 }
 
@@ -170,11 +156,8 @@ std::string describe_topic_wait() {
   if (topic_wait() == TopicWait::EventLoop) {
     return "local topics are waited on in the event loop (io_uring futex waits)";
   }
-  return std::string("local topics are waited on by a reader thread each (") +
-         (reader_threads_asked() ? "HORUS_REMOTE_NO_IO_URING=1"
-                                 : "no io_uring futex waits here: they need Linux 6.7 or later "
-                                   "with io_uring allowed") +
-         ")";
+  return "local topics are waited on by a reader thread each (" +
+         bridge::reader_threads_reason(kNoIoUring) + ")";
 }
 
 namespace {

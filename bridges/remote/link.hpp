@@ -127,7 +127,8 @@ class QueueBudget {
 /// futex wait of a bridge::TopicWatch, observed beside the sockets) where the kernel offers it,
 /// else, or with HORUS_REMOTE_NO_IO_URING=1 in the environment, a reader thread each that hands
 /// the messages to the loop. Decided once per process.
-enum class TopicWait { EventLoop, ReaderThread };
+using bridge::TopicWait;
+inline constexpr const char* kNoIoUring = "HORUS_REMOTE_NO_IO_URING";
 TopicWait topic_wait();
 /// The startup line's words for topic_wait(), and why when it is the reader thread.
 std::string describe_topic_wait();

@@ -14,7 +14,10 @@
         horus_generate() misused or given a wrong schema fails configuration with a clear error;
     project_test.py dds --build HORUS_BUILD --source tests/cmake/dds_program --work DIR ...
         a program whose scheduler calls network(), linking horus::dds from the installation,
-        builds and starts the DDS bridge in its process.
+        builds and starts the DDS bridge in its process;
+    project_test.py view --build HORUS_BUILD --source tests/cmake/view_program --work DIR ...
+        a program whose scheduler calls view(), linking horus::view from the installation,
+        builds, says where its live view listens and serves the built-in page there.
 
 Every check prints what it expected and what came; the exit status is 1 on the first failure.
 """
@@ -28,6 +31,7 @@ import shutil
 import subprocess
 import sys
 import time
+import urllib.request
 from pathlib import Path
 
 PYTHON = "/usr/bin/python3"
@@ -134,6 +138,37 @@ def dds(args: argparse.Namespace) -> None:
     expect(ran.returncode == 0, "the program to run its scheduler with the bridge", ran.stdout)
     expect(f"bridge on DDS domain {domain}: exporting ['dds_program_nothing']" in ran.stdout,
            "the bridge to start in the program's process (its first line)", ran.stdout)
+
+
+def view(args: argparse.Namespace) -> None:
+    prefix = args.work / "prefix"
+    install_horus(args.build, prefix)
+    for path in ["include/horus/live_view.hpp", "include/horus/live_view_options.hpp",
+                 "lib/libhorus_view.a", "lib/libhorus_view_codecs.a",
+                 "share/horus/view/register_scheduler_view.cpp"]:
+        expect((prefix / path).exists(), f"the installation to hold {path}")
+    build_dir = args.work / "build"
+    shutil.rmtree(build_dir, ignore_errors=True)
+    configure(args.source, build_dir, prefix, args.generator)
+    build(build_dir)
+    env = dict(os.environ, HORUS_NAMESPACE=f"view_program_{os.getpid()}")
+    program = subprocess.Popen([build_dir / "view_program"], env=env, text=True,
+                               stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                               stderr=subprocess.STDOUT)
+    try:
+        line = program.stdout.readline().strip()
+        found = re.fullmatch(r"live view: ws://127\.0\.0\.1:(\d+)/", line)
+        expect(found is not None, "the program to say where its live view listens "
+               "('live view: ws://127.0.0.1:PORT/')", line)
+        with urllib.request.urlopen(f"http://127.0.0.1:{found.group(1)}/", timeout=10) as reply:
+            page = reply.read().decode()
+        expect("<title>HORUS live view</title>" in page,
+               "an HTTP GET of / to return the built-in page", page[:500])
+    finally:
+        program.terminate()
+        out, _ = program.communicate(timeout=30)
+    expect(program.returncode == 0, "the program to stop on SIGTERM with status 0",
+           f"status {program.returncode}\n{out}")
 
 
 def check_python(configured: str, app_prefix: Path) -> None:
@@ -383,7 +418,8 @@ def usage(args: argparse.Namespace) -> None:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("mode", choices=["installed", "rebuild", "depends", "usage", "dds"])
+    parser.add_argument("mode", choices=["installed", "rebuild", "depends", "usage", "dds",
+                                         "view"])
     parser.add_argument("--build", type=Path, required=True, help="the horus build folder")
     parser.add_argument("--source", type=Path, required=True, help="examples/custom_messages")
     parser.add_argument("--work", type=Path, required=True, help="scratch folder (emptied)")
@@ -392,7 +428,7 @@ def main() -> int:
     args.work.mkdir(parents=True, exist_ok=True)
     try:
         modes = {"installed": installed, "rebuild": rebuild, "depends": depends, "usage": usage,
-                 "dds": dds}
+                 "dds": dds, "view": view}
         modes[args.mode](args)
     except Failure as failure:
         print(f"FAILED: {failure}", file=sys.stderr)

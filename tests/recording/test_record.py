@@ -17,7 +17,7 @@ from mcap.records import Chunk, DataEnd, Footer, MessageIndex
 from mcap.stream_reader import StreamReader
 
 from horus import mcap as horus_mcap
-from horus.msg import CmdVel, CompressedImage, LaserScan, PoseStamped, TransformStamped
+from horus.msg import CmdVel, CompressedImage, LaserScan, Path, PoseStamped, TransformStamped
 
 HORUS = os.environ.get("HORUS_CLI", "")
 
@@ -255,17 +255,20 @@ def test_foxglove_export_validates_every_message_against_its_schema(tmp_path):
     pose.pose.position.x = 1.5
     transform = TransformStamped(translation=[1.0, 2.0, 3.0], rotation=[0.0, 0.0, 0.0, 1.0])
     jpeg = CompressedImage(format="jpeg", width=2, height=1, data=b"\xff\xd8\xff\xd9")
+    route = Path(waypoint_count=2, timestamp_ns=9)
+    route.waypoints[0].pose.x = 2.0
+    route.waypoints[1].pose.theta = float("nan")
     path, out = tmp_path / "f.mcap", tmp_path / "foxglove.mcap"
     write_recording(path, {"scan": (LaserScan, [scan] * 3), "pose": (PoseStamped, [pose] * 2),
                            "tf": (TransformStamped, [transform]), "jpeg": (CompressedImage, [jpeg]),
-                           "cmd": (CmdVel, cmd_vels(5))})
+                           "route": (Path, [route]), "cmd": (CmdVel, cmd_vels(5))})
     seen = {}
     for topic, schema_name, value in export_validated(path, out):
         seen.setdefault(topic, (schema_name, value))
     assert {t: s for t, (s, _) in seen.items()} == {
         "scan": "foxglove.LaserScan", "pose": "foxglove.PoseInFrame",
         "tf": "foxglove.FrameTransform", "jpeg": "foxglove.CompressedImage",
-        "cmd": "horus.msg.CmdVel"}
+        "route": "foxglove.PosesInFrame", "cmd": "horus.msg.CmdVel"}
     assert seen["jpeg"][1]["format"] == "jpeg"
     assert base64.b64decode(seen["jpeg"][1]["data"]) == b"\xff\xd8\xff\xd9"
     scan_json = seen["scan"][1]
@@ -274,6 +277,12 @@ def test_foxglove_export_validates_every_message_against_its_schema(tmp_path):
     assert seen["pose"][1]["frame_id"] == "map"
     assert seen["pose"][1]["pose"]["position"]["x"] == 1.5
     assert seen["tf"][1]["translation"] == {"x": 1.0, "y": 2.0, "z": 3.0}
+    # The path's two valid waypoints of 256, named after the topic; no heading (NaN): no turn.
+    route_json = seen["route"][1]
+    assert route_json["frame_id"] == "route" and route_json["timestamp"] == {"sec": 0, "nsec": 9}
+    assert [p["position"] for p in route_json["poses"]] == [{"x": 2.0, "y": 0.0, "z": 0.0},
+                                                             {"x": 0.0, "y": 0.0, "z": 0.0}]
+    assert route_json["poses"][1]["orientation"] == {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}
     assert seen["cmd"][1] == {"linear": 0.0, "angular": 0.0, "stamp_nanos": "0"}
 
 

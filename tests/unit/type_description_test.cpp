@@ -732,3 +732,158 @@ TEST(StandardTypeDescriptions, CarryTheirEnums) {
 }
 
 }  // namespace
+
+// ---- build_message: the inverse of walk_message -----------------------------------------------
+
+/// One thing a walk reported: a message or field begun (by name), a value, a sequence's count, an
+/// option's presence, or a container's end.
+struct WalkStep {
+  enum class Kind { Message, Field, End, Bool, Unsigned, Signed, Float, Enum, Text, Bytes, Count };
+  Kind kind = Kind::End;
+  std::string text;
+  std::uint64_t number = 0;
+  double floating = 0.0;
+};
+
+/// Writes down a walk, step by step.
+class WalkRecorder final : public horus::MessageVisitor {
+ public:
+  std::vector<WalkStep> steps;
+
+  void begin_message(const MessageType& type) override { add(WalkStep::Kind::Message, type.name); }
+  void end_message(const MessageType&) override { add(WalkStep::Kind::End); }
+  void field(const horus::MessageField& field) override { add(WalkStep::Kind::Field, field.name); }
+  void boolean(bool value) override { add(WalkStep::Kind::Bool, {}, value ? 1 : 0); }
+  void unsigned_integer(const TypeRef&, std::uint64_t value) override {
+    add(WalkStep::Kind::Unsigned, {}, value);
+  }
+  void signed_integer(const TypeRef&, std::int64_t value) override {
+    add(WalkStep::Kind::Signed, {}, static_cast<std::uint64_t>(value));
+  }
+  void floating(const TypeRef&, double value) override {
+    steps.push_back({WalkStep::Kind::Float, {}, 0, value});
+  }
+  void enumerator(const horus::EnumType&, std::int64_t value) override {
+    add(WalkStep::Kind::Enum, {}, static_cast<std::uint64_t>(value));
+  }
+  void string(const TypeRef&, std::string_view text) override {
+    add(WalkStep::Kind::Text, std::string(text));
+  }
+  void bytes(const TypeRef&, std::span<const std::uint8_t> data) override {
+    add(WalkStep::Kind::Bytes, std::string(data.begin(), data.end()));
+  }
+  void begin_sequence(const TypeRef&, std::size_t count) override {
+    add(WalkStep::Kind::Count, {}, count);
+  }
+  void end_sequence(const TypeRef&) override { add(WalkStep::Kind::End); }
+  void begin_optional(const TypeRef&, bool present) override {
+    add(WalkStep::Kind::Count, {}, present ? 1 : 0);
+  }
+  void end_optional(const TypeRef&) override { add(WalkStep::Kind::End); }
+
+ private:
+  void add(WalkStep::Kind kind, std::string text = {}, std::uint64_t number = 0) {
+    steps.push_back({kind, std::move(text), number, 0.0});
+  }
+};
+
+/// Answers build_message's questions with a recorded walk's steps, checking that each question
+/// is the one the walk reported at that point.
+class WalkReplay final : public horus::MessageSource {
+ public:
+  explicit WalkReplay(std::vector<WalkStep> steps) : steps_(std::move(steps)) {}
+
+  bool replayed_all() const { return next_ == steps_.size(); }
+
+  void begin_message(const MessageType& type) override {
+    EXPECT_EQ(take(WalkStep::Kind::Message).text, type.name);
+  }
+  void end_message(const MessageType&) override { take(WalkStep::Kind::End); }
+  void field(const horus::MessageField& field) override {
+    EXPECT_EQ(take(WalkStep::Kind::Field).text, field.name);
+  }
+  bool boolean() override { return take(WalkStep::Kind::Bool).number != 0; }
+  std::uint64_t unsigned_integer(const TypeRef&) override {
+    return take(WalkStep::Kind::Unsigned).number;
+  }
+  std::int64_t signed_integer(const TypeRef&) override {
+    return static_cast<std::int64_t>(take(WalkStep::Kind::Signed).number);
+  }
+  double floating(const TypeRef&) override { return take(WalkStep::Kind::Float).floating; }
+  std::int64_t enumerator(const horus::EnumType&) override {
+    return static_cast<std::int64_t>(take(WalkStep::Kind::Enum).number);
+  }
+  std::string_view string(const TypeRef&) override { return take(WalkStep::Kind::Text).text; }
+  std::span<const std::uint8_t> bytes(const TypeRef&) override {
+    const std::string& data = take(WalkStep::Kind::Bytes).text;
+    return {reinterpret_cast<const std::uint8_t*>(data.data()), data.size()};
+  }
+  std::size_t begin_sequence(const TypeRef&) override { return take(WalkStep::Kind::Count).number; }
+  void end_sequence(const TypeRef&) override { take(WalkStep::Kind::End); }
+  bool begin_optional(const TypeRef&) override { return take(WalkStep::Kind::Count).number != 0; }
+  void end_optional(const TypeRef&) override { take(WalkStep::Kind::End); }
+
+ private:
+  const WalkStep& take(WalkStep::Kind kind) {
+    if (next_ == steps_.size()) throw horus::Error("build_message asked past the recorded walk");
+    const WalkStep& step = steps_[next_++];
+    if (step.kind != kind) {
+      throw horus::Error("build_message asked out of the walk's order at step " +
+                         std::to_string(next_ - 1));
+    }
+    return step;
+  }
+
+  std::vector<WalkStep> steps_;
+  std::size_t next_ = 0;
+};
+
+template <class T>
+void check_rebuild(const TypeDescription& description) {
+  SCOPED_TRACE(std::string(horus::TypeInfo<T>::name));
+  auto value = std::make_unique<T>();
+  std::uint64_t k = 1;
+  horus_test::fill_every_field(*value, k, horus_test::Enums::Alternate);
+  const std::vector<std::uint8_t> encoded = horus::encode(*value);
+  WalkRecorder recorder;
+  horus::walk_message(description, description.root_message(), encoded, recorder);
+  WalkReplay replay(std::move(recorder.steps));
+  EXPECT_EQ(horus::build_message(description, description.root_message(), replay), encoded)
+      << "a filled " << horus::TypeInfo<T>::name << " built back from its walk differs";
+  EXPECT_TRUE(replay.replayed_all()) << "build_message left steps of the walk unasked";
+}
+
+template <class... Ts>
+void check_rebuilds(TypeList<Ts...>) {
+  (check_rebuild<Ts>(TypeDescription::decode(horus::TypeInfo<Ts>::description)), ...);
+}
+
+TEST(StandardTypeDescriptions, BuildFilledMessagesBackFromTheirWalks) {
+  check_rebuilds(StandardMessages{});
+}
+
+TEST(TypeDescription, BuildMessageRefusesAnswersThatDoNotFitTheirType) {
+  const TypeDescription description =
+      TypeDescription::decode(horus::TypeInfo<horus::msg::ServoCommand>::description);
+  const MessageType& servo = description.root_message();
+  WalkRecorder recorder;
+  const std::vector<std::uint8_t> zero = horus::zero_message(description, servo);
+  horus::walk_message(description, servo, zero, recorder);
+  // The first unsigned answer (servo_id, a u32) set past what a u32 holds.
+  bool widened = false;
+  for (WalkStep& step : recorder.steps) {
+    if (step.kind == WalkStep::Kind::Unsigned && !widened) {
+      step.number = std::uint64_t{1} << 40;
+      widened = true;
+    }
+  }
+  ASSERT_TRUE(widened) << "ServoCommand has no unsigned field";
+  WalkReplay too_wide(std::move(recorder.steps));
+  try {
+    horus::build_message(description, servo, too_wide);
+    FAIL() << "an unsigned answer of 2^40 was written";
+  } catch (const horus::Error& error) {
+    EXPECT_STREQ(error.what(),
+                 "building a message: field servo_id: 1099511627776 is out of range for u32");
+  }
+}

@@ -261,6 +261,28 @@ bool TopicWatch::probe_futex_waits() {
   return wait_result == -EAGAIN;
 }
 
+namespace {
+
+bool opted_out(const char* opt_out) noexcept {
+  const char* value = std::getenv(opt_out);
+  return value != nullptr && std::string_view(value) == "1";
+}
+
+}  // namespace
+
+TopicWait choose_topic_wait(const char* opt_out) noexcept {
+  return !opted_out(opt_out) && TopicWatch::supported() ? TopicWait::EventLoop
+                                                        : TopicWait::ReaderThread;
+}
+
+std::string reader_threads_reason(const char* opt_out) {
+  if (opted_out(opt_out)) return std::string(opt_out) + "=1";
+  if (!TopicWatch::supported()) {
+    return "no io_uring futex waits here: they need Linux 6.7 or later with io_uring allowed";
+  }
+  return {};
+}
+
 bool TopicWatch::supported() noexcept {
   static const bool works = [] {
     try {

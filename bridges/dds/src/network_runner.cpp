@@ -31,7 +31,7 @@ bool said_start(const Network& network) {
   return ::write(STDOUT_FILENO, line.data(), line.size()) >= 0;
 }
 
-class BridgeRunner final : public detail::NetworkRunner {
+class BridgeRunner final : public SchedulerCompanion {
  public:
   BridgeRunner(const Network& network, const std::string& namespace_name,
                std::function<void(const std::string&)> on_failure)
@@ -43,7 +43,7 @@ class BridgeRunner final : public detail::NetworkRunner {
   DdsBridge bridge_;
 };
 
-std::unique_ptr<detail::NetworkRunner> start_bridge(
+std::unique_ptr<SchedulerCompanion> start_bridge(
     const Network& network, const std::string& namespace_name,
     std::function<void(const std::string&)> on_failure) {
   return std::make_unique<BridgeRunner>(network, namespace_name, std::move(on_failure));
@@ -52,7 +52,7 @@ std::unique_ptr<detail::NetworkRunner> start_bridge(
 }  // namespace
 
 void enable_network_bridge() noexcept {
-  detail::network_runner_factory().store(&start_bridge, std::memory_order_release);
+  scheduler_companion_factory<Network>().store(&start_bridge, std::memory_order_release);
 }
 
 }  // namespace horus::dds

@@ -5,13 +5,14 @@
 //       {.export_ = {"cmd_*", "odom"}, .import_ = {"map"}, .domain = 7})};
 #pragma once
 
-#include <atomic>
 #include <chrono>
 #include <functional>
 #include <memory>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include "horus/scheduler_companion.hpp"
 
 namespace horus {
 
@@ -43,35 +44,14 @@ struct Network {
 
 namespace detail {
 
-/// What carries a scheduler's Network while the scheduler lives (the DDS bridge of horus::dds).
-class NetworkRunner {
- public:
-  virtual ~NetworkRunner() = default;
-  /// Stops it and returns once it has; idempotent.
-  virtual void end() noexcept = 0;
-};
-
-/// Starts a NetworkRunner for a valid `network` in `namespace_name`; `on_failure` gets the
-/// reason if it stops on its own. Throws horus::Error when it cannot start.
-using NetworkRunnerFactory =
-    std::unique_ptr<NetworkRunner> (*)(const Network& network, const std::string& namespace_name,
-                                       std::function<void(const std::string&)> on_failure);
-
-/// Set by horus::dds when linked (horus::dds::enable_network_bridge): the runtime itself does not
-/// depend on Cyclone DDS.
-inline std::atomic<NetworkRunnerFactory>& network_runner_factory() noexcept {
-  static std::atomic<NetworkRunnerFactory> factory{nullptr};
-  return factory;
-}
-
 /// Throws horus::Error naming the first field of `network` the bridge would refuse.
 void check_network(const Network& network);
 
 /// Checks `network` and starts it; throws horus::Error when it is invalid, or when the program
 /// was not linked with horus::dds.
-std::unique_ptr<NetworkRunner> start_network(const Network& network,
-                                             const std::string& namespace_name,
-                                             std::function<void(const std::string&)> on_failure);
+std::unique_ptr<SchedulerCompanion> start_network(
+    const Network& network, const std::string& namespace_name,
+    std::function<void(const std::string&)> on_failure);
 
 }  // namespace detail
 

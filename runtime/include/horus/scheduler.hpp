@@ -26,6 +26,7 @@
 #include "horus/blackbox.hpp"
 #include "horus/error.hpp"
 #include "horus/failure_policy.hpp"
+#include "horus/live_view_options.hpp"
 #include "horus/miss.hpp"
 #include "horus/network.hpp"
 #include "horus/node.hpp"
@@ -186,6 +187,17 @@ class SchedulerConfig {
     network_ = std::move(n);
     return *this;
   }
+  /// Serve this scheduler's namespace to Foxglove, Lichtblick and the built-in page over the
+  /// Foxglove WebSocket protocol (docs/live-view.md), from its construction until run() ends (or
+  /// it is destroyed), on threads of its own process; the program links horus::view. The view
+  /// tells viewers the scheduler's clock (simulated time in deterministic mode) unless the
+  /// options give one. A view that fails stops the scheduler, and run() returns 1. The
+  /// Scheduler's constructor throws horus::Error for invalid options, an address it cannot
+  /// listen on, and a program not linked with horus::view.
+  SchedulerConfig& view(LiveViewOptions options) {
+    view_ = std::move(options);
+    return *this;
+  }
 
   Rate tick_rate() const { return tick_rate_; }
   bool rt() const { return rt_; }
@@ -207,6 +219,7 @@ class SchedulerConfig {
   bool recording() const { return recording_; }
   const std::filesystem::path& replay() const { return replay_; }
   const std::optional<Network>& network() const { return network_; }
+  const std::optional<LiveViewOptions>& view() const { return view_; }
 
  private:
   Rate tick_rate_ = Rate::hz(1000.0);
@@ -229,6 +242,7 @@ class SchedulerConfig {
   bool recording_ = false;
   std::filesystem::path replay_;
   std::optional<Network> network_;
+  std::optional<LiveViewOptions> view_;
 };
 
 /// A node's scheduling settings as given to the builder (unset optionals are derived at start-up).

@@ -1,7 +1,8 @@
 // horus::TypeDescription: the versioned type description (docs/type-description.md) read from
 // its MessagePack bytes (`TypeInfo<T>::description`, a topic segment, a link), and what consumers
 // do with a message of a type they were not compiled with: walk its fields, print it as JSON,
-// write one with every field zero or at its default; and the tree written back as those bytes
+// write one from values asked for field by field (build_message: every field zero, at its
+// default, or read from a viewer's JSON); and the tree written back as those bytes
 // (encode(), what the runtime describes its own types with: service frames). The one C++ reader
 // and writer of the format: no C++ consumer parses schema text.
 //
@@ -215,6 +216,50 @@ class MessageVisitor {
 /// visitor has then seen the values before it, so a consumer drops what it wrote).
 void walk_message(const TypeDescription& description, const MessageType& type,
                   std::span<const std::uint8_t> bytes, MessageVisitor& visitor);
+
+/// What build_message() asks for, in the order walk_message() reports it (field order, depth
+/// first): the inverse of a MessageVisitor, each question with the TypeRef the value is declared
+/// with. A source that cannot answer (a value of the wrong kind, say) throws an exception of its
+/// own, which build_message lets through; what it answers must fit the type, or build_message
+/// throws Error naming the field.
+class MessageSource {
+ public:
+  virtual ~MessageSource() = default;
+  /// A message (the built one, or a field's / element's); its fields follow, then end_message.
+  virtual void begin_message(const MessageType& type) = 0;
+  virtual void end_message(const MessageType& type) = 0;
+  /// Before each field's value.
+  virtual void field(const MessageField& field) = 0;
+  virtual bool boolean() = 0;
+  /// Integers of any width as 64 bits, inside the range of the TypeRef's primitive.
+  virtual std::uint64_t unsigned_integer(const TypeRef& type) = 0;
+  virtual std::int64_t signed_integer(const TypeRef& type) = 0;
+  /// f32 and f64 (an f32 is written as the double cast to float).
+  virtual double floating(const TypeRef& type) = 0;
+  /// Any value of the enum's underlying type, an enumerator's or not.
+  virtual std::int64_t enumerator(const EnumType& type) = 0;
+  /// string<N> (at most N bytes) and String; the text need only outlive the next call.
+  virtual std::string_view string(const TypeRef& type) = 0;
+  /// bytes, Vec<u8> and [u8; N] (exactly N): the whole block at once; the bytes need only
+  /// outlive the next call.
+  virtual std::span<const std::uint8_t> bytes(const TypeRef& type) = 0;
+  /// Other arrays (their length exactly) and Vecs: how many elements follow, then end_sequence.
+  virtual std::size_t begin_sequence(const TypeRef& type) = 0;
+  virtual void end_sequence(const TypeRef& type) = 0;
+  /// Option<T>: whether the element follows, then end_optional.
+  virtual bool begin_optional(const TypeRef& type) = 0;
+  virtual void end_optional(const TypeRef& type) = 0;
+};
+
+/// Writes one `type` message (one of `description.messages`) from the values `source` gives,
+/// byte for byte what the generated code encodes for them (horus::encode): the struct bytes of a
+/// POD message (padding zero), or the msgpack-cxx adaptors' MessagePack of a serialized one
+/// (each integer through the packer of its width, f32 as float 32, byte blocks as bin, none as
+/// nil). Replaying a walk_message() of some bytes gives those bytes back. Throws Error naming
+/// the field when an answer does not fit its type, TypeDescriptionError when the message would
+/// take more than kMaxMessageBytes.
+std::vector<std::uint8_t> build_message(const TypeDescription& description, const MessageType& type,
+                                        MessageSource& source);
 
 /// The encoding of a `type` message (one of `description.messages`) whose numbers are 0, bools
 /// false, strings, Vecs and bytes empty, options none, enums 0, arrays full of such elements: POD

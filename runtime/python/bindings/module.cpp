@@ -2,6 +2,13 @@
 #include "bindings.hpp"
 #include "horus/error.hpp"
 
+#ifdef HORUS_PYTHON_VIEW
+namespace horus::python {
+// bridges/view/python/bindings.cpp, compiled in where the live view is built.
+void bind_view(pybind11::module_& m);
+}  // namespace horus::python
+#endif
+
 PYBIND11_MODULE(_core, m) {
   m.doc() = "The C++ core of the horus Python package (use `import horus`).";
   static pybind11::exception<horus::Error> error(m, "HorusError", PyExc_RuntimeError);
@@ -24,5 +31,11 @@ PYBIND11_MODULE(_core, m) {
                              "The DDS bridge's library (bridges/dds/): raw-CDR endpoints "
                              "on Cyclone DDS, CDR plans and pumps.");
   horus::python::bind_dds(dds);
+#endif
+#ifdef HORUS_PYTHON_VIEW
+  auto view = m.def_submodule("view",
+                              "The live view's library (bridges/view/): a namespace served over "
+                              "the Foxglove WebSocket protocol, with a time set from Python.");
+  horus::python::bind_view(view);
 #endif
 }

@@ -11,6 +11,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -196,7 +197,8 @@ void bind_scheduler(py::module_& m) {
                        std::vector<int> cores, std::optional<std::uint64_t> max_deadline_misses,
                        bool verbose, std::optional<std::string> telemetry,
                        std::optional<std::uint64_t> seed, bool recording,
-                       std::optional<std::string> replay) {
+                       std::optional<std::string> replay,
+                       std::optional<std::tuple<std::string, std::uint16_t, double>> view) {
              SchedulerConfig config;
              config.tick_rate(Rate::hz(tick_rate))
                  .rt(rt)
@@ -211,6 +213,13 @@ void bind_scheduler(py::module_& m) {
              if (telemetry) config.telemetry(*telemetry);
              if (seed) config.seed(*seed);
              if (replay) config.replay(*replay);
+             if (view) {
+               const auto& [listen_address, port, discovery_interval_s] = *view;
+               config.view({.listen_address = listen_address,
+                            .port = port,
+                            .discovery_interval = std::chrono::milliseconds(
+                                static_cast<std::int64_t>(discovery_interval_s * 1e3))});
+             }
              std::unique_ptr<Scheduler, ReleasingDeleter> sched(new Scheduler(std::move(config)));
              if (sched->capabilities().memory_locking) {
                // Pages stay locked, but are locked as they are first touched: CPython maps and
@@ -224,7 +233,8 @@ void bind_scheduler(py::module_& m) {
            py::arg("tick_rate"), py::arg("rt"), py::arg("deterministic"), py::arg("watchdog_ms"),
            py::arg("blackbox_mb"), py::arg("name"), py::arg("cores"),
            py::arg("max_deadline_misses"), py::arg("verbose"), py::arg("telemetry"),
-           py::arg("seed"), py::arg("recording") = false, py::arg("replay") = py::none())
+           py::arg("seed"), py::arg("recording") = false, py::arg("replay") = py::none(),
+           py::arg("view") = py::none())
       .def(
           "add",
           [](Scheduler& sched, std::shared_ptr<Node> node, std::int32_t order,

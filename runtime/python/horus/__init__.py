@@ -37,6 +37,7 @@ from ._service import (  # noqa: E402
     TransportError)
 from ._topic import Topic  # noqa: E402
 from ._values import PlainValue, plain_value  # noqa: E402
+from ._view import View  # noqa: E402
 from ._pool import (  # noqa: E402
     DepthImage, Image, ImageEncoding, PointCloud, PoolExhaustion, PoolTopic, Tensor, TensorDtype,
     TensorPool)
@@ -47,7 +48,7 @@ ms = 1e-3  # milliseconds -> seconds: deadline=5 * ms
 __all__ = [
     "HorusError", "Network", "Node", "NoServerError", "Scheduler", "ServiceClient", "ServiceError",
     "ServiceFailed", "ServiceServer", "ServiceTimeout", "Topic", "TransportError", "PlainValue",
-    "plain_value",
+    "View", "plain_value",
     "budget_remaining", "dt", "elapsed", "ms", "now", "rng_float", "run", "tick", "timestamp_now",
     "us",
     "DepthImage", "Image", "ImageEncoding", "PointCloud", "PoolExhaustion", "PoolTopic", "Tensor",

@@ -9,6 +9,7 @@ from pathlib import Path
 from . import _core
 from ._network import Network
 from ._node import Node
+from ._view import view_options
 
 
 class Scheduler:
@@ -20,7 +21,10 @@ class Scheduler:
     the nodes' topics, each message before the tick that received it (docs/recording.md).
     `network` (a horus.Network) carries topics to and from other hosts over DDS from this
     process, as `horus bridge` does, from construction until run() returns or the scheduler is
-    stopped; if that bridge fails, it stops the scheduler and run() returns 1. `name` defaults to
+    stopped; if that bridge fails, it stops the scheduler and run() returns 1. `view` (True, a
+    port number or a horus.View) serves this scheduler's namespace to Foxglove, Lichtblick and
+    the built-in page over the Foxglove WebSocket protocol, from this process, for as long
+    (docs/live-view.md); it tells viewers simulated time when deterministic. `name` defaults to
     the program's (the script's file name without .py), so two programs' log lines differ.
 
     Like a C++ scheduler, it leaves nothing in shared memory: when run() returns, when the `with`
@@ -34,7 +38,7 @@ class Scheduler:
                  max_deadline_misses: int | None = None, verbose: bool = False,
                  telemetry: str | None = None, seed: int | None = None,
                  replay: str | os.PathLike | None = None,
-                 network: Network | None = None) -> None:
+                 network: Network | None = None, view=None) -> None:
         if network is not None and not isinstance(network, Network):
             raise TypeError(f"network takes a horus.Network, got {type(network).__name__}")
         if not float(tick_rate) > 0.0:
@@ -48,7 +52,7 @@ class Scheduler:
             name=_program_name() if name is None else name, cores=list(cores or []),
             max_deadline_misses=max_deadline_misses, verbose=bool(verbose), telemetry=telemetry,
             seed=seed, recording=bool(recording),
-            replay=None if replay is None else os.fspath(replay)))
+            replay=None if replay is None else os.fspath(replay), view=view_options(view)))
         # Runs when this scheduler is dropped, or as the interpreter exits (before it finalizes:
         # the nodes' shutdowns still run, and the C++ scheduler takes its presence entry along).
         self._close = weakref.finalize(self, _close, self._owned)
@@ -280,13 +284,13 @@ def run(*nodes, duration: float | None = None, tick_rate: float = 1000.0, rt: bo
         deterministic: bool = False, blackbox_mb: int = 0, watchdog_ms: float = 0,
         recording: bool = False, name: str | None = None, cores: list[int] | None = None,
         max_deadline_misses: int | None = None, verbose: bool = False,
-        telemetry: str | None = None, network: Network | None = None) -> int:
+        telemetry: str | None = None, network: Network | None = None, view=None) -> int:
     """Builds a Scheduler with these keywords, adds `nodes` and runs it (forever, or for
     `duration` seconds) until Ctrl+C, SIGTERM or a stop."""
     sched = Scheduler(tick_rate=tick_rate, rt=rt, deterministic=deterministic,
                       blackbox_mb=blackbox_mb, watchdog_ms=watchdog_ms, recording=recording,
                       name=name, cores=cores, max_deadline_misses=max_deadline_misses,
-                      verbose=verbose, telemetry=telemetry, network=network)
+                      verbose=verbose, telemetry=telemetry, network=network, view=view)
     try:
         for node in nodes:
             sched.add(node)

@@ -4,19 +4,20 @@ with no plugin, every message JSON with a JSON Schema schema.
 Each recorded message is decoded with its type's class made from the schema text the file stores
 (horus.typedesc, so types the command was never built with decode too). Types Foxglove draws
 become its well-known schemas: a laser scan (horus.msg.LaserScan) foxglove.LaserScan, a pose in a
-frame (horus.msg.PoseStamped) foxglove.PoseInFrame, a transform (horus.msg.TransformStamped)
-foxglove.FrameTransform, horus.msg.CompressedImage foxglove.CompressedImage, and by shape any
-message carrying its pixels (width, height, step, encoding, data) foxglove.RawImage and any
-carrying its points (point_count, fields_per_point, dtype, data) foxglove.PointCloud. A recorded
-Image, DepthImage or PointCloud (encoding horus.pool: the descriptor, then its data) is such a
-message with the data as `data` (a depth image: RawImage 32FC1 or 16UC1). Every other
-type is its plain values under the JSON Schema `horus-gen --lang jsonschema` writes for it (made
-here from the type's description, as that language makes it from the schema), with
-every integer that can pass 2^53 (u64, i64) written as a string of its decimal digits and its
-schema saying so: JavaScript, Foxglove's language, reads a JSON number as a double and rounds
-those. The node-tick channel is copied with the same rule (its integers are unbounded: all become
-strings). HORUS types without a frame name take the topic's name as frame (a transform: parent
-"world", child the topic).
+frame (horus.msg.PoseStamped) foxglove.PoseInFrame, a path (horus.msg.Path) foxglove.PosesInFrame
+(its valid waypoints, each turned about +Z by its heading), a transform
+(horus.msg.TransformStamped) foxglove.FrameTransform, horus.msg.CompressedImage
+foxglove.CompressedImage, and by shape any message carrying its pixels (width, height, step,
+encoding, data) foxglove.RawImage and any carrying its points (point_count, fields_per_point,
+dtype, data) foxglove.PointCloud. A recorded Image, DepthImage or PointCloud (encoding horus.pool:
+the descriptor, then its data) is such a message with the data as `data` (a depth image: RawImage
+32FC1 or 16UC1). Every other type is its plain values under the JSON Schema `horus-gen --lang
+jsonschema` writes for it (made here from the type's description, as that language makes it from
+the schema), with every integer that can pass 2^53 (u64, i64) written as a string of its decimal
+digits and its schema saying so: JavaScript, Foxglove's language, reads a JSON number as a double
+and rounds those. The node-tick channel is copied with the same rule (its integers are unbounded:
+all become strings). HORUS types without a frame name take the topic's name as frame (a transform:
+parent "world", child the topic).
 """
 from __future__ import annotations
 
@@ -97,6 +98,9 @@ FOXGLOVE_SCHEMAS = {
     "foxglove.PoseInFrame": _object("foxglove.PoseInFrame", {
         "timestamp": _time(), "frame_id": _string(), "pose": _pose()},
         "A timestamped pose for an object or reference frame in 3D space"),
+    "foxglove.PosesInFrame": _object("foxglove.PosesInFrame", {
+        "timestamp": _time(), "frame_id": _string(), "poses": {"type": "array", "items": _pose()}},
+        "An array of timestamped poses for an object or reference frame in 3D space"),
     "foxglove.FrameTransform": _object("foxglove.FrameTransform", {
         "timestamp": _time(), "parent_frame_id": _string(), "child_frame_id": _string(),
         "translation": _vector3(), "rotation": _quaternion()},
@@ -153,6 +157,25 @@ def _pose_in_frame(plain, topic, log_time):
                      "orientation": {k: _finite(pose["orientation"][k]) for k in "xyzw"}}}
 
 
+def _yaw_orientation(theta: float) -> dict:
+    """The quaternion of a planar heading (a turn about +Z); a heading that is not a number
+    (NaN, infinite) as no turn, as _finite reads it."""
+    half = _finite(theta) / 2
+    return {"x": 0.0, "y": 0.0, "z": math.sin(half), "w": math.cos(half)}
+
+
+def _poses_in_frame(plain, topic, log_time):
+    """A path's first waypoint_count waypoints (at most the array's length) as poses: a
+    waypoint's 2D pose (x, y, theta) is position (x, y, 0) and the orientation its heading theta
+    gives (a turn about +Z, identity when theta is NaN or infinite); its velocity, timing and
+    curvature have no place in foxglove.PosesInFrame."""
+    waypoints = plain["waypoints"][:plain["waypoint_count"]]
+    return {"timestamp": _stamp(plain, log_time), "frame_id": plain.get("frame_id") or topic,
+            "poses": [{"position": {"x": _finite(w["pose"]["x"]), "y": _finite(w["pose"]["y"]),
+                                    "z": 0.0},
+                       "orientation": _yaw_orientation(w["pose"]["theta"])} for w in waypoints]}
+
+
 def _frame_transform(plain, topic, log_time):
     translation, rotation = plain["translation"], plain["rotation"]
     return {"timestamp": _stamp(plain, log_time),
@@ -201,6 +224,7 @@ def _depth_image(plain, topic, log_time):
 
 BY_TYPE = {"horus.msg.LaserScan": ("foxglove.LaserScan", _laser_scan),
            "horus.msg.PoseStamped": ("foxglove.PoseInFrame", _pose_in_frame),
+           "horus.msg.Path": ("foxglove.PosesInFrame", _poses_in_frame),
            "horus.msg.TransformStamped": ("foxglove.FrameTransform", _frame_transform),
            "horus.msg.CompressedImage": ("foxglove.CompressedImage", _compressed_image)}
 BY_SHAPE = ((frozenset({"width", "height", "step", "encoding", "data"}),

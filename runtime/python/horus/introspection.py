@@ -160,3 +160,16 @@ def new_endpoint_id() -> int:
 def has_dds() -> bool:
     """Whether this horus was built with Cyclone DDS: `horus bridge` and horus.Network need it."""
     return hasattr(_core, "dds")
+
+
+def has_view() -> bool:
+    """Whether this horus was built with the live view (Cap'n Proto): `horus record replay
+    --view` needs it."""
+    return hasattr(_core, "view")
+
+
+def live_view(namespace: str, listen: str, port: int):
+    """The namespace served over the Foxglove WebSocket protocol (bridges/view), not started:
+    start(), stop(), port, status_json(), and set_time(ns), the time told to viewers and stamped
+    on what they are sent from then on (the wall clock until the first call)."""
+    return _core.view.LiveView(namespace, listen, port)

@@ -170,6 +170,7 @@ void SchedulerImpl::pass_once(const std::vector<std::string>* names) {
   cycle_.fetch_add(1, std::memory_order_relaxed);
   if (deterministic) {
     sim_now_ns_ += tick_period_ns_;
+    sim_clock_ns_.store(sim_now_ns_, std::memory_order_relaxed);
     // Simulated time outruns the recording thread: the pass waits for the recording instead.
     std::shared_ptr<Recorder> recorder;
     {

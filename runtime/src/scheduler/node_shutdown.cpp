@@ -124,6 +124,7 @@ void SchedulerImpl::finish() noexcept {
     shutdown_all();
     finished_ = true;
   }
+  if (view_) view_->end();
   if (network_) network_->end();
 }
 

@@ -82,6 +82,7 @@ int SchedulerImpl::run(std::optional<std::int64_t> duration_ns) {
     purge_removed();
     check_signal();
     shutdown_all();
+    if (view_) view_->end();
     if (network_) network_->end();
     {
       std::lock_guard lock(mutex_);

@@ -260,9 +260,13 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   std::unique_ptr<Replayer> replayer_;
   bool recording_done_ = false;
   std::int64_t sim_now_ns_ = 0;
-  /// SchedulerConfig::network()'s DDS bridge, from construction until run() ends. Last, so
-  /// that it ends (and its watching thread, which may request_stop(), is joined) first.
-  std::unique_ptr<NetworkRunner> network_;
+  /// sim_now_ns_ for other threads (a live view's clock), stored once a pass.
+  std::atomic<std::int64_t> sim_clock_ns_{0};
+  /// SchedulerConfig::network()'s DDS bridge and view()'s live view, from construction until
+  /// run() ends. Last, so that they end (and their threads, which may request_stop(), are
+  /// joined) first.
+  std::unique_ptr<SchedulerCompanion> network_;
+  std::unique_ptr<SchedulerCompanion> view_;
 };
 
 }  // namespace horus::detail

@@ -129,6 +129,19 @@ SchedulerImpl::SchedulerImpl(SchedulerConfig config)
       throw Error(where + "network: " + e.what());
     }
   }
+  if (config_.view()) {
+    LiveViewOptions options = *config_.view();
+    if (!options.clock && config_.deterministic()) {
+      options.clock = [this] { return sim_clock_ns_.load(std::memory_order_relaxed); };
+    }
+    try {
+      view_ = start_live_view(options, current_namespace(), [this](const std::string& failure) {
+        request_stop("view: " + failure, true);
+      });
+    } catch (const Error& e) {
+      throw Error(where + "view: " + e.what());
+    }
+  }
 }
 
 SchedulerImpl::~SchedulerImpl() {
@@ -360,6 +373,7 @@ void SchedulerImpl::prepare() {
   if (!prepared_) {
     start_mono_ns_ = monotonic_ns();
     sim_now_ns_ = 0;
+    sim_clock_ns_.store(0, std::memory_order_relaxed);
     prepared_ = true;
     record_scheduler(BlackboxEventKind::SchedulerStart,
                      config_.deterministic() ? "deterministic" : "");

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 
@@ -194,3 +195,30 @@ class Commands:
     def command(self, name: str, **options):
         """A command without actions (`horus log`), with argparse's add_parser options."""
         return self.subparsers.add_parser(name, **options)
+
+
+def live_status_files(program: str, namespace: str) -> list[dict]:
+    """What each live process of `program` (horus-remote, horus-view) serving `namespace` says in
+    the status file it rewrites every second (<XDG_RUNTIME_DIR or /tmp/PROGRAM-UID>/PROGRAM/
+    <namespace>.<pid>.json), by process id. The file of a process killed before it could remove
+    it is removed here."""
+    runtime = os.environ.get("XDG_RUNTIME_DIR")
+    folder = os.path.join(runtime, program) if runtime else f"/tmp/{program}-{os.getuid()}"
+    found = []
+    for name in sorted(os.listdir(folder)) if os.path.isdir(folder) else []:
+        prefix, _, pid = name.removesuffix(".json").rpartition(".")
+        if prefix != namespace or not name.endswith(".json") or not pid.isdigit():
+            continue
+        try:
+            os.kill(int(pid), 0)
+        except ProcessLookupError:
+            os.remove(os.path.join(folder, name))
+            continue
+        except PermissionError:
+            pass
+        try:
+            with open(os.path.join(folder, name)) as file:
+                found.append(json.load(file))
+        except (OSError, ValueError):  # went away while read
+            continue
+    return sorted(found, key=lambda status: status["pid"])

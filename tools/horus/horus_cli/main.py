@@ -14,12 +14,12 @@ import os
 import sys
 
 from horus_cli.commands import (blackbox, bridge, completion, log, monitor, msg, node, process,
-                                record, remote, service, shm, topic)
+                                record, remote, service, shm, topic, view)
 from horus_cli.common import EXIT_NOT_FOUND, EXIT_OK, CommandFailed, Commands
 
 # In the order `horus --help` lists them.
 COMMANDS = (topic, process, node, service, msg, log, shm, monitor, blackbox, record, bridge, remote,
-            completion)
+            view, completion)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -31,7 +31,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    words = sys.argv[1:] if argv is None else argv
+    words = view.with_default_action(sys.argv[1:] if argv is None else argv)
     args = record.parse_record(words)  # `record` parses its own arguments
     if args is None:
         args, unknown = parser.parse_known_args(words)

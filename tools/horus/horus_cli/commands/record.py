@@ -4,6 +4,7 @@ files, docs/recording.md). horus_cli.main hands it everything after `record`.
     horus record [-a | TOPICS...] [-o FILE] [--duration S]   record (runs horus-record)
     horus record list | info F | delete NAME | repair F
     horus record replay F [--rate X] [--loop] [--topics a,b] [--start S] [--end S]
+                          [--view [--view-port N]]
     horus record diff A B
     horus record export F --foxglove OUT
 
@@ -332,6 +333,8 @@ def replay(args) -> int:
     if args.start is not None and args.end is not None and args.end < args.start:
         raise CommandFailed(f"--end {args.end:g} is before --start {args.start:g}: nothing to replay",
                             EXIT_USAGE)
+    if args.view_port is not None and not args.view:
+        raise CommandFailed("--view-port is the live view's: add --view", EXIT_USAGE)
     from horus import mcap
     path = resolve(args.file)
     wanted = {t for t in args.topics.split(",") if t} if args.topics else None
@@ -368,8 +371,41 @@ def replay(args) -> int:
             topic.alignment = info.alignment
         if info.name == topic.type_name:
             topic.description = info.description
-    for topic in topics.values():
-        _open_topic(topic, args.capacity, args.namespace or "")
+    # Before the first topic is opened, so that a port it cannot listen on leaves nothing behind;
+    # the view finds the topics at its next look at the namespace (every 250 ms).
+    view = _start_view(args, first) if args.view else None
+    try:
+        for topic in topics.values():
+            _open_topic(topic, args.capacity, args.namespace or "")
+        sent, failed = _publish(path, topics, first, args, view)
+    finally:
+        if view is not None:
+            view.stop()
+    print(f"replayed {sent} messages on {len(topics)} topics"
+          + (f"; {failed} could not be published (horus topic info shows why)" if failed else ""))
+    return EXIT_OK if failed == 0 else EXIT_NOT_FOUND
+
+
+def _start_view(args, first: int):
+    """The live view of the replayed namespace (docs/live-view.md), on this machine only, its
+    time the recording's from the first message on; says where once listening."""
+    runtime = introspection()
+    if not runtime.has_view():
+        raise CommandFailed("--view needs the live view, which this horus was built without "
+                            "(it is built where Cap'n Proto is installed: Debian's libcapnp-dev "
+                            "and capnproto)")
+    port = 8765 if args.view_port is None else args.view_port
+    view = runtime.live_view(args.namespace or "", "127.0.0.1", port)
+    view.set_time(first)
+    view.start()
+    print(f"live view: ws://127.0.0.1:{view.port}/", flush=True)
+    return view
+
+
+def _publish(path: str, topics: dict[int, _ReplayTopic], first: int, args, view) -> tuple[int, int]:
+    """Publishes the selected messages with their recorded timing (the view's time set to each
+    one's log time first, so that viewers see it stamped as recorded); (sent, failed)."""
+    from horus import mcap
     sent = failed = 0
     while True:
         wall_start = time.monotonic()
@@ -384,15 +420,15 @@ def replay(args) -> int:
                 time.sleep(delay)
             topic = topics[record.channel_id]
             payload = topic.payload(record.data)
+            if view is not None:
+                view.set_time(record.log_time)
             if payload is not None and topic.handle.send(payload):
                 sent += 1
             else:
                 failed += 1
         if not args.loop:
             break
-    print(f"replayed {sent} messages on {len(topics)} topics"
-          + (f"; {failed} could not be published (horus topic info shows why)" if failed else ""))
-    return EXIT_OK if failed == 0 else EXIT_NOT_FOUND
+    return sent, failed
 
 
 # ---------------------------------------------------------------------------------------------
@@ -512,6 +548,19 @@ def _replay_arguments(sub: argparse.ArgumentParser) -> None:
     sub.add_argument("-I", dest="include", action="append", metavar="DIR",
                      help="schema folder whose types must match the recording (repeatable; "
                           "default: the installed schemas)")
+    sub.add_argument("--view", action="store_true",
+                     help="serve the replayed namespace to Foxglove, Lichtblick and the built-in "
+                          "page on 127.0.0.1 (as `horus view` does) while replaying, its time "
+                          "the recording's (docs/live-view.md)")
+    sub.add_argument("--view-port", type=_port, metavar="N",
+                     help="the live view's port (default 8765; 0: any free one)")
+
+
+def _port(text: str) -> int:
+    """An argparse type: a TCP port, 0 for any free one."""
+    if not text.isdigit() or int(text) > 65535:
+        raise argparse.ArgumentTypeError(f"needs a port number from 0 to 65535, got {text!r}")
+    return int(text)
 
 
 # Each action: its handler, whether it lists (--json), what it does, its own arguments.

@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import json
 import os
 import pathlib
 from typing import TYPE_CHECKING
 
-from horus_cli.common import EXIT_OK, CommandFailed, emit, introspection, table
+from horus_cli.common import (EXIT_OK, CommandFailed, emit, introspection, live_status_files,
+                               table)
 
 if TYPE_CHECKING:
     from cryptography import x509
@@ -127,27 +127,9 @@ def remote_status(args) -> int:
     """The streams of the namespace's horus-remote processes, from the status file each writes
     every second (bridges/remote: status_path)."""
     namespace = args.namespace or introspection().current_namespace()
-    runtime = os.environ.get("XDG_RUNTIME_DIR")
-    folder = os.path.join(runtime, "horus-remote") if runtime else f"/tmp/horus-remote-{os.getuid()}"
-    rows = []
-    for name in sorted(os.listdir(folder)) if os.path.isdir(folder) else []:
-        prefix, _, pid = name.removesuffix(".json").rpartition(".")
-        if prefix != namespace or not name.endswith(".json") or not pid.isdigit():
-            continue
-        try:
-            os.kill(int(pid), 0)
-        except ProcessLookupError:  # a process killed before it could remove its file
-            os.remove(os.path.join(folder, name))
-            continue
-        except PermissionError:
-            pass
-        try:
-            with open(os.path.join(folder, name)) as file:
-                status = json.load(file)
-        except (OSError, ValueError):
-            continue
-        rows += [{"pid": status["pid"], "role": status["role"], **stream}
-                 for stream in status["streams"]]
+    rows = [{"pid": status["pid"], "role": status["role"], **stream}
+            for status in live_status_files("horus-remote", namespace)
+            for stream in status["streams"]]
 
     def render(rows):
         if not rows:

@@ -8,10 +8,27 @@
 
 #include <cstdint>
 #include <memory>
+#include <string>
 
 #include "horus/raw_topic.hpp"
 
 namespace horus::bridge {
+
+/// Where a bridge's readers wait on their topics, for the whole process.
+enum class TopicWait {
+  /// In the event loop, through a TopicWatch per topic (io_uring futex waits).
+  EventLoop,
+  /// On a thread per topic, which hands each message to the event loop.
+  ReaderThread,
+};
+
+/// The event loop where TopicWatch::supported(), unless the environment variable `opt_out` is
+/// "1" (HORUS_REMOTE_NO_IO_URING, HORUS_VIEW_NO_IO_URING: to test the threads, and to compare the
+/// two).
+TopicWait choose_topic_wait(const char* opt_out) noexcept;
+/// Why a bridge waits with reader threads: `opt_out`=1 was asked, or the kernel offers no io_uring
+/// futex waits (empty when it waits in the event loop).
+std::string reader_threads_reason(const char* opt_out);
 
 /// Watches one RawTopic. The loop, on each readable fd() and once at the start:
 ///

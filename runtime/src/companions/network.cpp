@@ -59,11 +59,11 @@ void check_network(const Network& network) {
   }
 }
 
-std::unique_ptr<NetworkRunner> start_network(const Network& network,
-                                             const std::string& namespace_name,
-                                             std::function<void(const std::string&)> on_failure) {
+std::unique_ptr<SchedulerCompanion> start_network(
+    const Network& network, const std::string& namespace_name,
+    std::function<void(const std::string&)> on_failure) {
   check_network(network);
-  const NetworkRunnerFactory factory = network_runner_factory().load(std::memory_order_acquire);
+  const auto factory = scheduler_companion_factory<Network>().load(std::memory_order_acquire);
   if (factory == nullptr) {
     throw Error(
         "this program has no DDS bridge: link it with horus::dds (target_link_libraries(... "

@@ -1,0 +1,108 @@
+"""The live view's built-in page (bridges/view/page), served by horus-view on the port of its
+WebSocket and driven in headless Chromium (Debian's chromium and chromium-driver, through
+python3-selenium): the topic list with types and rates, a node of a running scheduler, a live
+value that changes, a plot that fills, and the links to Foxglove and Lichtblick. Without Chromium
+this suite fails: scripts/install-deps installs it."""
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import urllib.parse
+
+import pytest
+from selenium import webdriver
+from selenium.webdriver.chrome.service import Service
+from selenium.webdriver.common.by import By
+from selenium.webdriver.support.ui import WebDriverWait
+
+CHROMIUM = pathlib.Path("/usr/bin/chromium")
+CHROMEDRIVER = pathlib.Path("/usr/bin/chromedriver")
+
+# A scheduler with one node, "pacer", publishing CmdVel at 50 Hz with a changing linear speed.
+PACER = """
+import math, horus
+from horus.msg import CmdVel
+count = [0]
+def tick(node):
+    count[0] += 1
+    node.send("cmd_vel", CmdVel(stamp_nanos=count[0], linear=math.sin(count[0] / 10),
+                                angular=0.5))
+horus.run(horus.Node(name="pacer", tick=tick, rate=50, pubs={"cmd_vel": CmdVel}), tick_rate=50)
+"""
+
+
+@pytest.fixture
+def browser():
+    for path, package in ((CHROMIUM, "chromium"), (CHROMEDRIVER, "chromium-driver")):
+        assert path.exists(), f"{path} is missing: install Debian's {package} (scripts/install-deps)"
+    options = webdriver.ChromeOptions()
+    options.binary_location = str(CHROMIUM)
+    for argument in ("--headless=new", "--disable-gpu", "--disable-dev-shm-usage",
+                     "--window-size=1400,1000"):
+        options.add_argument(argument)
+    if os.geteuid() == 0:
+        options.add_argument("--no-sandbox")  # Chromium refuses to run its sandbox as root
+    driver = webdriver.Chrome(service=Service(str(CHROMEDRIVER)), options=options)
+    try:
+        yield driver
+    finally:
+        driver.quit()
+
+
+def wait_for(driver, condition, what: str, limit: float = 15):
+    return WebDriverWait(driver, limit).until(lambda d: condition(d), f"waiting for {what}")
+
+
+def topic_rows(driver) -> dict:
+    """{topic: {"type", "rate"}} as the page's topic list shows them."""
+    return driver.execute_script("""
+        const rows = {};
+        for (const row of document.querySelectorAll('#topics tbody tr[data-topic]')) {
+          rows[row.dataset.topic] = {type: row.querySelector('td.type').textContent,
+                                     rate: row.dataset.rate === undefined ? null
+                                                                          : Number(row.dataset.rate)};
+        }
+        return rows;""")
+
+
+def test_the_page_lists_topics_and_nodes_and_shows_a_live_value_and_plot(view_server, children,
+                                                                         browser):
+    pacer = children.python(PACER, dict(os.environ))
+    browser.get(view_server.http_url)
+
+    rows = wait_for(browser, lambda d: (r := topic_rows(d)).get("cmd_vel", {}).get("rate") and r,
+                    "cmd_vel listed with a measured rate")
+    assert rows["cmd_vel"]["type"] == "horus.msg.CmdVel", rows
+    assert 25 <= rows["cmd_vel"]["rate"] <= 75, f"a 50 Hz topic shown at {rows['cmd_vel']} msg/s"
+    assert browser.find_element(By.ID, "connection").get_attribute("data-state") == "open"
+
+    node = wait_for(browser, lambda d: d.find_elements(By.CSS_SELECTOR, "#nodes tr[data-node]"),
+                    "a node in the node list")
+    assert any("pacer" in row.text and "cmd_vel" in row.text for row in node), [r.text for r in node]
+    health = {row.get_attribute("data-node"): row.get_attribute("data-health") for row in node}
+    assert "publishing" in health.values(), health
+
+    browser.find_element(By.CSS_SELECTOR, "#topics tr[data-topic='cmd_vel']").click()
+    value = browser.find_element(By.ID, "value")
+    first = json.loads(wait_for(browser, lambda d: value.text, "the newest value of cmd_vel"))
+    assert first["angular"] == 0.5 and -1 <= first["linear"] <= 1, first
+    second = wait_for(browser, lambda d: (shown := json.loads(value.text))["stamp_nanos"] !=
+                      first["stamp_nanos"] and shown, "a newer value of cmd_vel")
+    assert int(second["stamp_nanos"]) > int(first["stamp_nanos"]), (first, second)
+
+    plot = browser.find_element(By.ID, "plot")
+    wait_for(browser, lambda d: int(plot.get_attribute("data-points")) > 10, "plotted points")
+    assert plot.get_attribute("data-field") == "linear"
+    assert pacer.poll() is None, pacer.errors.text()
+
+
+def test_the_viewer_links_carry_the_websocket_url_and_token(view_server, browser):
+    browser.get(view_server.http_url + "?token=s3cret")
+    expected = f"ws://127.0.0.1:{view_server.port}/?token=s3cret"
+    for link in ("open-foxglove", "open-lichtblick"):
+        href = browser.find_element(By.ID, link).get_attribute("href")
+        query = urllib.parse.parse_qs(urllib.parse.urlsplit(href).query)
+        assert query == {"ds": ["foxglove-websocket"], "ds.url": [expected]}, href
+    assert browser.find_element(By.ID, "open-foxglove").get_attribute("href").startswith(
+        "https://app.foxglove.dev/?")
