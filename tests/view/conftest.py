@@ -3,12 +3,16 @@ namespace under a shared-memory root of its own, in which the test process itsel
 `import horus`, and `horus-view serve` on a free loopback port in it."""
 from __future__ import annotations
 
+import base64
 import dataclasses
 import json
 import os
 import pathlib
 import shutil
+import socket
+import struct
 import subprocess
+import threading
 import uuid
 
 import pytest
@@ -87,3 +91,90 @@ def view_test_types(tmp_path_factory) -> str:
                     str(SCHEMAS), str(SCHEMAS / "view_test" / "scale.hsrv")],
                    check=True, capture_output=True)
     return str(output / "python")
+
+
+class Publishing:
+    """Publishes on a thread of its own every 20 ms while the `with` lasts: each round calls
+    publish(count), count 1, 2, ..."""
+
+    def __init__(self) -> None:
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+
+    def __enter__(self):
+        self._thread.start()
+        return self
+
+    def __exit__(self, *failure) -> None:
+        self._stop.set()
+        self._thread.join()
+
+    def publish(self, count: int) -> None:
+        raise NotImplementedError
+
+    def _run(self) -> None:
+        count = 0
+        while not self._stop.wait(0.02):
+            count += 1
+            self.publish(count)
+
+
+def websocket_handshake(connection: socket.socket, port: int, subprotocol: str,
+                        path: str = "/") -> tuple[str, bytes]:
+    """Sends the opening handshake of `path`; (the status line, the bytes read past the
+    headers)."""
+    key = base64.b64encode(os.urandom(16)).decode()
+    connection.sendall((f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n"
+                        "Upgrade: websocket\r\nConnection: Upgrade\r\n"
+                        f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n"
+                        f"Sec-WebSocket-Protocol: {subprotocol}\r\n\r\n").encode())
+    received = b""
+    while b"\r\n\r\n" not in received:
+        chunk = connection.recv(4096)
+        if not chunk:
+            break
+        received += chunk
+    headers, _, rest = received.partition(b"\r\n\r\n")
+    return headers.split(b"\r\n", 1)[0].decode(), rest
+
+
+class RawWebSocket:
+    """A WebSocket client of our own over `connection` (plain or TLS) that reads frames only when
+    asked to and sends masked text frames."""
+
+    def __init__(self, connection: socket.socket, port: int,
+                 subprotocol: str = "foxglove.websocket.v1", path: str = "/") -> None:
+        self.socket = connection
+        status, self.buffer = websocket_handshake(connection, port, subprotocol, path)
+        assert status.startswith("HTTP/1.1 101"), status
+
+    def _take(self, size: int) -> bytes:
+        while len(self.buffer) < size:
+            chunk = self.socket.recv(65536)
+            assert chunk, "the server closed the connection"
+            self.buffer += chunk
+        taken, self.buffer = self.buffer[:size], self.buffer[size:]
+        return taken
+
+    def read_frame(self) -> tuple[int, bytes]:
+        """(opcode, payload) of the next frame."""
+        first, second = self._take(2)
+        size = second & 0x7F
+        if size == 126:
+            size = struct.unpack(">H", self._take(2))[0]
+        elif size == 127:
+            size = struct.unpack(">Q", self._take(8))[0]
+        return first & 0x0F, self._take(size)
+
+    def send_text(self, text: str) -> None:
+        payload = text.encode()
+        mask = os.urandom(4)
+        if len(payload) < 126:
+            header = bytes([0x81, 0x80 | len(payload)])
+        else:
+            header = bytes([0x81, 0x80 | 126]) + struct.pack(">H", len(payload))
+        masked = bytes(byte ^ mask[index % 4] for index, byte in enumerate(payload))
+        self.socket.sendall(header + mask + masked)
+
+    def close(self) -> None:
+        self.socket.close()

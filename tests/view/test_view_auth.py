@@ -8,22 +8,20 @@ at the upgrade, and a server that would serve beyond this machine without TLS, o
 file others may read, does not start."""
 from __future__ import annotations
 
-import base64
 import dataclasses
 import json
 import os
 import pathlib
 import socket
 import ssl
-import struct
 import subprocess
 import sys
-import threading
 import time
 
 import horus
 import pytest
-from conftest import VIEW, run_node_client
+from conftest import (VIEW, Publishing, RawWebSocket, run_node_client,
+                      websocket_handshake)
 from horus.msg import CmdVel
 from processes import wait_line
 
@@ -73,7 +71,7 @@ class SecureView:
         return tls
 
 
-class Topics:
+class Topics(Publishing):
     """cmd_vel and cmd_arm (alice's to read, cmd_vel hers to write) and odom (bob's and carol's
     to read), opened before the view starts so that its first advertisement has them; odom
     published every 20 ms until the `with` ends."""
@@ -82,22 +80,10 @@ class Topics:
         self.cmd_vel = horus.Topic(CmdVel, "cmd_vel")
         self.cmd_arm = horus.Topic(CmdVel, "cmd_arm")
         self.odom = horus.Topic(CmdVel, "odom")
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._publish, daemon=True)
+        super().__init__()
 
-    def __enter__(self) -> Topics:
-        self._thread.start()
-        return self
-
-    def __exit__(self, *failure) -> None:
-        self._stop.set()
-        self._thread.join()
-
-    def _publish(self) -> None:
-        count = 0
-        while not self._stop.wait(0.02):
-            count += 1
-            self.odom.send(CmdVel(stamp_nanos=count, linear=0.5, angular=0.0))
+    def publish(self, count: int) -> None:
+        self.odom.send(CmdVel(stamp_nanos=count, linear=0.5, angular=0.0))
 
 
 @pytest.fixture
@@ -205,52 +191,24 @@ class GraphWatcher:
     def __init__(self, view: SecureView, token: str) -> None:
         context = ssl.create_default_context(cafile=str(view.certs / "ca.crt"))
         raw = socket.create_connection(("127.0.0.1", view.port), timeout=10)
-        self.connection = context.wrap_socket(raw, server_hostname=SERVER_NAME)
-        key = base64.b64encode(os.urandom(16)).decode()
-        self.connection.sendall((f"GET /?token={token} HTTP/1.1\r\nHost: 127.0.0.1\r\n"
-                                 "Upgrade: websocket\r\nConnection: Upgrade\r\n"
-                                 f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n"
-                                 "Sec-WebSocket-Protocol: foxglove.websocket.v1\r\n\r\n").encode())
-        self.buffer = b""
-        while b"\r\n\r\n" not in self.buffer:
-            self.buffer += self._receive()
-        headers, _, self.buffer = self.buffer.partition(b"\r\n\r\n")
-        assert headers.startswith(b"HTTP/1.1 101"), headers
-        # A client's frames are masked (RFC 6455); a zero mask leaves the text as it is.
-        text = json.dumps({"op": "subscribeConnectionGraph"}).encode()
-        self.connection.sendall(bytes([0x81, 0x80 | len(text)]) + b"\0\0\0\0" + text)
-
-    def _receive(self) -> bytes:
-        chunk = self.connection.recv(65536)
-        assert chunk, "the server closed the connection"
-        return chunk
-
-    def _take(self, size: int) -> bytes:
-        while len(self.buffer) < size:
-            self.buffer += self._receive()
-        taken, self.buffer = self.buffer[:size], self.buffer[size:]
-        return taken
+        self.websocket = RawWebSocket(context.wrap_socket(raw, server_hostname=SERVER_NAME),
+                                      view.port, path=f"/?token={token}")
+        self.websocket.send_text(json.dumps({"op": "subscribeConnectionGraph"}))
 
     def graph_updates(self, seconds: float):
         """The connectionGraphUpdate messages that come within `seconds`."""
         deadline = time.monotonic() + seconds
         while (left := deadline - time.monotonic()) > 0:
-            self.connection.settimeout(left)
+            self.websocket.socket.settimeout(left)
             try:
-                first, second = self._take(2)
+                opcode, payload = self.websocket.read_frame()
             except (socket.timeout, TimeoutError):
                 return
-            size = second & 0x7F
-            if size == 126:
-                size = struct.unpack(">H", self._take(2))[0]
-            elif size == 127:
-                size = struct.unpack(">Q", self._take(8))[0]
-            payload = self._take(size)
-            if first & 0x0F == 1 and json.loads(payload).get("op") == "connectionGraphUpdate":
+            if opcode == 1 and json.loads(payload).get("op") == "connectionGraphUpdate":
                 yield json.loads(payload)
 
     def close(self) -> None:
-        self.connection.close()
+        self.websocket.close()
 
 
 def test_the_connection_graph_holds_only_the_services_a_peer_may_call(secure_view,
@@ -292,18 +250,8 @@ def upgrade_status(view: SecureView, path: str, certificate: pathlib.Path | None
         context.load_cert_chain(f"{certificate}.crt", f"{certificate}.key")
     with socket.create_connection(("127.0.0.1", view.port), timeout=10) as raw, \
             context.wrap_socket(raw, server_hostname=SERVER_NAME) as connection:
-        key = base64.b64encode(os.urandom(16)).decode()
-        connection.sendall((f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{view.port}\r\n"
-                            "Upgrade: websocket\r\nConnection: Upgrade\r\n"
-                            f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n"
-                            "Sec-WebSocket-Protocol: foxglove.websocket.v1\r\n\r\n").encode())
-        received = b""
-        while b"\r\n" not in received:
-            chunk = connection.recv(4096)
-            if not chunk:
-                break
-            received += chunk
-    return received.split(b"\r\n", 1)[0].decode()
+        status, _ = websocket_handshake(connection, view.port, "foxglove.websocket.v1", path)
+    return status
 
 
 def test_a_wrong_or_missing_token_is_refused_at_the_upgrade(secure_view):

@@ -5,11 +5,9 @@ advertise, calling a service and publishing into a topic; and a client that stop
 must cost neither the other clients their rate nor the server its memory."""
 from __future__ import annotations
 
-import base64
 import json
 import os
 import socket
-import struct
 import subprocess
 import sys
 import threading
@@ -17,7 +15,8 @@ import time
 
 import horus
 import numpy as np
-from conftest import VIEW, run_node_client
+from conftest import (VIEW, Publishing, RawWebSocket, run_node_client,
+                      websocket_handshake)
 from horus.msg import CmdVel, OccupancyGrid
 
 SUBPROTOCOLS = ["foxglove.websocket.v1", "foxglove.sdk.v1"]
@@ -31,7 +30,7 @@ def image_pixels() -> np.ndarray:
     return ((x + 3 * y + 7 * c) % 251).astype(np.uint8)
 
 
-class Publishers:
+class Publishers(Publishing):
     """CmdVel, OccupancyGrid (serialized) and Image topics published from this process until
     the `with` ends, every message the same but for CmdVel's count, so that any a client takes
     can be checked."""
@@ -41,27 +40,16 @@ class Publishers:
         self.map = horus.Topic(OccupancyGrid, "map")
         self.camera = horus.Topic(horus.Image, "camera")
         self.pixels = image_pixels()
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._publish, daemon=True)
+        self.grid = OccupancyGrid(resolution=0.25, width=3, height=2,
+                                  data=[0, 100, -1, 0, 0, 100], frame_id="map",
+                                  metadata="view test")
+        super().__init__()
 
-    def __enter__(self) -> Publishers:
-        self._thread.start()
-        return self
-
-    def __exit__(self, *failure) -> None:
-        self._stop.set()
-        self._thread.join()
-
-    def _publish(self) -> None:
-        grid = OccupancyGrid(resolution=0.25, width=3, height=2, data=[0, 100, -1, 0, 0, 100],
-                             frame_id="map", metadata="view test")
-        count = 0
-        while not self._stop.wait(0.02):
-            count += 1
-            self.cmd_vel.send(CmdVel(stamp_nanos=count, linear=1.5, angular=-0.25))
-            if count % 4 == 0:
-                self.map.send(grid)
-                self.camera.send(horus.Image.from_numpy(self.pixels))
+    def publish(self, count: int) -> None:
+        self.cmd_vel.send(CmdVel(stamp_nanos=count, linear=1.5, angular=-0.25))
+        if count % 4 == 0:
+            self.map.send(self.grid)
+            self.camera.send(horus.Image.from_numpy(self.pixels))
 
 
 def successful_runs(result: dict) -> dict:
@@ -153,66 +141,6 @@ def test_an_unknown_subprotocol_is_refused(view_server):
 
 # A WebSocket client of our own that reads only what it chooses: the stalled viewer.
 
-def websocket_handshake(connection: socket.socket, port: int, subprotocol: str):
-    """Sends the opening handshake; (the status line, the bytes read past the headers)."""
-    key = base64.b64encode(os.urandom(16)).decode()
-    connection.sendall((f"GET / HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\n"
-                        f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\n"
-                        f"Sec-WebSocket-Version: 13\r\nSec-WebSocket-Protocol: {subprotocol}"
-                        "\r\n\r\n").encode())
-    received = b""
-    while b"\r\n\r\n" not in received:
-        chunk = connection.recv(4096)
-        if not chunk:
-            break
-        received += chunk
-    headers, _, rest = received.partition(b"\r\n\r\n")
-    return headers.split(b"\r\n", 1)[0].decode(), rest
-
-
-class RawWebSocket:
-    """Reads frames only when asked to; sends masked text frames."""
-
-    def __init__(self, port: int, subprotocol: str = SUBPROTOCOLS[0]) -> None:
-        self.socket = socket.socket()
-        # A small receive buffer: the server's writes back up soon once this stops reading.
-        self.socket.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
-        self.socket.settimeout(10)
-        self.socket.connect(("127.0.0.1", port))
-        status, self.buffer = websocket_handshake(self.socket, port, subprotocol)
-        assert status.startswith("HTTP/1.1 101"), status
-
-    def _take(self, size: int) -> bytes:
-        while len(self.buffer) < size:
-            chunk = self.socket.recv(65536)
-            assert chunk, "the server closed the connection"
-            self.buffer += chunk
-        taken, self.buffer = self.buffer[:size], self.buffer[size:]
-        return taken
-
-    def read_frame(self) -> tuple[int, bytes]:
-        first, second = self._take(2)
-        size = second & 0x7F
-        if size == 126:
-            size = struct.unpack(">H", self._take(2))[0]
-        elif size == 127:
-            size = struct.unpack(">Q", self._take(8))[0]
-        return first & 0x0F, self._take(size)
-
-    def send_text(self, text: str) -> None:
-        payload = text.encode()
-        mask = os.urandom(4)
-        if len(payload) < 126:
-            header = bytes([0x81, 0x80 | len(payload)])
-        else:
-            header = bytes([0x81, 0x80 | 126]) + struct.pack(">H", len(payload))
-        masked = bytes(byte ^ mask[index % 4] for index, byte in enumerate(payload))
-        self.socket.sendall(header + mask + masked)
-
-    def close(self) -> None:
-        self.socket.close()
-
-
 def rss_bytes(pid: int) -> int:
     with open(f"/proc/{pid}/status") as status:
         for line in status:
@@ -265,7 +193,12 @@ def test_a_stalled_client_costs_the_others_nothing(view_server, namespace, child
     assert publisher.stdout.readline().strip() == "ready", publisher.errors.text()
 
     # The stalled viewer: subscribes to both topics, then never reads again.
-    stalled = RawWebSocket(view_server.port)
+    connection = socket.socket()
+    # A small receive buffer: the server's writes back up soon once this stops reading.
+    connection.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    connection.settimeout(10)
+    connection.connect(("127.0.0.1", view_server.port))
+    stalled = RawWebSocket(connection, view_server.port)
     channel_ids = {}
     while not {"fast", "camera"} <= channel_ids.keys():
         opcode, payload = stalled.read_frame()
