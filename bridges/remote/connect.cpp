@@ -18,6 +18,7 @@
 #include "horus/service_registry.hpp"
 #include "link.hpp"
 #include "remote.hpp"
+#include "remote_params.hpp"
 #include "services.hpp"
 
 namespace horus::remote {
@@ -164,7 +165,18 @@ class Link {
   }
 
   /// Until the connection ends (resolved) or fails (rejected).
-  kj::Promise<void> run() { return rescan().exclusiveJoin(network_.onDisconnect()); }
+  kj::Promise<void> run() {
+    kj::Promise<void> running = rescan().exclusiveJoin(network_.onDisconnect());
+    if (options_.params.empty()) return running;
+    params_ = kj::heap<ParamMirrors>(session_, options_.params, options_.namespace_name);
+    // A robot that cannot share its parameters (an older one) still shares its topics.
+    return running.exclusiveJoin(params_->run().then(
+        []() -> kj::Promise<void> { return kj::NEVER_DONE; },
+        [](kj::Exception&& failure) -> kj::Promise<void> {
+          say("the robot's parameters are not mirrored here: %s", text_of(failure).c_str());
+          return kj::NEVER_DONE;
+        }));
+  }
 
  private:
   wire::Session::Client bootstrap() {
@@ -340,6 +352,8 @@ class Link {
   wire::Session::Client session_;
   std::map<std::string, wire::Subscription::Client> imports_;
   std::map<std::string, Export> exports_;
+  /// The robot's parameters mirrored here (--params), ended with the connection.
+  kj::Own<ParamMirrors> params_;
   /// The robot's services not served here on this connection (a local server has them).
   std::set<std::string> refused_services_;
   /// Topics refused (or being asked for) on this connection: asked for again on the next.

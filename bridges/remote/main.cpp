@@ -4,8 +4,8 @@
 //   horus-remote serve --listen HOST:PORT --certs DIR --name NAME [--allow LINE]...
 //                      [--policy FILE] [--insecure] [--namespace NS]
 //   horus-remote connect HOST:PORT --certs DIR --name NAME [--server-name NAME]
-//                      [--import PATTERN]... [--export PATTERN]... [--queue N]
-//                      [--call-timeout SECONDS] [--insecure]
+//                      [--import PATTERN]... [--export PATTERN]... [--params PATTERN]...
+//                      [--queue N] [--call-timeout SECONDS] [--insecure]
 //                      [--namespace NS]
 #include <cmath>
 #include <csignal>
@@ -40,18 +40,21 @@ int usage(std::FILE* out, int status) {
   std::fprintf(
       out,
       "usage: horus-remote serve --listen HOST:PORT --certs DIR --name NAME\n"
-      "                          [--allow 'PEER read|write|call PATTERN']... [--policy FILE]\n"
+      "                          [--allow 'PEER read|write|call|param PATTERN']...\n"
+      "                          [--policy FILE]\n"
       "       horus-remote connect HOST:PORT --certs DIR --name NAME [--server-name NAME]\n"
       "                          [--import PATTERN]... [--export PATTERN]... [--queue N]\n"
-      "                          [--call-timeout SECONDS]\n"
+      "                          [--params NODE.PARAMETER]... [--call-timeout SECONDS]\n"
       "  both:  [--namespace NS] [--insecure (plain TCP: no authentication, no encryption)]\n"
       "serve: serves the namespace to peers with a certificate of DIR's CA, each limited to\n"
       "       what the policy lines allow its certificate name (globs; the rest is denied).\n"
       "connect: mirrors the robot's topics matching --import here, sends local topics\n"
-      "       matching --export to the robot; reconnects with backoff. --server-name: the\n"
-      "       name in the robot's certificate (default: HOST). --queue: messages a stream\n"
-      "       may fall behind before the oldest are dropped (default %u). --call-timeout: how\n"
-      "       long the robot waits for its server to answer a call (default 10, at most %u).\n",
+      "       matching --export to the robot; reconnects with backoff. --params: mirrors the\n"
+      "       robot's parameters matching it (globs on NODE.PARAMETER) here while connected.\n"
+      "       --server-name: the name in the robot's certificate (default: HOST). --queue:\n"
+      "       messages a stream may fall behind before the oldest are dropped (default %u).\n"
+      "       --call-timeout: how long the robot waits for its server to answer a call\n"
+      "       (default 10, at most %u).\n",
       kDefaultQueue, kLongestCallMs / 1000);
   return status;
 }
@@ -123,6 +126,8 @@ int run(int argc, char** argv) {
       connecting.server_name = value();
     } else if (command == "connect" && arg == "--import") {
       connecting.imports.push_back(value());
+    } else if (command == "connect" && arg == "--params") {
+      connecting.params.push_back(value());
     } else if (command == "connect" && arg == "--export") {
       connecting.exports.push_back(value());
     } else if (command == "connect" && arg == "--queue") {

@@ -86,6 +86,37 @@ interface Session {
   # set whenever the robot knows it (always with a response).
   call @4 (service :Text, request :Data, response :TopicInfo, timeoutMs :UInt32)
       -> (response :Data, failure :CallFailure, responseType :TopicInfo);
+
+  # The parameters of the robot's running nodes the peer may see (`PEER param NODE.PARAMETER`
+  # rules): a node none of whose parameters it may see is left out. Answered once the robot's
+  # `generation` (a digest of which nodes run and of their change counts) differs from `since`,
+  # or after `waitMs` (at most 10 s) when nothing changed: the peer follows changes by asking
+  # again with the generation it was given.
+  params @5 (since :UInt64, waitMs :UInt32) -> (generation :UInt64, nodes :List(ParamNode));
+
+  # Writes one parameter through its owner on the robot, as `horus param set` there would, with
+  # "remote:PEER" as the change's source. A refusal (the policy's, the declaration's, the
+  # owner's) is `accepted` false with the reason; `version` is the parameter's after the write.
+  setParam @6 (node :Text, name :Text, value :Data, timeoutMs :UInt32)
+      -> (accepted :Bool, reason :Text, version :UInt64);
+}
+
+# One node's parameters as a peer may see them.
+struct ParamNode {
+  node @0 :Text;
+  # The declarations of the parameters the peer may see: a type description (MessagePack,
+  # "horus.typedesc", docs/type-description.md) whose root message has one field per parameter
+  # with its declaration keys (doc, range, choices, read_only), as the robot's store holds it.
+  description @1 :Data;
+  values @2 :List(ParamValue);
+}
+
+struct ParamValue {
+  name @0 :Text;
+  # MessagePack bytes of the type description's VALUE (an enum's is its enumerator's name).
+  value @1 :Data;
+  # 1 for the value the node started with, +1 for each accepted write.
+  version @2 :UInt64;
 }
 
 # Why the robot's server gave no answer to a call; `text` as a client on the robot would read it.

@@ -37,6 +37,8 @@ struct ConnectOptions {
   std::string namespace_name;
   std::vector<std::string> imports;
   std::vector<std::string> exports;
+  /// The robot's parameters ("NODE.PARAMETER" globs) mirrored here while connected.
+  std::vector<std::string> params;
   /// Messages each stream may fall behind before the oldest are dropped.
   unsigned queue = 0;
   /// How long the robot waits for its server to answer one call a local client makes (the

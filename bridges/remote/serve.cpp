@@ -8,12 +8,15 @@
 #include <memory>
 #include <optional>
 #include <set>
+#include <thread>
 
 #include "horus/bridge/identity.hpp"
 #include "horus/bridge/peer_policy.hpp"
+#include "horus/params.hpp"
 #include "horus/service_registry.hpp"
 #include "link.hpp"
 #include "remote.hpp"
+#include "remote_params.hpp"
 #include "services.hpp"
 
 namespace horus::remote {
@@ -31,6 +34,12 @@ constexpr std::uint32_t kLargestQueue = 1024;
 constexpr kj::Duration kCallSpacing = 1 * kj::MILLISECONDS;
 constexpr kj::Duration kCallBurst = 100 * kj::MILLISECONDS;
 /// How long a peer the policy refuses is kept connected to be told why.
+/// How often a peer's `params` looks at the stores while it waits for a change, and the longest
+/// it waits.
+constexpr kj::Duration kParamsLookInterval = 50 * kj::MILLISECONDS;
+constexpr std::uint32_t kLongestParamsWaitMs = 10000;
+/// Parameter writes of one connection waiting for their owners at once (each waits on a thread).
+constexpr int kParamWritesAtOnce = 4;
 constexpr kj::Duration kRefusalLinger = 10 * kj::SECONDS;
 /// A peer (by its certificate's name, over all its connections) holds at most this many
 /// subscriptions and publishes of one topic, each a handle of the topic, of which a topic has
@@ -440,6 +449,92 @@ class SessionImpl final : public wire::Session::Server {
         });
   }
 
+  kj::Promise<void> params(ParamsContext context) override {
+    return throttle().then([this, context]() mutable {
+      const auto asked = context.getParams();
+      const kj::TimePoint until =
+          timer_.now() + std::min(asked.getWaitMs(), kLongestParamsWaitMs) * kj::MILLISECONDS;
+      if (!param_view_) {
+        param_view_ = std::make_unique<ParamView>(
+            [this](const std::string& name) { return allows(Access::Param, name); },
+            options_.namespace_name);
+      }
+      return answer_params(context, asked.getSince(), until);
+    });
+  }
+
+  /// Answers once what the peer may see of the parameters differs from `since`, or at `until`.
+  kj::Promise<void> answer_params(ParamsContext context, std::uint64_t since, kj::TimePoint until) {
+    const std::uint64_t generation = param_view_->refresh();
+    if (generation == since && timer_.now() < until) {
+      return timer_.afterDelay(kParamsLookInterval).then([this, context, since, until]() mutable {
+        return answer_params(context, since, until);
+      });
+    }
+    auto results = context.getResults();
+    results.setGeneration(generation);
+    param_view_->fill(results.initNodes(static_cast<unsigned>(param_view_->node_count())));
+    return kj::READY_NOW;
+  }
+
+  kj::Promise<void> setParam(SetParamContext context) override {
+    return throttle().then([this, context]() mutable { return answer_set_param(context); });
+  }
+
+  kj::Promise<void> answer_set_param(SetParamContext context) {
+    const auto asked = context.getParams();
+    const std::string node = asked.getNode();
+    const std::string name = asked.getName();
+    const std::string parameter = node + "." + name;
+    if (!allows(Access::Param, parameter)) {
+      refusals_->note("set parameter: not in the policy",
+                      "set parameter " + parameter + ": not in the policy");
+      auto results = context.getResults();
+      results.setAccepted(false);
+      results.setReason("the robot's policy does not let peer '" + peer_ + "' set parameter '" +
+                        parameter + "' (no 'param' rule of '" + peer_ + "' matches it)");
+      return kj::READY_NOW;
+    }
+    if (param_writes_->load() >= kParamWritesAtOnce) {
+      refused("write limit", "set parameter " + parameter,
+              "peer '" + peer_ + "' has " + std::to_string(kParamWritesAtOnce) +
+                  " parameter writes waiting already, the most it may");
+    }
+    ParamSetOptions options;
+    options.source = "remote:" + peer_;
+    options.namespace_name = options_.namespace_name;
+    options.timeout =
+        std::chrono::milliseconds(std::clamp(asked.getTimeoutMs(), 1U, kLongestCallMs));
+    const auto bytes = asked.getValue();
+    std::string value(reinterpret_cast<const char*>(bytes.begin()), bytes.size());
+    // set_param() waits for the owner's verdict: on a thread of its own, never the event loop.
+    auto outcome = std::make_shared<ParamSetResult>();
+    auto done = kj::newPromiseAndCrossThreadFulfiller<void>();
+    // Shared: kj's handles may throw from their destructors, which a thread's state may not.
+    auto fulfiller =
+        std::make_shared<kj::Own<kj::CrossThreadPromiseFulfiller<void>>>(kj::mv(done.fulfiller));
+    ++*param_writes_;
+    std::thread([outcome, fulfiller, node, name, value = std::move(value), options,
+                 writes = param_writes_]() mutable {
+      try {
+        *outcome = set_param(node, name, value, options);
+      } catch (const std::exception& e) {
+        *outcome = ParamSetResult{false, e.what(), 0};
+      }
+      --*writes;
+      (*fulfiller)->fulfill();
+    }).detach();
+    if (announced_.insert("set " + parameter).second) {
+      say("%s sets parameter %s", peer_.c_str(), parameter.c_str());
+    }
+    return done.promise.then([context, outcome]() mutable {
+      auto results = context.getResults();
+      results.setAccepted(outcome->accepted);
+      results.setReason(outcome->reason);
+      results.setVersion(outcome->version);
+    });
+  }
+
   kj::Promise<void> publish(PublishContext context) override {
     return throttle().then([this, context]() mutable { return answer_publish(context); });
   }
@@ -557,6 +652,9 @@ class SessionImpl final : public wire::Session::Server {
   kj::TimePoint next_call_;
   /// Per service the peer called: destroyed (each thread joined) with the session.
   std::map<std::string, std::unique_ptr<ServiceRelay>> relays_;
+  /// What this peer may see of the parameters, made at its first `params`.
+  std::unique_ptr<ParamView> param_view_;
+  std::shared_ptr<std::atomic<int>> param_writes_ = std::make_shared<std::atomic<int>>(0);
   std::shared_ptr<PeerHoldings> holdings_;
   /// What the peer was granted, logged the first time only on this connection: a peer that
   /// subscribes and drops a thousand times a second costs the log one line.

@@ -136,7 +136,7 @@ class Motor : public warehouse_agv::MotorBase {
       estopped_ = true;
       say("emergency stop: wheels halted at x=" + metres(world_.robot_x.load()));
     }
-    if (auto cmd = cmd_.try_recv()) target_ = cmd->linear;
+    if (auto cmd = cmd_.try_recv()) target_ = std::min(cmd->linear, params().max_speed());
     msg::DifferentialDriveCommand drive{};
     drive.left_velocity = drive.right_velocity = estopped_ ? 0.0f : target_;
     drive.max_acceleration = 1.0f;

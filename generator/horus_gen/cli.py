@@ -16,7 +16,7 @@ from .diagnostics import Reporter
 from .lang import LANGUAGES, emitter, idl
 from .lang.common import template_files
 from .loader import Options
-from .model import Enum, Message, Model, Node, Service
+from .model import Enum, EnumValue, Message, Model, Node, NodeParam, Service
 from .output import write_depfile, write_outputs, touch
 from .parser import FILE_KINDS
 from .resolve import Resolver
@@ -168,7 +168,29 @@ def describe_node(node: Node) -> str:
     lines += [f"    client {s.member}: {s.service}\n" for s in node.clients]
     lines += [f"    server {s.member}: {s.service}\n" for s in node.servers]
     lines += [f"    data {f.name}: {f.spelling}\n" for f in node.data]
+    lines += [f"    param {p.name}: {p.spelling} = {_param_value(p.default)}{_param_limits(p)}\n" for p in node.params]
     return "".join(lines)
+
+
+def _param_value(value) -> str:
+    """A value as a YAML parameter file spells it: an enumerator by its name, the rest as JSON."""
+    return value.variant if isinstance(value, EnumValue) else json.dumps(description.value_tree(value))
+
+
+def _param_limits(param: NodeParam) -> str:
+    """`  min 0.0  max 2.0  choices ["eco", "sport"]  unit m/s  read-only`: what is declared."""
+    parts = []
+    if param.minimum is not None:
+        parts.append(f"min {param.minimum}")
+    if param.maximum is not None:
+        parts.append(f"max {param.maximum}")
+    if param.choices:
+        parts.append("choices [" + ", ".join(_param_value(c) for c in param.choices) + "]")
+    if param.unit:
+        parts.append(f"unit {param.unit}")
+    if param.read_only:
+        parts.append("read-only")
+    return "".join(f"  {p}" for p in parts)
 
 
 def _setting_text(value) -> str:

@@ -9,7 +9,8 @@ import json
 from dataclasses import dataclass, field
 
 from .diagnostics import Note, Reporter
-from .model import Model, Node, NodeService, NodeTopic
+from . import description
+from .model import Model, Node, NodeParam, NodeService, NodeTopic
 
 
 @dataclass
@@ -94,8 +95,17 @@ def node_json(node: Node) -> dict:
         "clients": [{"member": c.member, "service": c.service} for c in node.clients],
         "servers": [{"member": c.member, "service": c.service} for c in node.servers],
         "data": [{"member": f.name, "type": f.spelling} for f in node.data],
+        "params": [param_json(p) for p in node.params],
         "settings": {k: v for k, v in settings.items() if v is not None and v is not False},
     }
+
+
+def param_json(param: NodeParam) -> dict:
+    """A parameter as horus::ParamDeclaration holds it: values as the type description's VALUE."""
+    return {"name": param.name, "type": description.type_tree(param.type), "spelling": param.spelling,
+            "default": description.value_tree(param.default), "min": param.minimum, "max": param.maximum,
+            "choices": [description.value_tree(c) for c in param.choices], "unit": param.unit,
+            "doc": "\n".join(param.docs), "read_only": param.read_only}
 
 
 def _topic_json(t: NodeTopic) -> dict:

@@ -250,6 +250,23 @@ class NodeService:
 
 
 @dataclass(frozen=True)
+class NodeParam:
+    """A parameter of a node (its `params` block): the runtime declares it when the node is built
+    (horus::ParamDeclaration), holds it in shared memory and writes it only through the node."""
+    name: str
+    type: Type  # bool, an integer, f32, f64, String, an enum, or a fixed array of numbers or bool
+    spelling: str  # canonical schema spelling of the type, e.g. "[f64; 3]"
+    default: Value  # the declared value, or the type's zero when none is given
+    minimum: float | int | None  # #[min = N]: inclusive, of a number or of each element of an array
+    maximum: float | int | None
+    choices: tuple[Value, ...]  # #[choices = [...]]: the only values allowed, when not empty
+    unit: str
+    docs: tuple[str, ...]
+    read_only: bool
+    span: Span
+
+
+@dataclass(frozen=True)
 class FailurePolicy:
     kind: str  # Fatal | Restart | Skip | Ignore
     arguments: tuple[tuple[str, int], ...] = ()  # max_restarts / max_failures: count; *_backoff, cooldown: ns
@@ -286,6 +303,7 @@ class Node:
     docs: tuple[str, ...]
     source: str
     uses: tuple[str, ...]  # qualified messages, services and enums it names, in first-use order
+    params: tuple[NodeParam, ...] = ()
 
     @property
     def qualified(self) -> str:

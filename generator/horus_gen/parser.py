@@ -5,7 +5,7 @@ one diagnostic and the rest of the file is still checked.
 """
 from __future__ import annotations
 
-from .diagnostics import Reporter, Source, Span, near_miss
+from .diagnostics import Note, Reporter, Source, Span, near_miss
 from .lexer import Kind, Token, tokenize
 from .syntax import (Attribute, ConstDecl, EnumDecl, EnumVariant, FieldDecl, FileSyntax, Literal,
                      MessageDecl, NodeDecl, NodeEndpointDecl, NodeSettingDecl, ServiceDecl, TypeExpr)
@@ -455,24 +455,36 @@ class Parser:
         settings: list[NodeSettingDecl] = []
         blocks: list[tuple[str, Span, tuple[NodeEndpointDecl, ...]]] = []
         data: list[FieldDecl] = []
+        params: list[FieldDecl] = []
+        params_block: list[Token] = []
 
         def entry() -> None:
-            word = self.expect_ident(f"a setting or a block (sub, pub, client, server, data) in '{name.text}'")
+            word = self.expect_ident(f"a setting or a block (sub, pub, client, server, data, params) in '{name.text}'")
             if self.peek().is_punct("{"):
                 block = self.advance()
-                if word.text == "data":
-                    fields, constants = self.parse_members(f"data of '{name.text}'", block)
+                if word.text in ("data", "params"):
+                    fields, constants = self.parse_members(f"{word.text} of '{name.text}'", block)
                     for constant in constants:
-                        self.reporter.error(constant.span, f"'data' of node '{name.text}' holds fields, not constants",
+                        self.reporter.error(constant.span,
+                                            f"'{word.text}' of node '{name.text}' holds fields, not constants",
                                             "declare constants in a message schema")
-                    data.extend(fields)
+                    if word.text == "data":
+                        data.extend(fields)
+                    elif params_block:
+                        # One block, so that a node's parameters read in one place in declaration order.
+                        self.reporter.error(word.span, f"node '{name.text}' has two 'params' blocks",
+                                            "declare every parameter in one params { } block",
+                                            (Note(params_block[0].span, "first block here"),))
+                    else:
+                        params_block.append(word)
+                        params.extend(fields)
                 elif word.text in NODE_BLOCKS:
                     blocks.append((word.text, word.span, self.parse_endpoints(name.text, word.text, block)))
                 else:
-                    guess = near_miss(word.text, list(NODE_BLOCKS) + ["data"])
+                    guess = near_miss(word.text, list(NODE_BLOCKS) + ["data", "params"])
                     self.reporter.error(word.span, f"unknown block '{word.text}' in node '{name.text}'",
                                         f"did you mean '{guess}'?" if guess else
-                                        "a node's blocks are sub, pub, client, server and data")
+                                        "a node's blocks are sub, pub, client, server, data and params")
                     self.parse_block(block, f"block '{word.text}'", self.skip_to_member_end)
                 self.accept_punct(",")
                 return
@@ -481,7 +493,8 @@ class Parser:
             self.expect_member_end(word.text)
 
         self.parse_block(open_brace, f"node '{name.text}'", entry)
-        return NodeDecl(name.text, name.span, tuple(settings), tuple(blocks), tuple(data), attributes, docs)
+        return NodeDecl(name.text, name.span, tuple(settings), tuple(blocks), tuple(data), attributes, docs,
+                        tuple(params))
 
     def parse_setting(self, word: Token) -> NodeSettingDecl:
         value = self.parse_literal()

@@ -148,7 +148,8 @@ class Resolver:
         """Loads, before anything is resolved, the package folders that names refer to, so that
         every declaration the run needs is known when resolution starts."""
         for item, unit in list(self.node_decls.values()):
-            exprs = [e.type for _, _, entries in item.blocks for e in entries] + [f.type for f in item.data]
+            exprs = [e.type for _, _, entries in item.blocks for e in entries]
+            exprs += [f.type for f in item.data + item.params]
             for expr in exprs:
                 for path in _type_paths(expr):
                     self.preload_path(path, unit)

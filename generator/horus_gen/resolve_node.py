@@ -15,6 +15,7 @@ from .lang import keyword_clash
 from .model import (EnumRef, FailurePolicy, Field, Message, MessageRef, Node, NodeService, NodeSettings,
                     NodeTopic, Optional, Vec, FixedArray, base_class_name)
 from .names import NODE_RESERVED_MEMBERS
+from .resolve_params import ParamResolver
 from .syntax import Literal, NodeDecl, NodeEndpointDecl, NodeSettingDecl, TypeExpr
 from .values import check_attributes, convert_value
 
@@ -77,6 +78,13 @@ class NodeResolver:
             if f.default is not None:
                 default = convert_value(self.reporter, self.model.types, f.default, t, f"data field '{f.name}'")
             data.append(Field(f.name, t, identity.spelling(t), default, "", f.docs, f.span))
+        params = []
+        param_resolver = ParamResolver(self.resolver)
+        for f in item.params:
+            self.check_member(item, f.name, f.span, members)
+            param = param_resolver.build(item.name, f, unit)
+            if param is not None:
+                params.append(param)
         for server in blocks["server"]:
             starter = f"serve_{server.member}"
             if starter in members:
@@ -94,14 +102,14 @@ class NodeResolver:
             uses.append(t.message)
         for s in blocks["client"] + blocks["server"]:
             uses.append(s.service)
-        for f in data:
+        for f in data + params:
             uses.extend(_named(f.type))
         name = values.get("name")
         self.model.nodes[f"{unit.package}.{item.name}"] = Node(
             package=unit.package, name=item.name, node_name=name[0] if name else item.name,
             subs=tuple(blocks["sub"]), pubs=tuple(blocks["pub"]), clients=tuple(blocks["client"]),
             servers=tuple(blocks["server"]), data=tuple(data), settings=self.node_settings(values),
-            docs=item.docs, source=unit.path, uses=tuple(dict.fromkeys(uses)))
+            docs=item.docs, source=unit.path, uses=tuple(dict.fromkeys(uses)), params=tuple(params))
 
     # -- settings ----------------------------------------------------------------------------------
     def settings(self, item: NodeDecl) -> dict[str, tuple[object, Span]]:
@@ -256,7 +264,7 @@ class NodeResolver:
     def check_member(self, item: NodeDecl, name: str, span: Span, members: dict[str, Span]) -> None:
         if name in members:
             self.reporter.error(span, f"duplicate member '{name}' in node '{item.name}'",
-                                "topic, service and data members share one namespace (self.<name> in Python)",
+                                "topic, service, data and params members share one namespace (self.<name> in Python)",
                                 (Note(members[name], "first declared here"),))
             return
         members[name] = span

@@ -132,3 +132,4 @@ class NodeDecl:
     data: tuple[FieldDecl, ...]
     attributes: tuple[Attribute, ...]
     docs: tuple[str, ...]
+    params: tuple[FieldDecl, ...] = ()

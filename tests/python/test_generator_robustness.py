@@ -40,7 +40,10 @@ FRAGMENTS = ["[", "]", "<", ">", "{", "}", ";", ",", ":", "::", "=", "#[", "Vec<
              "package", "import", "service", "\n", "///", "//", "_horus", "__x", "²",
              # node files
              "sub {", "pub {", "client {", "server {", "data {", "->", '-> "t"', "rate: 1 hz,", "budget: 1 us,",
-             "on_miss: Stop,", "failure_policy: Restart { max_restarts: 1 },", "#[capacity = 3]", "node!", 'on: "x",']
+             "on_miss: Stop,", "failure_policy: Restart { max_restarts: 1 },", "#[capacity = 3]", "node!", 'on: "x",',
+             # params blocks
+             "params {", "#[min = 1]", "#[max = -1.5]", '#[choices = ["a", 2]]', "#[read_only]", '#[unit = "\\\\"]',
+             "[bool; 300]"]
 # Doc text that C++ comments and Python docstrings must hold: comment and string ends, backslashes
 # (one ending a line would continue a C++ `//` comment), trigraphs, non-ASCII.
 DOCS = ["\n/// */ /* \"\"\" ''' \\n \\\n", "\n/// ends in a backslash \\\n", "\n/// ??/\n", "\n/// ?? ??/ x\n",

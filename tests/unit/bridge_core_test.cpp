@@ -136,13 +136,14 @@ TEST(BridgePeerPolicy, ABadLineIsRefusedNamingWhereItCameFrom) {
     policy.add("laptop read", "--allow");
     FAIL() << "a line without its pattern was taken";
   } catch (const std::invalid_argument& error) {
-    EXPECT_STREQ(error.what(), "--allow: 'laptop read' is not 'PEER read|write|call PATTERN'");
+    EXPECT_STREQ(error.what(),
+                 "--allow: 'laptop read' is not 'PEER read|write|call|param PATTERN'");
   }
   try {
     policy.add("laptop delete arm.*", "rules:3");
     FAIL() << "an unknown access was taken";
   } catch (const std::invalid_argument& error) {
-    EXPECT_STREQ(error.what(), "rules:3: 'delete' is not read, write or call");
+    EXPECT_STREQ(error.what(), "rules:3: 'delete' is not read, write, call or param");
   }
   EXPECT_THROW(policy.add("laptop read arm.* extra", "--allow"), std::invalid_argument);
   EXPECT_TRUE(policy.empty()) << "a refused line adds nothing";

@@ -7,17 +7,10 @@ from __future__ import annotations
 
 import json
 import os
-import pathlib
 import urllib.parse
 
-import pytest
-from selenium import webdriver
-from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import WebDriverWait
-
-CHROMIUM = pathlib.Path("/usr/bin/chromium")
-CHROMEDRIVER = pathlib.Path("/usr/bin/chromedriver")
 
 # A scheduler with one node, "pacer", publishing CmdVel at 50 Hz with a changing linear speed.
 PACER = """
@@ -30,24 +23,6 @@ def tick(node):
                                 angular=0.5))
 horus.run(horus.Node(name="pacer", tick=tick, rate=50, pubs={"cmd_vel": CmdVel}), tick_rate=50)
 """
-
-
-@pytest.fixture
-def browser():
-    for path, package in ((CHROMIUM, "chromium"), (CHROMEDRIVER, "chromium-driver")):
-        assert path.exists(), f"{path} is missing: install Debian's {package} (scripts/install-deps)"
-    options = webdriver.ChromeOptions()
-    options.binary_location = str(CHROMIUM)
-    for argument in ("--headless=new", "--disable-gpu", "--disable-dev-shm-usage",
-                     "--window-size=1400,1000"):
-        options.add_argument(argument)
-    if os.geteuid() == 0:
-        options.add_argument("--no-sandbox")  # Chromium refuses to run its sandbox as root
-    driver = webdriver.Chrome(service=Service(str(CHROMEDRIVER)), options=options)
-    try:
-        yield driver
-    finally:
-        driver.quit()
 
 
 def wait_for(driver, condition, what: str, limit: float = 15):

@@ -23,6 +23,7 @@ int usage(std::FILE* out, int status) {
                "usage: horus-record [-a | TOPICS...] [-o FILE] [--duration S] [--namespace NS]\n"
                "Records topics into an MCAP file until Ctrl+C, SIGTERM or --duration.\n"
                "  -a, --all         every topic of the namespace, also those that appear later\n"
+               "                    and the parameter changes of its nodes (/horus/params)\n"
                "  -o, --output FILE the file (default: a new session_YYYY_MM_DD_HHMMSS.mcap in\n"
                "                    $HORUS_RECORDINGS, else ~/.local/share/horus/recordings)\n"
                "  --duration S      stop after S seconds\n"

@@ -18,7 +18,7 @@ void PeerPolicy::add(std::string_view line, const std::string& where) {
   words >> peer >> access >> pattern;
   if (pattern.empty() || (words >> extra)) {
     throw std::invalid_argument(where + ": '" + std::string(line) +
-                                "' is not 'PEER read|write|call PATTERN'");
+                                "' is not 'PEER read|write|call|param PATTERN'");
   }
   Access kind = Access::Read;
   if (access == "read") {
@@ -27,8 +27,10 @@ void PeerPolicy::add(std::string_view line, const std::string& where) {
     kind = Access::Write;
   } else if (access == "call") {
     kind = Access::Call;
+  } else if (access == "param") {
+    kind = Access::Param;
   } else {
-    throw std::invalid_argument(where + ": '" + access + "' is not read, write or call");
+    throw std::invalid_argument(where + ": '" + access + "' is not read, write, call or param");
   }
   rules_.push_back(Rule{peer, kind, pattern});
 }

@@ -7,6 +7,11 @@
 // is the selected one, since its messages are large and the page cannot draw them. Only the
 // selected topic's messages are decoded, for its newest value and the plot.
 //
+// Parameters (when the server has the capability): listed with getParameters every few seconds
+// (nodes come and go), kept current with subscribeParameterUpdates, shown for the node chosen
+// (clicking a node's row chooses it), and set with setParameters; a refusal comes back as a
+// status with its reason, shown with the server's messages.
+//
 // Page parameters: ?token=T is passed on to the WebSocket URL (and to the viewer links);
 // ?topic=NAME&field=PATH select a topic and a plotted field at start; ?lichtblick=URL names the
 // Lichtblick web app to link to (it is self-hosted; by default http://localhost:8080/, where its
@@ -14,7 +19,8 @@
 //
 // Stable hooks for tests (tests/view/test_view_page.py): #topics tr[data-topic][data-rate],
 // #nodes tr[data-node][data-health], #value[data-topic][data-count], #plot[data-points]
-// [data-field], #connection[data-state], #open-foxglove, #open-lichtblick.
+// [data-field], #connection[data-state], #open-foxglove, #open-lichtblick,
+// #parameters tr[data-parameter][data-value] (its input and its "set" button), #parameter-node.
 "use strict";
 
 const SUBPROTOCOL = "foxglove.websocket.v1";
@@ -28,6 +34,7 @@ const PLOT_CAPACITY = 500;
 const MAX_PLOTTED_ARRAY_INDEX = 16;
 const RECONNECT_MAX_MS = 5000;
 const RENDER_INTERVAL_MS = 100;
+const PARAMETER_LIST_INTERVAL_MS = 2000;
 
 const params = new URLSearchParams(location.search);
 const token = params.get("token");
@@ -45,6 +52,9 @@ const elements = {
   field: document.getElementById("field"),
   plot: document.getElementById("plot"),
   log: document.getElementById("log"),
+  parametersSection: document.getElementById("parameters-section"),
+  parameters: document.querySelector("#parameters tbody"),
+  parameterNode: document.getElementById("parameter-node"),
 };
 
 // Per connection: channels by id, subscriptions by id, the graph of nodes.
@@ -54,6 +64,12 @@ let subscriptions = new Map();   // subscription id -> channel id
 let nextSubscriptionId = 1;
 let graph = emptyGraph();
 let reconnectDelay = 250;
+// Parameters by name ("NODE.PARAMETER") -> {name, value, type, row}; whether the server offers
+// them and their updates.
+let parameters = new Map();
+let parametersOffered = false;
+let parameterUpdatesOffered = false;
+let nextParameterRequest = 1;
 
 // What the user chose; it survives reconnections.
 let selectedTopic = params.get("topic");
@@ -124,6 +140,10 @@ function forgetConnection() {
   subscriptions = new Map();
   graph = emptyGraph();
   renderNodes();
+  for (const entry of parameters.values()) entry.row.remove();
+  parameters = new Map();
+  parametersOffered = false;
+  parameterUpdatesOffered = false;
 }
 
 function onJson(message) {
@@ -137,6 +157,14 @@ function onJson(message) {
         elements.nodesNote.textContent = "This server does not report its nodes.";
         elements.nodesNote.hidden = false;
       }
+      parametersOffered = (message.capabilities || []).includes("parameters");
+      parameterUpdatesOffered = (message.capabilities || []).includes("parametersSubscribe");
+      elements.parametersSection.hidden = !parametersOffered;
+      listParameters();
+      break;
+    case "parameterValues":
+      for (const parameter of message.parameters) showParameter(parameter);
+      renderParameterNodes();
       break;
     case "advertise":
       for (const channel of message.channels) addChannel(channel);
@@ -152,7 +180,7 @@ function onJson(message) {
       updateGraph(message);
       break;
     default:
-      // Services, parameters and the rest are for full viewers; this page shows topics.
+      // Services, assets and the rest are for full viewers.
       break;
   }
 }
@@ -211,6 +239,8 @@ function subscribe(entry) {
   if (entry.subscriptionId !== null) return;
   entry.subscriptionId = nextSubscriptionId++;
   entry.window = [];
+  // The bucket the subscription starts in holds only part of its messages: it is not counted.
+  entry.partialBucket = true;
   subscriptions.set(entry.subscriptionId, entry.channel.id);
   send({op: "subscribe", subscriptions: [{id: entry.subscriptionId, channelId: entry.channel.id}]});
 }
@@ -257,6 +287,11 @@ function markSelection() {
 function tickRates() {
   for (const entry of channels.values()) {
     if (entry.subscriptionId === null) continue;
+    if (entry.partialBucket) {
+      entry.partialBucket = false;
+      entry.pending = 0;
+      continue;
+    }
     entry.window.push(entry.pending);
     entry.pending = 0;
     if (entry.window.length > RATE_BUCKETS) entry.window.shift();
@@ -329,10 +364,106 @@ function renderNodes() {
       row.append(cell);
     }
     row.cells[4].className = "health";
+    // Chooses the node whose parameters are shown, when it has any.
+    row.addEventListener("click", () => {
+      if (![...elements.parameterNode.options].some((option) => option.value === node.id)) return;
+      elements.parameterNode.value = node.id;
+      filterParameters();
+    });
     rows.push(row);
   }
   elements.nodes.replaceChildren(...rows);
 }
+
+function listParameters() {
+  if (parametersOffered) {
+    send({op: "getParameters", parameterNames: [], id: "page-" + nextParameterRequest++});
+  }
+}
+
+// A parameter as getParameters, setParameters or an update tells it: its row made or updated.
+function showParameter(parameter) {
+  let entry = parameters.get(parameter.name);
+  if (entry === undefined) {
+    const row = document.createElement("tr");
+    row.dataset.parameter = parameter.name;
+    const name = document.createElement("td");
+    name.textContent = parameter.name;
+    const input = document.createElement("input");
+    const button = document.createElement("button");
+    button.textContent = "set";
+    button.className = "set";
+    const valueCell = document.createElement("td");
+    valueCell.append(input);
+    const buttonCell = document.createElement("td");
+    buttonCell.append(button);
+    row.append(name, valueCell, buttonCell);
+    entry = {name: parameter.name, row, input};
+    button.addEventListener("click", () => setParameter(entry));
+    input.addEventListener("keydown", (event) => {
+      if (event.key === "Enter") setParameter(entry);
+    });
+    parameters.set(parameter.name, entry);
+    const rows = [...elements.parameters.children, row];
+    rows.sort((a, b) => a.dataset.parameter.localeCompare(b.dataset.parameter));
+    elements.parameters.append(...rows);
+    if (parameterUpdatesOffered) {
+      send({op: "subscribeParameterUpdates", parameterNames: [parameter.name]});
+    }
+  }
+  entry.value = parameter.value;
+  entry.type = parameter.type;
+  const text = typeof parameter.value === "string" ? parameter.value :
+      JSON.stringify(parameter.value);
+  entry.row.dataset.value = text;
+  // The text being edited is left alone.
+  if (document.activeElement !== entry.input) entry.input.value = text;
+  entry.row.hidden = !parameterVisible(parameter.name);
+}
+
+// A string parameter takes the text as typed; any other, the text read as JSON.
+function setParameter(entry) {
+  const text = entry.input.value;
+  let value = text;
+  if (typeof entry.value !== "string") {
+    try {
+      value = JSON.parse(text);
+    } catch (error) {
+      log("error", entry.name + ": '" + text + "' is not a value (" + error.message + ")");
+      return;
+    }
+  }
+  const parameter = {name: entry.name, value};
+  if (entry.type) parameter.type = entry.type;
+  entry.input.blur();
+  send({op: "setParameters", parameters: [parameter], id: "page-" + nextParameterRequest++});
+}
+
+// "NODE.PARAMETER": the node is everything before the last dot.
+function parameterNodeOf(name) {
+  return name.slice(0, name.lastIndexOf("."));
+}
+
+function parameterVisible(name) {
+  const node = elements.parameterNode.value;
+  return node === "" || parameterNodeOf(name) === node;
+}
+
+function renderParameterNodes() {
+  const nodes = [...new Set([...parameters.keys()].map(parameterNodeOf))].sort();
+  const offered = [...elements.parameterNode.options].slice(1).map((option) => option.value);
+  if (nodes.join("\n") === offered.join("\n")) return;
+  const chosen = elements.parameterNode.value;
+  elements.parameterNode.replaceChildren(new Option("every node", ""),
+                                         ...nodes.map((node) => new Option(node, node)));
+  elements.parameterNode.value = nodes.includes(chosen) ? chosen : "";
+}
+
+function filterParameters() {
+  for (const entry of parameters.values()) entry.row.hidden = !parameterVisible(entry.name);
+}
+
+elements.parameterNode.addEventListener("change", filterParameters);
 
 // Every number of a decoded message, by path ("linear", "origin.x", "values[2].value"); u64 and
 // i64 come as decimal strings (JSON numbers are doubles) and are plotted as numbers too.
@@ -458,3 +589,4 @@ markSelection();
 connect();
 setInterval(tickRates, RATE_BUCKET_MS);
 setInterval(render, RENDER_INTERVAL_MS);
+setInterval(listParameters, PARAMETER_LIST_INTERVAL_MS);

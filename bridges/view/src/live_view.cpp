@@ -36,6 +36,7 @@
 #include "horus/topic_registry.hpp"
 #include "horus/view/codecs.hpp"
 #include "page.hpp"
+#include "parameters.hpp"
 #include "protocol.hpp"
 #include "services.hpp"
 #include "topic_feed.hpp"
@@ -55,6 +56,9 @@ constexpr std::size_t kOutboxLimit = 4096;
 constexpr auto kTimeInterval = std::chrono::milliseconds(100);
 /// How long a client's service call waits for the server's answer.
 constexpr auto kCallTimeout = std::chrono::seconds(10);
+/// How often the parameter stores' change counts are looked at, for the clients that subscribed
+/// to parameter updates (one load per store: a store's records are read only when it moved).
+constexpr auto kParameterCheckInterval = std::chrono::milliseconds(50);
 
 /// What a client asks of a topic or service: every request passes through Server::allowed().
 using bridge::Access;
@@ -207,6 +211,8 @@ class Client final : private kj::TaskSet::ErrorHandler {
   void say(StatusLevel level, const std::string& message) { send(status(level, message)); }
   /// Ends the channel's subscriptions (the channel went).
   void forget_channel(std::uint32_t channel);
+  /// Sends the parameters of `changed` this client subscribed to (parameterValues).
+  void parameters_changed(const std::vector<ParamInfo>& changed);
   /// Queues a Time message unless one is already waiting.
   void send_time(std::uint64_t time_ns);
   std::string status_json() const;
@@ -228,6 +234,12 @@ class Client final : private kj::TaskSet::ErrorHandler {
   void unadvertise_client_channels(capnp::json::Value::Reader message);
   void publish(std::uint32_t channel, std::span<const std::byte> payload);
   void call(std::span<const std::byte> request);
+  void get_parameters(capnp::json::Value::Reader message);
+  void set_parameters(capnp::json::Value::Reader message);
+  void watch_parameters(capnp::json::Value::Reader message, bool watch);
+  /// The names of a getParameters or (un)subscribeParameterUpdates.
+  std::vector<std::string> parameter_names(capnp::json::Value::Reader message,
+                                           std::string_view op) const;
   void taskFailed(kj::Exception&& exception) override;
   void end_subscription(std::map<std::uint32_t, std::shared_ptr<Subscription>>::iterator which);
 
@@ -241,6 +253,8 @@ class Client final : private kj::TaskSet::ErrorHandler {
   std::shared_ptr<Mailbox> mailbox_ = std::make_shared<Mailbox>();
   std::map<std::uint32_t, std::shared_ptr<Subscription>> subscriptions_;
   std::map<std::uint32_t, ClientChannel> client_channels_;
+  /// The parameters ("NODE.PARAMETER") whose updates this client subscribed to.
+  std::set<std::string> watched_parameters_;
   /// Server messages other than Message Data, in order.
   std::deque<std::pair<std::string, Kind>> outbox_;
   bool time_waiting_ = false;
@@ -285,9 +299,9 @@ class Server final : private kj::TaskSet::ErrorHandler {
   kj::Timer& timer() { return io_.provider->getTimer(); }
   Counters& counters() { return counters_; }
   const std::string& namespace_name() const { return namespace_; }
-  /// Whether `client` may have `access` to `name`. Every advertise, subscribe, publish and call
-  /// asks here: without a policy everything is allowed (a loopback listener), with one what it
-  /// allows the client's peer.
+  /// Whether `client` may have `access` to `name`. Every advertise, subscribe, publish, call
+  /// and parameter read or write asks here: without a policy everything is allowed (a loopback
+  /// listener), with one what it allows the client's peer.
   bool allowed(const Client& client, Access access, const std::string& name) const;
   std::uint64_t new_client(Client& client);
   void client_gone(const Client& client);
@@ -306,6 +320,8 @@ class Server final : private kj::TaskSet::ErrorHandler {
   /// Sends `client` what changed in its part of the graph from graph_ to `graph`, if anything.
   void send_graph_update(Client& client, const ConnectionGraph& graph) const;
   std::shared_ptr<ViewService> service(std::uint32_t id) const;
+  ParameterStores& parameters() { return parameters_; }
+  ParameterWriter& parameter_writer() { return parameter_writer_; }
 
  private:
   kj::Promise<void> discover_forever();
@@ -314,6 +330,8 @@ class Server final : private kj::TaskSet::ErrorHandler {
   /// The same for the services (`frame_topics`: the namespace's service frame topics by name).
   void discover_services(const std::map<std::string, TopicInfo>& frame_topics);
   kj::Promise<void> send_time_forever();
+  /// Sends the parameters that changed to the clients that subscribed to them.
+  kj::Promise<void> send_parameter_updates_forever();
   /// Accepts connections over TLS, each handshake on its own, then served by http_.
   kj::Promise<void> accept_tls_forever();
   /// Serves a connection whose handshake ended, knowing its certificate's name (if any).
@@ -386,6 +404,8 @@ class Server final : private kj::TaskSet::ErrorHandler {
   /// The clients sent the connection graph, and the graph as they were sent it last.
   std::set<std::uint64_t> graph_watchers_;
   ConnectionGraph graph_;
+  ParameterStores parameters_;
+  ParameterWriter parameter_writer_;
   kj::TaskSet tasks_;
   /// Its connections (and their clients) end before what they use.
   kj::HttpServer http_;
@@ -558,6 +578,14 @@ void Client::on_text(kj::StringPtr text) {
       server_.watch_graph(*this, true);
     } else if (op == "unsubscribeConnectionGraph") {
       server_.watch_graph(*this, false);
+    } else if (op == "getParameters") {
+      get_parameters(message.root());
+    } else if (op == "setParameters") {
+      set_parameters(message.root());
+    } else if (op == "subscribeParameterUpdates") {
+      watch_parameters(message.root(), true);
+    } else if (op == "unsubscribeParameterUpdates") {
+      watch_parameters(message.root(), false);
     } else {
       throw ProtocolError("op \"" + op + "\" is not served by horus-view");
     }
@@ -791,6 +819,139 @@ void Client::call(std::span<const std::byte> request) {
                  }));
 }
 
+std::vector<std::string> Client::parameter_names(capnp::json::Value::Reader message,
+                                                 std::string_view op) const {
+  std::vector<std::string> names;
+  for (const auto entry : array_member(message, "parameterNames", op)) {
+    if (entry.which() != capnp::json::Value::STRING) {
+      throw ProtocolError(std::string(op) + ": parameterNames holds an entry that is not a string");
+    }
+    names.emplace_back(entry.getString().cStr());
+  }
+  return names;
+}
+
+/// The "id" of a parameter request: the answer carries it.
+std::optional<std::string> request_id(capnp::json::Value::Reader message, std::string_view op) {
+  const auto id = member(message, "id");
+  if (!id) return std::nullopt;
+  if (id->which() != capnp::json::Value::STRING) {
+    throw ProtocolError(std::string(op) + ": \"id\" must be a string");
+  }
+  return std::string(id->getString().cStr());
+}
+
+void Client::get_parameters(capnp::json::Value::Reader message) {
+  const std::optional<std::string> id = request_id(message, "getParameters");
+  const std::vector<std::string> names = parameter_names(message, "getParameters");
+  // A node that started since the last discovery is listed already.
+  server_.parameters().discover();
+  std::vector<std::string> entries;
+  if (names.empty()) {
+    // None named: every parameter the peer may see.
+    for (const ParamInfo& info : server_.parameters().list()) {
+      if (server_.allowed(*this, Access::Param, parameter_name(info))) {
+        entries.push_back(parameter_entry(info));
+      }
+    }
+  } else {
+    // A parameter the peer may not see is left out, as one that does not exist.
+    for (const std::string& name : names) {
+      if (!server_.allowed(*this, Access::Param, name)) {
+        log_refusal("reading parameter", name);
+        continue;
+      }
+      if (const auto info = server_.parameters().find(name)) {
+        entries.push_back(parameter_entry(*info));
+      }
+    }
+  }
+  send(parameter_values(entries, id));
+}
+
+void Client::set_parameters(capnp::json::Value::Reader message) {
+  const std::optional<std::string> id = request_id(message, "setParameters");
+  server_.parameters().discover();
+  std::vector<ParameterWriter::Write> writes;
+  std::vector<std::string> names;
+  for (const auto entry : array_member(message, "parameters", "setParameters")) {
+    try {
+      const std::string name = string_member(entry, "name", "a parameter of setParameters");
+      // Asked first: a peer that may not set a name is not told whether it exists.
+      if (!server_.allowed(*this, Access::Param, name)) {
+        log_refusal("setting parameter", name);
+        throw ProtocolError("parameter '" + name + "' is not one peer '" + peer_ + "' may set");
+      }
+      const std::optional<ParamInfo> info = server_.parameters().find(name);
+      if (!info) {
+        throw ProtocolError("no parameter '" + name +
+                            "' (parameters are named NODE.PARAMETER, of a node that declared "
+                            "them)");
+      }
+      const auto value = member(entry, "value");
+      if (!value) {
+        throw ProtocolError("parameter '" + name + "' has no value (a parameter cannot be unset)");
+      }
+      writes.push_back({info->node, info->declaration.name, parameter_value(*value)});
+      names.push_back(name);
+    } catch (const ProtocolError& error) {
+      say(StatusLevel::Error, std::string("setParameters: ") + error.what());
+    }
+  }
+  if (writes.empty()) {
+    send(parameter_values({}, id));
+    return;
+  }
+  const std::string source = "view:" + (peer_.empty() ? address_ : peer_);
+  calls_.add(server_.parameter_writer()
+                 .write(std::move(writes), source)
+                 .then([this, names = std::move(names),
+                        id](std::vector<ParameterWriter::Outcome> outcomes) {
+                   std::vector<std::string> entries;
+                   for (std::size_t i = 0; i < names.size(); ++i) {
+                     const ParameterWriter::Outcome& outcome = outcomes[i];
+                     if (outcome.failure.empty() && outcome.result.accepted) continue;
+                     const std::string& why =
+                         outcome.failure.empty() ? outcome.result.reason : outcome.failure;
+                     std::fprintf(stderr, "horus-view: %s (%s) did not set parameter '%s': %s\n",
+                                  peer_.empty() ? "a client" : peer_.c_str(), address_.c_str(),
+                                  names[i].c_str(), why.c_str());
+                     say(StatusLevel::Error, "parameter '" + names[i] + "' not set: " + why);
+                   }
+                   // The values after the writes, refused ones unchanged.
+                   for (const std::string& name : names) {
+                     if (const auto info = server_.parameters().find(name)) {
+                       entries.push_back(parameter_entry(*info));
+                     }
+                   }
+                   send(parameter_values(entries, id));
+                 }));
+}
+
+void Client::watch_parameters(capnp::json::Value::Reader message, bool watch) {
+  const std::string_view op = watch ? "subscribeParameterUpdates" : "unsubscribeParameterUpdates";
+  for (const std::string& name : parameter_names(message, op)) {
+    if (!watch) {
+      watched_parameters_.erase(name);
+    } else if (server_.allowed(*this, Access::Param, name)) {
+      watched_parameters_.insert(name);
+    } else {
+      log_refusal("watching parameter", name);
+    }
+  }
+}
+
+void Client::parameters_changed(const std::vector<ParamInfo>& changed) {
+  if (watched_parameters_.empty()) return;
+  std::vector<std::string> entries;
+  for (const ParamInfo& info : changed) {
+    if (watched_parameters_.count(parameter_name(info)) != 0) {
+      entries.push_back(parameter_entry(info));
+    }
+  }
+  if (!entries.empty()) send(parameter_values(entries, std::nullopt));
+}
+
 void Client::taskFailed(kj::Exception&& exception) {
   say(StatusLevel::Error,
       std::string("a service call failed: ") + exception.getDescription().cStr());
@@ -832,6 +993,8 @@ Server::Server(const LiveViewOptions& options, AccessSetup access, kj::AsyncIoCo
       counters_(counters),
       protocol_header_(header_builder_.add("Sec-WebSocket-Protocol")),
       headers_(header_builder_.build()),
+      parameters_(namespace_),
+      parameter_writer_(namespace_),
       tasks_(*this),
       http_(io.provider->getTimer(), *headers_,
             [this](kj::AsyncIoStream& stream) -> kj::Own<kj::HttpService> {
@@ -861,6 +1024,7 @@ Server::~Server() noexcept(false) = default;
 kj::Promise<void> Server::run() {
   tasks_.add(discover_forever());
   tasks_.add(send_time_forever());
+  tasks_.add(send_parameter_updates_forever());
   return tls_ ? accept_tls_forever() : http_.listenHttp(*listener_);
 }
 
@@ -938,9 +1102,10 @@ void Server::client_gone(const Client& client) {
 }
 
 void Server::greet(Client& client) {
-  client.send(server_info("horus-view " + namespace_,
-                          {"clientPublish", "services", "time", "connectionGraph"}, session_id_,
-                          namespace_));
+  client.send(server_info(
+      "horus-view " + namespace_,
+      {"clientPublish", "services", "time", "connectionGraph", "parameters", "parametersSubscribe"},
+      session_id_, namespace_));
   std::vector<const Channel*> visible;
   for (const auto& [topic, entry] : channels_) {
     if (allowed(client, Access::Read, topic)) visible.push_back(&entry.channel);
@@ -992,7 +1157,11 @@ void Server::discover_services(const std::map<std::string, TopicInfo>& frame_top
   std::set<std::string> present;
   /// (name, advertisement) of each service that came.
   std::vector<std::pair<std::string, std::string>> added;
+  // A node's parameter service carries writes the view makes itself, under the policy's `param`
+  // verb: a client does not call it.
+  const std::string parameter_services = param_service_name("");
   for (const ServiceInfo& info : list_services(namespace_)) {
+    if (info.name.starts_with(parameter_services)) continue;
     // Requests go out on `<service>.request`, once a server (or a client) made it.
     const auto request = frame_topics.find(info.name + ".request");
     if (info.servers == 0 || request == frame_topics.end()) continue;
@@ -1106,7 +1275,18 @@ kj::Promise<void> Server::send_time_forever() {
   });
 }
 
+kj::Promise<void> Server::send_parameter_updates_forever() {
+  return timer().afterDelay(kParameterCheckInterval.count() * kj::MILLISECONDS).then([this] {
+    const std::vector<ParamInfo> changed = parameters_.changed();
+    if (!changed.empty()) {
+      for (const auto& [id, client] : clients_) client->parameters_changed(changed);
+    }
+    return send_parameter_updates_forever();
+  });
+}
+
 void Server::discover() {
+  parameters_.discover();
   std::vector<TopicInfo> topics = list_topics(namespace_);
   std::map<std::string, TopicInfo> frame_topics;
   std::set<std::string> present;

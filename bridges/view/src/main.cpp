@@ -2,7 +2,7 @@
 // Foxglove WebSocket protocol (bridges/view/README.md).
 //
 //   horus-view serve [--namespace NS] [--listen ADDR] [--port N] [--tls DIR --name NAME]
-//                    [--allow 'PEER read|write|call PATTERN']... [--policy FILE]...
+//                    [--allow 'PEER read|write|call|param PATTERN']... [--policy FILE]...
 //                    [--tokens FILE]
 //   horus-view status [--namespace NS]
 #include <dirent.h>
@@ -32,7 +32,8 @@ int usage(std::FILE* out, int status) {
       out,
       "usage: horus-view serve [--namespace NS] [--listen ADDR] [--port N] [--tls DIR --name "
       "NAME]\n"
-      "                        [--allow 'PEER read|write|call PATTERN']... [--policy FILE]...\n"
+      "                        [--allow 'PEER read|write|call|param PATTERN']... [--policy "
+      "FILE]...\n"
       "                        [--tokens FILE]\n"
       "       horus-view status [--namespace NS]\n"
       "serve: serves the namespace's topics over the Foxglove WebSocket protocol\n"

@@ -159,6 +159,18 @@ std::string service_call_failure(std::uint32_t service, std::uint32_t call,
          ",\"callId\":" + std::to_string(call) + ",\"message\":" + json_string(message) + "}";
 }
 
+std::string parameter_values(const std::vector<std::string>& entries,
+                             const std::optional<std::string>& id) {
+  std::string out = "{\"op\":\"parameterValues\",\"parameters\":[";
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    if (i != 0) out += ",";
+    out += entries[i];
+  }
+  out += "]";
+  if (id) out += ",\"id\":" + json_string(*id);
+  return out + "}";
+}
+
 std::uint32_t read_u32(std::span<const std::byte> bytes, std::size_t offset) {
   std::uint32_t value = 0;
   for (int i = 0; i < 4; ++i) {

@@ -73,6 +73,11 @@ std::string service_call_response(std::uint32_t service, std::uint32_t call,
 std::string service_call_failure(std::uint32_t service, std::uint32_t call,
                                  const std::string& message);
 
+/// A parameterValues of `entries` (each as parameter_entry() writes it), answering the request
+/// `id` when there is one.
+std::string parameter_values(const std::vector<std::string>& entries,
+                             const std::optional<std::string>& id);
+
 /// Little-endian integers of a binary client message.
 std::uint32_t read_u32(std::span<const std::byte> bytes, std::size_t offset);
 

@@ -1,13 +1,14 @@
 """C++: keywords, and the spelling of the model (type names, literals, include lists, file paths)."""
 from __future__ import annotations
 
+import json
 import os
 import struct
 
 from .. import description, identity
 from ..data import DataPaths
 from ..model import (PRIMITIVES, Bytes, DynString, Enum, EnumRef, EnumValue, FailurePolicy, Field, FixedArray,
-                     FixedString, Message, MessageRef, Model, Node, Optional, Primitive, Service, SummaryExpr,
+                     FixedString, Message, MessageRef, Model, Node, NodeParam, Optional, Primitive, Service, SummaryExpr,
                      SummaryPart, Type, Vec)
 from ..names import snake_case
 from ..summary import printed_types
@@ -196,6 +197,42 @@ def value_literal(value, t: Type, package: str) -> str:
     raise ValueError(t)
 
 
+def typed_value(value, t: Type, package: str) -> str:
+    """`value` as an expression that declare_param<T>() and ParamOptions<T>::choices take: a
+    literal, or an array's braces prefixed with its type (braces alone in a list of choices
+    would not say which element each opens)."""
+    literal = value_literal(value, t, package)
+    return type_name(t, package) + literal if literal.startswith("{") else literal
+
+
+def optional_bound(bound: float | int | None) -> str:
+    """A #[min]/#[max] as ParamOptions holds it (std::optional<double>)."""
+    return "::std::nullopt" if bound is None else float_literal(float(bound), single=False)
+
+
+def param_facts(param: NodeParam) -> list[str]:
+    """What a parameter's declaration says beyond its doc, as one doc line for its accessor
+    (`In m/s; from 0.0 to 2.0; read-only.`), or none."""
+    facts = []
+    if param.unit:
+        facts.append(f"in {param.unit}")
+    if param.minimum is not None and param.maximum is not None:
+        facts.append(f"from {param.minimum} to {param.maximum}")
+    elif param.minimum is not None:
+        facts.append(f"at least {param.minimum}")
+    elif param.maximum is not None:
+        facts.append(f"at most {param.maximum}")
+    if param.choices:
+        facts.append("one of " + ", ".join(
+            c.variant if isinstance(c, EnumValue) else json.dumps(description.value_tree(c)) for c in param.choices))
+    if param.read_only:
+        facts.append("read-only while the node runs")
+    if not facts:
+        return []
+    text = "; ".join(facts) + "."
+    return [text[0].upper() + text[1:]]
+
+
 def initializer(f: Field, package: str) -> str:
     if f.default is None:
         return "{}"
@@ -350,14 +387,18 @@ NODE_STD_HEADERS = frozenset({"<cstddef>", "<memory>", "<string_view>", "<utilit
 
 
 def node_std_headers(node: Node) -> list[str]:
-    """The standard headers a node header includes: its own and what its data and servers need."""
-    needed = {h for h in field_headers([f.type for f in node.data]) if h.startswith("<")}
+    """The standard headers a node header includes: its own and what its data, parameters and
+    servers need."""
+    needed = {h for h in field_headers([f.type for f in node.data] + [p.type for p in node.params])
+              if h.startswith("<")}
     return sorted(NODE_STD_HEADERS | needed | ({"<optional>"} if node.servers else set()))
 
 
 def node_horus_headers(node: Node) -> list[str]:
-    """The runtime headers a node's data fields need beyond the node, topic and scheduler ones."""
-    return sorted(h.strip('"') for h in field_headers([f.type for f in node.data]) if not h.startswith("<"))
+    """The runtime headers a node's data fields and parameters need beyond the node, topic and
+    scheduler ones."""
+    needed = {h.strip('"') for h in field_headers([f.type for f in node.data]) if not h.startswith("<")}
+    return sorted(needed | ({"horus/params.hpp"} if node.params else set()))
 
 
 def node_headers(node: Node) -> list[str]:
@@ -398,7 +439,7 @@ def doc_lines(docs: tuple[str, ...]) -> list[str]:
 
 FILTERS = {
     "namespace": namespace, "type_name": type_name, "initializer": initializer,
-    "value_literal": value_literal, "padding_initializer": padding_initializer, "constant_type": constant_type, "constant_literal": constant_literal, "string_literal": string_literal,
+    "value_literal": value_literal, "typed_value": typed_value, "param_facts": param_facts, "optional_bound": optional_bound, "padding_initializer": padding_initializer, "constant_type": constant_type, "constant_literal": constant_literal, "string_literal": string_literal,
     "header_path": header_path, "std_headers": std_headers, "type_headers": type_headers,
     "lighter_header": lighter_header, "mixin_path": mixin_path,
     "doc_lines": doc_lines, "contract_check": contract_check, "node_std_headers": node_std_headers,

@@ -15,7 +15,8 @@ import struct
 from .. import description
 from ..data import DataPaths
 from ..model import (Bytes, DynString, Enum, EnumRef, EnumValue, Field, FixedArray, FixedString, Message,
-                     MessageRef, Model, Node, Optional, Primitive, Service, SummaryExpr, SummaryPart, Type, Vec)
+                     MessageRef, Model, Node, NodeParam, Optional, Primitive, Service, SummaryExpr, SummaryPart,
+                     Type, Vec)
 from ..names import snake_case
 from .common import CONTRACT_VERSION, banner, environment
 
@@ -414,11 +415,33 @@ def _initial(t: Type, default, model: Model, names: Names) -> str:
     return zero_literal(t, model, names)
 
 
+def param_arguments(param: NodeParam, model: Model, names: Names) -> str:
+    """The arguments of horus.Node.declare_param() for `param`: name, default, and the keywords
+    it declares (type as the schema spells it, an enum as its generated class)."""
+    t = param.type
+    arguments = [repr(param.name), _initial(t, param.default, model, names),
+                 "type=" + (names[t.qualified] if isinstance(t, EnumRef) else repr(param.spelling))]
+    if param.minimum is not None:
+        arguments.append(f"min={param.minimum!r}")
+    if param.maximum is not None:
+        arguments.append(f"max={param.maximum!r}")
+    if param.choices:
+        arguments.append("choices=[" + ", ".join(_initial(t, c, model, names) for c in param.choices) + "]")
+    if param.unit:
+        arguments.append(f"unit={param.unit!r}")
+    if param.docs:
+        arguments.append(f"doc={chr(10).join(param.docs)!r}")
+    if param.read_only:
+        arguments.append("read_only=True")
+    return ", ".join(arguments)
+
+
 def node_doc(node: Node) -> list[str]:
     return list(node.docs) + ([""] if node.docs else []) + [
         f"The node '{node.node_name}' as declared in {os.path.basename(node.source)}: subclass it and override",
         "tick() (and init(), shutdown()); keyword arguments override the declared settings.",
-        "Topics are typed handles (self.<member>.send(...), .try_recv()); data members are attributes."]
+        "Topics are typed handles (self.<member>.send(...), .try_recv()); data members are attributes."] + (
+        ["Parameters are declared here and read as self.params.<name>."] if node.params else [])
 
 
 def node_settings(node: Node) -> list[tuple[str, str]]:
@@ -449,6 +472,7 @@ def node_settings(node: Node) -> list[tuple[str, str]]:
 
 FILTERS = {
     "data_initial": data_initial, "node_settings": node_settings, "node_doc": node_doc,
+    "param_arguments": param_arguments,
     "codec": codec, "value_literal": value_literal, "float_literal": float_literal, "hint": hint,
     "parameter": parameter, "initializer": initializer, "needs_factory": needs_factory,
     "raw_format": raw_format, "scalar_fields": scalar_fields, "other_fields": other_fields,

@@ -43,8 +43,8 @@ struct LiveViewOptions {
   /// certificate is optional: a client that presents one is the peer its common name names.
   std::string tls_folder{};
   std::string tls_name{};
-  /// Policy lines "PEER read|write|call PATTERN" (horus remote's, globs; everything not allowed
-  /// is denied), and files of them (one a line, # comments).
+  /// Policy lines "PEER read|write|call|param PATTERN" (horus remote's, globs; everything not
+  /// allowed is denied), and files of them (one a line, # comments).
   std::vector<std::string> policy_lines{};
   std::vector<std::string> policy_files{};
   /// A file of lines "PEER TOKEN": a client that connects with ?token=TOKEN in its URL is PEER.

@@ -6,12 +6,21 @@
 #include <string_view>
 #include <vector>
 
+#include "horus/params.hpp"
 #include "horus/topic_metadata.hpp"
 
 namespace horus {
 
 namespace detail {
 class SchedulerImpl;
+class ParamOwner;
+/// Checks a declaration (name, default within its own range and choices, size) and keeps it;
+/// throws ParamError.
+std::shared_ptr<ParamSlot> declare_node_param(std::vector<ParamDeclaration>& declarations,
+                                              std::vector<std::shared_ptr<ParamSlot>>& slots,
+                                              ParamDeclaration declaration,
+                                              std::uint64_t default_word,
+                                              std::string default_bytes);
 }  // namespace detail
 
 /// Derive from Node and implement tick(); everything else has a sensible default.
@@ -62,8 +71,60 @@ class Node {
   /// node that no scheduler holds ignores it.
   void request_stop() noexcept;
 
+  /// The parameters this node declared, in declaration order.
+  const std::vector<ParamDeclaration>& param_declarations() const noexcept {
+    return param_declarations_;
+  }
+
+  /// Offered every write of one of this node's parameters, between two ticks (never during
+  /// one); only an accepted value is stored. The default accepts. It runs on the thread that
+  /// ticks the node when the write arrives while that thread is busy with the node, and on the
+  /// owner's service thread when it arrives while that thread sleeps: either way never during
+  /// init(), tick() or shutdown() nor beside another call of this node by the scheduler, and
+  /// with a happens-before from the call before it and to the call after, so it may touch the
+  /// node's state without locks. Do not assume a thread identity (thread-locals, a thread id).
+  virtual ParamVerdict on_param_change(const ParamChange& change);
+
+ protected:
+  /// Declares a parameter whose type is known only at run time (a language binding's node, the
+  /// mirror of a remote node): the declaration complete, its default and choices as MessagePack
+  /// VALUE bytes. Throws ParamError as declare_param<T> does, and for a default of another type.
+  ParamHandle declare_param(ParamDeclaration declaration);
+
+  /// Declares a parameter (in the constructor, before a scheduler adds the node). T: bool, the
+  /// fixed-width integers, float, double, a generated enum (TypeInfo<E>::is_enum), std::string,
+  /// std::array<number or bool, N>. Throws ParamError for a bad declaration (a bad name, a
+  /// duplicate, a default outside its own range or choices, a value over kMaxParamValueBytes).
+  template <class T>
+  Param<T> declare_param(std::string name, T default_value, ParamOptions<T> options = {}) {
+    ParamDeclaration declaration;
+    declaration.name = std::move(name);
+    detail::describe_param_type<T>(declaration);
+    declaration.min = options.min;
+    declaration.max = options.max;
+    declaration.unit = std::move(options.unit);
+    declaration.doc = std::move(options.doc);
+    declaration.read_only = options.read_only;
+    declaration.default_value = detail::encode_param_value(declaration, default_value);
+    for (const T& choice : options.choices) {
+      declaration.choices.push_back(detail::encode_param_value(declaration, choice));
+    }
+    std::uint64_t word = 0;
+    std::string bytes;
+    if constexpr (detail::kParamScalar<T>) {
+      word = detail::param_word_of(default_value);
+    } else {
+      bytes = detail::param_bytes_of(default_value);
+    }
+    return Param<T>(detail::declare_node_param(param_declarations_, param_slots_,
+                                               std::move(declaration), word, std::move(bytes)));
+  }
+
  private:
   friend class detail::SchedulerImpl;
+  friend class detail::ParamOwner;
+  std::vector<ParamDeclaration> param_declarations_;
+  std::vector<std::shared_ptr<detail::ParamSlot>> param_slots_;
   mutable std::string default_name_;
   std::weak_ptr<detail::SchedulerImpl> scheduler_;  // set when a scheduler adds the node
 };

@@ -14,11 +14,33 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 namespace horus {
+
+/// The channel that carries parameter changes in a recording (JSON, docs/recording.md).
+inline constexpr std::string_view kParamsChannel = "/horus/params";
+
+/// One parameter change as a recording holds it, or a node's starting value.
+struct RecordedParamChange {
+  std::string node;
+  std::string name;
+  /// MessagePack VALUE bytes (horus/params.hpp), the form every parameter value crosses in.
+  std::string value;
+  /// The parameter's version once the change took effect (1: the value the node started with).
+  std::uint64_t version = 0;
+  /// Who wrote it (ParamChange::source); empty when a recorder only saw the store change.
+  std::string source;
+  /// A starting value: what the node started with (after its parameter file), or, for a store a
+  /// standalone recorder found already there, its value when the recording first saw it.
+  bool start = false;
+  /// The scheduler's cycle the change took effect before (its node's ticks of that cycle and
+  /// later see it); none when recorded from the store alone (`horus-record -a`).
+  std::optional<std::uint64_t> cycle;
+};
 
 namespace detail {
 class RecorderImpl;
@@ -74,6 +96,10 @@ class Recorder {
   /// with the positions of the recorded `subscribed` topics when the tick started.
   void add_tick_log(std::string node, std::shared_ptr<detail::TickLog> log,
                     std::vector<std::string> subscribed = {});
+
+  /// Records a parameter change (or a starting value) on the "/horus/params" channel; any
+  /// thread. Ignored once the recording stopped.
+  void add_param_change(const RecordedParamChange& change);
 
   /// Takes what the rings hold now, on the calling thread (the recording thread waits
   /// meanwhile). A deterministic scheduler calls it after each pass, so that a simulation that
@@ -158,5 +184,9 @@ class RecordingReader {
   bool complete_ = false;
   std::size_t chunks_ = 0;
 };
+
+/// The parameter changes and starting values a recording holds on "/horus/params", in file
+/// order; throws horus::Error naming the file's channel when a record is malformed.
+std::vector<RecordedParamChange> recorded_param_changes(const RecordingReader& recording);
 
 }  // namespace horus

@@ -198,6 +198,14 @@ class SchedulerConfig {
     view_ = std::move(options);
     return *this;
   }
+  /// A YAML parameter file (docs/parameters.md: `node: {name: value}`) whose values each node of
+  /// this scheduler starts with, applied after its defaults and before init(). A malformed file,
+  /// an unknown node or parameter, or a value outside its declaration stops the start with
+  /// horus::ParamError saying `FILE:LINE: reason` (every error of the file).
+  SchedulerConfig& params(std::filesystem::path file) {
+    params_ = std::move(file);
+    return *this;
+  }
 
   Rate tick_rate() const { return tick_rate_; }
   bool rt() const { return rt_; }
@@ -220,6 +228,7 @@ class SchedulerConfig {
   const std::filesystem::path& replay() const { return replay_; }
   const std::optional<Network>& network() const { return network_; }
   const std::optional<LiveViewOptions>& view() const { return view_; }
+  const std::filesystem::path& params() const { return params_; }
 
  private:
   Rate tick_rate_ = Rate::hz(1000.0);
@@ -243,6 +252,7 @@ class SchedulerConfig {
   std::filesystem::path replay_;
   std::optional<Network> network_;
   std::optional<LiveViewOptions> view_;
+  std::filesystem::path params_;
 };
 
 /// A node's scheduling settings as given to the builder (unset optionals are derived at start-up).

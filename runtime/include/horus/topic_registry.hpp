@@ -88,22 +88,25 @@ TopicTraffic topic_traffic(std::string_view topic, std::uint64_t since,
 /// A namespace's shared-memory object other than a topic segment: its log ring ("@logs", what
 /// `horus log` reads) or its presence folder ("@presence", what `horus node list` reads).
 struct NamespaceObjectInfo {
-  /// "@logs" or "@presence".
+  /// "@logs", "@presence" or "@params" (one node's parameter store).
   std::string kind;
   std::string path;
-  /// Bytes: the ring's file size, or the total of the folder's announcements.
+  /// Bytes: the ring's or the store's file size, or the total of the folder's announcements.
   std::size_t size = 0;
-  /// Whether a live process writes the ring, or a live Scheduler announces in the folder.
+  /// Whether a live process writes the ring, a live Scheduler announces in the folder, or the
+  /// store's node runs.
   bool in_use = false;
 };
 
-/// The namespace's log ring and presence folder, those that exist, in that order.
+/// The namespace's log ring, presence folder and parameter stores, those that exist, in that
+/// order.
 std::vector<NamespaceObjectInfo> list_namespace_objects(std::string_view namespace_name = {});
 
 /// Unlinks the segments of a namespace whose every user process has died (they would otherwise
 /// be re-used by the next opener); returns how many. Segments in use are left alone. The
 /// namespace's log ring goes too once no live process writes it (its lines with it), and its
-/// presence folder once it is empty (clean_presence() empties it) and no live Scheduler uses it.
+/// presence folder once it is empty (clean_presence() empties it) and no live Scheduler uses it,
+/// and each parameter store whose node no longer runs (its values with it).
 std::size_t clean_namespace(std::string_view namespace_name = {});
 
 /// Unlinks every segment of a namespace and its folder, its log ring and its presence folder, in

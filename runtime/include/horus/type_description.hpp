@@ -88,6 +88,19 @@ struct MessageField {
   std::string unit;
   /// The type as the schema spells it ("[f32; 3]"), for display.
   std::string spelling;
+  /// Declaration keys (a parameter's, horus/params.hpp), each written and read only when present,
+  /// so descriptions without them keep their bytes. "doc": the doc comment.
+  std::optional<std::string> doc;
+  /// "range": [min | null, max | null], inclusive bounds of a number (of each element).
+  struct Range {
+    std::optional<double> min;
+    std::optional<double> max;
+  };
+  std::optional<Range> range;
+  /// "choices": the only values allowed, each MessagePack bytes of a VALUE.
+  std::optional<std::vector<std::string>> choices;
+  /// "read_only": not writable while the node runs.
+  std::optional<bool> read_only;
 };
 
 struct MessageConstant {

@@ -17,6 +17,11 @@ void bind_services(pybind11::module_& m);
 void bind_introspection(pybind11::module_& m);
 /// Session recording on horus._core.Scheduler (after bind_scheduler).
 void bind_recording(pybind11::module_& m);
+/// horus._core: parameters (ParamError, the store's reader, writes, YAML files, the handles of
+/// Python nodes' parameters); after the HorusError of the module.
+void bind_params(pybind11::module_& m);
+/// horus._core: the frame tree, its FrameError classes and transform arithmetic; after HorusError.
+void bind_frames(pybind11::module_& m);
 /// horus._core: the tensor pool, Image, DepthImage, PointCloud, Tensor and their topics.
 void bind_pool(pybind11::module_& m);
 // bridges/dds/python/bindings.cpp, built in where Cyclone DDS is (HORUS_PYTHON_DDS).

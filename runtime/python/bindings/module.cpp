@@ -26,6 +26,8 @@ PYBIND11_MODULE(_core, m) {
   horus::python::bind_introspection(m);
   horus::python::bind_recording(m);
   horus::python::bind_pool(m);
+  horus::python::bind_params(m);
+  horus::python::bind_frames(m);
 #ifdef HORUS_PYTHON_DDS
   auto dds = m.def_submodule("dds",
                              "The DDS bridge's library (bridges/dds/): raw-CDR endpoints "

@@ -160,22 +160,24 @@ PyNode::PyNode(std::string name, py::tuple callbacks, std::vector<TopicMetadata>
     : name_(std::move(name)),
       publishers_(std::move(publishers)),
       subscribers_(std::move(subscribers)) {
-  if (callbacks.size() != 5) {
+  if (callbacks.size() != 6) {
     throw std::invalid_argument(
-        "PyNode needs (init, tick, shutdown, enter_safe_state, "
-        "is_safe_state)");
+        "PyNode needs (init, tick, shutdown, enter_safe_state, is_safe_state, "
+        "on_param_change)");
   }
   init_ = callbacks[0];
   tick_ = callbacks[1];
   shutdown_ = callbacks[2];
   enter_safe_state_ = callbacks[3];
   is_safe_state_ = callbacks[4];
+  on_param_change_ = callbacks[5];
 }
 
 PyNode::~PyNode() {
   if (!python_may_run()) {
     // At exit the callables are left to the interpreter rather than end this thread.
-    for (py::object* callback : {&init_, &tick_, &shutdown_, &enter_safe_state_, &is_safe_state_}) {
+    for (py::object* callback :
+         {&init_, &tick_, &shutdown_, &enter_safe_state_, &is_safe_state_, &on_param_change_}) {
       callback->release();
     }
     return;
@@ -187,6 +189,7 @@ PyNode::~PyNode() {
   shutdown_ = py::object();
   enter_safe_state_ = py::object();
   is_safe_state_ = py::object();
+  on_param_change_ = py::object();
 }
 
 void PyNode::call(const py::object& callback) const {
@@ -220,6 +223,31 @@ bool PyNode::is_safe_state() const {
     std::fprintf(stderr, "[horus] node '%s': is_safe_state() raised:\n%s\n", name_.c_str(),
                  python_traceback(error).c_str());
     return false;
+  }
+}
+
+ParamVerdict PyNode::on_param_change(const ParamChange& change) {
+  if (!python_may_run()) {
+    return ParamVerdict::refuse("node '" + name_ + "': the Python interpreter is exiting");
+  }
+  CallbackScope scope;
+  CallbackGil gil;
+  if (on_param_change_.is_none()) {
+    return ParamVerdict::accept();
+  }
+  try {
+    py::object answer = on_param_change_(change.name(), py::bytes(change.value), change.source);
+    if (answer.is_none()) {
+      return ParamVerdict::accept();
+    }
+    auto [accepted, reason] = answer.cast<std::pair<bool, std::string>>();
+    return accepted ? ParamVerdict::accept() : ParamVerdict::refuse(std::move(reason));
+  } catch (py::error_already_set& error) {
+    // The node did not say yes: the write is refused with what went wrong, and the node runs on.
+    std::string text = python_traceback(error);
+    std::fprintf(stderr, "[horus] node '%s': on_param_change() raised:\n%s\n", name_.c_str(),
+                 text.c_str());
+    return ParamVerdict::refuse("on_param_change() raised " + text.substr(0, text.find('\n')));
   }
 }
 

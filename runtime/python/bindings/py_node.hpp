@@ -11,13 +11,16 @@
 #include <vector>
 
 #include "horus/node.hpp"
+#include "py_params.hpp"
 
 namespace horus::python {
 
 class PyNode final : public Node {
  public:
   /// `callbacks` is the Python node's (init, tick, shutdown, enter_safe_state, is_safe_state),
-  /// each a callable taking no argument or None.
+  /// each a callable taking no argument or None, then its on_param_change: a callable taking
+  /// (name, value as MessagePack VALUE bytes, source) and returning None (accept) or
+  /// (accepted, reason), or None.
   PyNode(std::string name, pybind11::tuple callbacks, std::vector<TopicMetadata> publishers,
          std::vector<TopicMetadata> subscribers);
   ~PyNode() override;
@@ -32,6 +35,14 @@ class PyNode final : public Node {
   bool is_safe_state() const override;
   std::vector<TopicMetadata> publishers() const override { return publishers_; }
   std::vector<TopicMetadata> subscribers() const override { return subscribers_; }
+  /// Offers the change to the Python node under the GIL; an exception refuses it, saying why.
+  ParamVerdict on_param_change(const ParamChange& change) override;
+
+  /// Declares one of the Python node's parameters (before a scheduler adds the node); throws
+  /// ParamError for a bad declaration or a duplicate.
+  ParamHandle declare_param(ParamDeclaration declaration) {
+    return Node::declare_param(std::move(declaration));
+  }
 
  private:
   /// Runs `callback` under the GIL; a Python exception becomes a C++ one whose text is the
@@ -44,6 +55,7 @@ class PyNode final : public Node {
   pybind11::object shutdown_;
   pybind11::object enter_safe_state_;
   pybind11::object is_safe_state_;
+  pybind11::object on_param_change_;
   std::vector<TopicMetadata> publishers_;
   std::vector<TopicMetadata> subscribers_;
 };

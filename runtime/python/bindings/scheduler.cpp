@@ -189,7 +189,20 @@ void bind_scheduler(py::module_& m) {
              return std::make_shared<PyNode>(std::move(name), std::move(callbacks),
                                              std::move(publishers), std::move(subscribers));
            }),
-           py::arg("name"), py::arg("callbacks"), py::arg("publishers"), py::arg("subscribers"));
+           py::arg("name"), py::arg("callbacks"), py::arg("publishers"), py::arg("subscribers"))
+      .def(
+          "declare_param",
+          [](PyNode& node, std::string name, const std::string& spelling,
+             const std::string& default_value, std::optional<double> min, std::optional<double> max,
+             const std::vector<std::string>& choices, std::string unit, std::string doc,
+             bool read_only, const std::optional<std::string>& enum_description) {
+            return node.declare_param(python_param_declaration(
+                std::move(name), spelling, default_value, min, max, choices, std::move(unit),
+                std::move(doc), read_only, enum_description));
+          },
+          py::arg("name"), py::arg("spelling"), py::arg("default"), py::arg("min"), py::arg("max"),
+          py::arg("choices"), py::arg("unit"), py::arg("doc"), py::arg("read_only"),
+          py::arg("enum_description"));
 
   py::class_<Scheduler, std::unique_ptr<Scheduler, ReleasingDeleter>>(m, "Scheduler")
       .def(py::init([](double tick_rate, bool rt, bool deterministic, double watchdog_ms,
@@ -198,7 +211,8 @@ void bind_scheduler(py::module_& m) {
                        bool verbose, std::optional<std::string> telemetry,
                        std::optional<std::uint64_t> seed, bool recording,
                        std::optional<std::string> replay,
-                       std::optional<std::tuple<std::string, std::uint16_t, double>> view) {
+                       std::optional<std::tuple<std::string, std::uint16_t, double>> view,
+                       std::optional<std::string> params) {
              SchedulerConfig config;
              config.tick_rate(Rate::hz(tick_rate))
                  .rt(rt)
@@ -213,6 +227,7 @@ void bind_scheduler(py::module_& m) {
              if (telemetry) config.telemetry(*telemetry);
              if (seed) config.seed(*seed);
              if (replay) config.replay(*replay);
+             if (params) config.params(*params);
              if (view) {
                const auto& [listen_address, port, discovery_interval_s] = *view;
                config.view({.listen_address = listen_address,
@@ -234,7 +249,7 @@ void bind_scheduler(py::module_& m) {
            py::arg("blackbox_mb"), py::arg("name"), py::arg("cores"),
            py::arg("max_deadline_misses"), py::arg("verbose"), py::arg("telemetry"),
            py::arg("seed"), py::arg("recording") = false, py::arg("replay") = py::none(),
-           py::arg("view") = py::none())
+           py::arg("view") = py::none(), py::arg("params") = py::none())
       .def(
           "add",
           [](Scheduler& sched, std::shared_ptr<Node> node, std::int32_t order,

@@ -29,8 +29,16 @@ _check_dependencies()
 
 from ._core import HorusError  # noqa: E402
 from ._core import budget_remaining, dt, elapsed, now, rng_float, tick, timestamp_now  # noqa: E402
+from ._frames import (  # noqa: E402
+    DisconnectedFramesError, ExtrapolationError, FrameAuthorityError, FrameCapacityError,
+    FrameCycleError, FrameError, FrameInfo, FrameTree, InvalidTransformError, StaleFrameError,
+    StampedTransform, Transform, UnknownFrameError, frame_tree_exists, remove_frame_tree,
+    transform_point, transform_pose, transform_vector)
 from ._network import Network  # noqa: E402
 from ._node import Node  # noqa: E402
+from ._params import (  # noqa: E402
+    Param, ParamChange, ParamError, ParamInfo, Params, ParamSetResult, ParamValues, ParamVerdict,
+    dump_params, load_params, param_nodes)
 from ._scheduler import Scheduler, run  # noqa: E402
 from ._service import (  # noqa: E402
     NoServerError, ServiceClient, ServiceError, ServiceFailed, ServiceServer, ServiceTimeout,
@@ -46,11 +54,16 @@ us = 1e-6  # microseconds -> seconds: budget=300 * us
 ms = 1e-3  # milliseconds -> seconds: deadline=5 * ms
 
 __all__ = [
-    "HorusError", "Network", "Node", "NoServerError", "Scheduler", "ServiceClient", "ServiceError",
+    "HorusError", "Network", "Node", "NoServerError", "Param", "ParamChange", "ParamError",
+    "ParamInfo", "Params", "ParamSetResult", "ParamValues", "ParamVerdict", "Scheduler", "ServiceClient", "ServiceError",
     "ServiceFailed", "ServiceServer", "ServiceTimeout", "Topic", "TransportError", "PlainValue",
-    "View", "plain_value",
+    "View", "dump_params", "load_params", "param_nodes", "plain_value",
     "budget_remaining", "dt", "elapsed", "ms", "now", "rng_float", "run", "tick", "timestamp_now",
     "us",
     "DepthImage", "Image", "ImageEncoding", "PointCloud", "PoolExhaustion", "PoolTopic", "Tensor",
     "TensorDtype", "TensorPool",
+    "DisconnectedFramesError", "ExtrapolationError", "FrameAuthorityError", "FrameCapacityError",
+    "FrameCycleError", "FrameError", "FrameInfo", "FrameTree", "InvalidTransformError",
+    "StaleFrameError", "StampedTransform", "Transform", "UnknownFrameError", "frame_tree_exists",
+    "remove_frame_tree", "transform_point", "transform_pose", "transform_vector",
 ]

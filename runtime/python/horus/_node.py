@@ -7,6 +7,8 @@ import inspect
 import weakref
 
 from . import _core
+from ._core import ParamError
+from ._params import ParamChange, ParamValues, ParamVerdict, make_param
 from ._pool import is_pool_type
 from ._topic import Topic
 from ._values import plain_value_of, python_spelling
@@ -41,6 +43,8 @@ class Node:
 
     Callbacks take the node (`def tick(node): ...`); a subclass may instead override `init`,
     `tick` and `shutdown` as methods. Budgets, deadlines and watchdogs are seconds (`300 * us`).
+    Parameters are declared with `declare_param` and read as `node.params.NAME`; a write is
+    offered to `on_param_change` first (a method, or `on_param_change=fn(node, change)`).
     """
 
     # Slots of the topics this node creates, by topic name (default 64); the classes horus-gen
@@ -52,11 +56,13 @@ class Node:
                  deadline: float | None = None, on_miss: str | None = None,
                  failure_policy: str | None = None, compute: bool = False, on: str | None = None,
                  priority: int | None = None, core: int | None = None,
-                 watchdog: float | None = None, subs=None, pubs=None) -> None:
+                 watchdog: float | None = None, subs=None, pubs=None,
+                 on_param_change=None) -> None:
         self.name = name if name is not None else type(self).__name__
         if not isinstance(self.name, str) or not self.name:
             raise ValueError(f"a node name must be a non-empty string, got {self.name!r}")
-        for label, fn in (("tick", tick), ("init", init), ("shutdown", shutdown)):
+        for label, fn in (("tick", tick), ("init", init), ("shutdown", shutdown),
+                          ("on_param_change", on_param_change)):
             if fn is not None and not callable(fn):
                 raise TypeError(f"node '{self.name}': {label} must be callable, got {fn!r}")
         if on_miss is not None and on_miss not in _MISS_POLICIES:
@@ -70,6 +76,9 @@ class Node:
         self._tick_fn = tick
         self._init_fn = init
         self._shutdown_fn = shutdown
+        self._on_param_change_fn = on_param_change
+        self._params: dict = {}
+        self.params = ParamValues(self.name, self._params)
         self.rate = None if rate is None else float(rate)
         self.order = int(order)
         self.budget = _seconds(budget, f"node '{self.name}': budget")
@@ -111,9 +120,12 @@ class Node:
         shutdown = self._shutdown
         safe = getattr(self, "enter_safe_state", None)
         is_safe = getattr(self, "is_safe_state", None)
-        node = _core.PyNode(self.name, (_with_topics(self, init), tick, shutdown, safe, is_safe),
+        node = _core.PyNode(self.name, (_with_topics(self, init), tick, shutdown, safe, is_safe,
+                                        self._param_change if self._params else None),
                             [(t, _type_name(c)) for t, c in self.pubs.items()],
                             [(t, _type_name(c)) for t, c in self.subs.items()])
+        for param in self._params.values():
+            param._declare(node)
         # Weak: the C++ node's callbacks hold this node, so holding it back would be a cycle
         # through C++ that the garbage collector cannot see.
         self._stop = node.stop_handle()
@@ -137,7 +149,53 @@ class Node:
                 self._loop.close()
                 self._loop = None
 
+    def _param_change(self, name: str, value: bytes, source: str):
+        """What the C++ node asks between two ticks (never beside another call of the node): None
+        (accept) or (accepted, reason)."""
+        change = ParamChange(name, self._params[name]._value_of(value), source)
+        if type(self).on_param_change is not Node.on_param_change:
+            verdict = self.on_param_change(change)
+        elif self._on_param_change_fn is not None:
+            verdict = self._on_param_change_fn(self, change)
+        else:
+            return None
+        if verdict is None:
+            return None
+        if not isinstance(verdict, ParamVerdict):
+            raise TypeError(f"node '{self.name}': on_param_change returns ParamVerdict.accept(), "
+                            f"ParamVerdict.refuse(reason) or None, not {verdict!r}")
+        return (verdict.accepted, verdict.reason)
+
+    # -- parameters ---------------------------------------------------------------------------
+
+    def declare_param(self, name: str, default, *, type=None, min: float | None = None,
+                      max: float | None = None, choices=None, unit: str = "", doc: str = "",
+                      read_only: bool = False):
+        """Declares a parameter (in __init__, before a scheduler adds the node) and returns its
+        horus.Param; `node.params.NAME` reads it. `type` is a schema spelling ("f32", "[f64; 3]",
+        "String"), a generated IntEnum class, or None to infer it from the default (bool, int ->
+        i64, float -> f64, str -> String, an enum member, a list of numbers -> [f64; N] or
+        [i64; N] when all are ints, a list of bools -> [bool; N]).
+        `min`/`max` bound a number (each element of an array), `choices` lists the only values
+        allowed. Raises ParamError for a bad declaration (name, duplicate, a default outside its
+        own range or choices, over 256 bytes), TypeError for a type it cannot tell."""
+        if self._stop is not None:
+            raise ParamError(f"node '{self.name}': parameter '{name}' is declared after a "
+                             "scheduler added the node (declare parameters in __init__)")
+        if name in self._params:
+            raise ParamError(f"node '{self.name}' declares parameter '{name}' twice")
+        param = make_param(name, default, type, min, max, choices, unit, doc, read_only)
+        self._params[name] = param
+        return param
+
     # -- overridable callbacks (subclass style) ------------------------------------------------
+
+    def on_param_change(self, change: ParamChange):
+        """Offered every write of one of this node's parameters between two ticks, never during
+        init(), tick() or shutdown() nor beside another call of the node (on the node's thread,
+        or on the parameter service's while the node's thread sleeps); return
+        ParamVerdict.refuse(reason) to refuse it (None accepts)."""
+        return None
 
     def init(self) -> None:
         """Called once when the scheduler starts (lazily, in order)."""

@@ -26,6 +26,9 @@ class Scheduler:
     the built-in page over the Foxglove WebSocket protocol, from this process, for as long
     (docs/live-view.md); it tells viewers simulated time when deterministic. `name` defaults to
     the program's (the script's file name without .py), so two programs' log lines differ.
+    `params` (a YAML parameter file, `node: {name: value}`) sets the nodes' parameters as each
+    starts, before init(); a malformed file, an unknown node or parameter, or a value outside its
+    declaration stops the start with FILE:LINE and the reason (docs/parameters.md).
 
     Like a C++ scheduler, it leaves nothing in shared memory: when run() returns, when the `with`
     block ends, and when it is dropped (at the latest as the interpreter exits), its nodes'
@@ -38,7 +41,8 @@ class Scheduler:
                  max_deadline_misses: int | None = None, verbose: bool = False,
                  telemetry: str | None = None, seed: int | None = None,
                  replay: str | os.PathLike | None = None,
-                 network: Network | None = None, view=None) -> None:
+                 network: Network | None = None, view=None,
+                 params: str | os.PathLike | None = None) -> None:
         if network is not None and not isinstance(network, Network):
             raise TypeError(f"network takes a horus.Network, got {type(network).__name__}")
         if not float(tick_rate) > 0.0:
@@ -52,7 +56,8 @@ class Scheduler:
             name=_program_name() if name is None else name, cores=list(cores or []),
             max_deadline_misses=max_deadline_misses, verbose=bool(verbose), telemetry=telemetry,
             seed=seed, recording=bool(recording),
-            replay=None if replay is None else os.fspath(replay), view=view_options(view)))
+            replay=None if replay is None else os.fspath(replay), view=view_options(view),
+            params=None if params is None else os.fspath(params)))
         # Runs when this scheduler is dropped, or as the interpreter exits (before it finalizes:
         # the nodes' shutdowns still run, and the C++ scheduler takes its presence entry along).
         self._close = weakref.finalize(self, _close, self._owned)
@@ -284,13 +289,15 @@ def run(*nodes, duration: float | None = None, tick_rate: float = 1000.0, rt: bo
         deterministic: bool = False, blackbox_mb: int = 0, watchdog_ms: float = 0,
         recording: bool = False, name: str | None = None, cores: list[int] | None = None,
         max_deadline_misses: int | None = None, verbose: bool = False,
-        telemetry: str | None = None, network: Network | None = None, view=None) -> int:
+        telemetry: str | None = None, network: Network | None = None, view=None,
+        params: str | os.PathLike | None = None) -> int:
     """Builds a Scheduler with these keywords, adds `nodes` and runs it (forever, or for
     `duration` seconds) until Ctrl+C, SIGTERM or a stop."""
     sched = Scheduler(tick_rate=tick_rate, rt=rt, deterministic=deterministic,
                       blackbox_mb=blackbox_mb, watchdog_ms=watchdog_ms, recording=recording,
                       name=name, cores=cores, max_deadline_misses=max_deadline_misses,
-                      verbose=verbose, telemetry=telemetry, network=network, view=view)
+                      verbose=verbose, telemetry=telemetry, network=network, view=view,
+                      params=params)
     try:
         for node in nodes:
             sched.add(node)

@@ -108,6 +108,16 @@ def list_services(namespace: str = "") -> list[dict]:
     return _core.list_services(namespace)
 
 
+def is_param_service(name: str) -> bool:
+    """Whether a service is one that carries writes to a node's parameters (param_service_name):
+    the service listings leave them out, as `topic list` leaves out the topics services run on."""
+    # The name of a node no name can contain, split where it went in.
+    marker = "\x00"
+    prefix, _, suffix = _core.param_service_name(marker).partition(marker)
+    return (name.startswith(prefix) and name.endswith(suffix)
+            and len(name) > len(prefix) + len(suffix))
+
+
 def list_presence(namespace: str = "") -> list[dict]:
     """The processes' presence announcements (dead processes' too, with alive False): pid, start
     time and the announcement as JSON (a scheduler's nodes, or a process's topics and services)."""

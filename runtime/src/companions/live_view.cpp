@@ -45,7 +45,8 @@ void check_live_view(const LiveViewOptions& options) {
     if (!policy) {
       if (!missing.empty()) missing += " and ";
       missing +=
-          "--allow 'PEER read|write|call PATTERN' or --policy FILE (policy_lines, policy_files) "
+          "--allow 'PEER read|write|call|param PATTERN' or --policy FILE (policy_lines, "
+          "policy_files) "
           "with --tokens FILE (tokens_file) or client certificates";
     }
     throw Error("listening on " + options.listen_address +
@@ -54,7 +55,7 @@ void check_live_view(const LiveViewOptions& options) {
   if (!options.tokens_file.empty() && !policy) {
     throw Error(
         "tokens_file (--tokens) names peers for a policy, and there is none: add --allow "
-        "'PEER read|write|call PATTERN' or --policy FILE (policy_lines, policy_files)");
+        "'PEER read|write|call|param PATTERN' or --policy FILE (policy_lines, policy_files)");
   }
   if (policy && !tls && options.tokens_file.empty()) {
     throw Error(

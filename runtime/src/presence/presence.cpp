@@ -1,7 +1,6 @@
 // The presence registry's files: the announcement a Scheduler rewrites, and the readers tools use.
 #include "horus/presence.hpp"
 
-#include <dirent.h>
 #include <fcntl.h>
 #include <pthread.h>
 #include <sys/file.h>
@@ -76,24 +75,11 @@ detail::FileDescriptor open_presence_folder(const std::string& namespace_name, b
 /// `with_temporaries`), sorted.
 std::vector<std::string> entry_names(int folder, const std::string& path,
                                      bool with_temporaries = false) {
-  std::vector<std::string> names;
-  const int duplicate = ::fcntl(folder, F_DUPFD_CLOEXEC, 0);
-  DIR* dir = duplicate >= 0 ? ::fdopendir(duplicate) : nullptr;
-  if (dir == nullptr) {
-    const int error = errno;
-    if (duplicate >= 0) ::close(duplicate);
-    throw Error("cannot list presence directory " + path + ": " + detail::errno_text(error));
+  std::vector<std::string> names = detail::folder_entries(folder, path);
+  if (!with_temporaries) {
+    std::erase_if(names,
+                  [](const std::string& name) { return name.find(".tmp") != std::string::npos; });
   }
-  // This DIR stream is local to the call, which is all readdir needs to be safe.
-  while (const dirent* entry = ::readdir(dir)) {  // NOLINT(concurrency-mt-unsafe)
-    const std::string name = entry->d_name;
-    if (name != "." && name != ".." &&
-        (with_temporaries || name.find(".tmp") == std::string::npos)) {
-      names.push_back(name);
-    }
-  }
-  ::closedir(dir);
-  std::sort(names.begin(), names.end());
   return names;
 }
 

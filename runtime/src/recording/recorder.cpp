@@ -22,10 +22,12 @@
 #include "horus/internal/tick_log.hpp"
 #include "horus/json_string.hpp"
 #include "horus/log.hpp"
+#include "horus/params.hpp"
 #include "horus/pool_frames.hpp"
 #include "horus/recording.hpp"
 #include "horus/topic_registry.hpp"
 #include "mcap_writer.hpp"
+#include "param_changes.hpp"
 
 namespace horus::detail {
 namespace {
@@ -117,6 +119,17 @@ class RecorderImpl {
     NodeTicks& ticks = tick_logs_.emplace_back(
         NodeTicks{std::move(node), std::move(log), std::move(subscribed), {}});
     for (const Recorded& topic : topics_) watch(ticks, topic);
+  }
+
+  void add_param_change(const RecordedParamChange& change) {
+    std::lock_guard lock(mutex_);
+    if (stopped_.load(std::memory_order_acquire) || !error_.empty()) return;
+    try {
+      write_param_change(change);
+    } catch (const std::exception& e) {
+      error_ = e.what();
+      log::error("recorder: recording %s stopped: %s", summary_.path.c_str(), e.what());
+    }
   }
 
   void drain() {
@@ -249,8 +262,79 @@ class RecorderImpl {
           pending_.push_back(info.name);
         }
       }
+      discover_param_stores();
     }
     open_pending();
+  }
+
+  /// Watches the parameter stores of the namespace that appeared since the last look, each
+  /// with its values as first seen (mutex_ held).
+  void discover_param_stores() {
+    for (const std::string& node : param_nodes(namespace_)) {
+      const auto watched = param_stores_.find(node);
+      if (watched != param_stores_.end() && watched->second.reader.owner_alive()) continue;
+      try {
+        WatchedStore store{ParamStoreReader(node, namespace_), 0, 0, {}};
+        if (watched != param_stores_.end()) {
+          // Its owner ended: a node started again with other declarations has a new store file
+          // (the old one, still mapped here, never changes again), watched from its start.
+          if (!store.reader.owner_alive()) continue;
+          param_stores_.erase(watched);
+        }
+        store.seen = store.reader.change_count();
+        store.owner = store.reader.owner_pid();
+        for (const ParamInfo& info : store.reader.list()) {
+          store.versions[info.declaration.name] = info.version;
+          write_param_change(RecordedParamChange{
+              node, info.declaration.name, info.value, info.version, {}, true, std::nullopt});
+        }
+        param_stores_.emplace(node, std::move(store));
+      } catch (const Error& e) {
+        // Being created or replaced right now: the next look tries again (said once).
+        if (unopenable_.insert("@params/" + node).second) {
+          log::warn("recorder: cannot record the parameters of node '%s' yet: %s", node.c_str(),
+                    e.what());
+        }
+      }
+    }
+  }
+
+  /// Records what changed in the watched stores since the last look, by their change counters
+  /// (mutex_ held): each parameter whose version moved, with its value now (several writes
+  /// between two looks show as the last of them). A node started again in the same store
+  /// (another owner, or versions back at 1) gives its values as starting values.
+  std::size_t take_param_changes() {
+    std::size_t taken = 0;
+    for (auto& [node, store] : param_stores_) {
+      const std::uint64_t count = store.reader.change_count();
+      if (count == store.seen) continue;
+      store.seen = count;
+      const std::uint32_t owner = store.reader.owner_pid();
+      const bool new_owner = owner != 0 && owner != store.owner;
+      if (new_owner) store.owner = owner;
+      for (const ParamInfo& info : store.reader.list()) {
+        std::uint64_t& version = store.versions[info.declaration.name];
+        if (info.version == version && !new_owner) continue;
+        const bool start = new_owner || info.version < version;
+        version = info.version;
+        write_param_change(RecordedParamChange{
+            node, info.declaration.name, info.value, info.version, {}, start, std::nullopt});
+        ++taken;
+      }
+    }
+    return taken;
+  }
+
+  void write_param_change(const RecordedParamChange& change) {
+    if (params_channel_ == 0) {
+      const std::uint16_t schema =
+          writer_.add_schema(kParamChangeSchemaName, "jsonschema", kParamChangeSchema);
+      params_channel_ = writer_.add_channel(kParamsChannel, schema, "json", {});
+    }
+    const std::string text = param_change_json(change);
+    const std::uint64_t now = realtime_ns();
+    writer_.add_message(params_channel_, params_sequence_++, now, now,
+                        {reinterpret_cast<const std::uint8_t*>(text.data()), text.size()});
   }
 
   void run() noexcept {
@@ -301,6 +385,7 @@ class RecorderImpl {
     for (NodeTicks& ticks : tick_logs_) {
       taken += ticks.log->drain([&](const TickEntry& entry) { write_tick(ticks, entry); });
     }
+    taken += take_param_changes();
     return taken;
   }
 
@@ -450,6 +535,7 @@ class RecorderImpl {
                 static_cast<unsigned long long>(summary.messages));
     }
     topics_.clear();  // the subscriptions end with the recording
+    param_stores_.clear();
   }
 
   RecorderOptions options_;
@@ -465,6 +551,17 @@ class RecorderImpl {
   std::map<std::string, std::uint16_t> schema_ids_;
   std::uint16_t ticks_channel_ = 0;
   std::uint32_t tick_sequence_ = 0;
+  /// A parameter store a standalone recorder watches (all_topics): the change count and the
+  /// versions it recorded last.
+  struct WatchedStore {
+    ParamStoreReader reader;
+    std::uint64_t seen;
+    std::uint32_t owner;  // its owner's pid when last looked at (0: none ran)
+    std::map<std::string, std::uint64_t> versions;
+  };
+  std::map<std::string, WatchedStore> param_stores_;
+  std::uint16_t params_channel_ = 0;
+  std::uint32_t params_sequence_ = 0;
   std::string tick_text_;
   std::string error_;
   RecordingSummary summary_;
@@ -491,6 +588,9 @@ const std::filesystem::path& Recorder::path() const noexcept { return impl_->pat
 bool Recorder::recording() const noexcept { return impl_->recording(); }
 RecordingSummary Recorder::summary() const { return impl_->summary(); }
 void Recorder::drain() { impl_->drain(); }
+void Recorder::add_param_change(const RecordedParamChange& change) {
+  impl_->add_param_change(change);
+}
 RecordingSummary Recorder::stop() { return impl_->stop(); }
 
 }  // namespace horus

@@ -183,7 +183,9 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
   for (const auto& entry : recording.channels()) {
     const std::uint16_t id = entry.first;
     const RecordedChannel& channel = entry.second;
-    if (channel.topic == kTicksTopic || skip.count(channel.topic) != 0) continue;
+    if (channel.topic == kTicksTopic || channel.topic == kParamsChannel ||
+        skip.count(channel.topic) != 0)
+      continue;
     const auto schema = recording.schemas().find(channel.schema_id);
     if (schema == recording.schemas().end()) {
       throw Error(where + ": topic '" + channel.topic + "' refers to a missing schema");
@@ -264,7 +266,8 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
   // cannot be matched: a live node's first tick falls in whatever cycle the loop had reached).
   std::map<std::uint64_t, std::uint64_t> cycle_starts;
   std::map<std::string, std::uint64_t, std::less<>> tick_counts;
-  std::map<std::uint16_t, std::map<std::string, Positions>> positions;  // by channel, node
+  std::map<std::string, std::vector<std::uint64_t>, std::less<>> tick_cycles;  // by node
+  std::map<std::uint16_t, std::map<std::string, Positions>> positions;         // by channel, node
   std::map<std::string, std::uint16_t, std::less<>> channel_ids;
   for (const auto& [id, channel] : recording.channels()) channel_ids.emplace(channel.topic, id);
   for (const RecordedMessage& m : recording.messages()) {
@@ -277,6 +280,7 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
     has_ticks_ = true;
     last_cycle_ = std::max(last_cycle_, tick->cycle);
     const std::uint64_t number = tick_counts[tick->node]++;
+    tick_cycles[tick->node].push_back(tick->cycle);
     for (const auto& [topic, received] : tick->received) {
       const auto channel = channel_ids.find(topic);
       if (channel == channel_ids.end()) continue;
@@ -326,6 +330,45 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
   std::stable_sort(unread_.begin(), unread_.end(),
                    [](const auto& a, const auto& b) { return a.first < b.first; });
   for (auto& [node, reader] : readers_) std::sort(reader.due.begin(), reader.due.end());
+  for (RecordedParamChange& change : recorded_param_changes(recording)) {
+    if (change.start || !change.cycle) continue;
+    const auto cycles = tick_cycles.find(change.node);
+    std::uint64_t number = 0;
+    if (cycles != tick_cycles.end()) {
+      // A node's recorded cycles only grow (one thread ticks it).
+      number = static_cast<std::uint64_t>(
+          std::lower_bound(cycles->second.begin(), cycles->second.end(), *change.cycle) -
+          cycles->second.begin());
+    }
+    ParamChanges& changes = param_changes_[change.node];
+    changes.due.emplace_back(number, std::move(change));
+  }
+  for (auto& [node, changes] : param_changes_) {
+    std::stable_sort(changes.due.begin(), changes.due.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+  }
+}
+
+std::map<std::string, std::map<std::string, std::string>> recorded_starting_params(
+    const std::filesystem::path& path) {
+  std::map<std::string, std::map<std::string, std::string>> values;
+  for (RecordedParamChange& change : recorded_param_changes(RecordingReader(path))) {
+    // The last starting value recorded for a node wins: a node started again in the same
+    // session records its values again.
+    if (change.start) values[change.node][change.name] = std::move(change.value);
+  }
+  return values;
+}
+
+void Replayer::apply_params_before_tick(
+    std::string_view node, const std::function<void(const RecordedParamChange&)>& apply) {
+  const auto found = param_changes_.find(node);
+  if (found == param_changes_.end()) return;
+  ParamChanges& changes = found->second;
+  for (; changes.next < changes.due.size() && changes.due[changes.next].first <= changes.ticks;
+       ++changes.next)
+    apply(changes.due[changes.next].second);
+  ++changes.ticks;
 }
 
 Replayer::~Replayer() = default;

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <climits>
 #include <csignal>
 #include <limits>
 #include <map>
@@ -116,11 +117,24 @@ class ThreadGroup {
   bool blocking_ = true;
 };
 
-bool SchedulerImpl::sleep_until(std::int64_t target) noexcept {
+bool SchedulerImpl::sleep_until(std::int64_t target, const std::vector<SlotPtr>* slots) noexcept {
+  // While this thread sleeps, the parameter service calls its nodes' on_param_change() itself.
+  const auto lend = [slots](void (ParamOwner::*step)()) {
+    if (slots == nullptr) return;
+    for (const SlotPtr& slot : *slots) {
+      if (slot->params) (slot->params.get()->*step)();
+    }
+  };
+  lend(&ParamOwner::idle);
+  bool on_time = false;
   for (;;) {
-    if (loop_ending()) return false;
+    if (loop_ending()) break;
+    lend(&ParamOwner::deliver_while_idle);
     const std::int64_t now = monotonic_ns();
-    if (now >= target) return true;
+    if (now >= target) {
+      on_time = true;
+      break;
+    }
     const std::int64_t until = std::min(target, now + kMaxSleepNs);
     timespec abs{};
     abs.tv_sec = static_cast<time_t>(until / 1'000'000'000);
@@ -129,6 +143,16 @@ bool SchedulerImpl::sleep_until(std::int64_t target) noexcept {
     syscall(SYS_futex, reinterpret_cast<std::uint32_t*>(&wake_word_),
             FUTEX_WAIT_BITSET | FUTEX_PRIVATE_FLAG, 0, &abs, nullptr, FUTEX_BITSET_MATCH_ANY);
   }
+  lend(&ParamOwner::hold);
+  return on_time;
+}
+
+void SchedulerImpl::wake_for_params(NodeSlot& slot) noexcept {
+  // Every thread of the loop sleeps on the one word: each delivers its own nodes' changes and
+  // sleeps on (the word itself stays 0, so no loop ends).
+  syscall(SYS_futex, reinterpret_cast<std::uint32_t*>(&wake_word_), FUTEX_WAKE | FUTEX_PRIVATE_FLAG,
+          INT_MAX, nullptr, nullptr, 0);
+  if (slot.notifier) slot.notifier->interrupt();
 }
 
 void SchedulerImpl::release_if_due(NodeSlot& slot, std::int64_t& mono) noexcept {
@@ -419,7 +443,7 @@ void SchedulerImpl::run_main_loop(LoopPlan& plan, ThreadGroup& threads, std::int
   if (pinned) apply_thread_settings(main);
   std::int64_t next_cycle = loop_start;
   for (;;) {
-    const bool on_time = sleep_until(std::min(next_cycle, end));
+    const bool on_time = sleep_until(std::min(next_cycle, end), &main.slots);
     check_signal();
     if (!on_time || stop_requested_.load()) break;
     std::int64_t mono = monotonic_ns();
@@ -476,7 +500,7 @@ void SchedulerImpl::run_executor(Executor& ex, std::int64_t end) noexcept {
   while (!loop_ending()) {
     std::int64_t earliest = end;
     for (const SlotPtr& s : ex.slots) earliest = std::min(earliest, s->next_release_ns);
-    if (!sleep_until(earliest)) break;
+    if (!sleep_until(earliest, &ex.slots)) break;
     std::int64_t mono = monotonic_ns();
     if (mono >= end) break;
     for (const SlotPtr& slot : ex.slots) release_if_due(*slot, mono);
@@ -488,7 +512,11 @@ void SchedulerImpl::run_event(NodeSlot& slot, std::int64_t end) noexcept {
     const std::int64_t now = monotonic_ns();
     if (now >= end) break;
     const std::int64_t slice = std::min(end - now, kEventWaitSliceNs);
-    if (slot.notifier->wait(std::chrono::nanoseconds(slice)) && !loop_ending()) {
+    if (slot.params) slot.params->idle();
+    const bool arrived = slot.notifier->wait(std::chrono::nanoseconds(slice));
+    if (slot.params) slot.params->hold();
+    deliver_params(slot);
+    if (arrived && !loop_ending()) {
       std::int64_t mono = monotonic_ns();
       service(slot, mono, mono);
     }

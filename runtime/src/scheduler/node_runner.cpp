@@ -82,6 +82,7 @@ void SchedulerImpl::service(NodeSlot& slot, std::int64_t release, std::int64_t& 
     shutdown_node(slot.shared_from_this(), true);
     return;
   }
+  deliver_params(slot);
   const bool deterministic = config_.deterministic();
   const std::int64_t now = sched_now(mono);
   if (slot.pending_safe_state.exchange(false, std::memory_order_acq_rel)) enter_safe(slot);
@@ -146,8 +147,12 @@ void SchedulerImpl::service(NodeSlot& slot, std::int64_t release, std::int64_t& 
     slot.watchdog_level.store(0, std::memory_order_relaxed);
     slot.tick_started_ns.store(start, std::memory_order_release);
   }
-  // A replay feeds what this tick got live just where the live run counted what it had.
-  if (replayer_) replayer_->deliver_before_tick(slot.name);
+  // A replay feeds what this tick got live just where the live run counted what it had, and
+  // sets the parameters this tick had.
+  if (replayer_) {
+    if (slot.params) replay_params(slot);
+    replayer_->deliver_before_tick(slot.name);
+  }
   if (slot.tick_log) slot.tick_log->note_start();
   slot.messages.topics.clear();
   std::exception_ptr error;

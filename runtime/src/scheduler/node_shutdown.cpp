@@ -85,6 +85,8 @@ void SchedulerImpl::shutdown_node(const SlotPtr& slot, bool removing) noexcept {
   } else if (!s.initialized) {
     s.state.store(s.state.load() == NodeState::Error ? NodeState::Error : NodeState::Stopped);
   }
+  // Its store stays (values readable, owner not running); writes are refused from now on.
+  s.params.reset();
   if (removing) {
     s.removed.store(true, std::memory_order_release);
     record(BlackboxEventKind::NodeRemoved, s);

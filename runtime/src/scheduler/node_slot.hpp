@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "horus/blackbox.hpp"
+#include "horus/internal/param_owner.hpp"
 #include "horus/internal/tick_log.hpp"
 #include "horus/internal/topic_notifier.hpp"
 #include "horus/scheduler.hpp"
@@ -46,6 +47,10 @@ struct NodeSlot : std::enable_shared_from_this<NodeSlot> {
   /// The node's ticks on their way to the session recording; null while nothing records. Set
   /// before the node first runs and never reset, so the running thread reads it unguarded.
   std::shared_ptr<TickLog> tick_log;
+  /// The node's parameter store and write service, from its start until it is shut down; null
+  /// for a node without parameters. Set before the node first runs, so its thread reads it
+  /// unguarded.
+  std::unique_ptr<ParamOwner> params;
 
   // Lifecycle.
   std::atomic<NodeState> state{NodeState::Uninitialized};

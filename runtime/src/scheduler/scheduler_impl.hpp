@@ -184,7 +184,18 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   /// Often enough for `horus node list` and `horus monitor`, rare enough to cost nothing.
   static constexpr std::int64_t kPresenceIntervalNs = 500'000'000;
   void apply_thread_settings(const Executor& ex) noexcept;
-  bool sleep_until(std::int64_t mono_ns) noexcept;
+  /// Sleeps until `mono_ns` or the loop's end, lending `slots` (the nodes this thread ticks) to
+  /// their parameter services meanwhile (ParamOwner::idle/hold), and delivers what was queued.
+  bool sleep_until(std::int64_t mono_ns, const std::vector<SlotPtr>* slots = nullptr) noexcept;
+  /// Opens the stores of the fresh nodes that declared parameters (the parameter file read and
+  /// checked first) and starts answering their writes. Throws ParamError.
+  void open_param_stores(const std::vector<SlotPtr>& fresh);
+  /// Wakes the thread that ticks `slot` for a parameter change (any thread).
+  void wake_for_params(NodeSlot& slot) noexcept;
+  /// Hands waiting parameter changes to the node, between two ticks on its own thread.
+  static void deliver_params(NodeSlot& slot) noexcept {
+    if (slot.params && slot.params->pending()) slot.params->deliver();
+  }
   bool loop_ending() const noexcept { return wake_word_.load(std::memory_order_acquire) != 0; }
   void check_signal() noexcept;
   std::int64_t sched_now(std::int64_t mono) const noexcept {
@@ -195,6 +206,12 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   void start_recording(const std::vector<SlotPtr>& fresh);
   /// Opens the replayed recording once the nodes' topics exist (deterministic mode).
   void start_replay();
+  /// Tells the session recording the parameter values of the fresh nodes as they start, and
+  /// then every change of them the nodes accept (with the cycle it took effect before).
+  void record_params(const std::shared_ptr<Recorder>& recorder, const std::vector<SlotPtr>& fresh);
+  /// Applies the replayed recording's parameter changes due before this tick of `slot`, on
+  /// its thread, as a write would be (source "replay").
+  void replay_params(NodeSlot& slot) noexcept;
   /// Hands a finished tick to the recording, if one runs (the tick path: no lock, no allocation).
   static void log_tick(NodeSlot& slot, std::uint64_t cycle, std::int64_t start,
                        std::int64_t duration, TickOutcome outcome) noexcept {
@@ -238,6 +255,12 @@ class SchedulerImpl : public std::enable_shared_from_this<SchedulerImpl> {
   /// Set by build() and add_critical_node() while running: the one load a main-loop cycle pays
   /// for runtime additions.
   std::atomic<bool> changes_pending_{false};
+
+  /// SchedulerConfig::params(), read and checked when the first nodes start.
+  std::optional<ParamFileValues> param_file_;
+  /// The parameter values the replayed recording's nodes started with (replay mode), read
+  /// when the first nodes start: their stores start from them.
+  std::optional<ParamFileValues> replay_start_params_;
 
   bool topic_cycle_reported_ = false;
   bool prepared_ = false;

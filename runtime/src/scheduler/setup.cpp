@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <thread>
 
 #include "horus/detail/publisher_lease.hpp"
@@ -412,6 +413,7 @@ void SchedulerImpl::start_nodes(const std::vector<SlotPtr>& fresh) {
     s->messages.track_topics = blackbox_ != nullptr;  // for the blackbox's tick records
     s->next_release_ns = sim_now_ns_;
   }
+  open_param_stores(fresh);
   if (config_.recording()) start_recording(fresh);
   for (const SlotPtr& s : fresh) {
     if (stop_requested_.load()) break;
@@ -439,11 +441,53 @@ void SchedulerImpl::start_nodes(const std::vector<SlotPtr>& fresh) {
         if (s->tick_log) recorder->add_tick_log(s->name, s->tick_log, std::move(subscribed));
       }
     }
+    record_params(recorder, fresh);
     // And the topics this process has open, for nodes that open topics without naming them.
     for (const TopicInfo& info : list_topics()) {
       if (info.open_here && !info.type_name.empty()) topics.push_back(info.name);
     }
     for (const std::string& topic : topics) recorder->add_topic(topic);
+  }
+}
+
+void SchedulerImpl::open_param_stores(const std::vector<SlotPtr>& fresh) {
+  if (!config_.params().empty() && !param_file_) {
+    // Checked against every node at the first start: a wrong value stops it before any store
+    // or node is touched.
+    std::vector<SlotPtr> slots;
+    {
+      std::lock_guard lock(mutex_);
+      slots = slots_;
+    }
+    std::map<std::string, const std::vector<ParamDeclaration>*> declarations;
+    for (const SlotPtr& s : slots) {
+      if (!s->node->param_declarations().empty()) {
+        declarations[s->name] = &s->node->param_declarations();
+      }
+    }
+    param_file_ = read_scheduler_param_file(config_.params(), declarations);
+  }
+  if (!config_.replay().empty() && !replay_start_params_) {
+    replay_start_params_ = recorded_starting_params(config_.replay());
+  }
+  for (const SlotPtr& s : fresh) {
+    if (s->params || s->node->param_declarations().empty()) continue;
+    const std::map<std::string, std::string>* values = nullptr;
+    if (param_file_) {
+      if (const auto found = param_file_->find(s->name); found != param_file_->end()) {
+        values = &found->second;
+      }
+    }
+    const std::map<std::string, std::string>* replayed = nullptr;
+    if (replay_start_params_) {
+      if (const auto found = replay_start_params_->find(s->name);
+          found != replay_start_params_->end()) {
+        replayed = &found->second;
+      }
+    }
+    s->params = std::make_unique<ParamOwner>(*s->node, s->name, values, replayed);
+    NodeSlot* slot = s.get();
+    s->params->serve([this, slot] { wake_for_params(*slot); });
   }
 }
 
@@ -472,6 +516,47 @@ void SchedulerImpl::start_replay() {
   replayer_ = std::make_unique<Replayer>(config_.replay(), std::string{}, produced);
   log(LogLevel::Info, "replaying %s into %zu topics", config_.replay().c_str(),
       replayer_->topic_count());
+}
+
+void SchedulerImpl::record_params(const std::shared_ptr<Recorder>& recorder,
+                                  const std::vector<SlotPtr>& fresh) {
+  for (const SlotPtr& s : fresh) {
+    if (!s->params) continue;
+    try {
+      for (const ParamInfo& info : ParamStoreReader(s->name).list()) {
+        recorder->add_param_change(RecordedParamChange{s->name, info.declaration.name, info.value,
+                                                       info.version, "start", true, std::nullopt});
+      }
+    } catch (const Error& e) {
+      // The node runs without them: a replay of this session starts it from its defaults.
+      log(LogLevel::Warn, "recording: the starting parameters of node '%s' are not recorded: %s",
+          s->name.c_str(), e.what());
+    }
+    // As each change is stored, between two of the node's ticks: the cycle is the one its ticks
+    // from now on belong to (a change between two passes takes effect before the next).
+    s->params->on_accepted([this, recorder, node = s->name](
+                               const ParamDeclaration& declaration, const std::string& value,
+                               std::uint64_t version, const std::string& source) {
+      recorder->add_param_change(RecordedParamChange{node, declaration.name, value, version, source,
+                                                     false,
+                                                     cycle_.load(std::memory_order_relaxed)});
+    });
+  }
+}
+
+void SchedulerImpl::replay_params(NodeSlot& slot) noexcept {
+  try {
+    replayer_->apply_params_before_tick(slot.name, [&](const RecordedParamChange& change) {
+      const ParamSetResult result = slot.params->apply(change.name, change.value, "replay");
+      if (!result.accepted) {
+        log(LogLevel::Warn, "replay: node '%s' keeps parameter '%s' at version %llu: %s",
+            slot.name.c_str(), change.name.c_str(), static_cast<unsigned long long>(result.version),
+            result.reason.c_str());
+      }
+    });
+  } catch (const std::exception& e) {
+    log(LogLevel::Error, "replay: parameters of node '%s': %s", slot.name.c_str(), e.what());
+  }
 }
 
 bool SchedulerImpl::is_recording() const noexcept {

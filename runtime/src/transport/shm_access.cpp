@@ -1,11 +1,13 @@
 // Ownership checks of shared-memory folders and files (detail/shm_access.hpp).
 #include "horus/detail/shm_access.hpp"
 
+#include <dirent.h>
 #include <fcntl.h>
 #include <grp.h>
 #include <pwd.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <utility>
@@ -213,6 +215,26 @@ FileDescriptor open_trusted_file(int directory, const std::string& name, const s
     throw Error("refusing topic segment " + reason);
   }
   return file;
+}
+
+std::vector<std::string> folder_entries(int folder, const std::string& path) {
+  // fdopendir takes over the descriptor it is given: a duplicate, so the folder stays open.
+  const int duplicate = ::fcntl(folder, F_DUPFD_CLOEXEC, 0);
+  DIR* dir = duplicate >= 0 ? ::fdopendir(duplicate) : nullptr;
+  if (dir == nullptr) {
+    const int error = errno;
+    if (duplicate >= 0) ::close(duplicate);
+    throw Error("cannot list " + path + ": " + errno_text(error));
+  }
+  std::vector<std::string> names;
+  // This DIR stream is local to the call, which is all readdir needs to be safe.
+  while (const dirent* entry = ::readdir(dir)) {  // NOLINT(concurrency-mt-unsafe)
+    const std::string_view name = entry->d_name;
+    if (name != "." && name != "..") names.emplace_back(name);
+  }
+  ::closedir(dir);
+  std::sort(names.begin(), names.end());
+  return names;
 }
 
 bool still_linked(int fd) noexcept {

@@ -2,7 +2,6 @@
 #include "horus/topic_registry.hpp"
 #include "horus/internal/errno_text.hpp"
 
-#include <dirent.h>
 #include <fcntl.h>
 #include <sys/file.h>
 #include <sys/mman.h>
@@ -33,30 +32,10 @@ constexpr unsigned kToolAccess = 0660;
 
 /// The names in a checked namespace folder (none when it does not exist).
 std::vector<std::string> segment_names(const detail::NamespaceFolder& folder) {
-  std::vector<std::string> names;
   if (folder.descriptor.get() < 0) {
-    return names;
+    return {};
   }
-  // fdopendir takes over the descriptor it is given: a duplicate, so the folder stays open.
-  const int duplicate = ::fcntl(folder.descriptor.get(), F_DUPFD_CLOEXEC, 0);
-  DIR* dir = duplicate >= 0 ? ::fdopendir(duplicate) : nullptr;
-  if (dir == nullptr) {
-    const int error = errno;
-    if (duplicate >= 0) {
-      ::close(duplicate);
-    }
-    throw Error("cannot list topic directory " + folder.path + ": " + detail::errno_text(error));
-  }
-  // This DIR stream is local to the call, which is all readdir needs to be safe.
-  while (const dirent* entry = ::readdir(dir)) {  // NOLINT(concurrency-mt-unsafe)
-    const std::string_view name = entry->d_name;
-    if (name != "." && name != "..") {
-      names.emplace_back(name);
-    }
-  }
-  ::closedir(dir);
-  std::sort(names.begin(), names.end());
-  return names;
+  return detail::folder_entries(folder.descriptor.get(), folder.path);
 }
 
 const detail::SlotHeader& slot_of(const std::byte* bytes, const LayoutHeader& header,
@@ -304,6 +283,7 @@ std::size_t clean_namespace(std::string_view namespace_name) {
   remove_folder_if_empty(folder);
   detail::remove_log_ring(namespace_name, false);
   detail::remove_presence_folder(namespace_name, false);
+  detail::remove_param_stores(namespace_name, false);
   return removed;
 }
 
@@ -316,6 +296,7 @@ void remove_namespace(std::string_view namespace_name) {
   remove_folder_if_empty(folder);
   detail::remove_log_ring(namespace_name, true);
   detail::remove_presence_folder(namespace_name, true);
+  detail::remove_param_stores(namespace_name, true);
 }
 
 std::vector<NamespaceObjectInfo> list_namespace_objects(std::string_view namespace_name) {
@@ -323,6 +304,9 @@ std::vector<NamespaceObjectInfo> list_namespace_objects(std::string_view namespa
   if (auto ring = detail::log_ring_object(namespace_name)) objects.push_back(std::move(*ring));
   if (auto folder = detail::presence_folder_object(namespace_name)) {
     objects.push_back(std::move(*folder));
+  }
+  for (NamespaceObjectInfo& store : detail::param_store_objects(namespace_name)) {
+    objects.push_back(std::move(store));
   }
   return objects;
 }

@@ -238,6 +238,46 @@ TypeRef read_type(const msgpack::object& object, const std::string& path, const 
   return type;
 }
 
+/// A parameter's declaration keys (doc, range, choices, read_only), those present.
+void read_declaration_keys(const Node& node, MessageField& field) {
+  field.doc = node.optional_text("doc");
+  if (const msgpack::object* range = node.get("range", false)) {
+    if (range->type != msgpack::type::ARRAY || range->via.array.size != 2) {
+      fail(node.at("range"), "expected [min or null, max or null]");
+    }
+    std::array<std::optional<double>, 2> bounds;
+    for (std::size_t i = 0; i < 2; ++i) {
+      const msgpack::object& bound = range->via.array.ptr[i];
+      switch (bound.type) {
+        case msgpack::type::NIL:
+          break;
+        case msgpack::type::FLOAT32:
+        case msgpack::type::FLOAT64:
+          bounds[i] = bound.via.f64;
+          break;
+        case msgpack::type::POSITIVE_INTEGER:
+          bounds[i] = static_cast<double>(bound.via.u64);
+          break;
+        case msgpack::type::NEGATIVE_INTEGER:
+          bounds[i] = static_cast<double>(bound.via.i64);
+          break;
+        default:
+          fail(indexed(node.at("range"), i), "expected a number or null");
+      }
+    }
+    field.range = MessageField::Range{bounds[0], bounds[1]};
+  }
+  if (node.get("choices", false) != nullptr) {
+    std::vector<std::string> choices;
+    for (const msgpack::object& choice : node.list("choices")) choices.push_back(packed(&choice));
+    field.choices = std::move(choices);
+  }
+  if (const msgpack::object* read_only = node.get("read_only", false)) {
+    if (read_only->type != msgpack::type::BOOLEAN) fail(node.at("read_only"), "expected a bool");
+    field.read_only = read_only->via.boolean;
+  }
+}
+
 MessageType read_message(const Node& entry, const Names& names) {
   MessageType message;
   message.name = entry.text("name");
@@ -264,6 +304,7 @@ MessageType read_message(const Node& entry, const Names& names) {
     field.default_value = packed(node.get("default", false));
     field.unit = node.optional_text("unit").value_or("");
     field.spelling = node.optional_text("spelling").value_or("");
+    read_declaration_keys(node, field);
     message.fields.push_back(std::move(field));
   }
   const std::span<const msgpack::object> constants = entry.list("constants");

@@ -104,6 +104,43 @@ void type(Packer& packer, const TypeRef& ref) {
   }
 }
 
+/// A parameter's declaration keys, those present, after the field's own.
+void declaration_keys(msgpack::sbuffer& buffer, Packer& packer, const MessageField& field) {
+  if (field.doc) {
+    key(packer, "doc");
+    text(packer, *field.doc);
+  }
+  if (field.range) {
+    key(packer, "range");
+    packer.pack_array(2);
+    for (const std::optional<double>& bound : {field.range->min, field.range->max}) {
+      if (bound) {
+        // float64 always, as horus-gen writes it (msgpack-cxx would write 2.0 as an integer).
+        std::uint64_t bits = 0;
+        std::memcpy(&bits, &*bound, sizeof bits);
+        char out[9] = {static_cast<char>(0xcb)};
+        for (std::size_t i = 0; i < 8; ++i) out[1 + i] = static_cast<char>(bits >> (56 - 8 * i));
+        buffer.write(out, sizeof out);
+      } else {
+        packer.pack_nil();
+      }
+    }
+  }
+  if (field.choices) {
+    key(packer, "choices");
+    packer.pack_array(static_cast<std::uint32_t>(field.choices->size()));
+    for (const std::string& choice : *field.choices) raw(buffer, packer, choice);
+  }
+  if (field.read_only) {
+    key(packer, "read_only");
+    if (*field.read_only) {
+      packer.pack_true();
+    } else {
+      packer.pack_false();
+    }
+  }
+}
+
 void message_entry(msgpack::sbuffer& buffer, Packer& packer, const MessageType& message) {
   packer.pack_map(13);
   key(packer, "kind");
@@ -123,7 +160,8 @@ void message_entry(msgpack::sbuffer& buffer, Packer& packer, const MessageType& 
   key(packer, "fields");
   packer.pack_array(static_cast<std::uint32_t>(message.fields.size()));
   for (const MessageField& field : message.fields) {
-    packer.pack_map(7);
+    packer.pack_map(7 + (field.doc ? 1 : 0) + (field.range ? 1 : 0) + (field.choices ? 1 : 0) +
+                    (field.read_only ? 1 : 0));
     key(packer, "name");
     text(packer, field.name);
     key(packer, "type");
@@ -138,6 +176,7 @@ void message_entry(msgpack::sbuffer& buffer, Packer& packer, const MessageType& 
     text(packer, field.unit);
     key(packer, "spelling");
     text(packer, field.spelling);
+    declaration_keys(buffer, packer, field);
   }
   key(packer, "constants");
   packer.pack_array(static_cast<std::uint32_t>(message.constants.size()));

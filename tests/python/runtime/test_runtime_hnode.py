@@ -1,6 +1,6 @@
 """Python node classes generated from .hnode files (tests/schemas/test_nodes): horus.Node
-subclasses with the declared name, settings and data, typed topic handles (self.<member>), and
-the same topics as the C++ base classes generated from the same files."""
+subclasses with the declared name, settings, data and parameters (node.params), typed topic
+handles (self.<member>), and the same topics as the C++ base classes generated from the same files."""
 from __future__ import annotations
 
 import os
@@ -58,6 +58,18 @@ def test_the_class_carries_the_declared_name_settings_and_topics(generated):
     assert test_nodes.PlannerBase().name == "Planner"
     # Keywords override what the file declares.
     assert test_nodes.TalkerBase(rate=50.0, name="talker2").rate == 50.0
+
+
+def test_a_params_block_declares_each_parameter_at_its_default(generated):
+    test_msgs, test_nodes = generated
+    node = test_nodes.ParamNodeBase()
+    assert list(node.params) == ["max_speed", "gain", "offset", "wheel_count", "enabled", "profile", "mode",
+                                 "gains", "mask", "ticks"]
+    assert (node.params.max_speed, node.params.gain, node.params.offset) == (1.0, 0.5, 0)
+    assert (node.params.wheel_count, node.params.enabled, node.params.profile) == (4, True, "eco")
+    assert node.params.mode == test_msgs.Mode.Run
+    assert node.params.gains == [1.0, 0.5, 0.0] and node.params.mask == [True, False]
+    assert node.params.ticks == 0
 
 
 def test_data_members_start_at_their_declared_defaults(generated):

@@ -14,6 +14,12 @@
 //    "publish": {"topic": "cmd_in", "messages": [{...}, ...], "interval_ms": 20},
 //    "measure": {"topics": ["fast"], "warmup_s": 1, "seconds": 5},  messages per second received
 //    "time": {"count": 5},                            wait for this many of the server's `time`
+//    "parameters": {"get": ["motor.max_speed"],       getParameters ([]: all), then
+//                   "set": [{"name", "value"}, ...],  setParameters (with an id), then
+//                   "watch": {"names": [...], "command": [ARGV...], "count": 1}}
+//                                                     subscribeParameterUpdates, run ARGV (a
+//                                                     program that changes one), and wait for
+//                                                     this many parameterValues without an id
 //    "tls": {"ca": PATH, "servername": "robot", "cert": PATH, "key": PATH},  for wss://: trust
 //                                                     that CA, the server's certificate by its
 //                                                     name; present cert and key when given
@@ -23,9 +29,12 @@
 // {"schemaName", "encoding", "decoded": [...], "timestamps": [...]}}, each decoded message's Message
 // Data timestamp as a string of decimal nanoseconds), "call" ({"response"} or {"failure"}),
 // "published", "measured" ({topic: {"count", "seconds", "rate", "bytes"}}), "times" (the first
-// `time` messages' timestamps, strings of nanoseconds, with plan.time), "statuses" (the server's
+// `time` messages' timestamps, strings of nanoseconds, with plan.time), "parameters" ({"get",
+// "set": the answers' parameter lists, "services": the names of the services advertised, "updates": the parameterValues the subscription brought,
+// "command": ARGV's exit status}), "statuses" (the server's
 // status messages) and "error" (what went wrong, if anything). Exits 0 whenever it
 // could print; the test judges the values.
+import { execFileSync } from "node:child_process";
 import fs from "node:fs";
 // The package is CommonJS: its classes come from the default export.
 import wsProtocol from "@foxglove/ws-protocol";
@@ -129,6 +138,8 @@ async function run(subprotocol) {
   });
   client.on("advertiseServices", (list) => { for (const s of list) services.set(s.name, s); notify(); });
   client.on("status", (status) => { result.statuses.push(status); notify(); });
+  const parameterValues = [];         // the server's parameterValues, as they came
+  client.on("parameterValues", (values) => { parameterValues.push(values); notify(); });
   // A message's data is a DataView; each handler gets its bytes. A message that does not decode
   // is the result's error, not a crash.
   let handlerError = null;
@@ -253,6 +264,43 @@ async function run(subprotocol) {
       const elapsed = (performance.now() - start) / 1000;
       result.measured = Object.fromEntries(Object.entries(counts).map(([topic, c]) =>
         [topic, { ...c, seconds: elapsed, rate: c.count / elapsed }]));
+    }
+
+    if (plan.parameters) {
+      const { get, set, watch } = plan.parameters;
+      result.parameters = {};
+      const answer = async (id, what) => {
+        await until(() => parameterValues.some((values) => values.id === id) || closed, what);
+        if (closed) throw new Error(`the server ${closed}`);
+        return parameterValues.find((values) => values.id === id).parameters;
+      };
+      if (get) {
+        client.getParameters(get, "get-1");
+        result.parameters.get = await answer("get-1", "the answer to getParameters");
+      }
+      if (set) {
+        client.setParameters(set, "set-1");
+        result.parameters.set = await answer("set-1", "the answer to setParameters");
+      }
+      if (watch) {
+        client.subscribeParameterUpdates(watch.names);
+        // The server reads the subscription before the change the command makes.
+        await sleep(200);
+        try {
+          execFileSync(watch.command[0], watch.command.slice(1), { stdio: "ignore" });
+          result.parameters.command = 0;
+        } catch (error) {
+          result.parameters.command = error.status ?? String(error);
+        }
+        const updates = () => parameterValues.filter((values) => values.id === undefined);
+        await until(() => updates().length >= (watch.count ?? 1) || closed,
+                    "the parameter updates");
+        result.parameters.updates = updates().map((values) => values.parameters);
+        client.unsubscribeParameterUpdates(watch.names);
+      }
+      // The services offered beside them (a node's parameter service must not be one): the
+      // server advertised them before it answered the first request.
+      result.parameters.services = [...services.keys()];
     }
 
     if (plan.time) {

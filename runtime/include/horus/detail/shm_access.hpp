@@ -17,6 +17,7 @@
 
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace horus::detail {
 
@@ -58,6 +59,10 @@ FileDescriptor open_trusted_directory(int parent, const std::string& name, const
 /// it with `mode`) and O_NOFOLLOW | O_CLOEXEC, and checked. Throws horus::Error.
 FileDescriptor open_trusted_file(int directory, const std::string& name, const std::string& path,
                                  int flags, unsigned mode, bool sharing);
+
+/// The names in the checked folder open as `folder` (which stays open), "." and ".." left out,
+/// sorted. Throws horus::Error naming `path`.
+std::vector<std::string> folder_entries(int folder, const std::string& path);
 
 /// Whether the file or folder open as `fd` still has a name: an opener that locks an object
 /// checks that no cleaner removed it between the open and the lock.

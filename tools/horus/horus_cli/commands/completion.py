@@ -18,6 +18,13 @@ _horus() {
     words=$(horus node list 2>/dev/null)
   elif [ "$COMP_CWORD" -eq 3 ] && [ "$prev" = service ]; then
     words=$(horus service list 2>/dev/null)
+  elif [ "$prev" = param ] && [ "${COMP_WORDS[2]}" != load ]; then
+    # The nodes with parameters, then (get, set, describe, watch) the node's parameters.
+    if [ "$COMP_CWORD" -eq 3 ] || [ "${COMP_WORDS[2]}" = dump ]; then
+      words=$(horus param list --names 2>/dev/null)
+    elif [ "$COMP_CWORD" -eq 4 ] && [ "${COMP_WORDS[2]}" != list ]; then
+      words=$(horus param list "${COMP_WORDS[3]}" --names 2>/dev/null)
+    fi
   fi
   COMPREPLY=($(compgen -W "$words" -- "$cur"))
 }

@@ -12,6 +12,9 @@ from horus_cli.schemas import (build_message, described_types, message_class, pa
 
 def service_list(args) -> int:
     services = introspection().list_services(args.namespace)
+    if not args.include_hidden:
+        # The services that carry writes to nodes' parameters are `horus param`'s to show.
+        services = [s for s in services if not introspection().is_param_service(s["name"])]
 
     render = names_or_table(
         args, ["SERVICE", "REQUEST", "RESPONSE", "SERVERS", "SERVER_PID", "CLIENTS"],
@@ -172,6 +175,8 @@ def register(commands) -> None:
     service = commands.group("service", "services: list, inspect, call")
     sub = commands.action(service, "list", "the namespace's services", service_list)
     sub.add_argument("-v", "--verbose", action="store_true", help="with types, server and clients")
+    sub.add_argument("--include-hidden", action="store_true",
+                     help="also the services that carry writes to nodes' parameters")
     sub = commands.action(service, "info", "one service: types, server, clients", service_info)
     sub.add_argument("service")
 

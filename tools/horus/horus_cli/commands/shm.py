@@ -50,8 +50,11 @@ def shm_list(args) -> int:
         rows.append({"name": topic["name"], "path": path, "size": size,
                      "pids": topic["user_pids"], "in_use": bool(topic["user_pids"]),
                      "error": topic["error"]})
-    # The log ring and the presence folder: their users hold a lock on them.
-    rows += [{"name": o["kind"], "path": o["path"], "size": o["size"],
+    # The log ring, the presence folder and the parameter stores (one a node, named after it):
+    # their users hold a lock on them.
+    rows += [{"name": o["kind"] + ("/" + os.path.basename(o["path"]) if o["kind"] == "@params"
+                                   else ""),
+              "path": o["path"], "size": o["size"],
               "pids": _flock_holders(o["path"]), "in_use": o["in_use"], "error": ""}
              for o in core.list_namespace_objects(args.namespace)]
     for row in rows:

@@ -1,6 +1,7 @@
 // A namespace's shared-memory objects besides its topic segments: the log ring that `horus log`
-// reads (<root>/@logs/<namespace>, runtime/src/scheduler/log_ring.cpp) and the presence folder
-// that `horus node list` reads (<root>/@presence/<namespace>, runtime/src/presence/). The
+// reads (<root>/@logs/<namespace>, runtime/src/scheduler/log_ring.cpp), the presence folder
+// that `horus node list` reads (<root>/@presence/<namespace>, runtime/src/presence/) and the
+// parameter stores (<root>/@params/<namespace>/<node>, runtime/src/params/). The
 // transport's clean_namespace() and remove_namespace() reach them through these functions.
 //
 // Who uses them is told by flock(2), which the kernel drops when a process dies: every process
@@ -13,6 +14,7 @@
 
 #include <optional>
 #include <string_view>
+#include <vector>
 
 #include "horus/topic_registry.hpp"
 
@@ -29,5 +31,12 @@ std::optional<NamespaceObjectInfo> presence_folder_object(std::string_view names
 /// Removes the namespace's presence folder when it is empty and no live Scheduler announces
 /// there (`force`: with whatever it holds, announcers or not). Whether it was removed.
 bool remove_presence_folder(std::string_view namespace_name, bool force);
+
+/// The namespace's parameter stores (<root>/@params/<namespace>/<node>, runtime/src/params/),
+/// one entry each; in use while their owner runs (it holds the store's flock exclusively).
+std::vector<NamespaceObjectInfo> param_store_objects(std::string_view namespace_name);
+/// Unlinks the namespace's parameter stores that no live owner holds (`force`: all), and their
+/// folder once empty. How many went.
+std::size_t remove_param_stores(std::string_view namespace_name, bool force);
 
 }  // namespace horus::detail

@@ -14,14 +14,21 @@
 #include <utility>
 #include <vector>
 
+#include "horus/recording.hpp"
+
 namespace horus {
 class PoolFrames;
-class RecordingReader;
 }  // namespace horus
 
 namespace horus::detail {
 
 class TopicEndpoint;
+
+/// The parameter values each node started with in the recording at `path` (its "/horus/params"
+/// starting values), by node and parameter, as MessagePack VALUE bytes: what a replay's stores
+/// start from. Throws horus::Error naming the file when it cannot be read.
+std::map<std::string, std::map<std::string, std::string>> recorded_starting_params(
+    const std::filesystem::path& path);
 
 class Replayer {
  public:
@@ -47,6 +54,14 @@ class Replayer {
   /// The same without counting a tick: an event-driven node's next tick is decided by what
   /// reached its topic.
   void deliver_ahead_of_tick(std::string_view node) { deliver_for_next_tick(node); }
+  /// Called once just before each tick of node `node`: hands `apply` the recorded changes of its
+  /// parameters due before this tick, in recorded order. A change recorded before cycle C is due
+  /// before the node's tick of the same number as its first recorded tick in cycle C or later
+  /// (after its last recorded tick when none followed): the same tick of the node sees it,
+  /// whichever cycle either run reached. Changes recorded without a cycle (`horus-record -a`,
+  /// from the store alone) are not replayed.
+  void apply_params_before_tick(std::string_view node,
+                                const std::function<void(const RecordedParamChange&)>& apply);
   std::size_t topic_count() const noexcept { return topics_.size(); }
   /// Messages published so far.
   std::size_t delivered() const noexcept { return delivered_; }
@@ -75,6 +90,13 @@ class Replayer {
   std::vector<std::pair<std::uint64_t, std::size_t>> unread_;
   std::size_t next_unread_ = 0;
   std::map<std::string, Reader, std::less<>> readers_;
+  /// A node's recorded parameter changes, by the number of the tick they are due before.
+  struct ParamChanges {
+    std::vector<std::pair<std::uint64_t, RecordedParamChange>> due;
+    std::size_t next = 0;
+    std::uint64_t ticks = 0;  // its ticks in this replay so far
+  };
+  std::map<std::string, ParamChanges, std::less<>> param_changes_;
   std::size_t delivered_ = 0;
   bool has_ticks_ = false;
   std::uint64_t last_cycle_ = 0;  // the last recorded cycle, if any
