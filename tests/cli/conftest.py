@@ -5,10 +5,9 @@ import os
 import pathlib
 import shutil
 import subprocess
-import uuid
 
 import pytest
-from processes import Children
+from processes import Children, private_namespace
 
 
 HORUS = os.environ.get("HORUS_CLI", "")
@@ -16,16 +15,7 @@ HORUS = os.environ.get("HORUS_CLI", "")
 
 @pytest.fixture(autouse=True)
 def namespace(monkeypatch, tmp_path):
-    """Each test in its own namespace under a shared-memory root of its own (children and the
-    command inherit both), so nothing another run left in the default root can disturb it."""
-    root = tmp_path / "shm"
-    root.mkdir(mode=0o700)
-    monkeypatch.setenv("HORUS_SHM_DIR", str(root))
-    name = f"cli_{uuid.uuid4().hex[:12]}"
-    monkeypatch.setenv("HORUS_NAMESPACE", name)
-    monkeypatch.chdir(tmp_path)
-    yield name
-    shutil.rmtree(root, ignore_errors=True)
+    yield from private_namespace(monkeypatch, tmp_path, "cli")
 
 
 def run_horus(*args: str, timeout: float = 30) -> subprocess.CompletedProcess:

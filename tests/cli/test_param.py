@@ -12,7 +12,7 @@ import pytest
 import yaml
 from conftest import HORUS, run_horus
 from peer_scripts import param_motor
-from processes import wait_line, wait_until
+from processes import command_refused, command_succeeded, wait_line, wait_until
 
 # The node: one parameter of each kind (peer_scripts.param_motor, and a read-only count).
 MOTOR = param_motor('self.declare_param("wheels", 4, type="u8", read_only=True)')
@@ -26,17 +26,13 @@ def motor(children):
 
 
 def ok(*args: str) -> subprocess.CompletedProcess:
-    result = run_horus(*args)
-    assert result.returncode == 0, f"horus {' '.join(args)}: {result.stderr}"
-    return result
+    return command_succeeded(run_horus(*args), args)
 
 
 def refused(*args: str) -> str:
-    result = run_horus(*args)
-    assert result.returncode == 1, (f"horus {' '.join(args)} should fail, exit "
-                                    f"{result.returncode}: {result.stdout} {result.stderr}")
-    assert "\n" not in result.stderr.strip() and "Traceback" not in result.stderr
-    return result.stderr
+    reason = command_refused(run_horus(*args), args)
+    assert "\n" not in reason.strip(), reason
+    return reason
 
 
 def test_help_of_every_action_exits_zero():

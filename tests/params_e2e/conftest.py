@@ -5,13 +5,11 @@ from __future__ import annotations
 
 import os
 import pathlib
-import shutil
 import subprocess
 import sys
-import uuid
 
 import pytest
-from processes import Children, wait_line
+from processes import Children, private_namespace, wait_line
 
 HERE = pathlib.Path(__file__).resolve().parent
 HORUS = os.environ.get("HORUS_CLI", "")
@@ -36,16 +34,7 @@ def generated_python(tmp_path_factory) -> str:
 
 @pytest.fixture(autouse=True)
 def namespace(monkeypatch, tmp_path):
-    """Each test in its own namespace under a root of its own, which children and the command
-    inherit; the test runs in tmp_path, where its YAML files go."""
-    root = tmp_path / "shm"
-    root.mkdir(mode=0o700)
-    monkeypatch.setenv("HORUS_SHM_DIR", str(root))
-    name = f"params_{uuid.uuid4().hex[:12]}"
-    monkeypatch.setenv("HORUS_NAMESPACE", name)
-    monkeypatch.chdir(tmp_path)
-    yield name
-    shutil.rmtree(root, ignore_errors=True)
+    yield from private_namespace(monkeypatch, tmp_path, "params")
 
 
 def run_horus(*args: str, timeout: float = 30) -> subprocess.CompletedProcess:

@@ -14,6 +14,7 @@ import horus
 import pytest
 import yaml
 from conftest import NAMES, run_horus
+from processes import command_refused, command_succeeded
 
 # What a node's tick prints before anything is written: the .hnode's defaults.
 DEFAULT_LINE = {"max_speed": "1", "gain": "0.5", "offset": "0", "wheel_count": "4",
@@ -26,17 +27,11 @@ DEFAULTS = {"max_speed": 1.0, "gain": 0.5, "offset": 0, "wheel_count": 4, "enabl
 
 
 def ok(*args: str) -> subprocess.CompletedProcess:
-    result = run_horus(*args)
-    assert result.returncode == 0, f"horus {' '.join(args)}: {result.stderr}"
-    return result
+    return command_succeeded(run_horus(*args), args)
 
 
 def refused(*args: str) -> str:
-    """The reason (stderr) of a command that must exit 1."""
-    result = run_horus(*args)
-    assert result.returncode == 1, (f"horus {' '.join(args)} should fail, exit "
-                                    f"{result.returncode}: {result.stdout} {result.stderr}")
-    return result.stderr
+    return command_refused(run_horus(*args), args)
 
 
 def values_of(line: str) -> dict:

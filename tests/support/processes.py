@@ -148,3 +148,31 @@ def two_worlds(folder: pathlib.Path):
     finally:
         for world in made:
             shutil.rmtree(world.root, ignore_errors=True)
+
+
+def private_namespace(monkeypatch, tmp_path: pathlib.Path, prefix: str):
+    """Yields a namespace of its own under a shared-memory root of its own (children and the
+    command inherit both, so nothing another run left in the default root can disturb a test),
+    with the test running in tmp_path; removes the root after. For a suite's autouse fixture."""
+    root = tmp_path / "shm"
+    root.mkdir(mode=0o700)
+    monkeypatch.setenv("HORUS_SHM_DIR", str(root))
+    name = f"{prefix}_{uuid.uuid4().hex[:12]}"
+    monkeypatch.setenv("HORUS_NAMESPACE", name)
+    monkeypatch.chdir(tmp_path)
+    yield name
+    shutil.rmtree(root, ignore_errors=True)
+
+
+def command_succeeded(result: subprocess.CompletedProcess, args) -> subprocess.CompletedProcess:
+    """`result` of `horus ARGS`, which must have exited 0."""
+    assert result.returncode == 0, f"horus {' '.join(args)}: {result.stderr}"
+    return result
+
+
+def command_refused(result: subprocess.CompletedProcess, args) -> str:
+    """The reason (stderr, no traceback) of `horus ARGS`, which must have exited 1."""
+    assert result.returncode == 1, (f"horus {' '.join(args)} should fail, exit "
+                                    f"{result.returncode}: {result.stdout} {result.stderr}")
+    assert "Traceback" not in result.stderr
+    return result.stderr
