@@ -1,8 +1,8 @@
-# horus_generate(): turn .hmsg/.hsrv/.hnode schema files into a library target of generated code.
+# horus_generate(): turn .hmsg/.hsrv/.haction/.hnode schema files into a library target of generated code.
 #
 #   horus_generate(TARGET my_msgs
 #                  [PACKAGE my_robot.msg]          # package of files that declare none
-#                  FILES motor.hmsg pose.hmsg ...   # also .hsrv services and .hnode nodes
+#                  FILES motor.hmsg pose.hmsg ...   # also .hsrv services, .haction actions, .hnode nodes
 #                  [INCLUDE_DIRS dir...]           # extra import roots (-I)
 #                  [LANGUAGES cpp python jsonschema idl] # default: cpp
 #                  [DEPENDS other_msgs...]         # targets made by horus_generate()

@@ -18,6 +18,8 @@
 #include "horus/service_registry.hpp"
 #include "link.hpp"
 #include "remote.hpp"
+#include "remote_actions.hpp"
+#include "remote_frames.hpp"
 #include "remote_params.hpp"
 #include "services.hpp"
 
@@ -128,6 +130,8 @@ struct Export {
 /// One of the robot's services served here; `mirror` lives as long as `requests` streams into it.
 struct Served {
   ServiceMirror* mirror;
+  /// The type of the request frames.
+  TopicInfo request_frames;
   Export requests;
 };
 
@@ -137,6 +141,10 @@ struct Served {
 struct Mirrors {
   std::map<std::string, std::shared_ptr<RawTopic>> imported;
   std::map<std::string, Served> served;
+  /// With --import-frames or --export-frames: the local tree's side of the frames.
+  std::unique_ptr<LaptopFrames> frames;
+  /// The goals local processes sent to the robot's actions, canceled there as a sender exits.
+  std::unique_ptr<CallerGoals> goals;
 };
 
 /// One connection to the robot and the streams it carries; all of them end with it.
@@ -155,18 +163,38 @@ class Link {
         network_(messages_, capnp::rpc::twoparty::Side::CLIENT,
                  LimitedMessageStream::network_options()),
         rpc_(capnp::makeRpcClient(network_)),
-        session_(bootstrap()) {
+        session_(bootstrap()),
+        watches_(errors_) {
     for (auto& [name, served] : mirrors_.served) served.mirror->connect(session_, &messages_);
+    mirrors_.goals->connect(session_);
   }
   Link(const Link&) = delete;
   Link& operator=(const Link&) = delete;
   ~Link() {
     for (auto& [name, served] : mirrors_.served) served.mirror->connect(std::nullopt, nullptr);
+    mirrors_.goals->connect(std::nullopt);
+    // The robot cancels the goals this connection sent as it ends: a client here must not wait
+    // on them. Without a stand-in for send_goal its goals end (aborted) and new ones find no
+    // server until the robot serves the action here again.
+    for (const std::string& action : actions_) {
+      if (mirrors_.served.erase(action + ".send_goal") != 0) {
+        say("%s.send_goal no longer served here while the link is down", action.c_str());
+      }
+    }
   }
 
   /// Until the connection ends (resolved) or fails (rejected).
   kj::Promise<void> run() {
     kj::Promise<void> running = rescan().exclusiveJoin(network_.onDisconnect());
+    if (mirrors_.frames) {
+      // A robot that cannot share its frames (an older one) still shares the rest.
+      running = running.exclusiveJoin(mirrors_.frames->run(session_).then(
+          []() -> kj::Promise<void> { return kj::NEVER_DONE; },
+          [](kj::Exception&& failure) -> kj::Promise<void> {
+            say("the robot's frames are not carried: %s", text_of(failure).c_str());
+            return kj::NEVER_DONE;
+          }));
+    }
     if (options_.params.empty()) return running;
     params_ = kj::heap<ParamMirrors>(session_, options_.params, options_.namespace_name);
     // A robot that cannot share its parameters (an older one) still shares its topics.
@@ -197,11 +225,15 @@ class Link {
         .then([this](capnp::Response<wire::Session::TopicsResults>&& response) {
           if (admitted_) std::exchange(admitted_, nullptr)();
           kj::Vector<kj::Promise<void>> requests;
+          action_topics_.clear();
           for (const wire::TopicInfo::Reader info : response.getTopics()) {
             const std::string name = info.getName();
             if (info.getMayRead() && bridge::any_matches(name, options_.imports) &&
                 !settled(name)) {
               requests.add(import(topic_info(info)));
+            }
+            if (info.getMayRead() && action_of_part(name, bridge::Access::Read)) {
+              action_topics_.emplace(name, topic_info(info));
             }
           }
           for (const TopicInfo& info : list_topics(options_.namespace_name)) {
@@ -218,7 +250,13 @@ class Link {
           std::set<std::string> live;
           for (const wire::ServiceInfo::Reader info : response.getServices()) {
             live.insert(info.getName());
-            serve_locally(info);
+          }
+          for (const wire::ServiceInfo::Reader info : response.getServices()) {
+            if (!awaits_action_topics(info.getName(), live)) serve_locally(info);
+          }
+          kj::Vector<kj::Promise<void>> imports;
+          for (const wire::ServiceInfo::Reader info : response.getServices()) {
+            carry_action(info, live, imports);
           }
           for (auto it = mirrors_.served.begin(); it != mirrors_.served.end();) {
             if (live.count(it->first) != 0) {
@@ -228,6 +266,7 @@ class Link {
             say("%s has no server on the robot any more: no longer served here", it->first.c_str());
             it = mirrors_.served.erase(it);
           }
+          return kj::joinPromises(imports.releaseAsArray());
         })
         .then([this] { return timer_.afterDelay(kRescanInterval); })
         .then([this] { return rescan(); });
@@ -303,6 +342,64 @@ class Link {
         });
   }
 
+  /// Whether `service` is an action's send_goal whose topics are not imported here yet: its
+  /// stand-in waits for them (the next look at the robot's services), so that no goal is sent
+  /// before its feedback, status and result can arrive here.
+  bool awaits_action_topics(const std::string& service, const std::set<std::string>& live) const {
+    const std::optional<std::string> action = action_of_part(service, bridge::Access::Call);
+    if (!action || service != *action + ".send_goal" || live.count(*action + ".cancel_goal") == 0 ||
+        mirrors_.served.count(service) != 0) {
+      return false;
+    }
+    for (const char* part : {".feedback", ".status", ".result"}) {
+      const std::string topic = *action + part;
+      if (action_topics_.count(topic) != 0 && imports_.count(topic) == 0) return true;
+    }
+    return false;
+  }
+
+  /// For the cancel_goal service of an action the robot lets this peer call (`live`: the services
+  /// it listed): imports the action's topics, whatever --import says, notes the goals local
+  /// clients send, and watches the robot's server of send_goal, whose stand-in here is withdrawn
+  /// as soon as it is gone.
+  void carry_action(wire::ServiceInfo::Reader info, const std::set<std::string>& live,
+                    kj::Vector<kj::Promise<void>>& imports) {
+    const std::string name = info.getName();
+    const std::optional<std::string> action = action_of_part(name, bridge::Access::Call);
+    if (!action || name != *action + ".cancel_goal" || live.count(*action + ".send_goal") == 0) {
+      return;
+    }
+    for (const char* part : {".feedback", ".status", ".result"}) {
+      const auto topic = action_topics_.find(*action + part);
+      if (topic != action_topics_.end() && !settled(topic->first)) {
+        imports.add(import(topic->second));
+      }
+    }
+    mirrors_.goals->learn_cancel(*action, topic_info(info.getRequest()));
+    const auto served = mirrors_.served.find(*action + ".send_goal");
+    if (served == mirrors_.served.end() || !actions_.insert(*action).second) return;
+    served->second.mirror->watch_requests(
+        [goals = mirrors_.goals.get(), action = *action, frames = served->second.request_frames](
+            std::uint64_t client_id, std::span<const std::byte> frame) {
+          goals->sent(action, client_id, frame, frames);
+        });
+    auto request = session_.serverGoneRequest();
+    request.setService(*action + ".send_goal");
+    watches_.add(request.send().then(
+        [this, action = *action](capnp::Response<wire::Session::ServerGoneResults>&& response) {
+          actions_.erase(action);
+          if (mirrors_.served.erase(action + ".send_goal") != 0) {
+            say("%s.send_goal no longer served here: on the robot %s", action.c_str(),
+                response.getWhy().cStr());
+          }
+        },
+        [action = *action](kj::Exception&& failure) {
+          // A robot older than serverGone: the rescan withdraws the stand-in, within a second.
+          say("the robot does not say when the server of %s goes: %s", action.c_str(),
+              text_of(failure).c_str());
+        }));
+  }
+
   /// Serves one of the robot's services here, unless a local server of its own serves it.
   void serve_locally(wire::ServiceInfo::Reader info) {
     const std::string name = info.getName();
@@ -332,7 +429,8 @@ class Link {
       kj::Promise<void> task = forwarder->run().eagerlyEvaluate([name](kj::Exception&& e) {
         say("serving %s of the robot ended: %s", name.c_str(), e.getDescription().cStr());
       });
-      mirrors_.served.emplace(name, Served{serving, Export{kj::mv(forwarder), kj::mv(task)}});
+      mirrors_.served.emplace(name, Served{serving, topic_info(info.getRequest()),
+                                           Export{kj::mv(forwarder), kj::mv(task)}});
       say("serving %s of the robot here", name.c_str());
     } catch (const std::exception& e) {
       refused_services_.insert(name);
@@ -358,12 +456,28 @@ class Link {
   std::set<std::string> refused_services_;
   /// Topics refused (or being asked for) on this connection: asked for again on the next.
   std::set<std::string> refused_;
+  /// The latest listing's topics of actions' parts that this peer may read.
+  std::map<std::string, TopicInfo> action_topics_;
+  /// The actions whose send_goal server is watched on this connection.
+  std::set<std::string> actions_;
+  struct WatchErrors final : kj::TaskSet::ErrorHandler {
+    void taskFailed(kj::Exception&& exception) override {
+      say("watching the robot's action servers: %s", exception.getDescription().cStr());
+    }
+  } errors_;
+  kj::TaskSet watches_;
 };
 
 class Client {
  public:
   Client(const ConnectOptions& options, EventLoop& loop, kj::Maybe<kj::TlsContext&> tls)
-      : options_(options), loop_(loop), tls_(tls) {}
+      : options_(options), loop_(loop), tls_(tls) {
+    mirrors_.goals = std::make_unique<CallerGoals>(loop.io.provider->getTimer());
+    if (!options.import_frames.empty() || !options.export_frames.empty()) {
+      mirrors_.frames = std::make_unique<LaptopFrames>(
+          options.namespace_name, options.import_frames, options.export_frames);
+    }
+  }
 
   /// Connects, and connects again with backoff whenever the connection ends (the backoff starts
   /// again once the robot admitted this peer); fails, ending the command, on a configuration

@@ -36,9 +36,10 @@ kj::AutoCloseFd new_eventfd() {
   return kj::AutoCloseFd(fd);
 }
 
-/// The live forwarders of this process, for its status file.
+/// The live forwarders and other streams of this process, for its status file.
 std::mutex forwarders_mutex;
 std::vector<const Forwarder*> forwarders;
+std::vector<const StatusListing*> listings;
 
 /// What a queued message costs beyond its bytes (its entry, its allocation), charged to a
 /// QueueBudget with them.
@@ -427,6 +428,12 @@ void write_status(const std::string& path, const char* role) {
               ", \"sent\": " + std::to_string(forwarder->sent()) +
               ", \"dropped\": " + std::to_string(forwarder->dropped()) + "}";
     }
+    for (const StatusListing* listing : listings) {
+      if (text.back() != '[') text += ", ";
+      text += "{\"stream\": " + json_string(listing->label()) +
+              ", \"sent\": " + std::to_string(listing->counts().sent.load()) +
+              ", \"dropped\": " + std::to_string(listing->counts().dropped.load()) + "}";
+    }
   }
   text += "]}\n";
   const std::string partial = path + ".partial";
@@ -435,6 +442,17 @@ void write_status(const std::string& path, const char* role) {
     std::fclose(file);
     std::rename(partial.c_str(), path.c_str());
   }
+}
+
+StatusListing::StatusListing(std::string label, std::shared_ptr<const StreamCounts> counts)
+    : label_(std::move(label)), counts_(std::move(counts)) {
+  std::lock_guard lock(forwarders_mutex);
+  listings.push_back(this);
+}
+
+StatusListing::~StatusListing() {
+  std::lock_guard lock(forwarders_mutex);
+  listings.erase(std::find(listings.begin(), listings.end(), this));
 }
 
 std::string address_of(kj::PeerIdentity& identity) {

@@ -220,9 +220,26 @@ class Forwarder final : public bridge::Forwarder {
 /// NAMESPACE.PID.json per process.
 std::string status_path(const std::string& namespace_name);
 /// Writes the status file of this process (`role`: serve or connect): how its Forwarders wait
-/// on their topics (topic_wait(): event_loop or reader_thread), every live Forwarder's label,
-/// messages sent and dropped. Replaced whole (a reader never sees half of it).
+/// on their topics (topic_wait(): event_loop or reader_thread), every live Forwarder's and
+/// StatusListing's label, messages sent and dropped. Replaced whole (a reader never sees half of
+/// it).
 void write_status(const std::string& path, const char* role);
+
+/// A stream that is not a Forwarder's (the frames), in the status file while this lives.
+class StatusListing {
+ public:
+  StatusListing(std::string label, std::shared_ptr<const StreamCounts> counts);
+  ~StatusListing();
+  StatusListing(const StatusListing&) = delete;
+  StatusListing& operator=(const StatusListing&) = delete;
+
+  const std::string& label() const noexcept { return label_; }
+  const StreamCounts& counts() const noexcept { return *counts_; }
+
+ private:
+  std::string label_;
+  std::shared_ptr<const StreamCounts> counts_;
+};
 
 /// Writes what a peer streams into a local topic: POD messages of exactly the type's size,
 /// serialized ones no larger than a slot; anything else ends the stream with the reason, which

@@ -5,6 +5,7 @@
 //                      [--policy FILE] [--insecure] [--namespace NS]
 //   horus-remote connect HOST:PORT --certs DIR --name NAME [--server-name NAME]
 //                      [--import PATTERN]... [--export PATTERN]... [--params PATTERN]...
+//                      [--import-frames PATTERN]... [--export-frames PATTERN]...
 //                      [--queue N] [--call-timeout SECONDS] [--insecure]
 //                      [--namespace NS]
 #include <cmath>
@@ -41,16 +42,20 @@ int usage(std::FILE* out, int status) {
       out,
       "usage: horus-remote serve --listen HOST:PORT --certs DIR --name NAME\n"
       "                          [--allow 'PEER read|write|call|param PATTERN']...\n"
+      "                          [--allow 'PEER read|write @frames/CHILD']...\n"
       "                          [--policy FILE]\n"
       "       horus-remote connect HOST:PORT --certs DIR --name NAME [--server-name NAME]\n"
       "                          [--import PATTERN]... [--export PATTERN]... [--queue N]\n"
       "                          [--params NODE.PARAMETER]... [--call-timeout SECONDS]\n"
+      "                          [--import-frames CHILD]... [--export-frames CHILD]...\n"
       "  both:  [--namespace NS] [--insecure (plain TCP: no authentication, no encryption)]\n"
       "serve: serves the namespace to peers with a certificate of DIR's CA, each limited to\n"
       "       what the policy lines allow its certificate name (globs; the rest is denied).\n"
       "connect: mirrors the robot's topics matching --import here, sends local topics\n"
       "       matching --export to the robot; reconnects with backoff. --params: mirrors the\n"
       "       robot's parameters matching it (globs on NODE.PARAMETER) here while connected.\n"
+      "       --import-frames: sets the robot's coordinate frames whose child matches it here;\n"
+      "       --export-frames: has the robot set the local frames matching it (globs).\n"
       "       --server-name: the name in the robot's certificate (default: HOST). --queue:\n"
       "       messages a stream may fall behind before the oldest are dropped (default %u).\n"
       "       --call-timeout: how long the robot waits for its server to answer a call\n"
@@ -128,6 +133,10 @@ int run(int argc, char** argv) {
       connecting.imports.push_back(value());
     } else if (command == "connect" && arg == "--params") {
       connecting.params.push_back(value());
+    } else if (command == "connect" && arg == "--import-frames") {
+      connecting.import_frames.push_back(value());
+    } else if (command == "connect" && arg == "--export-frames") {
+      connecting.export_frames.push_back(value());
     } else if (command == "connect" && arg == "--export") {
       connecting.exports.push_back(value());
     } else if (command == "connect" && arg == "--queue") {

@@ -99,6 +99,68 @@ interface Session {
   # owner's) is `accepted` false with the reason; `version` is the parameter's after the write.
   setParam @6 (node :Text, name :Text, value :Data, timeoutMs :UInt32)
       -> (accepted :Bool, reason :Text, version :UInt64);
+
+  # Streams the robot's coordinate frames whose child matches one of `patterns` (globs) and
+  # that the policy lets the peer read (`PEER read @frames/CHILD` rules; no other frame of the
+  # tree shows) into `sink`: first every such frame's newest dynamic transform and the whole
+  # static set, then each new dynamic transform and the static set again whenever it changes.
+  # Frames this peer set on the robot (setFrames) are not sent back to it. `dropped` of the
+  # subscription's stats: dynamic transforms left out because the peer was slower than the
+  # robot's writers. Counts against the peer's limits as a subscription of a topic "@frames".
+  frames @7 (patterns :List(Text), sink :FrameSink) -> (subscription :Subscription);
+
+  # Sets frames in the robot's tree, the robot's serving process being their authority there:
+  # `dynamic` transforms each child's oldest first (a stamp not newer than the child's newest
+  # set this way is skipped), `statics` held at every time. A frame the policy does not let
+  # the peer write (`PEER write @frames/CHILD`), or that the robot's tree refuses (another
+  # authority, a cycle, not a rotation), is left out and named in `refusals` with the reason.
+  setFrames @8 (dynamic :List(FrameTransform), statics :List(FrameTransform))
+      -> (refusals :List(FrameRefusal));
+
+  # Answers once the robot's server of `service` (one the peer may call) that serves it now is
+  # gone: withdrawn, replaced by another instance, or its process exited (`why` says which); at
+  # once when it has none. The robot looks every 10 ms, as an action's client looks at its
+  # server: a laptop that stands in for an action's send_goal withdraws its stand-in then, so that
+  # the goals of its local clients end (aborted) at once rather than at their own timeouts.
+  serverGone @9 (service :Text) -> (why :Text);
+}
+
+# One transform of a frame tree: the child frame's pose in its parent at `stamp` (ns since the
+# Unix epoch; unused for a static transform), `rotation` applied first, then `translation`.
+struct FrameTransform {
+  parent @0 :Text;
+  child @1 :Text;
+  stamp @2 :Int64;
+  translation @3 :Vector3;
+  rotation @4 :Quaternion;
+}
+
+struct Vector3 {
+  x @0 :Float64;
+  y @1 :Float64;
+  z @2 :Float64;
+}
+
+# A unit quaternion (x, y, z, w).
+struct Quaternion {
+  x @0 :Float64;
+  y @1 :Float64;
+  z @2 :Float64;
+  w @3 :Float64 = 1;
+}
+
+# Where the robot's frames go (Session.frames).
+interface FrameSink {
+  # New dynamic transforms, each child's oldest first; with `staticsChanged`, `statics` is the
+  # whole static set the peer may see now (it may be empty).
+  transforms @0 (dynamic :List(FrameTransform), statics :List(FrameTransform),
+                 staticsChanged :Bool) -> stream;
+}
+
+# A frame Session.setFrames did not set, and why (the policy's refusal names the policy).
+struct FrameRefusal {
+  child @0 :Text;
+  reason @1 :Text;
 }
 
 # One node's parameters as a peer may see them.

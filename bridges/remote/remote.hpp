@@ -39,6 +39,10 @@ struct ConnectOptions {
   std::vector<std::string> exports;
   /// The robot's parameters ("NODE.PARAMETER" globs) mirrored here while connected.
   std::vector<std::string> params;
+  /// The robot's coordinate frames set here (child-frame globs), and the frames of local
+  /// processes the robot sets in its tree, while connected.
+  std::vector<std::string> import_frames;
+  std::vector<std::string> export_frames;
   /// Messages each stream may fall behind before the oldest are dropped.
   unsigned queue = 0;
   /// How long the robot waits for its server to answer one call a local client makes (the

@@ -12,10 +12,13 @@
 
 #include "horus/bridge/identity.hpp"
 #include "horus/bridge/peer_policy.hpp"
+#include "horus/bridge/topic_policy.hpp"
 #include "horus/params.hpp"
 #include "horus/service_registry.hpp"
 #include "link.hpp"
 #include "remote.hpp"
+#include "remote_actions.hpp"
+#include "remote_frames.hpp"
 #include "remote_params.hpp"
 #include "services.hpp"
 
@@ -41,6 +44,8 @@ constexpr std::uint32_t kLongestParamsWaitMs = 10000;
 /// Parameter writes of one connection waiting for their owners at once (each waits on a thread).
 constexpr int kParamWritesAtOnce = 4;
 constexpr kj::Duration kRefusalLinger = 10 * kj::SECONDS;
+/// serverGone calls one connection may have waiting at once (each looks every 10 ms).
+constexpr int kServerWatchesPerConnection = 64;
 /// A peer (by its certificate's name, over all its connections) holds at most this many
 /// subscriptions and publishes of one topic, each a handle of the topic, of which a topic has
 /// 128 for every process on the robot: a peer cannot take them from local code.
@@ -252,6 +257,8 @@ struct PeerHoldings {
   std::shared_ptr<QueueBudget> budget = std::make_shared<QueueBudget>(kQueuedBytesPerPeer);
   /// Shared with the sinks of the peer's publishes, which may outlive its sessions.
   std::shared_ptr<Refusals> refusals;
+  /// The frames the peer set on the robot: never streamed back to it.
+  std::shared_ptr<FrameNames> frames_set = std::make_shared<FrameNames>();
 };
 
 /// One topic handle of a peer (a subscription or a publish), counted while it lasts.
@@ -301,8 +308,9 @@ class SubscriptionImpl final : public wire::Subscription::Server {
 class SessionImpl final : public wire::Session::Server {
  public:
   SessionImpl(const ServeOptions& options, std::string peer, LimitedMessageStream& messages,
-              kj::Timer& timer, std::shared_ptr<PeerHoldings> holdings)
+              kj::Timer& timer, std::shared_ptr<PeerHoldings> holdings, ServedFrames& frames)
       : options_(options),
+        frames_(frames),
         peer_(std::move(peer)),
         messages_(messages),
         timer_(timer),
@@ -431,6 +439,8 @@ class SessionImpl final : public wire::Session::Server {
     const capnp::Data::Reader frame = params.getRequest();
     const auto timeout =
         std::chrono::milliseconds(std::clamp(params.getTimeoutMs(), 1U, kLongestCallMs));
+    relayed_goals_.sent(name,
+                        std::span(reinterpret_cast<const std::byte*>(frame.begin()), frame.size()));
     return relay
         ->call(std::vector<std::byte>(reinterpret_cast<const std::byte*>(frame.begin()),
                                       reinterpret_cast<const std::byte*>(frame.end())),
@@ -447,6 +457,29 @@ class SessionImpl final : public wire::Session::Server {
           results.setResponse(kj::arrayPtr(
               reinterpret_cast<const capnp::byte*>(outcome.answer.data()), outcome.answer.size()));
         });
+  }
+
+  kj::Promise<void> serverGone(ServerGoneContext context) override {
+    return throttle().then([this, context]() mutable { return answer_server_gone(context); });
+  }
+
+  kj::Promise<void> answer_server_gone(ServerGoneContext context) {
+    const std::string name = context.getParams().getService();
+    if (!allows(Access::Call, name)) {
+      refuse(denied("call service", name));
+    }
+    if (*server_watches_ >= kServerWatchesPerConnection) {
+      refused("watch limit", "watch the server of " + name,
+              "peer '" + peer_ + "' watches " + std::to_string(kServerWatchesPerConnection) +
+                  " servers on this connection already, the most it may");
+    }
+    ++*server_watches_;
+    // Ended with the connection, which would otherwise wait for the answer (and keep the
+    // session, whose end cancels the goals the connection sent).
+    context.allowCancellation();
+    return when_server_gone(timer_, name, options_.namespace_name)
+        .then([context](std::string why) mutable { context.getResults().setWhy(why); })
+        .attach(kj::defer([watches = server_watches_] { --*watches; }));
   }
 
   kj::Promise<void> params(ParamsContext context) override {
@@ -535,6 +568,112 @@ class SessionImpl final : public wire::Session::Server {
     });
   }
 
+  kj::Promise<void> frames(FramesContext context) override {
+    return throttle().then([this, context]() mutable { return answer_frames(context); });
+  }
+
+  kj::Promise<void> answer_frames(FramesContext context) {
+    const auto params = context.getParams();
+    std::vector<std::string> patterns;
+    for (const capnp::Text::Reader pattern : params.getPatterns()) patterns.emplace_back(pattern);
+    // Counted as a subscription of a topic "@frames" (no topic's name starts with '@').
+    auto lease = leased("stream frames", "@frames");
+    FrameTree* tree = nullptr;
+    try {
+      tree = &frames_.tree();
+    } catch (const std::exception& e) {
+      refused("cannot open", "stream frames", e.what());
+    }
+    // What the policy and the patterns say of a name does not change: asked once per frame.
+    // Asked on the feed's thread, which may outlive this session: nothing of it is used.
+    auto carried =
+        [policy = &options_.policy, peer = peer_, patterns = std::move(patterns),
+         set = holdings_->frames_set,
+         known = std::map<std::string, bool, std::less<>>()](std::string_view child) mutable {
+          auto found = known.find(child);
+          if (found == known.end()) {
+            const std::string name(child);
+            const bool allowed =
+                bridge::any_matches(name, patterns) &&
+                policy->allows(peer, Access::Read, std::string(kFramePolicyPrefix) + name);
+            found = known.emplace(name, allowed).first;
+          }
+          return found->second && !set->contains(child);
+        };
+    const std::string label = "frames to " + peer_;
+    auto follower = std::make_unique<FrameFollower>(*tree, kj::mv(carried));
+    if (announced_.insert("frames").second) {
+      say("%s streams frames", peer_.c_str());
+    }
+    context.getResults().setSubscription(
+        kj::heap<FrameStream>(std::move(follower), params.getSink(), label).attach(kj::mv(lease)));
+    return kj::READY_NOW;
+  }
+
+  kj::Promise<void> setFrames(SetFramesContext context) override {
+    return throttle().then([this, context]() mutable { return answer_set_frames(context); });
+  }
+
+  kj::Promise<void> answer_set_frames(SetFramesContext context) {
+    const auto params = context.getParams();
+    std::set<std::string> named;
+    for (const auto& list : {params.getDynamic(), params.getStatics()}) {
+      for (const wire::FrameTransform::Reader transform : list) named.insert(transform.getChild());
+    }
+    // A tree holds no more: what costs the robot per call stays bounded.
+    if (named.size() > kMaxFrames) {
+      refused("too many frames", "set frames",
+              "a call names " + std::to_string(named.size()) + " frames, more than a tree holds (" +
+                  std::to_string(kMaxFrames) + ")");
+    }
+    std::vector<std::pair<std::string, std::string>> refusals;
+    std::set<std::string> refused_children;
+    FrameSetter* setter = nullptr;
+    try {
+      setter = &frames_.setter();
+    } catch (const std::exception& e) {
+      refused("cannot open", "set frames", e.what());
+    }
+    auto set = [&](wire::FrameTransform::Reader wire_transform, bool is_static) {
+      const StampedTransform transform = from_wire(wire_transform);
+      // A frame refused once in this call is refused for its other transforms too.
+      if (refused_children.count(transform.child) != 0) return;
+      const std::string name = std::string(kFramePolicyPrefix) + transform.child;
+      if (!allows(Access::Write, name)) {
+        refusals_->note("write frame: not in the policy",
+                        "write frame " + transform.child + ": not in the policy");
+        refused_children.insert(transform.child);
+        refusals.emplace_back(transform.child, "the robot's policy does not let peer '" + peer_ +
+                                                   "' write frame '" + transform.child +
+                                                   "' (no 'write' rule of '" + peer_ +
+                                                   "' matches '" + name + "')");
+        return;
+      }
+      // Before the write: the peer's own frames are never streamed back to it. A frame it
+      // never set (the tree refused it) is still the robot's to send.
+      const bool first = holdings_->frames_set->add(transform.child);
+      std::string why = setter->set(transform, is_static);
+      if (why.empty()) {
+        if (announced_.insert("set frame " + transform.child).second) {
+          say("%s sets frame %s", peer_.c_str(), transform.child.c_str());
+        }
+        return;
+      }
+      if (first) holdings_->frames_set->remove(transform.child);
+      refusals_->note("set frame: the tree refused", "set frame " + transform.child + ": " + why);
+      refused_children.insert(transform.child);
+      refusals.emplace_back(transform.child, "the robot's tree refused it: " + why);
+    };
+    for (const wire::FrameTransform::Reader transform : params.getDynamic()) set(transform, false);
+    for (const wire::FrameTransform::Reader transform : params.getStatics()) set(transform, true);
+    auto list = context.getResults().initRefusals(static_cast<unsigned>(refusals.size()));
+    for (unsigned i = 0; i < refusals.size(); ++i) {
+      list[i].setChild(refusals[i].first);
+      list[i].setReason(refusals[i].second);
+    }
+    return kj::READY_NOW;
+  }
+
   kj::Promise<void> publish(PublishContext context) override {
     return throttle().then([this, context]() mutable { return answer_publish(context); });
   }
@@ -583,8 +722,10 @@ class SessionImpl final : public wire::Session::Server {
     return timer_.atTime(next_call_);
   }
 
+  /// A `call` rule naming an action also lets the peer call its services and read its topics.
   bool allows(Access access, const std::string& name) const {
-    return options_.policy.allows(peer_, access, name);
+    return options_.policy.allows(peer_, access, name) ||
+           action_allows(options_.policy, peer_, access, name, options_.namespace_name);
   }
 
   /// `what`: "read topic", "write topic" or "call service".
@@ -644,6 +785,7 @@ class SessionImpl final : public wire::Session::Server {
   }
 
   const ServeOptions& options_;
+  ServedFrames& frames_;
   std::string peer_;
   /// The connection's: raised for what this peer may write or call.
   LimitedMessageStream& messages_;
@@ -652,6 +794,10 @@ class SessionImpl final : public wire::Session::Server {
   kj::TimePoint next_call_;
   /// Per service the peer called: destroyed (each thread joined) with the session.
   std::map<std::string, std::unique_ptr<ServiceRelay>> relays_;
+  /// The goals of actions this connection sent: canceled when it ends.
+  RelayedGoals relayed_goals_{options_.namespace_name};
+  /// The serverGone calls waiting (shared with each, which may end after the session).
+  std::shared_ptr<int> server_watches_ = std::make_shared<int>(0);
   /// What this peer may see of the parameters, made at its first `params`.
   std::unique_ptr<ParamView> param_view_;
   std::shared_ptr<std::atomic<int>> param_writes_ = std::make_shared<std::atomic<int>>(0);
@@ -688,6 +834,7 @@ class Server final : public kj::TaskSet::ErrorHandler {
         listener_(kj::mv(listener)),
         tls_(tls),
         timer_(timer),
+        frames_(options.namespace_name),
         connections_(*this) {}
 
   kj::Promise<void> accept_next() {
@@ -776,7 +923,7 @@ class Server final : public kj::TaskSet::ErrorHandler {
     say("%s connected from %s", name.c_str(), address.c_str());
     auto connection = kj::heap<Connection>(
         kj::mv(peer.stream), [&](LimitedMessageStream& messages) -> capnp::Capability::Client {
-          return kj::heap<SessionImpl>(options_, name, messages, timer_, held);
+          return kj::heap<SessionImpl>(options_, name, messages, timer_, held, frames_);
         });
     ++held->connections;
     auto counted = kj::defer([held] { --held->connections; });
@@ -810,6 +957,7 @@ class Server final : public kj::TaskSet::ErrorHandler {
   std::map<std::string, std::shared_ptr<PeerHoldings>> holdings_;
   /// Refused connections being told why, of all peers.
   int lingering_ = 0;
+  ServedFrames frames_;
   /// Last: its connections use the rest.
   kj::TaskSet connections_;
 };

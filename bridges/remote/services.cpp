@@ -195,6 +195,7 @@ kj::Promise<void> ServiceMirror::message(MessageContext context) {
     fail(*ids, ServiceError::transport("the link to the robot is down"));
     return kj::READY_NOW;
   }
+  if (watch_) watch_((*ids)[0], frame);
   auto request = session_->callRequest();
   request.setService(service_);
   request.setRequest(data);

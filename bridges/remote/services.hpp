@@ -7,9 +7,11 @@
 #include <array>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -81,6 +83,11 @@ class ServiceMirror final : public wire::Sink::Server, public kj::TaskSet::Error
   /// The counts of the Forwarder that streams the requests here: a request not passed on to the
   /// robot is taken back from its sent ones.
   void count_in(std::shared_ptr<StreamCounts> counts) { counts_ = std::move(counts); }
+  /// Runs on each request frame passed on to the robot, with its caller's client id (the link
+  /// notes who sent an action's goals).
+  using RequestWatch =
+      std::function<void(std::uint64_t client_id, std::span<const std::byte> frame)>;
+  void watch_requests(RequestWatch watch) { watch_ = std::move(watch); }
 
   void taskFailed(kj::Exception&& exception) override;
 
@@ -114,6 +121,7 @@ class ServiceMirror final : public wire::Sink::Server, public kj::TaskSet::Error
   /// The type of the response frames, once known.
   std::optional<TopicInfo> response_;
   std::shared_ptr<StreamCounts> counts_;
+  RequestWatch watch_;
   std::map<std::uint64_t, Reply> replies_;
   kj::TaskSet calls_;
 };

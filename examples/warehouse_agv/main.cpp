@@ -1,54 +1,56 @@
 // The warehouse AGV: seven nodes, standard messages, one scheduler. See README.md.
 // Each node is declared in nodes/<name>.hnode (its topics, data and scheduling settings);
 // horus-gen makes the base classes (warehouse_agv::LidarBase, ...), this file writes their ticks.
+// The nodes share nothing but topics (the robot's position included: the motor controller
+// publishes it), so `--nodes` runs any of them in a process of its own (launch/warehouse.yaml).
 #include <horus/horus.hpp>
 #include <warehouse_agv.hpp>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
+#include <optional>
 #include <string>
+#include <string_view>
+#include <vector>
 
 using namespace horus::literals;
 namespace msg = horus::msg;
 
 namespace {
 
-// The simulated world the nodes sense and act on: the robot drives along a corridor towards a
-// pallet; at `person_at_s` someone steps in front of it.
-struct World {
-  std::atomic<double> robot_x{0.0};      // m, written by the motor controller only
-  std::atomic<double> robot_speed{0.0};  // m/s
-  double pallet_x = 4.0;                 // m
-  double person_at_s = 0.0;              // s after start
-  std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
-
-  double seconds() const {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  }
-  double obstacle_ahead() const {
-    const double person = seconds() >= person_at_s ? robot_x.load() + 0.25 : pallet_x;
-    return std::min(pallet_x, person) - robot_x.load();
-  }
-};
+// The simulated world: the robot drives along a corridor towards a pallet; the motor controller
+// moves it and publishes where it is on "robot.pose"; at a set time someone steps in front of it.
+constexpr double kPalletX = 4.0;  // m
 
 std::uint64_t stamp() { return static_cast<std::uint64_t>(horus::now().count()); }
+
+// The robot's position from the poses published since `last_known` (never a pose an earlier run
+// left in the topic, which read_latest() would give before the motor controller's first tick).
+double latest_robot_x(horus::Topic<msg::Pose2D>& pose, double last_known) noexcept {
+  while (const auto latest = pose.try_recv()) last_known = latest->x;
+  return last_known;
+}
 
 // Each node narrates through horus's logger: the node's name is attached automatically, the
 // lines go to stderr and to the namespace's log ring (read_log(), `horus log`).
 void say(const std::string& line) { HORUS_LOG_INFO("%s", line.c_str()); }
 
-// nodes/lidar.hnode: 40 Hz, publishes "scan".
+// nodes/lidar.hnode: 40 Hz, publishes "scan"; a person steps in front of the robot
+// `person_at_s` after the lidar started.
 class Lidar : public warehouse_agv::LidarBase {
  public:
-  explicit Lidar(const World& world) : world_(world) {}
+  explicit Lidar(double person_at_s) : person_at_s_(person_at_s) {}
   void tick() override {
+    robot_x_ = latest_robot_x(pose_, robot_x_);
+    const double since_start =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    const double person = since_start >= person_at_s_ ? robot_x_ + 0.25 : kPalletX;
+    const double ahead = std::min(kPalletX, person) - robot_x_;
     msg::LaserScan scan{};
-    const double ahead = world_.obstacle_ahead();
     for (std::size_t i = 0; i < scan.ranges.size(); ++i) {
       const double angle = scan.angle_min + static_cast<double>(i) * scan.angle_increment;
       const double wall = 1.0 / std::max(std::abs(std::sin(angle)), 1e-3);
@@ -62,7 +64,8 @@ class Lidar : public warehouse_agv::LidarBase {
   }
 
  private:
-  const World& world_;
+  double person_at_s_;
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
 
 // nodes/safety.hnode: order 0, every cycle, before the motors tick.
@@ -70,17 +73,23 @@ class Safety : public warehouse_agv::SafetyBase {
  public:
   void tick() override {
     const auto scan = scan_.try_recv();
-    if (!scan || engaged_) return;
+    if (engaged_) {
+      // Held every cycle, not sent once: a motor controller that starts after the stop (a
+      // process of its own, restarted) halts on its first tick too.
+      stop_.timestamp_ns = stamp();
+      estop_.send(stop_);
+      return;
+    }
+    if (!scan) return;
     const auto closest = scan->min_range();
     if (closest && *closest < 0.3f) {
-      msg::EmergencyStop stop{};
-      stop.engaged = 1;
-      stop.reason.assign("obstacle at " + std::to_string(*closest).substr(0, 4) + " m");
-      stop.source.assign("safety");
-      stop.timestamp_ns = stamp();
-      estop_.send(stop);
+      stop_.engaged = 1;
+      stop_.reason.assign("obstacle at " + std::to_string(*closest).substr(0, 4) + " m");
+      stop_.source.assign("safety");
+      stop_.timestamp_ns = stamp();
+      estop_.send(stop_);
       engaged_ = true;
-      say("EMERGENCY STOP " + stop.log_summary());
+      say("EMERGENCY STOP " + stop_.log_summary());
     }
   }
 };
@@ -88,12 +97,12 @@ class Safety : public warehouse_agv::SafetyBase {
 // nodes/planner.hnode: 10 Hz on the compute pool.
 class Planner : public warehouse_agv::PlannerBase {
  public:
-  explicit Planner(const World& world) : world_(world) {}
   void tick() override {
+    robot_x_ = latest_robot_x(pose_, robot_x_);
     if (!scan_.try_recv()) return;
     msg::PathPlan plan{};
-    const double goal = world_.pallet_x - 0.5;
-    const double start = world_.robot_x.load();
+    const double goal = kPalletX - 0.5;
+    const double start = robot_x_;
     plan.waypoint_count = 20;
     for (std::size_t i = 0; i < plan.waypoint_count; ++i) {
       plan.waypoint_data[i * 3] =
@@ -105,36 +114,31 @@ class Planner : public warehouse_agv::PlannerBase {
     if (++count_ % 10 == 1)
       say("path to x=" + std::to_string(goal).substr(0, 4) + " m, 20 waypoints");
   }
-
- private:
-  const World& world_;
 };
 
 // nodes/tracker.hnode: 100 Hz.
 class Tracker : public warehouse_agv::TrackerBase {
  public:
-  explicit Tracker(const World& world) : world_(world) {}
   void tick() override {
+    robot_x_ = latest_robot_x(pose_, robot_x_);
     if (auto plan = path_.try_recv()) goal_ = plan->goal_pose[0];
-    const double remaining = goal_ - world_.robot_x.load();
+    const double remaining = goal_ - robot_x_;
     const auto cmd = msg::CmdVel::with_timestamp(
         static_cast<float>(std::clamp(0.8 * remaining, 0.0, 0.8)), 0.0f, stamp());
     cmd_.send(cmd);
     if (++count_ % 50 == 1) say(cmd.log_summary());
   }
-
- private:
-  const World& world_;
 };
 
 // nodes/motor.hnode: 1 kHz, 300 us budget, 900 us deadline, Miss::SafeMode.
 class Motor : public warehouse_agv::MotorBase {
  public:
-  explicit Motor(World& world) : world_(world) {}
+  double position() const noexcept { return robot_x_; }
+
   void tick() override {
     if (auto stop = estop_.try_recv(); stop && stop->engaged && !estopped_) {
       estopped_ = true;
-      say("emergency stop: wheels halted at x=" + metres(world_.robot_x.load()));
+      say("emergency stop: wheels halted at x=" + metres(robot_x_));
     }
     if (auto cmd = cmd_.try_recv()) target_ = std::min(cmd->linear, params().max_speed());
     msg::DifferentialDriveCommand drive{};
@@ -143,11 +147,11 @@ class Motor : public warehouse_agv::MotorBase {
     drive.enable = estopped_ ? 0 : 1;
     drive.timestamp_ns = stamp();
     wheels_.send(drive);
-    world_.robot_speed = drive.left_velocity;
-    world_.robot_x = world_.robot_x.load() + drive.left_velocity * 1e-3;
+    robot_x_ += drive.left_velocity * 1e-3;
+    pose_.send(msg::Pose2D{.x = robot_x_, .timestamp_ns = drive.timestamp_ns});
     if (++count_ % 500 == 1) {
       say("wheels " + std::to_string(drive.left_velocity).substr(0, 4) +
-          " m/s at x=" + metres(world_.robot_x.load()) + (drive.enable ? "" : " (disabled)"));
+          " m/s at x=" + metres(robot_x_) + (drive.enable ? "" : " (disabled)"));
     }
   }
   void enter_safe_state() override {
@@ -163,8 +167,6 @@ class Motor : public warehouse_agv::MotorBase {
 
  private:
   static std::string metres(double x) { return std::to_string(x).substr(0, 4) + " m"; }
-
-  World& world_;
 };
 
 // nodes/battery.hnode: 2 Hz.
@@ -208,42 +210,167 @@ class Fleet : public warehouse_agv::FleetBase {
   }
 };
 
+// What to run: all seven nodes (the demo) or some of them, the others running in processes of
+// their own.
+struct Options {
+  bool apart = false;                 // only the nodes named by --nodes
+  std::vector<std::string> nodes;     // in the order of kNodeNames; all of them by default
+  std::optional<double> seconds;      // how long to run; unset: until Ctrl+C or SIGTERM
+  std::optional<double> person_at_s;  // when the person steps in front of the robot
+};
+
+constexpr std::string_view kNodeNames[] = {"safety", "lidar",   "planner", "tracker",
+                                           "motor",  "battery", "fleet"};
+constexpr std::string_view kUsage =
+    "usage: warehouse_agv [SECONDS]\n"
+    "       warehouse_agv --nodes NAME[,NAME...] [--person-at SECONDS] [SECONDS]\n"
+    "  The seven nodes in this process for SECONDS (3 by default), or only the nodes named\n"
+    "  (safety, lidar, planner, tracker, motor, battery, fleet) until Ctrl+C or SIGTERM, the\n"
+    "  others running in processes of their own.\n";
+
+// A positive number of seconds, or nullopt.
+std::optional<double> parse_seconds(const std::string& text) {
+  char* end = nullptr;
+  const double value = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || !(value > 0.0) || !std::isfinite(value)) return std::nullopt;
+  return value;
+}
+
+// The options, or an error that says what is wrong with the command line.
+std::optional<Options> parse_options(int argc, char** argv, std::string& error) {
+  Options options;
+  std::vector<std::string> named;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--nodes" || arg == "--person-at") {
+      if (i + 1 == argc) {
+        error = arg + " needs a value";
+        return std::nullopt;
+      }
+      const std::string value = argv[++i];
+      if (arg == "--person-at") {
+        options.person_at_s = parse_seconds(value);
+        if (!options.person_at_s) {
+          error = "--person-at takes a positive number of seconds, not '" + value + "'";
+          return std::nullopt;
+        }
+        continue;
+      }
+      for (std::size_t start = 0; start <= value.size();) {
+        const std::size_t comma = std::min(value.find(',', start), value.size());
+        const std::string name = value.substr(start, comma - start);
+        if (std::find(std::begin(kNodeNames), std::end(kNodeNames), name) == std::end(kNodeNames)) {
+          error = "no node '" + name +
+                  "' (the nodes: safety, lidar, planner, tracker, motor, battery, fleet)";
+          return std::nullopt;
+        }
+        named.push_back(name);
+        start = comma + 1;
+      }
+    } else if (arg.starts_with("-")) {
+      error = "unknown option '" + arg + "'";
+      return std::nullopt;
+    } else if (options.seconds) {
+      error = "SECONDS given twice (then '" + arg + "')";
+      return std::nullopt;
+    } else if (!(options.seconds = parse_seconds(arg))) {
+      error = "SECONDS is a positive number, not '" + arg + "'";
+      return std::nullopt;
+    }
+  }
+  for (const std::string_view name : kNodeNames) {
+    if (named.empty() || std::find(named.begin(), named.end(), name) != named.end())
+      options.nodes.emplace_back(name);
+  }
+  options.apart = !named.empty();
+  if (!options.apart) {
+    // The demo: three seconds, the person in the way after 60% of them.
+    options.seconds = options.seconds.value_or(3.0);
+    options.person_at_s = options.person_at_s.value_or(*options.seconds * 0.6);
+  } else if (!options.person_at_s) {
+    // Apart, the other processes take a moment to start: the robot is under way by then.
+    options.person_at_s = options.seconds ? *options.seconds * 0.6 : 5.0;
+  }
+  return options;
+}
+
+bool has(const Options& options, std::string_view node) {
+  return std::find(options.nodes.begin(), options.nodes.end(), node) != options.nodes.end();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  const double seconds = argc > 1 ? std::atof(argv[1]) : 3.0;
+  std::string error;
+  const std::optional<Options> options = parse_options(argc, argv, error);
+  if (!options) {
+    std::fprintf(stderr, "warehouse_agv: %s\n%s", error.c_str(), kUsage.data());
+    return 2;
+  }
   // A namespace of its own, so the demo never mixes with other HORUS programs on the machine.
   setenv("HORUS_NAMESPACE", "warehouse_agv_demo", 0);
-  World world;
-  world.person_at_s = seconds * 0.6;
 
+  std::string scheduler_name = "warehouse_agv";
+  if (options->apart) {
+    // Each process its own name (and so its own blackbox file) when the nodes run apart.
+    for (const std::string& node : options->nodes) scheduler_name += "-" + node;
+  }
   horus::Scheduler sched{horus::SchedulerConfig{}
-                             .name("warehouse_agv")
+                             .name(scheduler_name)
                              .tick_rate(1000_hz)
                              .rt(true)
                              .watchdog(500_ms)
                              .blackbox_mb(1)
-                             .keep_topics(true)  // `horus topic` may still read them afterwards
+                             // The demo's topics stay for `horus topic` to read afterwards;
+                             // apart, each process cleans up what it created as it ends (a
+                             // launch leaves nothing behind).
+                             .keep_topics(!options->apart)
                              .max_deadline_misses(1000)};
   // Each node with the order, rate, budget, ... its .hnode file declares.
-  warehouse_agv::SafetyBase::add_to(sched, std::make_unique<Safety>()).build();
-  warehouse_agv::LidarBase::add_to(sched, std::make_unique<Lidar>(world)).build();
-  warehouse_agv::PlannerBase::add_to(sched, std::make_unique<Planner>(world)).build();
-  warehouse_agv::TrackerBase::add_to(sched, std::make_unique<Tracker>(world)).build();
-  warehouse_agv::MotorBase::add_to(sched, std::make_unique<Motor>(world)).build();
-  warehouse_agv::BatteryBase::add_to(sched, std::make_unique<Battery>()).build();
-  warehouse_agv::FleetBase::add_to(sched, std::make_unique<Fleet>()).build();
-  sched.add_critical_node("motor", 200_ms);
+  std::shared_ptr<Motor> motor;
+  if (has(*options, "safety"))
+    warehouse_agv::SafetyBase::add_to(sched, std::make_unique<Safety>()).build();
+  if (has(*options, "lidar"))
+    warehouse_agv::LidarBase::add_to(sched, std::make_unique<Lidar>(*options->person_at_s)).build();
+  if (has(*options, "planner"))
+    warehouse_agv::PlannerBase::add_to(sched, std::make_unique<Planner>()).build();
+  if (has(*options, "tracker"))
+    warehouse_agv::TrackerBase::add_to(sched, std::make_unique<Tracker>()).build();
+  if (has(*options, "motor")) {
+    motor = std::make_shared<Motor>();
+    warehouse_agv::MotorBase::add_to(sched, motor).build();
+    sched.add_critical_node("motor", 200_ms);
+  }
+  if (has(*options, "battery"))
+    warehouse_agv::BatteryBase::add_to(sched, std::make_unique<Battery>()).build();
+  if (has(*options, "fleet"))
+    warehouse_agv::FleetBase::add_to(sched, std::make_unique<Fleet>()).build();
 
-  std::printf(
-      "warehouse_agv: 7 nodes for %.1f s (a person steps in front of the robot at %.1f s)\n",
-      seconds, world.person_at_s);
+  if (!options->apart) {
+    std::printf(
+        "warehouse_agv: 7 nodes for %.1f s (a person steps in front of the robot at %.1f s)\n",
+        *options->seconds, *options->person_at_s);
+  } else {
+    std::string nodes;
+    for (const std::string& node : options->nodes) nodes += (nodes.empty() ? "" : ", ") + node;
+    std::printf("warehouse_agv: %s of the 7 nodes, ", nodes.c_str());
+    if (options->seconds)
+      std::printf("for %.1f s", *options->seconds);
+    else
+      std::printf("until Ctrl+C or SIGTERM");
+    if (has(*options, "lidar"))
+      std::printf(" (a person steps in front of the robot at %.1f s)", *options->person_at_s);
+    std::printf("\n");
+  }
   std::fflush(stdout);
   for (const std::string& degradation : sched.degradations())
     HORUS_LOG_WARN("rt degraded: %s", degradation.c_str());
-  const int status = sched.run_for(
-      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::duration<double>(seconds)));
-  std::printf("\nrobot stopped at x=%.2f m (pallet at %.1f m)\n\n%s", world.robot_x.load(),
-              world.pallet_x, sched.timing_report().c_str());
+  const int status = options->seconds
+                         ? sched.run_for(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                               std::chrono::duration<double>(*options->seconds)))
+                         : sched.run();
+  if (motor)
+    std::printf("\nrobot stopped at x=%.2f m (pallet at %.1f m)\n", motor->position(), kPalletX);
+  std::printf("\n%s", sched.timing_report().c_str());
   return status;
 }

@@ -16,7 +16,7 @@ from .diagnostics import Reporter
 from .lang import LANGUAGES, emitter, idl
 from .lang.common import template_files
 from .loader import Options
-from .model import Enum, EnumValue, Message, Model, Node, NodeParam, Service
+from .model import Action, Enum, EnumValue, Message, Model, Node, NodeParam, Service
 from .output import write_depfile, write_outputs, touch
 from .parser import FILE_KINDS
 from .resolve import Resolver
@@ -27,7 +27,7 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", required=True)
 
     def common(sub: argparse.ArgumentParser) -> None:
-        sub.add_argument("files", nargs="+", metavar="FILE", help=".hmsg, .hsrv or .hnode schema files")
+        sub.add_argument("files", nargs="+", metavar="FILE", help=".hmsg, .hsrv, .haction or .hnode schema files")
         sub.add_argument("-I", dest="include_dirs", action="append", default=[], metavar="DIR",
                          help="folder to resolve imports and qualified names in (repeatable)")
         sub.add_argument("--package", help="package of files that declare none (default: their folder's name)")
@@ -75,7 +75,7 @@ def main(data: DataPaths, argv: list[str] | None = None) -> int:
 def check_usage(args: argparse.Namespace) -> str | None:
     for path in args.files:
         if os.path.splitext(path)[1] not in FILE_KINDS:
-            return f"{path}: not a schema file (expected .hmsg, .hsrv or .hnode)"
+            return f"{path}: not a schema file (expected .hmsg, .hsrv, .haction or .hnode)"
         if not os.path.isfile(path):
             return f"{path}: no such file"
     for folder in args.include_dirs:
@@ -140,8 +140,14 @@ def describe_text(model: Model) -> str:
         if isinstance(item, Node):
             out.append(describe_node(item))
         elif isinstance(item, Service):
+            called = f"  called {item.wire_name}" if item.wire_name != item.name else ""
             out.append(f"{item.qualified}  service  request {item.request.qualified}  "
-                       f"response {item.response.qualified}  fingerprint 0x{item.fingerprint:016x}\n")
+                       f"response {item.response.qualified}{called}  fingerprint 0x{item.fingerprint:016x}\n")
+        elif isinstance(item, Action):
+            out.append(f"{item.qualified}  action  goal {item.goal.qualified}  result {item.result.qualified}  "
+                       f"feedback {item.feedback.qualified}  fingerprint 0x{item.fingerprint:016x}\n")
+            out.extend(f"    service {s.wire_name}: {s.qualified}\n" for s in item.services)
+            out.extend(f"    topic {topic}: {m.qualified}\n" for topic, m in item.topics)
         elif isinstance(item, Enum):
             out.append(f"{item.qualified}  enum {item.underlying.name}  fingerprint 0x{item.fingerprint:016x}\n")
             out.extend(f"    {v.name} = {v.value}\n" for v in item.variants)

@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import struct
 
-from .model import (Bytes, Constant, DynString, Enum, EnumRef, EnumValue, Field, FixedArray, FixedString, Message,
-                    MessageRef, Model, Optional, Primitive, Service, SummaryExpr, SummaryPart, Type, Vec)
+from .model import (Action, Bytes, Constant, DynString, Enum, EnumRef, EnumValue, Field, FixedArray, FixedString,
+                    Message, MessageRef, Model, Optional, Primitive, Service, SummaryExpr, SummaryPart, Type, Vec)
 
 FORMAT = "horus.typedesc"
 # Raised when a reader of version N could misread the tree (a key renamed or removed, a meaning
@@ -105,6 +105,17 @@ def entry(item: Message | Enum | Service) -> dict:
             "topic": item.topic, "schema": item.schema}
 
 
+def action_entry(action: Action) -> dict:
+    """ENTRY (action): the action and the names of the services and topics that make it up."""
+    return {"kind": "action", "name": action.qualified, "package": action.package,
+            "fingerprint": _fingerprint(action.fingerprint), "goal": action.goal.qualified,
+            "result": action.result.qualified, "feedback": action.feedback.qualified,
+            "services": {role: {"name": s.wire_name, "type": s.qualified}
+                         for role, s in zip(("send_goal", "cancel_goal", "get_result"), action.services)},
+            "topics": {topic.rsplit(".", 1)[1]: {"name": topic, "type": m.qualified} for topic, m in action.topics},
+            "docs": list(action.docs)}
+
+
 def used_types(model: Model, qualified: str) -> list[str]:
     """`qualified` and every message and enum it uses, each once, a type after all it uses."""
     ordered: list[str] = []
@@ -138,12 +149,16 @@ def type_description(model: Model, qualified: str) -> dict:
 
 
 def model_description(model: Model, extra: dict[str, dict] | None = None) -> dict:
-    """What `describe --json` prints: every message, enum and service the inputs declare, in source
-    order. `extra` adds keys to the entries it names (by qualified name)."""
+    """What `describe --json` prints: every message, enum, service and action the inputs declare, in
+    source order (an action after the messages and services it owns, which name it in "action").
+    `extra` adds keys to the entries it names (by qualified name)."""
     types = []
     for item in model.generated_items():
-        if isinstance(item, (Message, Enum, Service)):
-            types.append({**entry(item), **(extra or {}).get(item.qualified, {})})
+        if isinstance(item, Action):
+            types.append(action_entry(item))
+        elif isinstance(item, (Message, Enum, Service)):
+            owner = {"action": item.action} if getattr(item, "action", None) else {}
+            types.append({**entry(item), **owner, **(extra or {}).get(item.qualified, {})})
     return {"format": FORMAT, "version": VERSION, "types": types}
 
 

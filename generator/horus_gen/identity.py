@@ -67,3 +67,11 @@ def enum_text(qualified: str, underlying: str, variants: list[tuple[str, int]]) 
 def service_text(qualified: str, request: tuple[str, int], response: tuple[str, int]) -> str:
     return (f"service {qualified} {{\n  request: {request[0]}#{request[1]:016x},\n"
             f"  response: {response[0]}#{response[1]:016x},\n}}\n")
+
+
+def action_text(qualified: str, goal, result, feedback) -> str:
+    """An action's identity: its three blocks' messages (goal, result, feedback), each with its
+    fingerprint; the services and topics around them are fixed by these."""
+    parts = "".join(f"  {role}: {m.qualified}#{m.fingerprint:016x},\n"
+                    for role, m in (("goal", goal), ("result", result), ("feedback", feedback)))
+    return f"action {qualified} {{\n{parts}}}\n"

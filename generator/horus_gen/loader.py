@@ -51,7 +51,7 @@ class Loader:
         kind = FILE_KINDS.get(os.path.splitext(path)[1])
         if kind is None or (import_span and kind == "node"):
             if import_span:
-                self.reporter.error(import_span, f"cannot import '{path}': not a .hmsg or .hsrv file",
+                self.reporter.error(import_span, f"cannot import '{path}': not a .hmsg, .hsrv or .haction file",
                                     "a node file (.hnode) declares no type to import; list it among the files instead"
                                     if path.endswith(".hnode") else None)
             return None
@@ -129,5 +129,5 @@ class Loader:
             self.scanned_folders.add(real)
             for name in sorted(os.listdir(folder)):
                 # Types only: a node declares nothing another schema can name.
-                if FILE_KINDS.get(os.path.splitext(name)[1]) in ("message", "service"):
+                if FILE_KINDS.get(os.path.splitext(name)[1]) in ("message", "service", "action"):
                     self.load(os.path.join(folder, name))

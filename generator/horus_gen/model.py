@@ -175,6 +175,7 @@ class Message:
     py_mixin: Mixin | None = None
     uses: tuple[str, ...] = ()  # qualified names of the types its fields name, in first-use order
     service: str | None = None  # set on a service's Request/Response
+    action: str | None = None  # set on the messages an action generates (qualified action name)
 
     @property
     def qualified(self) -> str:
@@ -215,6 +216,14 @@ class Service:
     docs: tuple[str, ...]
     source: str
     fingerprint: int
+    # The name the service is called by (its topics' prefix): its own name, or `Action.send_goal`
+    # for the services an action generates.
+    wire_name: str = ""
+    action: str | None = None  # the qualified action that generated it
+
+    def __post_init__(self) -> None:
+        if not self.wire_name:
+            object.__setattr__(self, "wire_name", self.name)
 
     @property
     def qualified(self) -> str:
@@ -222,11 +231,58 @@ class Service:
 
     @property
     def request_topic(self) -> str:
-        return f"{self.name}.request"
+        return f"{self.wire_name}.request"
 
     @property
     def response_topic(self) -> str:
-        return f"{self.name}.response"
+        return f"{self.wire_name}.response"
+
+
+@dataclass(frozen=True)
+class Action:
+    """An action: three services (send_goal, cancel_goal, get_result) and three topics (feedback,
+    status, result) of messages generated from its goal, result and feedback blocks. Every one of
+    them is an ordinary entry of Model.types / Model.services; this ties them together."""
+    package: str
+    name: str
+    goal: Message
+    result: Message
+    feedback: Message
+    send_goal: Service
+    cancel_goal: Service
+    get_result: Service
+    feedback_message: Message
+    status: Message
+    result_message: Message
+    docs: tuple[str, ...]
+    source: str
+    fingerprint: int
+
+    @property
+    def qualified(self) -> str:
+        return f"{self.package}.{self.name}"
+
+    @property
+    def feedback_topic(self) -> str:
+        return f"{self.name}.feedback"
+
+    @property
+    def status_topic(self) -> str:
+        return f"{self.name}.status"
+
+    @property
+    def result_topic(self) -> str:
+        return f"{self.name}.result"
+
+    @property
+    def services(self) -> tuple[Service, Service, Service]:
+        return (self.send_goal, self.cancel_goal, self.get_result)
+
+    @property
+    def topics(self) -> tuple[tuple[str, Message], ...]:
+        """(topic, message) of the three topics, in the order feedback, status, result."""
+        return ((self.feedback_topic, self.feedback_message), (self.status_topic, self.status),
+                (self.result_topic, self.result_message))
 
 
 @dataclass(frozen=True)
@@ -324,6 +380,7 @@ class Model:
     """Every type known to the run, and which of them this run generates."""
     types: dict[str, Message | Enum] = field(default_factory=dict)
     services: dict[str, Service] = field(default_factory=dict)
+    actions: dict[str, Action] = field(default_factory=dict)
     nodes: dict[str, Node] = field(default_factory=dict)
     generated: list[str] = field(default_factory=list)  # qualified names, in source order
     inputs: list[str] = field(default_factory=list)  # every file read: schemas, imports, mixins
@@ -333,8 +390,9 @@ class Model:
         assert isinstance(found, Message)
         return found
 
-    def generated_items(self) -> list[Message | Enum | Service | Node]:
-        return [self.services.get(q) or self.nodes.get(q) or self.types[q] for q in self.generated]
+    def generated_items(self) -> list[Message | Enum | Service | Action | Node]:
+        return [self.services.get(q) or self.actions.get(q) or self.nodes.get(q) or self.types[q]
+                for q in self.generated]
 
     def generated_nodes(self) -> list[Node]:
         return [self.nodes[q] for q in self.generated if q in self.nodes]

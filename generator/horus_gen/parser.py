@@ -7,10 +7,12 @@ from __future__ import annotations
 
 from .diagnostics import Note, Reporter, Source, Span, near_miss
 from .lexer import Kind, Token, tokenize
-from .syntax import (Attribute, ConstDecl, EnumDecl, EnumVariant, FieldDecl, FileSyntax, Literal,
+from .syntax import (ActionDecl, Attribute, ConstDecl, EnumDecl, EnumVariant, FieldDecl, FileSyntax, Literal,
                      MessageDecl, NodeDecl, NodeEndpointDecl, NodeSettingDecl, ServiceDecl, TypeExpr)
 
-FILE_KINDS = {".hmsg": "message", ".hsrv": "service", ".hnode": "node"}
+FILE_KINDS = {".hmsg": "message", ".hsrv": "service", ".haction": "action", ".hnode": "node"}
+# The blocks of an action, in the order its generated types list them.
+ACTION_BLOCKS = ("goal", "result", "feedback")
 # The blocks of a node: topics it subscribes to and publishes, services it calls and serves.
 NODE_BLOCKS = ("sub", "pub", "client", "server")
 
@@ -85,6 +87,15 @@ class Parser:
                     return
             self.advance()
 
+    def skip_block(self) -> None:
+        """Skips the `{ ... }` block of an unknown part (and a ',' after it), so that the parts after
+        it are still read; without a block, resynchronises as after any error."""
+        open_brace = self.accept_punct("{")
+        if open_brace is None:
+            raise _Recover()
+        self.parse_block(open_brace, "block", self.skip_to_member_end)
+        self.accept_punct(",")
+
     def skip_item(self) -> None:
         """Skips the rest of a top-level item: up to and including its closing '}'."""
         depth = 0
@@ -137,13 +148,14 @@ class Parser:
             self.expect_punct(";", "after the import path")
             syntax.imports.append((str(target.value), target.span))
             return
-        if any(token.is_word(w) for w in ("message", "service", "node")) and self.peek(1).is_punct("!"):
+        if any(token.is_word(w) for w in ("message", "service", "action", "node")) and self.peek(1).is_punct("!"):
             self.parse_macro_block(syntax)
             return
         syntax.items.append(self.parse_item())
 
     def parse_macro_block(self, syntax: FileSyntax) -> None:
-        """`message! { ... }` / `service! { ... }` / `node! { ... }`: the Rust macro form, accepted unchanged."""
+        """`message! { ... }` / `service! { ... }` / `action! { ... }` / `node! { ... }`: the Rust macro
+        form, accepted unchanged."""
         self.advance()
         self.advance()
         open_brace = self.expect_punct("{", "after the macro name")
@@ -200,7 +212,7 @@ class Parser:
         self.expect_punct(")", f"to close the list of attribute '{name.text}'")
         return Literal("list", tuple(names), open_paren.span)
 
-    def parse_item(self) -> MessageDecl | EnumDecl | ServiceDecl | NodeDecl:
+    def parse_item(self) -> MessageDecl | EnumDecl | ServiceDecl | ActionDecl | NodeDecl:
         attributes, docs = self.parse_prefix()
         while self.peek().is_word("pub"):
             self.advance()
@@ -212,13 +224,15 @@ class Parser:
             self.advance()
         name = self.peek()
         if name.kind is not Kind.IDENT:
-            expected = "a message name" if self.file_kind == "message" else "a service name"
+            expected = {"message": "a message name", "service": "a service name"}.get(self.file_kind, "an action name")
             raise self.fail(name.span, f"expected {expected} or 'enum', found {name.describe()}")
         self.advance()
         open_brace = self.expect_punct("{", f"after '{name.text}'",
                                        f"an item reads: {name.text} {{ ... }}")
         if self.file_kind == "service":
             return self.parse_service_body(name, open_brace, attributes, docs)
+        if self.file_kind == "action":
+            return self.parse_action_body(name, open_brace, attributes, docs)
         fields, constants = self.parse_members(name.text, open_brace)
         return MessageDecl(name.text, name.span, fields, constants, attributes, docs)
 
@@ -414,6 +428,7 @@ class Parser:
     # -- services ------------------------------------------------------------------------------
     def parse_service_body(self, name: Token, open_brace: Token, attributes, docs) -> ServiceDecl:
         parts: dict[str, MessageDecl] = {}
+        action_blocks: list[str] = []  # an action written in a .hsrv: one error says so, not three
 
         def entry() -> None:
             part_attributes, part_docs = self.parse_prefix()
@@ -421,11 +436,15 @@ class Parser:
             kind = part.text
             if kind not in ("request", "response"):
                 guess = near_miss(kind, ["request", "response"])
+                if kind in ACTION_BLOCKS:
+                    action_blocks.append(kind)
                 self.reporter.error(part.span, f"expected 'request' or 'response', found '{kind}'",
                                     f"did you mean '{guess}'?" if guess else
+                                    "actions go in a .haction file" if kind in ACTION_BLOCKS else
                                     "a service holds a request { ... } and a response { ... } block")
                 if guess is None or guess in parts:
-                    raise _Recover()
+                    self.skip_block()
+                    return
                 kind = guess  # read the block as the part it most likely is, so nothing cascades
             if kind in parts:
                 self.reporter.error(part.span, f"service '{name.text}' has two '{kind}' blocks")
@@ -438,10 +457,48 @@ class Parser:
         self.parse_block(open_brace, f"service '{name.text}'", entry)
         for missing in ("request", "response"):
             if missing not in parts:
-                self.reporter.error(name.span, f"service '{name.text}' has no '{missing}' block",
-                                    f"add '{missing} {{ }}' (it may be empty)")
+                if not action_blocks:
+                    self.reporter.error(name.span, f"service '{name.text}' has no '{missing}' block",
+                                        f"add '{missing} {{ }}' (it may be empty)")
                 parts[missing] = MessageDecl(name.text + missing.capitalize(), name.span, (), (), (), ())
         return ServiceDecl(name.text, name.span, parts["request"], parts["response"], attributes, docs)
+
+    # -- actions -------------------------------------------------------------------------------
+    def parse_action_body(self, name: Token, open_brace: Token, attributes, docs) -> ActionDecl:
+        """`Navigate { goal { ... } result { ... } feedback { ... } }`: each block once, in any
+        order, read as the message `Navigate<Block>` (its docs and attributes are the message's)."""
+        parts: dict[str, MessageDecl] = {}
+        expected = "'goal', 'result' or 'feedback'"
+
+        def entry() -> None:
+            part_attributes, part_docs = self.parse_prefix()
+            part = self.expect_ident(expected)
+            kind = part.text
+            if kind not in ACTION_BLOCKS:
+                guess = near_miss(kind, list(ACTION_BLOCKS))
+                self.reporter.error(part.span, f"expected {expected}, found '{kind}'",
+                                    f"did you mean '{guess}'?" if guess else
+                                    "an action holds a goal { ... }, a result { ... } and a feedback { ... } block")
+                if guess is None or guess in parts:
+                    self.skip_block()
+                    return
+                kind = guess  # read the block as the part it most likely is, so nothing cascades
+            if kind in parts:
+                self.reporter.error(part.span, f"action '{name.text}' has two '{kind}' blocks",
+                                    notes=(Note(parts[kind].span, "first block here"),))
+            block = self.expect_punct("{", f"after '{part.text}'")
+            type_name = name.text + kind.capitalize()
+            fields, constants = self.parse_members(type_name, block)
+            parts.setdefault(kind, MessageDecl(type_name, part.span, fields, constants, part_attributes, part_docs))
+            self.accept_punct(",")
+
+        self.parse_block(open_brace, f"action '{name.text}'", entry)
+        for missing in ACTION_BLOCKS:
+            if missing not in parts:
+                self.reporter.error(name.span, f"action '{name.text}' has no '{missing}' block",
+                                    f"add '{missing} {{ }}' (it may be empty)")
+                parts[missing] = MessageDecl(name.text + missing.capitalize(), name.span, (), (), (), ())
+        return ActionDecl(name.text, name.span, parts["goal"], parts["result"], parts["feedback"], attributes, docs)
 
 
     # -- nodes ---------------------------------------------------------------------------------

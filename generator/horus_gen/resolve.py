@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
-from . import identity
+from . import identity, resolve_action
 from .diagnostics import Note, Reporter, Source, Span, did_you_mean
 from .lang import cpp, keyword_clash, python
 from .layout import MAX_POD_SIZE, LayoutTooLarge, counted_size, struct_layout, type_layout
@@ -22,7 +22,7 @@ from .model import (PRIMITIVES, Bytes, Constant, DynString, Enum, EnumRef, Field
 from .names import RESERVED_MEMBERS
 from .summary import summary_parts
 from .resolve_node import NodeResolver
-from .syntax import EnumDecl, FieldDecl, Literal, MessageDecl, NodeDecl, ServiceDecl, TypeExpr
+from .syntax import ActionDecl, EnumDecl, FieldDecl, Literal, MessageDecl, NodeDecl, ServiceDecl, TypeExpr
 from .values import INTEGER_RANGES, check_attributes, check_derives, convert_value, is_constant_type
 
 BUILTIN_NAMES = sorted(list(PRIMITIVES) + ["String", "bytes", "string", "Vec", "Option"])
@@ -30,6 +30,9 @@ BUILTIN_NAMES = sorted(list(PRIMITIVES) + ["String", "bytes", "string", "Vec", "
 # Attributes each kind of declaration accepts: "flag" (no value), "string", or "strings" (repeatable).
 MESSAGE_ATTRIBUTES = {"topic": "string", "fixed": "flag", "summary": "string", "derive": "list",
                       "cpp_mixin": "string", "cpp_include": "strings", "py_mixin": "string"}
+# An action's goal, result and feedback blocks are messages of their own, but carried on the
+# action's topics and services rather than on one named by #[topic].
+ACTION_BLOCK_ATTRIBUTES = {k: v for k, v in MESSAGE_ATTRIBUTES.items() if k != "topic"}
 ENUM_ATTRIBUTES = {"derive": "list"}
 FIELD_ATTRIBUTES = {"unit": "string"}
 NO_ATTRIBUTES: dict[str, str] = {}
@@ -47,6 +50,7 @@ class Decl:
     unit: Unit
     item: MessageDecl | EnumDecl
     service: str | None = None
+    action: str | None = None  # the qualified action that declared it
 
 
 class Resolver:
@@ -57,6 +61,8 @@ class Resolver:
         self.decls: dict[str, Decl] = {}
         self.service_decls: dict[str, tuple[ServiceDecl, Unit]] = {}
         self.node_decls: dict[str, tuple[NodeDecl, Unit]] = {}
+        self.action_decls: dict[str, tuple[ActionDecl, Unit]] = {}
+        self.service_wire: dict[str, tuple[str, str]] = {}  # action's service -> (wire name, action)
         self.mixin_outputs: dict[str, Mixin] = {}  # output path -> the helper file copied there
         self.broken: set[str] = set()
         self.types: dict[str, dict[str, Type]] = {}  # message -> field name -> resolved type
@@ -70,11 +76,13 @@ class Resolver:
                 qualified = f"{unit.package}.{item.name}"
                 if isinstance(item, ServiceDecl):
                     generated += [qualified + "Request", qualified + "Response", qualified]
+                elif isinstance(item, ActionDecl):
+                    generated += [f"{unit.package}.{name}" for name in resolve_action.generated_names(item.name)]
                 else:
                     generated.append(qualified)
         self.resolve_all()
-        self.model.generated = [q for q in dict.fromkeys(generated)
-                                if q in self.model.types or q in self.model.services or q in self.model.nodes]
+        self.model.generated = [q for q in dict.fromkeys(generated) if q in self.model.types or q in self.model.services
+                                or q in self.model.actions or q in self.model.nodes]
         self.check_base_names()
         self.check_file_names()
         return self.model
@@ -100,9 +108,38 @@ class Resolver:
                     if self.check_unique(part_name, part.span):
                         self.decls[part_name] = Decl(part_name, unit, part, service=qualified)
                 continue
+            if isinstance(item, ActionDecl):
+                self.declare_action(item, unit)
+                continue
             qualified = f"{unit.package}.{item.name}"
             if self.check_unique(qualified, item.span):
                 self.decls[qualified] = Decl(qualified, unit, item)
+
+    def declare_action(self, item: ActionDecl, unit: Unit) -> None:
+        """Declares an action and every message and service it stands for (resolve_action.py)."""
+        qualified = f"{unit.package}.{item.name}"
+        if item.name in resolve_action.MEMBERS:
+            self.reporter.error(item.span, f"action '{item.name}' is named like a member of the type generated for it",
+                                "rename the action (its members: Goal, Result, Feedback, SendGoal, Status, ...)")
+        messages, services = resolve_action.expand(item)
+        for message in messages:
+            part_name = f"{unit.package}.{message.name}"
+            if self.check_unique(part_name, message.span):
+                self.decls[part_name] = Decl(part_name, unit, message, action=qualified)
+        for service, wire_name in services:
+            service_name = f"{unit.package}.{service.name}"
+            if self.check_unique(service_name, service.span):
+                self.service_decls[service_name] = (service, unit)
+                self.service_wire[service_name] = (wire_name, qualified)
+                # The result message is get_result's response and the result topic's message: it
+                # stays a message of the action rather than a part of the service.
+                shared = f"{item.name}ResultMessage"
+                for part in (service.request, service.response):
+                    decl = self.decls.get(f"{unit.package}.{part.name}")
+                    if decl is not None and decl.item is part and part.name != shared:
+                        decl.service = service_name
+        if self.check_unique(qualified, item.span):
+            self.action_decls[qualified] = (item, unit)
 
     def check_unique(self, qualified: str, span: Span) -> bool:
         previous = self.decls.get(qualified)
@@ -111,6 +148,8 @@ class Resolver:
             previous_span = self.service_decls[qualified][0].span
         if qualified in self.node_decls:
             previous_span = self.node_decls[qualified][0].span
+        if qualified in self.action_decls:
+            previous_span = self.action_decls[qualified][0].span
         if previous_span is None:
             name = qualified.rsplit(".", 1)[-1]
             clash = keyword_clash(name) or ("a name of the generated C++ code" if name in cpp.NAMESPACE_NAMES else None)
@@ -126,7 +165,8 @@ class Resolver:
         """A node's generated class (<Name>Base) must not take the name of a type of its package."""
         for node in self.model.generated_nodes():
             taken = f"{node.package}.{node.base}"
-            if taken in self.decls or taken in self.service_decls or taken in self.node_decls:
+            declared = (self.decls, self.service_decls, self.action_decls, self.node_decls)
+            if any(taken in names for names in declared):
                 self.reporter.error(self.node_decls[node.qualified][0].span,
                                     f"node '{node.name}' generates the class '{node.base}', which is also a type "
                                     f"of package '{node.package}'", "rename the node or the type")
@@ -138,7 +178,8 @@ class Resolver:
             header = cpp.header_path(qualified)
             if header in seen:
                 decl = self.decls.get(qualified)
-                span = decl.item.span if decl else (self.service_decls.get(qualified) or self.node_decls[qualified])[0].span
+                other = self.service_decls.get(qualified) or self.action_decls.get(qualified)
+                span = decl.item.span if decl else (other or self.node_decls[qualified])[0].span
                 self.reporter.error(span, f"types '{seen[header]}' and '{name}' would both be written to "
                                     f"'{os.path.basename(header)}'", "rename one of them")
             seen[header] = name
@@ -193,14 +234,19 @@ class Resolver:
         for qualified in [q for q in order if q not in self.broken]:
             self.build_message(self.decls[qualified])
         for qualified, (item, unit) in self.service_decls.items():
-            request = self.model.types.get(f"{qualified}Request")
-            response = self.model.types.get(f"{qualified}Response")
+            request = self.model.types.get(f"{unit.package}.{item.request.name}")
+            response = self.model.types.get(f"{unit.package}.{item.response.name}")
             if isinstance(request, Message) and isinstance(response, Message):
                 text = identity.service_text(qualified, (request.qualified, request.fingerprint),
                                              (response.qualified, response.fingerprint))
+                wire_name, action = self.service_wire.get(qualified, (item.name, None))
                 self.model.services[qualified] = Service(
                     package=unit.package, name=item.name, request=request, response=response, docs=item.docs,
-                    source=unit.path, fingerprint=identity.fingerprint(text))
+                    source=unit.path, fingerprint=identity.fingerprint(text), wire_name=wire_name, action=action)
+        for qualified, (item, unit) in self.action_decls.items():
+            action = resolve_action.build(self.model, item, unit.package, unit.path)
+            if action is not None:
+                self.model.actions[qualified] = action
         nodes = NodeResolver(self)
         for item, unit in self.node_decls.values():
             nodes.build(item, unit)
@@ -477,7 +523,9 @@ class Resolver:
     def build_message(self, decl: Decl) -> None:
         item = decl.item
         assert isinstance(item, MessageDecl)
-        if decl.service is None:
+        if decl.action is not None and decl.service is None:
+            attributes = check_attributes(self.reporter, item.attributes, ACTION_BLOCK_ATTRIBUTES, f"'{item.name}'")
+        elif decl.service is None:
             attributes = check_attributes(self.reporter, item.attributes, MESSAGE_ATTRIBUTES, f"message '{item.name}'")
         else:
             attributes = check_attributes(self.reporter, item.attributes, NO_ATTRIBUTES, f"'{item.name}'")
@@ -547,7 +595,7 @@ class Resolver:
             cpp_mixin=self.mixin(attributes, "cpp_mixin", directory, decl.unit.package, item),
             cpp_includes=tuple(attributes.get("cpp_include", ())),
             py_mixin=self.mixin(attributes, "py_mixin", directory, decl.unit.package, item),
-            uses=tuple(uses), service=decl.service)
+            uses=tuple(uses), service=decl.service, action=decl.action)
 
     def is_missing(self, t: Type) -> bool:
         return any(q not in self.model.types for q in _named_types(t))

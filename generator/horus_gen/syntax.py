@@ -92,12 +92,24 @@ class ServiceDecl:
     docs: tuple[str, ...]
 
 
+@dataclass(frozen=True)
+class ActionDecl:
+    """An action: its goal, result and feedback blocks, each read as a message (`NavigateGoal`...)."""
+    name: str
+    span: Span
+    goal: MessageDecl
+    result: MessageDecl
+    feedback: MessageDecl
+    attributes: tuple[Attribute, ...]
+    docs: tuple[str, ...]
+
+
 @dataclass
 class FileSyntax:
     source: Source
     package: tuple[str, Span] | None = None
     imports: list[tuple[str, Span]] = field(default_factory=list)
-    items: list["MessageDecl | EnumDecl | ServiceDecl | NodeDecl"] = field(default_factory=list)
+    items: list["MessageDecl | EnumDecl | ServiceDecl | ActionDecl | NodeDecl"] = field(default_factory=list)
 
 
 @dataclass(frozen=True)

@@ -472,6 +472,28 @@ def test_completion_script_names_the_subcommands(children):
     assert _complete(result.stdout, "record", "d") == ["delete", "diff"]
 
 
+def test_completion_offers_launch_actions_and_launch_files(tmp_path, monkeypatch):
+    script = run_horus("completion").stdout
+    folder = tmp_path / "launch_files"
+    (folder / "config").mkdir(parents=True)
+    (folder / "robot.yaml").write_text("processes: {}\n")
+    (folder / "notes.txt").write_text("")
+    monkeypatch.chdir(folder)
+    assert _complete(script, "launch", "") == ["config", "restart", "robot.yaml", "status", "stop"]
+    assert _complete(script, "launch", "r") == ["restart", "robot.yaml"]
+
+
+def test_completion_offers_each_commands_options():
+    script = run_horus("completion").stdout
+    assert _complete(script, "bridge", "--fr") == ["--frames"]
+    assert _complete(script, "bridge", "--frames", "--import-f") == ["--import-frames"]
+    assert _complete(script, "topic", "echo", "scan", "--ti") == ["--timeout"]
+    assert _complete(script, "frame", "tree", "--d") == ["--dot"]
+    # horus-remote parses its own options: they are written out.
+    assert _complete(script, "remote", "connect", "robot:7447", "--import-f") == ["--import-frames"]
+    assert _complete(script, "remote", "serve", "--p") == ["--policy"]
+
+
 def started_between(started_wall_ns: int, before: float, after: float) -> bool:
     """Whether a start time the command shows lies between two wall-clock readings taken around
     the process's start, give or take the kernel's clock tick (it is counted in ticks)."""

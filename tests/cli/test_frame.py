@@ -124,3 +124,21 @@ def test_namespace_option_reads_another_namespace(children):
     assert json.loads(run_horus("frame", "list", "--json").stdout) == []
     listing = json.loads(run_horus("frame", "list", "--namespace", other, "--json").stdout)
     assert {row["name"] for row in listing} == {"map", "odom", "base_link", "lidar"}
+
+
+def test_shm_list_shows_the_tree_and_clean_keeps_it_until_nobody_has_it_open(robot, namespace):
+    tree_path = os.path.join(os.environ["HORUS_SHM_DIR"], "@frames", namespace)
+    rows = {row["name"]: row for row in json.loads(run_horus("shm", "list", "--json").stdout)}
+    assert rows["@frames"]["path"] == tree_path
+    assert rows["@frames"]["in_use"] and 0 < rows["@frames"]["size"] < 1 << 20, rows["@frames"]
+    assert run_horus("shm", "clean").returncode == 0
+    assert os.path.exists(tree_path), "the robot has it open"
+
+    robot.kill()
+    robot.wait()
+    rows = {row["name"]: row for row in json.loads(run_horus("shm", "list", "--json").stdout)}
+    assert not rows["@frames"]["in_use"]
+    assert run_horus("shm", "clean").returncode == 0
+    assert not os.path.exists(tree_path)
+    assert "@frames" not in {row["name"] for row in
+                             json.loads(run_horus("shm", "list", "--json").stdout)}

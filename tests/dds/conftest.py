@@ -88,7 +88,7 @@ def dds_peer(generated, tmp_path_factory) -> str:
             sources.append(str(folder / (path.stem + ".c")))
     program = build / "dds_peer"
     subprocess.run(["cc", "-O1", "-Wall", "-DDDS_NDEBUG", "-I", str(build), "-o", str(program),
-                    *sources, "-lddsc"], check=True, capture_output=True)
+                    *sources, "-lddsc", "-lm"], check=True, capture_output=True)
     return str(program)
 
 

@@ -16,11 +16,26 @@
      dds_peer write-pose DOMAIN      writes one known PoseStamped on rt/pose
      dds_peer read-image DOMAIN N    prints N horus.msg.ImageDescriptor samples (with the image's
                                      data, as the bridge sends a pool type) of rt/camera
+     dds_peer read-tf DOMAIN N       prints the transforms of tf2_msgs/msg/TFMessage samples of
+                                     rt/tf (tf2_ros's listener QoS: reliable, volatile, keep-last
+                                     100) until it has N, one a line: "SAMPLE parent child sec
+                                     nanosec tx,ty,tz qx,qy,qz,qw" (SAMPLE counts samples from 1)
+     dds_peer read-tf-static DOMAIN N  the same of rt/tf_static (transient local, keep-last 100)
+     dds_peer write-tf DOMAIN [N]    once N readers (default 1) match, writes 3 TFMessages on
+                                     rt/tf, each "/map" -> "/odom" and "odom" -> "base_link" at
+                                     one stamp
+                                     (BASE, BASE+1 s, BASE+2 s: BASE this second), first printing
+                                     "base BASE"; the values: write_tf()
+     dds_peer write-tf-static DOMAIN writes one TFMessage on rt/tf_static (transient local, keep-
+                                     last 1, as tf2_ros's static broadcaster): base_link -> lidar
+                                     and base_link -> camera; stays up until killed (the sample
+                                     lives as long as its writer)
    Options, anywhere: --topic NAME reads or writes the DDS topic NAME instead; --xcdr2 makes the
    reader or writer use XCDR2 alone (its data representation QoS), and write-kinds then writes
    the name "from C in XCDR2", so that a test can tell its sample from an XCDR1 one.
    It prints "ready" once its reader or writer exists; a timeout (20 s) is exit status 1. */
 #include <inttypes.h>
+#include <math.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -35,6 +50,7 @@
 #include "nav_msgs/msg/Odometry.h"
 #include "sensor_msgs/msg/Imu.h"
 #include "sensor_msgs/msg/LaserScan.h"
+#include "tf2_msgs/msg/TFMessage.h"
 
 static const char *topic_option; /* --topic */
 static bool xcdr2_option;        /* --xcdr2 */
@@ -49,6 +65,15 @@ static dds_qos_t *reliable(void)
     const dds_data_representation_id_t xcdr2 = DDS_DATA_REPRESENTATION_XCDR2;
     dds_qset_data_representation(qos, 1, &xcdr2);
   }
+  return qos;
+}
+
+/* tf2_ros's static QoS: transient local, `depth` kept. */
+static dds_qos_t *transient_local(int depth)
+{
+  dds_qos_t *qos = reliable();
+  dds_qset_durability(qos, DDS_DURABILITY_TRANSIENT_LOCAL);
+  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, depth);
   return qos;
 }
 
@@ -176,12 +201,32 @@ static void print_image(const void *sample)
   printf("\n");
 }
 
-static int read_samples(dds_entity_t participant, const dds_topic_descriptor_t *type,
-                        const char *name, int count, void (*print)(const void *))
+/* Prints a TFMessage's transforms and returns how many it had. */
+static int tf_samples;
+static int print_tf(const void *sample)
+{
+  const tf2_msgs_msg_dds__TFMessage_ *s = sample;
+  tf_samples++;
+  for (uint32_t i = 0; i < s->transforms._length; i++)
+  {
+    const geometry_msgs_msg_dds__TransformStamped_ *t = &s->transforms._buffer[i];
+    const geometry_msgs_msg_dds__Vector3_ *p = &t->transform.translation;
+    const geometry_msgs_msg_dds__Quaternion_ *q = &t->transform.rotation;
+    printf("%d %s %s %d %u %.17g,%.17g,%.17g %.17g,%.17g,%.17g,%.17g\n", tf_samples,
+           t->header.frame_id, t->child_frame_id, t->header.stamp.sec, t->header.stamp.nanosec,
+           p->x, p->y, p->z, q->x, q->y, q->z, q->w);
+  }
+  return (int) s->transforms._length;
+}
+
+/* Reads samples with `qos` (deleted here) until `print` has counted `count` (what each sample
+   counts: print's return). */
+static int read_samples_counted(dds_entity_t participant, const dds_topic_descriptor_t *type,
+                                const char *name, int count, dds_qos_t *qos,
+                                int (*print)(const void *))
 {
   dds_entity_t topic =
     dds_create_topic(participant, type, topic_option ? topic_option : name, NULL, NULL);
-  dds_qos_t *qos = reliable();
   dds_entity_t reader = dds_create_reader(participant, topic, qos, NULL);
   dds_delete_qos(qos);
   if (reader < 0) { fprintf(stderr, "reader: %s\n", dds_strretcode(reader)); return 1; }
@@ -201,11 +246,21 @@ static int read_samples(dds_entity_t participant, const dds_topic_descriptor_t *
     dds_sample_info_t infos[16];
     int taken = dds_take(reader, samples, infos, 16, 16);
     for (int i = 0; i < taken && got < count; i++)
-      if (infos[i].valid_data) { print(samples[i]); got++; }
+      if (infos[i].valid_data) got += print(samples[i]);
     fflush(stdout);
     dds_return_loan(reader, samples, taken);
   }
   return 0;
+}
+
+static void (*print_plain)(const void *);
+static int print_one(const void *sample) { print_plain(sample); return 1; }
+
+static int read_samples(dds_entity_t participant, const dds_topic_descriptor_t *type,
+                        const char *name, int count, void (*print)(const void *))
+{
+  print_plain = print;
+  return read_samples_counted(participant, type, name, count, reliable(), print_one);
 }
 
 /* Writes `sample` once a reader matches, and waits until it has it. */
@@ -232,6 +287,70 @@ static int write_sample(dds_entity_t participant, const dds_topic_descriptor_t *
   /* Reliable delivery completes before the participant goes away. */
   dds_wait_for_acks(writer, DDS_SECS(10));
   return 0;
+}
+
+/* The k-th TFMessage of write-tf (k = 0, 1, 2, at BASE + k s): map -> odom at (k, 0, 0),
+   unrotated; odom -> base_link at (0, 2k, 0) turned k * 0.5 rad about z. */
+static int write_tf(dds_entity_t participant, uint32_t readers)
+{
+  dds_entity_t topic = dds_create_topic(participant, &tf2_msgs_msg_dds__TFMessage__desc,
+                                        topic_option ? topic_option : "rt/tf", NULL, NULL);
+  dds_qos_t *qos = reliable();
+  dds_entity_t writer = dds_create_writer(participant, topic, qos, NULL);
+  dds_delete_qos(qos);
+  if (writer < 0) { fprintf(stderr, "writer: %s\n", dds_strretcode(writer)); return 1; }
+  const int32_t base = (int32_t) (dds_time() / DDS_NSECS_IN_SEC);
+  printf("ready\nbase %d\n", base);
+  fflush(stdout);
+  dds_publication_matched_status_t matched = { 0 };
+  for (int i = 0; i < 400 && matched.current_count < readers; i++)
+  {
+    dds_sleepfor(DDS_MSECS(50));
+    dds_get_publication_matched_status(writer, &matched);
+  }
+  if (matched.current_count < readers) { fprintf(stderr, "too few readers matched\n"); return 1; }
+  for (int k = 0; k < 3; k++)
+  {
+    const double half_yaw = 0.25 * k;
+    geometry_msgs_msg_dds__TransformStamped_ transforms[2] = {
+      { .header = { .stamp = { base + k, 0 }, .frame_id = "/map" }, .child_frame_id = "/odom",
+        .transform = { .translation = { k, 0, 0 }, .rotation = { 0, 0, 0, 1 } } },
+      { .header = { .stamp = { base + k, 0 }, .frame_id = "odom" }, .child_frame_id = "base_link",
+        .transform = { .translation = { 0, 2.0 * k, 0 },
+                       .rotation = { 0, 0, sin(half_yaw), cos(half_yaw) } } },
+    };
+    tf2_msgs_msg_dds__TFMessage_ s = {
+      .transforms = { ._length = 2, ._maximum = 2, ._buffer = transforms } };
+    dds_return_t code = dds_write(writer, &s);
+    if (code < 0) { fprintf(stderr, "write: %s\n", dds_strretcode(code)); return 1; }
+  }
+  dds_wait_for_acks(writer, DDS_SECS(10));
+  return 0;
+}
+
+/* Like tf2_ros's static broadcaster: one sample with every static transform, kept for late
+   joiners while the writer lives. */
+static int write_tf_static(dds_entity_t participant)
+{
+  dds_entity_t topic = dds_create_topic(participant, &tf2_msgs_msg_dds__TFMessage__desc,
+                                        topic_option ? topic_option : "rt/tf_static", NULL, NULL);
+  dds_qos_t *qos = transient_local(1);
+  dds_entity_t writer = dds_create_writer(participant, topic, qos, NULL);
+  dds_delete_qos(qos);
+  if (writer < 0) { fprintf(stderr, "writer: %s\n", dds_strretcode(writer)); return 1; }
+  geometry_msgs_msg_dds__TransformStamped_ transforms[2] = {
+    { .header = { .stamp = { 5, 0 }, .frame_id = "base_link" }, .child_frame_id = "lidar",
+      .transform = { .translation = { 0.2, 0, 0.1 }, .rotation = { 0, 0, 0, 1 } } },
+    { .header = { .stamp = { 5, 0 }, .frame_id = "/base_link" }, .child_frame_id = "/camera",
+      .transform = { .translation = { 0.1, 0, 0.3 }, .rotation = { 0, 0, 0.6, 0.8 } } },
+  };
+  tf2_msgs_msg_dds__TFMessage_ s = {
+    .transforms = { ._length = 2, ._maximum = 2, ._buffer = transforms } };
+  dds_return_t code = dds_write(writer, &s);
+  if (code < 0) { fprintf(stderr, "write: %s\n", dds_strretcode(code)); return 1; }
+  printf("ready\n");
+  fflush(stdout);
+  for (;;) dds_sleepfor(DDS_SECS(1));
 }
 
 static int write_twist(dds_entity_t participant)
@@ -336,7 +455,8 @@ int main(int argc, char **argv)
   {
     fprintf(stderr, "usage: dds_peer read-cmdvel|read-kinds|write-kinds|read-twist|write-twist|"
                     "read-imu|write-imu|read-scan|write-scan|read-odom|write-odom|read-pose|"
-                    "write-pose|read-image DOMAIN [N] [--topic NAME] [--xcdr2]\n");
+                    "write-pose|read-image|read-tf|read-tf-static|write-tf|write-tf-static "
+                    "DOMAIN [N] [--topic NAME] [--xcdr2]\n");
     return 2;
   }
   dds_entity_t participant = dds_create_participant((dds_domainid_t) atoi(argv[2]), NULL, NULL);
@@ -373,6 +493,16 @@ int main(int argc, char **argv)
                           print_pose_stamped);
   else if (strcmp(argv[1], "write-pose") == 0)
     status = write_pose(participant);
+  else if (strcmp(argv[1], "read-tf") == 0)
+    status = read_samples_counted(participant, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf", count,
+                                  reliable(), print_tf);
+  else if (strcmp(argv[1], "read-tf-static") == 0)
+    status = read_samples_counted(participant, &tf2_msgs_msg_dds__TFMessage__desc,
+                                  "rt/tf_static", count, transient_local(100), print_tf);
+  else if (strcmp(argv[1], "write-tf") == 0)
+    status = write_tf(participant, (uint32_t) count);
+  else if (strcmp(argv[1], "write-tf-static") == 0)
+    status = write_tf_static(participant);
   else if (strcmp(argv[1], "read-image") == 0)
     status = read_samples(participant, &horus_msg_dds__ImageDescriptor__desc, "rt/camera", count,
                           print_image);

@@ -11,6 +11,9 @@
 //                                               a scheduler that only carries the topics (or
 //                                               services) PATTERN names (types it was not
 //                                               compiled with too), until SIGINT or SIGTERM
+//   horus_dds_network_peer frames DOMAIN        sets odom -> base_link at (0, 0, 7) at 100 Hz and
+//                                               carries every frame both ways (export_frames,
+//                                               import_frames), until SIGINT or SIGTERM
 //   horus_dds_network_peer invalid              one line "refused: MESSAGE" per invalid Network
 //
 // A Scheduler that cannot start its bridge prints "error: MESSAGE" and exits with 2; one that
@@ -23,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include <horus/frames.hpp>
 #include <horus/horus.hpp>
 #include <horus/msg/cmd_vel.hpp>
 
@@ -74,6 +78,18 @@ class Idle : public horus::Node {
  public:
   std::string_view name() const override { return "idle"; }
   void tick() override {}
+};
+
+// Sets base_link, whose authority this process (and so its scheduler's bridge) is.
+class Odometry : public horus::Node {
+ public:
+  std::string_view name() const override { return "odometry"; }
+  void tick() override {
+    frames_.set_transform("odom", "base_link", {{0, 0, 7}, {}}, horus::now());
+  }
+
+ private:
+  horus::FrameTree frames_;
 };
 
 int run(horus::Network network, const std::shared_ptr<horus::Node>& node) {
@@ -154,6 +170,10 @@ int main(int argc, char** argv) {
         return run(std::move(network), std::make_shared<Idle>());
       }
     }
+    if (role == "frames" && args.size() == 2) {
+      return run({.domain = std::stoi(args[1]), .export_frames = {"*"}, .import_frames = {"*"}},
+                 std::make_shared<Odometry>());
+    }
     if (role == "invalid" && args.size() == 1) return invalid();
   } catch (const horus::Error& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
@@ -161,7 +181,8 @@ int main(int argc, char** argv) {
   }
   std::fprintf(stderr,
                "usage: %s export DOMAIN | import DOMAIN COUNT | options DOMAIN | relay DOMAIN "
-               "export|import|export-service|import-service PATTERN | invalid\n",
+               "export|import|export-service|import-service PATTERN | frames DOMAIN | "
+               "invalid\n",
                argv[0]);
   return 2;
 }

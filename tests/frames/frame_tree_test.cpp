@@ -48,6 +48,27 @@ TEST(FrameMath, ComposeInverseAndHelpers) {
   expect_transform(pose, 1, 3, 3, 3 * M_PI / 4);
 }
 
+TEST(FrameMath, SlerpIsExactOnBothSidesOfTheSmallAngleSeries) {
+  // Rotations about a tilted axis, from far below the series' limit (rotations about 0.2 rad
+  // apart) to far above it: every interpolated rotation is the axis-angle one, to double precision,
+  // and of unit length (interpolate() does not normalise).
+  const horus::Vector3 axis{0.48, -0.6, 0.64};
+  for (const double apart :
+       {1e-9, 1e-5, 1e-3, 0.02, 0.1, 0.199, 0.1997, 0.1999, 0.2, 0.21, 1.0, 2.5}) {
+    const Transform a{{}, horus::axis_angle(axis, 0.7)};
+    const Transform b{{}, horus::axis_angle(axis, 0.7 + apart)};
+    for (const double fraction : {0.0, 0.125, 0.5, 0.9, 1.0}) {
+      const horus::Quaternion got = horus::interpolate(a, b, fraction).rotation;
+      const horus::Quaternion want = horus::axis_angle(axis, 0.7 + fraction * apart);
+      EXPECT_NEAR(got.x, want.x, 2e-15) << apart << " " << fraction;
+      EXPECT_NEAR(got.y, want.y, 2e-15) << apart << " " << fraction;
+      EXPECT_NEAR(got.z, want.z, 2e-15) << apart << " " << fraction;
+      EXPECT_NEAR(got.w, want.w, 2e-15) << apart << " " << fraction;
+      EXPECT_NEAR(got.x * got.x + got.y * got.y + got.z * got.z + got.w * got.w, 1, 4e-15);
+    }
+  }
+}
+
 TEST(FrameMath, InterpolatesLinearTranslationAndSlerpRotation) {
   const Transform half = horus::interpolate(planar(0, 0, 0, 0), planar(2, 4, 0, M_PI / 2), 0.5);
   expect_transform(half, 1, 2, 0, M_PI / 4);

@@ -12,7 +12,7 @@ import pytest
 
 from generator_testing import GOLDEN, run_horus_gen
 
-CASES = sorted(p for p in (GOLDEN / "diagnostics").iterdir() if p.suffix in (".hmsg", ".hsrv", ".hnode"))
+CASES = sorted(p for p in (GOLDEN / "diagnostics").iterdir() if p.suffix in (".hmsg", ".hsrv", ".haction", ".hnode"))
 # Node files name the standard messages (schemas/) and the test schemas (tests/schemas/), as relative paths so
 # that the expected text does not depend on where the checkout is.
 NODE_INCLUDES = ("-I", "../../../schemas", "-I", "../../schemas")

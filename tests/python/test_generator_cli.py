@@ -112,7 +112,7 @@ def test_usage_errors_exit_2(tmp_path):
     other = tmp_path / "n.txt"
     other.write_text("N {}")
     result = run_horus_gen("check", str(other))
-    assert result.returncode == 2 and "expected .hmsg, .hsrv or .hnode" in result.stderr
+    assert result.returncode == 2 and "expected .hmsg, .hsrv, .haction or .hnode" in result.stderr
     assert run_horus_gen("frobnicate").returncode == 2
     result = run_horus_gen("generate", "--lang", "rust", "--out", str(tmp_path), TEST_MSGS[0])
     assert result.returncode == 2 and "unknown language 'rust'" in result.stderr

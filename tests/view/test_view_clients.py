@@ -239,9 +239,11 @@ def test_a_stalled_client_costs_the_others_nothing(view_server, namespace, child
             "while a client stalled")
     run = result["runs"][SUBPROTOCOLS[0]]
     assert "error" not in run, run
+    # A server blocked by the stalled socket would leave the reading client next to nothing; half
+    # the rate leaves room for a loaded machine, where the reading client itself falls behind.
     for topic in ("fast", "camera"):
         received = run["measured"][topic]["rate"]
-        assert abs(received - published[topic]) <= 0.2 * published[topic], (
+        assert received >= 0.5 * published[topic], (
             f"{topic}: published {published[topic]:.1f}/s, the reading client got "
             f"{received:.1f}/s while another client stalled")
     growth = peak[0] - baseline

@@ -81,3 +81,33 @@ def test_the_viewer_links_carry_the_websocket_url_and_token(view_server, browser
         assert query == {"ds": ["foxglove-websocket"], "ds.url": [expected]}, href
     assert browser.find_element(By.ID, "open-foxglove").get_attribute("href").startswith(
         "https://app.foxglove.dev/?")
+
+
+# A frame tree: odom -> base_link set at 50 Hz, a static lidar under base_link.
+FRAME_WRITER = """
+import time, horus
+tree = horus.FrameTree()
+tree.set_static_transform("base_link", "lidar", (0.2, 0.0, 0.1))
+step = 0
+while True:
+    tree.set_transform("odom", "base_link", (0.01 * step, 0.0, 0.0))
+    step += 1
+    time.sleep(0.02)
+"""
+
+
+def test_the_page_lists_the_frames_with_parents_and_rates(view_server, children, browser):
+    children.python(FRAME_WRITER, dict(os.environ))
+    browser.get(view_server.http_url)
+    rows = wait_for(browser, lambda d: (r := d.execute_script("""
+        const rows = {};
+        for (const row of document.querySelectorAll('#frames tbody tr[data-frame]')) {
+          rows[row.dataset.frame] = {parent: row.dataset.parent, static: row.dataset.static,
+                                     rate: row.dataset.rate === undefined ? null
+                                                                          : Number(row.dataset.rate)};
+        }
+        return rows;""")).get("base_link", {}).get("rate") and "lidar" in r and r,
+                    "the frames listed with a measured rate")
+    assert rows["lidar"] == {"parent": "base_link", "static": "true", "rate": None}, rows
+    assert rows["base_link"]["parent"] == "odom" and rows["base_link"]["static"] == "false", rows
+    assert 25 <= rows["base_link"]["rate"] <= 75, f"a 50 Hz frame shown at {rows['base_link']}"

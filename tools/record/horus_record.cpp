@@ -1,7 +1,7 @@
 // horus-record: records topics of a namespace into an MCAP session file until Ctrl+C, SIGTERM
 // or --duration, then finishes the file (summary, footer) and says what it recorded and lost.
 //
-//   horus-record [-a | TOPICS...] [-o FILE] [--duration S] [--namespace NS]
+//   horus-record [-a | TOPICS...] [--frames] [-o FILE] [--duration S] [--namespace NS]
 #include <signal.h>
 
 #include <cerrno>
@@ -20,10 +20,13 @@ namespace {
 
 int usage(std::FILE* out, int status) {
   std::fprintf(out,
-               "usage: horus-record [-a | TOPICS...] [-o FILE] [--duration S] [--namespace NS]\n"
+               "usage: horus-record [-a | TOPICS...] [--frames] [-o FILE] [--duration S] "
+               "[--namespace NS]\n"
                "Records topics into an MCAP file until Ctrl+C, SIGTERM or --duration.\n"
-               "  -a, --all         every topic of the namespace, also those that appear later\n"
-               "                    and the parameter changes of its nodes (/horus/params)\n"
+               "  -a, --all         every topic of the namespace, also those that appear later,\n"
+               "                    the parameter changes of its nodes (/horus/params) and its\n"
+               "                    frame tree (/horus/frames, /horus/frames_static)\n"
+               "  --frames          the namespace's frame tree beside the TOPICS named\n"
                "  -o, --output FILE the file (default: a new session_YYYY_MM_DD_HHMMSS.mcap in\n"
                "                    $HORUS_RECORDINGS, else ~/.local/share/horus/recordings)\n"
                "  --duration S      stop after S seconds\n"
@@ -73,6 +76,8 @@ int main(int argc, char** argv) {
     if (arg == "-h" || arg == "--help") return usage(stdout, 0);
     if (arg == "-a" || arg == "--all") {
       options.all_topics = true;
+    } else if (arg == "--frames") {
+      options.frames = true;
     } else if (arg == "-o" || arg == "--output") {
       options.path = value();
     } else if (arg == "--namespace" || arg == "-n") {
@@ -94,8 +99,10 @@ int main(int argc, char** argv) {
       options.topics.emplace_back(arg);
     }
   }
-  if (options.topics.empty() && !options.all_topics) {
-    std::fprintf(stderr, "horus-record: name topics to record, or -a for all of them\n");
+  if (options.topics.empty() && !options.all_topics && !options.frames) {
+    std::fprintf(stderr,
+                 "horus-record: name topics to record, --frames for the frame tree, or -a for "
+                 "all of them\n");
     return usage(stderr, 2);
   }
   // Blocked before the recording thread starts, so that only sigwait here receives them.

@@ -24,6 +24,7 @@
 #include "horus/dds/cdr_plan.hpp"
 #include "horus/dds/conversion.hpp"
 #include "horus/dds/endpoints.hpp"
+#include "horus/dds/frames.hpp"
 #include "horus/dds/names.hpp"
 #include "horus/dds/pump.hpp"
 #include "horus/dds/ros2_twins.hpp"
@@ -117,6 +118,9 @@ class DdsBridge::Running {
           options_.export_services, options_.import_services, options_.service_timeout, namespace_,
           participant_, Qos{options_.reliable, options_.depth, false, 0}, std::move(find_type));
     }
+    if (!options_.export_frames.empty() || !options_.import_frames.empty()) {
+      start_frames();
+    }
     thread_ = std::thread([this] { serve(); });
   }
 
@@ -162,6 +166,9 @@ class DdsBridge::Running {
           broken = "topic '" + name + "': " + why;
         }
       }
+      if (frames_ && broken.empty()) {
+        if (std::string why = frames_->broken(); !why.empty()) broken = "frames: " + why;
+      }
       if (!faulted_.empty() && broken.empty()) {
         broken = "topic '" + faulted_ +
                  "': a fault injected by HORUS_BRIDGE_FAULT (a test of the failure path)";
@@ -177,6 +184,7 @@ class DdsBridge::Running {
     pumps_.clear();
     watched_.clear();
     services_.reset();
+    frames_.reset();
     participant_.reset();
     if (!broken.empty()) {
       complain("stopping: " + broken);
@@ -193,11 +201,49 @@ class DdsBridge::Running {
     }
   }
 
+  // -- frames: the tree <-> rt/tf, rt/tf_static -------------------------------------------------
+
+  void start_frames() {
+    try {
+      frames_ =
+          std::make_unique<FrameRelay>(options_.export_frames, options_.import_frames, namespace_,
+                                       participant_, !options_.accept_untyped_writers, drop_cap_);
+    } catch (const std::runtime_error& error) {
+      throw Error(std::string("cannot carry frames: ") + error.what());
+    }
+    const std::string topics =
+        std::string(kTfTopic) + ", " + kTfStaticTopic + " (" + kTfMessageDdsType + ")";
+    if (!options_.export_frames.empty()) {
+      say("exporting frames " + listed(options_.export_frames) + " as " + topics);
+    }
+    if (!options_.import_frames.empty()) {
+      say("importing frames " + listed(options_.import_frames) + " from " + topics);
+    }
+  }
+
+  static std::string listed(const std::vector<std::string>& patterns) {
+    std::string out;
+    for (const std::string& pattern : patterns) out += (out.empty() ? "'" : ", '") + pattern + "'";
+    return out;
+  }
+
+  // Whether the local topic `name` would cross as a topic rt/tf or rt/tf_static carries frames
+  // on (a second type on one DDS topic): refused, said once.
+  bool refuse_frame_topic(const std::string& name) {
+    if (!frames_ || (name != "tf" && name != "tf_static")) return false;
+    if (frame_topics_said_.insert(name).second) {
+      complain("cannot export topic '" + name + "': " + dds_topic_name(name) +
+               " carries the frames (--export-frames, --import-frames)");
+    }
+    return true;
+  }
+
   // -- export: local -> DDS ---------------------------------------------------------------------
 
   void scan_exports() {
     for (const TopicInfo& topic : list_topics(namespace_)) {
-      if (!policy_.exported(topic.name) || topic.type_name.empty() || !topic.error.empty()) {
+      if (!policy_.exported(topic.name) || topic.type_name.empty() || !topic.error.empty() ||
+          refuse_frame_topic(topic.name)) {
         continue;
       }
       const Claim claim = policy_.claim(topic.name);
@@ -335,7 +381,8 @@ class DdsBridge::Running {
     for (const Publication& publication : participant_->publications()) {
       const std::string& topic = publication.topic;
       if (!topic.starts_with(kTopicPrefix) || refused_.contains(topic) ||
-          !policy_.imported(dotted(topic))) {
+          !policy_.imported(dotted(topic)) ||
+          (frames_ && (topic == kTfTopic || topic == kTfStaticTopic))) {
         continue;
       }
       std::string name;
@@ -525,6 +572,8 @@ class DdsBridge::Running {
   std::size_t drop_cap_;
   std::shared_ptr<Participant> participant_;
   std::unique_ptr<ServiceRelays> services_;
+  std::unique_ptr<FrameRelay> frames_;
+  std::set<std::string> frame_topics_said_;  // local topics tf, tf_static refused (said once)
   std::map<std::string, std::unique_ptr<CarriedType>> types_;
   std::map<std::string, std::unique_ptr<bridge::Forwarder>> pumps_;
   std::map<std::string, Watch> watched_;

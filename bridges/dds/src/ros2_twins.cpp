@@ -288,6 +288,61 @@ void read(CdrIn& in, msg::PoseStamped& message) {
   }
 }
 
+// -- tf2_msgs/TFMessage <- StampedTransform (geometry_msgs/TransformStamped each) -------------
+
+constexpr std::string_view kTfMessage = "tf2_msgs/msg/TFMessage";
+
+// tf2 accepts frame ids with one leading '/' (ROS 1's style); HORUS names have none.
+std::string frame_id(std::string name) {
+  if (name.starts_with('/')) name.erase(0, 1);
+  return name;
+}
+
+void write(CdrOut& out, const StampedTransform& transform) {
+  write_header(out, static_cast<std::uint64_t>(std::max<std::int64_t>(0, transform.stamp.count())),
+               transform.parent);
+  out.string(transform.child);
+  const Vector3& t = transform.transform.translation;
+  const Quaternion& q = transform.transform.rotation;
+  for (const double value : {t.x, t.y, t.z, q.x, q.y, q.z, q.w}) out.number(value);
+}
+void read(CdrIn& in, StampedTransform& transform) {
+  Header header = read_header(in);
+  transform.stamp = std::chrono::nanoseconds(header.stamp);
+  transform.parent = frame_id(std::move(header.frame_id));
+  transform.child = frame_id(in.string());
+  Vector3& t = transform.transform.translation;
+  Quaternion& q = transform.transform.rotation;
+  for (double* field : {&t.x, &t.y, &t.z, &q.x, &q.y, &q.z, &q.w}) *field = in.number<double>();
+}
+
+std::string hex(std::span<const std::byte> bytes) {
+  static constexpr char kDigits[] = "0123456789abcdef";
+  std::string out;
+  for (const std::byte b : bytes) {
+    out += kDigits[std::to_integer<unsigned>(b) >> 4];
+    out += kDigits[std::to_integer<unsigned>(b) & 0xf];
+  }
+  return out;
+}
+
+// Why `sample` is not an XCDR1 sample of `ros2` (its encapsulation header), or empty.
+std::string not_plain_cdr(std::span<const std::byte> sample, std::string_view ros2) {
+  if (sample.size() < 4) {
+    return "a CDR sample of " + std::to_string(sample.size()) +
+           " bytes has no encapsulation header";
+  }
+  const auto scheme = std::to_integer<unsigned>(sample[1]);
+  if (sample[0] != std::byte{0} || scheme > 1) {
+    return "encapsulation " + hex(sample.first(2)) +
+           (scheme >= 6 && scheme <= 11 && sample[0] == std::byte{0}
+                ? " is XCDR2, and the bridge reads XCDR1 (plain CDR) only: the writer must "
+                  "offer XCDR1 (its data representation QoS)"
+                : " is not plain CDR (XCDR1): the writer's type is not " + std::string(ros2));
+  }
+  return {};
+}
+
 template <typename Message>
 class TwinConversion final : public Conversion {
  public:
@@ -307,21 +362,12 @@ class TwinConversion final : public Conversion {
 
   std::string to_local(std::span<const std::byte> sample,
                        std::vector<std::byte>& message) override {
-    if (sample.size() < 4) {
-      return "a CDR sample of " + std::to_string(sample.size()) +
-             " bytes has no encapsulation header";
-    }
-    const auto scheme = std::to_integer<unsigned>(sample[1]);
-    if (sample[0] != std::byte{0} || scheme > 1) {
-      return "encapsulation " + hex(sample.first(2)) +
-             (scheme >= 6 && scheme <= 11 && sample[0] == std::byte{0}
-                  ? " is XCDR2, and the bridge reads XCDR1 (plain CDR) only: the writer must "
-                    "offer XCDR1 (its data representation QoS)"
-                  : " is not plain CDR (XCDR1): the writer's type is not " + std::string(ros2_));
+    if (std::string why = not_plain_cdr(sample, ros2_); !why.empty()) {
+      return why;
     }
     Message value{};
     try {
-      CdrIn in(sample.subspan(4), scheme == 1);
+      CdrIn in(sample.subspan(4), sample[1] == std::byte{1});
       read(in, value);
       // Up to 3 bytes pad a sample to a multiple of 4; more is not this type.
       if (in.left() > 3) {
@@ -336,15 +382,6 @@ class TwinConversion final : public Conversion {
   }
 
  private:
-  static std::string hex(std::span<const std::byte> bytes) {
-    static constexpr char kDigits[] = "0123456789abcdef";
-    std::string out;
-    for (const std::byte b : bytes) {
-      out += kDigits[std::to_integer<unsigned>(b) >> 4];
-      out += kDigits[std::to_integer<unsigned>(b) & 0xf];
-    }
-    return out;
-  }
   std::string_view ros2_;
 };
 
@@ -402,6 +439,35 @@ std::unique_ptr<Conversion> twin_conversion(const Ros2Twin& twin) {
     return std::make_unique<TwinConversion<msg::PoseStamped>>(twin.ros2);
   }
   throw std::invalid_argument(std::string(name) + " has no ROS 2 twin");
+}
+
+void tf_message_to_cdr(std::span<const StampedTransform> transforms,
+                       std::vector<std::byte>& sample) {
+  CdrOut out(sample);
+  out.number(static_cast<std::uint32_t>(transforms.size()));
+  for (const StampedTransform& transform : transforms) write(out, transform);
+  out.finish();
+}
+
+std::string tf_message_from_cdr(std::span<const std::byte> sample,
+                                std::vector<StampedTransform>& transforms) {
+  transforms.clear();
+  if (std::string why = not_plain_cdr(sample, kTfMessage); !why.empty()) {
+    return why;
+  }
+  try {
+    CdrIn in(sample.subspan(4), sample[1] == std::byte{1});
+    // Read one by one: a forged count runs out of bytes before it allocates much.
+    const std::uint32_t count = in.count();
+    for (std::uint32_t i = 0; i < count; ++i) read(in, transforms.emplace_back());
+    if (in.left() > 3) {
+      throw std::invalid_argument(std::to_string(in.left()) + " bytes are left over");
+    }
+  } catch (const std::invalid_argument& error) {
+    transforms.clear();
+    return "a CDR sample does not decode as " + std::string(kTfMessage) + ": " + error.what();
+  }
+  return {};
 }
 
 }  // namespace horus::dds_bridge

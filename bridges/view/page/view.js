@@ -12,6 +12,10 @@
 // (clicking a node's row chooses it), and set with setParameters; a refusal comes back as a
 // status with its reason, shown with the server's messages.
 //
+// Frames: the two frames channels ("/horus/frames", "/horus/frames_static") are json channels
+// like any other, so they are subscribed to; their messages (one FrameTransform each) are decoded
+// for the frames table: each frame's parent, whether it is static, and its measured rate.
+//
 // Page parameters: ?token=T is passed on to the WebSocket URL (and to the viewer links);
 // ?topic=NAME&field=PATH select a topic and a plotted field at start; ?lichtblick=URL names the
 // Lichtblick web app to link to (it is self-hosted; by default http://localhost:8080/, where its
@@ -20,7 +24,8 @@
 // Stable hooks for tests (tests/view/test_view_page.py): #topics tr[data-topic][data-rate],
 // #nodes tr[data-node][data-health], #value[data-topic][data-count], #plot[data-points]
 // [data-field], #connection[data-state], #open-foxglove, #open-lichtblick,
-// #parameters tr[data-parameter][data-value] (its input and its "set" button), #parameter-node.
+// #parameters tr[data-parameter][data-value] (its input and its "set" button), #parameter-node,
+// #frames tr[data-frame][data-parent][data-static][data-rate].
 "use strict";
 
 const SUBPROTOCOL = "foxglove.websocket.v1";
@@ -35,6 +40,8 @@ const MAX_PLOTTED_ARRAY_INDEX = 16;
 const RECONNECT_MAX_MS = 5000;
 const RENDER_INTERVAL_MS = 100;
 const PARAMETER_LIST_INTERVAL_MS = 2000;
+const FRAMES_TOPIC = "/horus/frames";
+const STATIC_FRAMES_TOPIC = "/horus/frames_static";
 
 const params = new URLSearchParams(location.search);
 const token = params.get("token");
@@ -55,6 +62,8 @@ const elements = {
   parametersSection: document.getElementById("parameters-section"),
   parameters: document.querySelector("#parameters tbody"),
   parameterNode: document.getElementById("parameter-node"),
+  framesSection: document.getElementById("frames-section"),
+  frames: document.querySelector("#frames tbody"),
 };
 
 // Per connection: channels by id, subscriptions by id, the graph of nodes.
@@ -70,6 +79,8 @@ let parameters = new Map();
 let parametersOffered = false;
 let parameterUpdatesOffered = false;
 let nextParameterRequest = 1;
+// Frames by child name -> {parent, isStatic, pending, window, rate}, as their messages tell them.
+let frames = new Map();
 
 // What the user chose; it survives reconnections.
 let selectedTopic = params.get("topic");
@@ -144,6 +155,8 @@ function forgetConnection() {
   parameters = new Map();
   parametersOffered = false;
   parameterUpdatesOffered = false;
+  frames = new Map();
+  renderFrames();
 }
 
 function onJson(message) {
@@ -192,6 +205,11 @@ function onBinary(view) {
   const entry = channels.get(channelId);
   if (entry === undefined) return;  // a message of a subscription ended meanwhile
   entry.pending += 1;
+  const topic = entry.channel.topic;
+  if (topic === FRAMES_TOPIC || topic === STATIC_FRAMES_TOPIC) {
+    noteFrame(new Uint8Array(view.buffer, view.byteOffset + 13, view.byteLength - 13),
+              topic === STATIC_FRAMES_TOPIC);
+  }
   if (entry.channel.topic === selectedTopic) {
     const payload = new Uint8Array(view.buffer, view.byteOffset + 13, view.byteLength - 13);
     newest = {channelId, payload};
@@ -301,7 +319,57 @@ function tickRates() {
     entry.row.dataset.rate = rate.toFixed(1);
     entry.row.cells[3].textContent = rate >= 10 ? rate.toFixed(0) : rate.toFixed(1);
   }
+  for (const frame of frames.values()) {
+    frame.window.push(frame.pending);
+    frame.pending = 0;
+    if (frame.window.length > RATE_BUCKETS) frame.window.shift();
+    frame.rate = frame.window.reduce((sum, count) => sum + count, 0) /
+        (frame.window.length * RATE_BUCKET_MS / 1000);
+  }
   renderNodes();
+  renderFrames();
+}
+
+// One FrameTransform of a frames channel: its frame is listed, or its entry updated.
+function noteFrame(payload, isStatic) {
+  let transform;
+  try {
+    transform = JSON.parse(textDecoder.decode(payload));
+  } catch (error) {
+    return;
+  }
+  let frame = frames.get(transform.child_frame_id);
+  if (frame === undefined) {
+    frame = {pending: 0, window: [], rate: undefined};
+    frames.set(transform.child_frame_id, frame);
+  }
+  frame.parent = transform.parent_frame_id;
+  frame.isStatic = isStatic;
+  frame.pending += 1;
+}
+
+function renderFrames() {
+  elements.framesSection.hidden = frames.size === 0;
+  const rows = [];
+  for (const name of [...frames.keys()].sort()) {
+    const frame = frames.get(name);
+    const row = document.createElement("tr");
+    row.dataset.frame = name;
+    row.dataset.parent = frame.parent;
+    row.dataset.static = String(frame.isStatic);
+    // A static frame is sent once (and again when the static set changes): it has no rate.
+    const rate = frame.isStatic || frame.rate === undefined ? "—" :
+        frame.rate >= 10 ? frame.rate.toFixed(0) : frame.rate.toFixed(1);
+    if (!frame.isStatic && frame.rate !== undefined) row.dataset.rate = frame.rate.toFixed(1);
+    for (const text of [name, frame.parent, frame.isStatic ? "static" : "", rate]) {
+      const cell = document.createElement("td");
+      cell.textContent = text;
+      row.append(cell);
+    }
+    row.cells[3].className = "rate";
+    rows.push(row);
+  }
+  elements.frames.replaceChildren(...rows);
 }
 
 function updateGraph(update) {

@@ -23,10 +23,12 @@
 #include <tuple>
 
 #include "access.hpp"
+#include "frames_feed.hpp"
 #include "horus/bridge/frame_source.hpp"
 #include "horus/bridge/peer_policy.hpp"
 #include "horus/bridge/tls.hpp"
 #include "horus/error.hpp"
+#include "horus/frames.hpp"
 #include "horus/json_string.hpp"
 #include "horus/pool_frames.hpp"
 #include "horus/presence.hpp"
@@ -186,6 +188,18 @@ struct ChannelEntry {
   std::unique_ptr<TopicFeed> feed;
 };
 
+/// The namespace's frame tree, once it exists, as its two channels (frames_feed.hpp), and their
+/// feed while a client subscribes to either.
+struct FramesChannels {
+  explicit FramesChannels(const std::string& namespace_name)
+      : tree(FrameTreeOptions{.namespace_name = namespace_name}) {}
+
+  FrameTree tree;
+  Channel dynamic;
+  Channel statics;
+  std::unique_ptr<FramesFeed> feed;
+};
+
 /// A topic a client advertised to publish into.
 struct ClientChannel {
   std::string topic;
@@ -219,6 +233,9 @@ class Client final : private kj::TaskSet::ErrorHandler {
 
   std::uint64_t id() const noexcept { return id_; }
   const std::string& peer() const noexcept { return peer_; }
+  /// Whether the frames channels were advertised to this client (Server::advertise_frames()).
+  bool frames_advertised() const noexcept { return frames_advertised_; }
+  void set_frames_advertised() noexcept { frames_advertised_ = true; }
 
  private:
   /// One stderr line the first time this client is refused `what` ("publishing into") of
@@ -250,6 +267,7 @@ class Client final : private kj::TaskSet::ErrorHandler {
   const std::string address_;
   const std::string peer_;
   std::set<std::string> refusals_logged_;
+  bool frames_advertised_ = false;
   std::shared_ptr<Mailbox> mailbox_ = std::make_shared<Mailbox>();
   std::map<std::uint32_t, std::shared_ptr<Subscription>> subscriptions_;
   std::map<std::uint32_t, ClientChannel> client_channels_;
@@ -309,6 +327,10 @@ class Server final : private kj::TaskSet::ErrorHandler {
   void greet(Client& client);
   const ChannelEntry* channel(std::uint32_t id) const;
   const ChannelEntry* channel_of_topic(const std::string& topic) const;
+  /// The frames channel of `id` (none while the namespace has no frame tree).
+  const Channel* frames_channel(std::uint32_t id) const;
+  /// Which frames `client` may read: its policy's "@frames/CHILD" (empty: every frame).
+  std::function<bool(const std::string&)> frame_filter(const Client& client) const;
   /// Adds `subscription` to its channel's feed, started on the first; throws horus::Error when
   /// the topic cannot be opened.
   void subscribe(const std::shared_ptr<Subscription>& subscription);
@@ -327,6 +349,12 @@ class Server final : private kj::TaskSet::ErrorHandler {
   kj::Promise<void> discover_forever();
   /// Advertises the topics that came and unadvertises those that went.
   void discover();
+  /// Opens the namespace's frame tree once it exists.
+  void discover_frames();
+  /// Advertises the frames channels to each client not yet sent them that may read a frame of
+  /// the tree (without a policy, every client): a peer whose policy names no frame the tree
+  /// holds is not told the channels, as it is not told the topics it may not read.
+  void advertise_frames();
   /// The same for the services (`frame_topics`: the namespace's service frame topics by name).
   void discover_services(const std::map<std::string, TopicInfo>& frame_topics);
   kj::Promise<void> send_time_forever();
@@ -392,6 +420,10 @@ class Server final : private kj::TaskSet::ErrorHandler {
   std::uint32_t next_channel_id_ = 1;
   /// Topics no codec shows, by "name type", each said once.
   std::set<std::string> unviewable_;
+  /// Outlives the clients (http_'s), whose subscriptions its feed holds.
+  std::unique_ptr<FramesChannels> frames_;
+  /// Why the frame tree could not be opened, said once.
+  std::string frames_refused_;
   std::map<std::uint64_t, Client*> clients_;
   std::uint64_t next_client_id_ = 1;
   std::map<std::string, std::shared_ptr<ViewService>> services_;
@@ -520,13 +552,13 @@ kj::Promise<void> Client::write_loop() {
       if (it == subscriptions_.end()) it = subscriptions_.begin();
       Subscription& subscription = *it->second;
       from_threads = from_threads || subscription.fed_by_thread;
-      if (!subscription.pending) continue;
+      if (!subscription.has_pending()) continue;
       const auto due = subscription.last_sent + subscription.min_interval;
       if (due > now) {
         next_due = next_due ? std::min(*next_due, due) : due;
         continue;
       }
-      message = std::move(subscription.pending);
+      message = subscription.take_pending();
       ++subscription.sent;
       chosen = it->second;
       break;
@@ -635,14 +667,18 @@ void Client::subscribe(capnp::json::Value::Reader message) {
         throw ProtocolError("subscription id " + std::to_string(id) +
                             " is in use; unsubscribe it first");
       }
-      const ChannelEntry* channel = server_.channel(channel_id);
-      if (channel == nullptr) {
+      // A frames channel is subscribed to by every client it was advertised to; each transform
+      // then goes only to the clients that may read its frame.
+      const Channel* frames = server_.frames_channel(channel_id);
+      const ChannelEntry* topic = frames ? nullptr : server_.channel(channel_id);
+      if (frames == nullptr && topic == nullptr) {
         throw ProtocolError("subscription " + std::to_string(id) + ": no channel " +
                             std::to_string(channel_id) + " (never advertised, or gone)");
       }
-      if (!server_.allowed(*this, Access::Read, channel->channel.topic)) {
+      const Channel& channel = frames ? *frames : topic->channel;
+      if (frames ? !frames_advertised_ : !server_.allowed(*this, Access::Read, channel.topic)) {
         // The client was never told the channel's topic: the reply does not name it.
-        log_refusal("subscribing to", channel->channel.topic);
+        log_refusal("subscribing to", channel.topic);
         throw ProtocolError("subscription " + std::to_string(id) + ": channel " +
                             std::to_string(channel_id) + " is not one peer '" + peer_ +
                             "' may read");
@@ -656,14 +692,18 @@ void Client::subscribe(capnp::json::Value::Reader message) {
       }
       const auto interval =
           rate ? std::chrono::nanoseconds(std::llround(1e9 / *rate)) : std::chrono::nanoseconds(0);
-      auto subscription =
-          std::make_shared<Subscription>(id, channel_id, channel->channel.topic, mailbox_, interval,
-                                         server_.counters().messages_dropped);
+      auto subscription = std::make_shared<Subscription>(
+          id, channel_id, channel.topic, mailbox_, interval, server_.counters().messages_dropped);
+      if (frames) {
+        subscription->frames = std::make_unique<FrameSlots>();
+        subscription->frames->readable = server_.frame_filter(*this);
+        subscription->frames->is_static = channel.topic == kStaticFramesTopic;
+      }
       try {
         server_.subscribe(subscription);
       } catch (const std::exception& error) {
-        throw ProtocolError("subscription " + std::to_string(id) + " to '" +
-                            channel->channel.topic + "': " + error.what());
+        throw ProtocolError("subscription " + std::to_string(id) + " to '" + channel.topic +
+                            "': " + error.what());
       }
       subscriptions_.emplace(id, std::move(subscription));
       // The writer arms its wait for threads' wakes only while a thread feeds it: it looks again.
@@ -1111,6 +1151,7 @@ void Server::greet(Client& client) {
     if (allowed(client, Access::Read, topic)) visible.push_back(&entry.channel);
   }
   client.send(advertise(visible));
+  advertise_frames();
   std::vector<std::string> services;
   for (const auto& [name, service] : services_) {
     if (allowed(client, Access::Call, name)) services.push_back(service->advertisement());
@@ -1133,7 +1174,31 @@ const ChannelEntry* Server::channel_of_topic(const std::string& topic) const {
   return it == channels_.end() ? nullptr : &it->second;
 }
 
+const Channel* Server::frames_channel(std::uint32_t id) const {
+  if (!frames_) return nullptr;
+  if (id == frames_->dynamic.id) return &frames_->dynamic;
+  return id == frames_->statics.id ? &frames_->statics : nullptr;
+}
+
+std::function<bool(const std::string&)> Server::frame_filter(const Client& client) const {
+  if (!policy_) return {};
+  // The feed's thread asks after the client may have gone: the policy is the server's, which
+  // outlives the feed, and the peer a copy.
+  return [policy = &*policy_, peer = client.peer()](const std::string& child) {
+    return policy->allows(peer, Access::Read, frame_policy_name(child));
+  };
+}
+
 void Server::subscribe(const std::shared_ptr<Subscription>& subscription) {
+  if (subscription->frames) {
+    subscription->fed_by_thread = true;
+    if (frames_->feed) {
+      frames_->feed->add(subscription);
+    } else {
+      frames_->feed = std::make_unique<FramesFeed>(frames_->tree, options_.clock, subscription);
+    }
+    return;
+  }
   ChannelEntry& entry = channels_.at(subscription->topic);
   if (!entry.feed) {
     auto source = std::make_unique<bridge::FrameSource>(
@@ -1147,6 +1212,12 @@ void Server::subscribe(const std::shared_ptr<Subscription>& subscription) {
 }
 
 void Server::unsubscribe(const Subscription& subscription) {
+  if (subscription.frames) {
+    if (!frames_ || !frames_->feed) return;
+    frames_->feed->remove(&subscription);
+    if (frames_->feed->unsubscribed()) frames_->feed.reset();
+    return;
+  }
   const auto it = channels_.find(subscription.topic);
   if (it == channels_.end() || !it->second.feed) return;
   it->second.feed->remove(&subscription);
@@ -1287,6 +1358,8 @@ kj::Promise<void> Server::send_parameter_updates_forever() {
 
 void Server::discover() {
   parameters_.discover();
+  discover_frames();
+  advertise_frames();
   std::vector<TopicInfo> topics = list_topics(namespace_);
   std::map<std::string, TopicInfo> frame_topics;
   std::set<std::string> present;
@@ -1362,6 +1435,42 @@ void Server::discover() {
       if (allowed(*client, Access::Read, channel->topic)) visible.push_back(channel);
     }
     if (!visible.empty()) client->send(advertise(visible));
+  }
+}
+
+void Server::discover_frames() {
+  if (frames_ || !frame_tree_exists(namespace_)) return;
+  try {
+    frames_ = std::make_unique<FramesChannels>(namespace_);
+  } catch (const FrameError& error) {
+    if (frames_refused_ != error.what()) {
+      frames_refused_ = error.what();
+      std::fprintf(stderr, "horus-view: the frames are not shown: %s\n", error.what());
+    }
+    return;
+  }
+  frames_->dynamic =
+      Channel{next_channel_id_++, std::string(kFramesTopic), frame_transform_schema()};
+  frames_->statics =
+      Channel{next_channel_id_++, std::string(kStaticFramesTopic), frame_transform_schema()};
+}
+
+void Server::advertise_frames() {
+  if (!frames_) return;
+  // Read once per look, and only while a client with a policy waits for a frame it may read.
+  std::optional<std::vector<FrameInfo>> held;
+  for (const auto& [id, client] : clients_) {
+    if (client->frames_advertised()) continue;
+    if (policy_) {
+      if (!held) held = frames_->tree.frames(false);
+      const bool reads_one = std::any_of(held->begin(), held->end(), [&](const FrameInfo& frame) {
+        return !frame.parent.empty() &&
+               allowed(*client, Access::Read, frame_policy_name(frame.name));
+      });
+      if (!reads_one) continue;
+    }
+    client->send(advertise({&frames_->dynamic, &frames_->statics}));
+    client->set_frames_advertised();
   }
 }
 

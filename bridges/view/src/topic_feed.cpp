@@ -69,6 +69,38 @@ void Subscription::offer(std::shared_ptr<const EncodedMessage> message, std::uin
   }
 }
 
+void Subscription::offer_frame(const std::string& child,
+                               std::shared_ptr<const EncodedMessage> message) {
+  bool replaced = false;
+  {
+    const std::lock_guard lock(mailbox->mutex());
+    auto& slot = frames->pending[child];
+    replaced = slot != nullptr && !frames->is_static;
+    slot = std::move(message);
+    if (replaced) ++dropped;
+  }
+  if (replaced) total_dropped.fetch_add(1, std::memory_order_relaxed);
+  if (fed_by_thread) {
+    mailbox->wake();
+  } else {
+    mailbox->wake_here();
+  }
+}
+
+bool Subscription::has_pending() const noexcept {
+  return frames ? !frames->pending.empty() : pending != nullptr;
+}
+
+std::shared_ptr<const EncodedMessage> Subscription::take_pending() {
+  if (!frames) return std::move(pending);
+  auto next = frames->pending.upper_bound(frames->last_sent);
+  if (next == frames->pending.end()) next = frames->pending.begin();
+  frames->last_sent = next->first;
+  auto message = std::move(next->second);
+  frames->pending.erase(next);
+  return message;
+}
+
 TopicFeed::TopicFeed(std::unique_ptr<bridge::FrameSource> source,
                      std::unique_ptr<MessageCodec> codec, const std::string& topic, ViewClock clock,
                      kj::UnixEventPort& event_port)

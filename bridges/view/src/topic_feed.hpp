@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -73,8 +74,25 @@ class Mailbox {
   kj::Own<kj::PromiseFulfiller<void>> waiting_here_;
 };
 
-/// A client's subscription to a channel: at most one message waits in it; a newer one replaces
-/// it (counted as dropped).
+/// What a subscription to a frames channel ("/horus/frames", "/horus/frames_static",
+/// frames_feed.hpp) holds besides a topic's: its messages are one transform each, so it keeps the
+/// newest message of each frame rather than one in all (a dropped update of a frame is fine, a
+/// frame that never arrives is not).
+struct FrameSlots {
+  /// Whether the client may read a child frame (its policy's "@frames/CHILD"); empty: every
+  /// frame. Asked on the feed's thread and, for a new subscription, on the event loop.
+  std::function<bool(const std::string& child)> readable;
+  /// The static channel's: a message replaced by a newer one of its frame is not counted as
+  /// dropped (the static set is sent whole again, nothing of it is lost).
+  bool is_static = false;
+  // Under the mailbox's mutex: the message waiting for each frame, and the frame sent last (the
+  // next one after it goes first, so that a fast frame never starves a slow one).
+  std::map<std::string, std::shared_ptr<const EncodedMessage>> pending;
+  std::string last_sent;
+};
+
+/// A client's subscription to a channel: at most one message waits in it (one per frame for a
+/// frames channel); a newer one replaces it (counted as dropped).
 struct Subscription {
   Subscription(std::uint32_t subscription_id, std::uint32_t channel_id, std::string topic_name,
                std::shared_ptr<Mailbox> client_mailbox, std::chrono::nanoseconds interval,
@@ -90,6 +108,11 @@ struct Subscription {
   /// read and the one it replaces as dropped, and wakes the client. A null message (one the codec
   /// refused) only counts `lost`.
   void offer(std::shared_ptr<const EncodedMessage> message, std::uint64_t lost);
+  /// A frames channel's offer of `child`'s newest transform (`frames` is set).
+  void offer_frame(const std::string& child, std::shared_ptr<const EncodedMessage> message);
+  /// Under mailbox->mutex(): whether a message waits, and the next one to send (taken out).
+  bool has_pending() const noexcept;
+  std::shared_ptr<const EncodedMessage> take_pending();
 
   const std::uint32_t id;
   const std::uint32_t channel;
@@ -101,6 +124,8 @@ struct Subscription {
   std::atomic<std::uint64_t>& total_dropped;
   /// Set before the feed is given the subscription: its offers come from a thread.
   bool fed_by_thread = false;
+  /// Set for a frames channel's subscription, before the feed is given it.
+  std::unique_ptr<FrameSlots> frames;
 
   // Under mailbox->mutex():
   std::shared_ptr<const EncodedMessage> pending;

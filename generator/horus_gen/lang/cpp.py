@@ -7,7 +7,7 @@ import struct
 
 from .. import description, identity
 from ..data import DataPaths
-from ..model import (PRIMITIVES, Bytes, DynString, Enum, EnumRef, EnumValue, FailurePolicy, Field, FixedArray,
+from ..model import (PRIMITIVES, Action, Bytes, DynString, Enum, EnumRef, EnumValue, FailurePolicy, Field, FixedArray,
                      FixedString, Message, MessageRef, Model, Node, NodeParam, Optional, Primitive, Service, SummaryExpr,
                      SummaryPart, Type, Vec)
 from ..names import snake_case
@@ -457,13 +457,15 @@ FILTERS = {
 def emit(model: Model, data: DataPaths) -> dict[str, str]:
     env = environment(data, "cpp", FILTERS)
     files: dict[str, str] = {}
-    by_package: dict[str, list[Message | Enum | Service | Node]] = {}
+    by_package: dict[str, list[Message | Enum | Service | Action | Node]] = {}
     for item in model.generated_items():
         path = header_path(item.qualified)
         if isinstance(item, Node):
             template, context = "node.hpp.j2", {"node": item, "model": model}
         elif isinstance(item, Service):
             template, context = "service.hpp.j2", {"service": item}
+        elif isinstance(item, Action):
+            template, context = "action.hpp.j2", {"action": item}
         elif isinstance(item, Enum):
             template, context = "enum.hpp.j2", {"enum": item,
                                                 "description": description.carried_bytes(model, item.qualified)}

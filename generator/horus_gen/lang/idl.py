@@ -3,6 +3,9 @@ a ROS 2 node) with a matching type reads and writes what the HORUS DDS bridge se
 
 One `<Name>.idl` per message and enum, and one `<Service>.idl` per service (its request and response
 as `<Service>_Request_` and `<Service>_Response_`, as ROS 2 names them) under `idl/<package path>/`;
+an action `A` adds `<snake A>_action.idl`, ROS 2's shapes of an action (`A_Goal_`, `A_SendGoal_Request_`
+... `A_FeedbackMessage_`), whose goal ids and stamps are ROS 2's own types (unique_identifier_msgs'
+UUID, builtin_interfaces' Time: their IDL is the DDS bridge's, bridges/dds/ros2_idl);
 `idl/` is the include root (`-I`) of their `#include "<package path>/<Name>.idl"`. A package
 `a.b` is `module a { module b { module dds_ { ... }; }; };` and a message `Name` its struct `Name_`
 (ROS 2's DDS type names: `a::b::dds_::Name_`). Constants, with the type's HORUS name and fingerprint,
@@ -25,8 +28,9 @@ import re
 from dataclasses import dataclass
 
 from ..data import DataPaths
-from ..model import (Bytes, DynString, Enum, EnumRef, EnumValue, FixedArray, FixedString, Message,
+from ..model import (Action, Bytes, DynString, Enum, EnumRef, EnumValue, FixedArray, FixedString, Message,
                      MessageRef, Model, Optional, Primitive, Service, Type, Vec)
+from ..names import snake_case
 from .common import banner, environment
 
 DISPLAY_NAME = "OMG IDL"
@@ -236,8 +240,9 @@ def _fingerprint(value: int) -> str:
     return f"0x{value:016x}"
 
 
-def struct_of(model: Model, message: Message) -> Struct:
-    base = declared_name(model, message.qualified)
+def struct_of(model: Model, message: Message, base: str | None = None) -> Struct:
+    """The message as IDL, its struct named `<base>_` (default: its ROS 2 name, declared_name())."""
+    base = base or declared_name(model, message.qualified)
     name = identifier(base + "_")
     constants_module = identifier(base + "_Constants")
     header = [Const("uint64", "HORUS_FINGERPRINT", _fingerprint(message.fingerprint), ""),
@@ -285,6 +290,36 @@ def includes(model: Model, own_file: str, uses: list[str]) -> list[str]:
     return [f for f in dict.fromkeys(files) if f != own_file]
 
 
+# ROS 2's types in an action's messages: the goal id and the time a goal was accepted.
+ROS_UUID = "::unique_identifier_msgs::msg::dds_::UUID_"
+ROS_TIME = "::builtin_interfaces::msg::dds_::Time_"
+ROS_ACTION_INCLUDES = ["builtin_interfaces/msg/Time.idl", "unique_identifier_msgs/msg/UUID.idl"]
+
+
+def action_file(action: Action) -> str:
+    """The IDL file of an action's ROS 2 shapes, relative to the include root `idl/`."""
+    return "/".join([*action.package.split("."), f"{snake_case(action.name)}_action.idl"])
+
+
+def action_structs(model: Model, action: Action) -> tuple[list[Struct], list[tuple[str, list[tuple[str, str]]]]]:
+    """ROS 2's shapes of an action: its goal, result and feedback as `A_Goal_`, `A_Result_`,
+    `A_Feedback_` (Structs), and the messages around them as (struct name, [(type spec, member)]):
+    `A_SendGoal_Request_`, `A_SendGoal_Response_`, `A_GetResult_Request_`, `A_GetResult_Response_`,
+    `A_FeedbackMessage_`. Canceling and states are action_msgs' CancelGoal and GoalStatusArray."""
+    a = action.name
+    blocks = [struct_of(model, m, f"{a}_{role}") for role, m in
+              (("Goal", action.goal), ("Result", action.result), ("Feedback", action.feedback))]
+    own = ["::" + "::".join([*modules(action.package), b.name]) for b in blocks]
+    wrappers = [
+        (identifier(f"{a}_SendGoal_Request_"), [(ROS_UUID, "goal_id"), (own[0], "goal")]),
+        (identifier(f"{a}_SendGoal_Response_"), [("boolean", "accepted"), (ROS_TIME, "stamp")]),
+        (identifier(f"{a}_GetResult_Request_"), [(ROS_UUID, "goal_id")]),
+        (identifier(f"{a}_GetResult_Response_"), [("int8", "status"), (own[1], "result")]),
+        (identifier(f"{a}_FeedbackMessage_"), [(ROS_UUID, "goal_id"), (own[2], "feedback")]),
+    ]
+    return blocks, wrappers
+
+
 def guard(path: str) -> str:
     return "HORUS_IDL_" + re.sub(r"[^A-Za-z0-9]", "_", path).upper() + "_"
 
@@ -328,6 +363,15 @@ def emit(model: Model, data: DataPaths) -> dict[str, str]:
             text = env.get_template("message.idl.j2").render(
                 banner=banner("//", [item.source]), guard=guard(path), includes=includes(model, path, list(item.uses)),
                 modules=modules(item.package), struct=struct_of(model, item))
+        elif isinstance(item, Action):
+            path = action_file(item)
+            blocks, wrappers = action_structs(model, item)
+            uses = [*item.goal.uses, *item.result.uses, *item.feedback.uses]
+            text = env.get_template("action.idl.j2").render(
+                action=item, banner=banner("//", [item.source]), guard=guard(path),
+                includes=ROS_ACTION_INCLUDES + includes(model, path, uses), modules=modules(item.package),
+                structs=blocks, wrappers=wrappers, constants_module=identifier(item.name + "_Constants"),
+                comment=_comment(item.docs))
         else:
             continue  # nodes have no IDL: their topics carry messages
         files[os.path.join("idl", *path.split("/"))] = text

@@ -13,7 +13,7 @@ import json
 import os
 
 from ..data import DataPaths
-from ..model import (DynString, Enum, EnumRef, FixedArray, FixedString, Message, MessageRef,
+from ..model import (Action, DynString, Enum, EnumRef, FixedArray, FixedString, Message, MessageRef,
                      Model, Node, Optional, Primitive, Service, Type, Vec)
 from .common import environment
 from .python import _is_bytes  # bytes and Vec<u8> are one thing on the wire, bytes in Python
@@ -100,8 +100,8 @@ def emit(model: Model, data: DataPaths) -> dict[str, str]:
     env = environment(data, "jsonschema", FILTERS)
     files: dict[str, str] = {}
     for item in model.generated_items():
-        if isinstance(item, Node):
-            continue  # a node is no value any file or recording holds: it has no schema
+        if isinstance(item, (Node, Action)):
+            continue  # no value any file or recording holds: an action's messages have their own
         messages = [item.request, item.response] if isinstance(item, Service) else [item]
         for declared in messages:
             if isinstance(declared, Enum):

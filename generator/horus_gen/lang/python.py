@@ -14,7 +14,7 @@ import struct
 
 from .. import description
 from ..data import DataPaths
-from ..model import (Bytes, DynString, Enum, EnumRef, EnumValue, Field, FixedArray, FixedString, Message,
+from ..model import (Action, Bytes, DynString, Enum, EnumRef, EnumValue, Field, FixedArray, FixedString, Message,
                      MessageRef, Model, Node, NodeParam, Optional, Primitive, Service, SummaryExpr, SummaryPart,
                      Type, Vec)
 from ..names import snake_case
@@ -498,6 +498,11 @@ def emit(model: Model, data: DataPaths) -> dict[str, str]:
         elif isinstance(item, Service):
             names = Names(item.package, item.name, [item.request.qualified, item.response.qualified])
             text = env.get_template("service.py.j2").render(service=item, names=names, **common)
+        elif isinstance(item, Action):
+            members = [item.goal, item.result, item.feedback, *item.services, item.feedback_message, item.status,
+                       item.result_message]
+            names = Names(item.package, item.name, [m.qualified for m in members])
+            text = env.get_template("action.py.j2").render(action=item, names=names, **common)
         elif isinstance(item, Enum):
             text = env.get_template("enum.py.j2").render(
                 enum=item, description=description.carried_bytes(model, item.qualified), **common)

@@ -211,6 +211,16 @@ struct FrameInfo {
   std::uint64_t updates = 0;
 };
 
+/// What FrameTree::history_since() gives.
+struct FrameUpdates {
+  std::vector<StampedTransform> entries;
+  /// Of the updates asked for, those the history no longer held (overwritten, or older than the
+  /// tree's history duration).
+  std::uint64_t lost = 0;
+  /// The update number to ask from next time.
+  std::uint64_t next = 0;
+};
+
 /// One namespace's frame tree. Lookups are lock-free and safe from any thread; writes from one
 /// thread per child frame. Opening creates the tree when missing.
 class FrameTree {
@@ -256,10 +266,15 @@ class FrameTree {
                 std::optional<std::chrono::nanoseconds> time,
                 std::chrono::nanoseconds timeout) const;
 
-  /// Every frame, in the order they were first named.
-  std::vector<FrameInfo> frames() const;
+  /// Every frame, in the order they were first named. Without `with_programs`, authority_alive
+  /// and authority_program are left unset and no /proc file is read: for loops that follow the
+  /// tree at its writers' rate.
+  std::vector<FrameInfo> frames(bool with_programs = true) const;
   /// A frame's answerable history, oldest first (one entry for a static frame).
   std::vector<StampedTransform> history(std::string_view frame) const;
+  /// The entries written to `frame` from its update number `since` on (FrameInfo::updates counts
+  /// them; the first is 0), oldest first, as far as its history still holds them.
+  FrameUpdates history_since(std::string_view frame, std::uint64_t since) const;
   /// Counts every write to the tree (wraps at 2^32): what tools wait on.
   std::uint32_t change_count() const noexcept;
   /// Sleeps while change_count() == `seen`, at most `timeout`; returns the count then.

@@ -2,6 +2,7 @@
 // Message types come from their generated headers (e.g. <horus/msg/cmd_vel.hpp>).
 #pragma once
 
+#include "horus/action.hpp"
 #include "horus/clock.hpp"
 #include "horus/codec.hpp"
 #include "horus/error.hpp"

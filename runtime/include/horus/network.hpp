@@ -1,5 +1,6 @@
-// horus::Network: topics and services across hosts over Cyclone DDS from a scheduler, as
-// `horus bridge` carries them (docs/dds-bridge.md); the C++ twin of Python's horus.Network.
+// horus::Network: topics, services and coordinate frames across hosts over Cyclone DDS from a
+// scheduler, as `horus bridge` carries them (docs/dds-bridge.md); the C++ twin of Python's
+// horus.Network.
 //
 //   horus::Scheduler sched{horus::SchedulerConfig{}.network(
 //       {.export_ = {"cmd_*", "odom"}, .import_ = {"map"}, .domain = 7})};
@@ -40,6 +41,10 @@ struct Network {
   /// Import from DDS writers that announce no XTypes type information (ROS 2 nodes), whose type
   /// DDS cannot check; else they are refused.
   bool accept_untyped_writers = false;
+  /// Child frames of the namespace's frame tree written to DDS as ROS 2's /tf and /tf_static
+  /// (tf2_msgs/msg/TFMessage), and those read from there into the tree (globs on child names).
+  std::vector<std::string> export_frames{};
+  std::vector<std::string> import_frames{};
 };
 
 namespace detail {

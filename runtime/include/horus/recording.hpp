@@ -19,10 +19,20 @@
 #include <string_view>
 #include <vector>
 
+#include "horus/frames.hpp"
+
 namespace horus {
 
 /// The channel that carries parameter changes in a recording (JSON, docs/recording.md).
 inline constexpr std::string_view kParamsChannel = "/horus/params";
+/// The channels that carry the namespace's frame tree in a recording, one Foxglove
+/// FrameTransform record a message (horus/transform_feed.hpp): each new dynamic entry, and the
+/// whole static set each time it changed.
+inline constexpr std::string_view kFramesChannel = "/horus/frames";
+inline constexpr std::string_view kStaticFramesChannel = "/horus/frames_static";
+/// The metadata record, written as a recording ends, naming each recorded frame's authority:
+/// "authority.<child>" = its pid (a deterministic replay compares it with "horus.session"'s).
+inline constexpr std::string_view kFramesMetadata = "horus.frames";
 
 /// One parameter change as a recording holds it, or a node's starting value.
 struct RecordedParamChange {
@@ -67,6 +77,9 @@ struct RecorderOptions {
   bool all_topics = false;
   /// Empty: HORUS_NAMESPACE, or "default".
   std::string namespace_name;
+  /// The namespace's frame tree too (from when it exists), on kFramesChannel and
+  /// kStaticFramesChannel; all_topics records it whatever this says.
+  bool frames = false;
 };
 
 /// What a recording holds (so far, or once stopped).
@@ -188,5 +201,18 @@ class RecordingReader {
 /// The parameter changes and starting values a recording holds on "/horus/params", in file
 /// order; throws horus::Error naming the file's channel when a record is malformed.
 std::vector<RecordedParamChange> recorded_param_changes(const RecordingReader& recording);
+
+/// One transform a recording holds on kFramesChannel or kStaticFramesChannel.
+struct RecordedFrameChange {
+  /// With the stamp it had in the tree (a static transform's as its tree gave it).
+  StampedTransform transform;
+  bool is_static = false;
+  /// When the recorder took it (CLOCK_REALTIME ns): when a timed replay sets it again.
+  std::uint64_t log_time = 0;
+};
+
+/// The transforms a recording holds on its two frame channels, in file order; throws
+/// horus::Error naming the channel when a record is not a FrameTransform.
+std::vector<RecordedFrameChange> recorded_frame_changes(const RecordingReader& recording);
 
 }  // namespace horus

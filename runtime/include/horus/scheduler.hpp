@@ -201,7 +201,9 @@ class SchedulerConfig {
   /// A YAML parameter file (docs/parameters.md: `node: {name: value}`) whose values each node of
   /// this scheduler starts with, applied after its defaults and before init(). A malformed file,
   /// an unknown node or parameter, or a value outside its declaration stops the start with
-  /// horus::ParamError saying `FILE:LINE: reason` (every error of the file).
+  /// horus::ParamError saying `FILE:LINE: reason` (every error of the file). Without one, the
+  /// file named by the environment variable HORUS_PARAMS_FILE is used (`horus launch` sets it
+  /// for a process whose entry gives `params:`).
   SchedulerConfig& params(std::filesystem::path file) {
     params_ = std::move(file);
     return *this;

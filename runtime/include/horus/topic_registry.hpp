@@ -88,30 +88,32 @@ TopicTraffic topic_traffic(std::string_view topic, std::uint64_t since,
 /// A namespace's shared-memory object other than a topic segment: its log ring ("@logs", what
 /// `horus log` reads) or its presence folder ("@presence", what `horus node list` reads).
 struct NamespaceObjectInfo {
-  /// "@logs", "@presence" or "@params" (one node's parameter store).
+  /// "@logs", "@presence", "@params" (one node's parameter store) or "@frames" (the tree).
   std::string kind;
   std::string path;
-  /// Bytes: the ring's or the store's file size, or the total of the folder's announcements.
+  /// Bytes: the ring's or the store's file size, the total of the folder's announcements, or
+  /// the memory the frame tree holds (its file is sparse).
   std::size_t size = 0;
-  /// Whether a live process writes the ring, a live Scheduler announces in the folder, or the
-  /// store's node runs.
+  /// Whether a live process writes the ring, a live Scheduler announces in the folder, the
+  /// store's node runs, or a process has the frame tree open.
   bool in_use = false;
 };
 
-/// The namespace's log ring, presence folder and parameter stores, those that exist, in that
-/// order.
+/// The namespace's log ring, presence folder, parameter stores and frame tree, those that exist,
+/// in that order.
 std::vector<NamespaceObjectInfo> list_namespace_objects(std::string_view namespace_name = {});
 
 /// Unlinks the segments of a namespace whose every user process has died (they would otherwise
 /// be re-used by the next opener); returns how many. Segments in use are left alone. The
 /// namespace's log ring goes too once no live process writes it (its lines with it), and its
 /// presence folder once it is empty (clean_presence() empties it) and no live Scheduler uses it,
-/// and each parameter store whose node no longer runs (its values with it).
+/// each parameter store whose node no longer runs (its values with it), and the frame tree once
+/// no process has it open (its static frames with it).
 std::size_t clean_namespace(std::string_view namespace_name = {});
 
-/// Unlinks every segment of a namespace and its folder, its log ring and its presence folder, in
-/// use or not (tests, `horus clean -f`). Handles still open keep working on the unlinked memory
-/// but no longer meet new ones.
+/// Unlinks every segment of a namespace and its folder, its log ring, its presence folder, its
+/// parameter stores and its frame tree, in use or not (tests, `horus clean -f`). Handles still open
+/// keep working on the unlinked memory but no longer meet new ones.
 void remove_namespace(std::string_view namespace_name);
 
 /// Unlinks the topic segments this process created that no live process has open any more, what

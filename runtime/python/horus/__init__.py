@@ -27,6 +27,9 @@ def _check_dependencies() -> None:
 
 _check_dependencies()
 
+from ._action import (  # noqa: E402
+    ActionClient, ActionServer, ActionServerStats, CancelCode, GoalHandle, GoalId, GoalResult,
+    GoalState, ServerGoal)
 from ._core import HorusError  # noqa: E402
 from ._core import budget_remaining, dt, elapsed, now, rng_float, tick, timestamp_now  # noqa: E402
 from ._frames import (  # noqa: E402
@@ -54,6 +57,8 @@ us = 1e-6  # microseconds -> seconds: budget=300 * us
 ms = 1e-3  # milliseconds -> seconds: deadline=5 * ms
 
 __all__ = [
+    "ActionClient", "ActionServer", "ActionServerStats", "CancelCode", "GoalHandle", "GoalId",
+    "GoalResult", "GoalState", "ServerGoal",
     "HorusError", "Network", "Node", "NoServerError", "Param", "ParamChange", "ParamError",
     "ParamInfo", "Params", "ParamSetResult", "ParamValues", "ParamVerdict", "Scheduler", "ServiceClient", "ServiceError",
     "ServiceFailed", "ServiceServer", "ServiceTimeout", "Topic", "TransportError", "PlainValue",

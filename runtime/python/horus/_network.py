@@ -1,8 +1,9 @@
 """horus.Network: topics across hosts from inside a scheduler's process (docs/dds-bridge.md).
 
-The C++ DDS bridge (horus._core.dds.DdsBridge, bridges/dds/) carries the topics, services and
-ROS 2 twins on threads of its own; serve() is its run, here on a thread of this process for the
-scheduler's lifetime, and in `horus bridge` (which runs it on its main thread).
+The C++ DDS bridge (horus._core.dds.DdsBridge, bridges/dds/) carries the topics, services, ROS 2
+twins and coordinate frames (as ROS 2's /tf and /tf_static) on threads of its own; serve() is its
+run, here on a thread of this process for the scheduler's lifetime, and in `horus bridge` (which
+runs it on its main thread).
 """
 from __future__ import annotations
 
@@ -27,9 +28,9 @@ def _type_description(type_name: str) -> bytes | None:
     return meta.description
 
 
-def _patterns(value, what: str) -> list[str]:
+def _patterns(value, what: str, names: str = "topic name") -> list[str]:
     if isinstance(value, str) or not all(isinstance(item, str) for item in value):
-        raise TypeError(f"{what} takes a list of topic name patterns, got {value!r}")
+        raise TypeError(f"{what} takes a list of {names} patterns, got {value!r}")
     return list(value)
 
 
@@ -42,21 +43,29 @@ class Network:
     export_services and import_services (service name patterns), service_timeout (seconds an
     exported service's server has to answer), ros2_types (patterns of topics that cross as their
     standard type's ROS 2 twin, --ros2-types), accept_untyped_writers (import from DDS writers
-    that announce no type information, --accept-untyped-writers).
+    that announce no type information, --accept-untyped-writers), export_frames and
+    import_frames (patterns of child frames of the namespace's frame tree written to and read
+    from DDS as ROS 2's /tf and /tf_static, --export-frames, --import-frames).
     """
 
     def __init__(self, export=(), import_=(), domain: int = 0, reliable: bool = True,
                  depth: int = 100, transient_local=(), deadlines: dict | None = None,
                  export_services=(), import_services=(), service_timeout: float = 10.0,
-                 ros2_types=(), accept_untyped_writers: bool = False) -> None:
+                 ros2_types=(), accept_untyped_writers: bool = False, export_frames=(),
+                 import_frames=()) -> None:
         self.export = _patterns(export, "export")
         self.import_ = _patterns(import_, "import_")
         self.export_services = _patterns(export_services, "export_services")
         self.import_services = _patterns(import_services, "import_services")
         self.transient_local = _patterns(transient_local, "transient_local")
         self.ros2_types = _patterns(ros2_types, "ros2_types")
-        if not (self.export or self.import_ or self.export_services or self.import_services):
-            raise ValueError("a Network carries nothing: give export and/or import_ patterns")
+        self.export_frames = _patterns(export_frames, "export_frames", "child frame")
+        self.import_frames = _patterns(import_frames, "import_frames", "child frame")
+        if not (self.export or self.import_ or self.export_services or self.import_services
+                or self.export_frames or self.import_frames):
+            raise ValueError("a Network carries nothing: give export and/or import_ patterns "
+                             "(or export_services, import_services, export_frames, "
+                             "import_frames)")
         if isinstance(domain, bool) or not isinstance(domain, int) or not 0 <= domain <= 232:
             raise ValueError(f"domain must be a DDS domain id (0..232), got {domain!r}")
         if isinstance(depth, bool) or not isinstance(depth, int) or depth < 1:
@@ -92,14 +101,18 @@ class Network:
         sys.stdout.write(f"bridge on DDS domain {self.domain}: exporting "
                          f"{self.export or 'nothing'}, importing {self.import_ or 'nothing'}; "
                          f"services: exporting {self.export_services or 'nothing'}, importing "
-                         f"{self.import_services or 'nothing'}\n")
+                         f"{self.import_services or 'nothing'}"
+                         + (f"; frames: exporting {self.export_frames or 'nothing'}, importing "
+                            f"{self.import_frames or 'nothing'}"
+                            if self.export_frames or self.import_frames else "") + "\n")
         sys.stdout.flush()
         bridge = _dds.DdsBridge(
             namespace, self.export, self.import_, self.domain, self.reliable, self.depth,
             self.transient_local, list(self.deadlines.items()), self.accept_untyped_writers,
             self.ros2_types, export_services=self.export_services,
             import_services=self.import_services, service_timeout=self.service_timeout,
-            find_type=_type_description)
+            find_type=_type_description, export_frames=self.export_frames,
+            import_frames=self.import_frames)
         try:
             while not stop.is_set() and bridge.broken is None:
                 stop.wait(RESCAN_S)

@@ -28,7 +28,9 @@ class Scheduler:
     the program's (the script's file name without .py), so two programs' log lines differ.
     `params` (a YAML parameter file, `node: {name: value}`) sets the nodes' parameters as each
     starts, before init(); a malformed file, an unknown node or parameter, or a value outside its
-    declaration stops the start with FILE:LINE and the reason (docs/parameters.md).
+    declaration stops the start with FILE:LINE and the reason (docs/parameters.md). Without
+    `params`, the file named by the environment variable HORUS_PARAMS_FILE is used (`horus
+    launch` sets it for a process whose entry gives `params:`).
 
     Like a C++ scheduler, it leaves nothing in shared memory: when run() returns, when the `with`
     block ends, and when it is dropped (at the latest as the interpreter exits), its nodes'

@@ -17,7 +17,9 @@ the schema), with every integer that can pass 2^53 (u64, i64) written as a strin
 digits and its schema saying so: JavaScript, Foxglove's language, reads a JSON number as a double
 and rounds those. The node-tick channel is copied with the same rule (its integers are unbounded:
 all become strings). HORUS types without a frame name take the topic's name as frame (a transform:
-parent "world", child the topic).
+parent "world", child the topic). The namespace's frame tree, which recordings hold on
+/horus/frames and /horus/frames_static as foxglove.FrameTransform records already, is copied as
+it is under Foxglove's schema: its 3D panel places every frame from them.
 """
 from __future__ import annotations
 
@@ -27,6 +29,13 @@ import math
 
 from . import mcap
 from .mcap import MSGPACK_ENCODING, POD_ENCODING, POOL_ENCODING, TICKS_TOPIC
+
+# The frame tree's channels in a recording (horus/recording.hpp): each message one
+# foxglove.FrameTransform JSON record, dynamic entries and the static set.
+FRAMES_TOPIC = "/horus/frames"
+FRAMES_STATIC_TOPIC = "/horus/frames_static"
+FRAME_TOPICS = (FRAMES_TOPIC, FRAMES_STATIC_TOPIC)
+FRAME_TRANSFORM = "foxglove.FrameTransform"
 
 
 # ImageEncoding names -> Foxglove's RawImage encodings (those it draws).
@@ -408,6 +417,18 @@ class _ExportChannel:
                 schema_ids[key] = writer.add_schema(schema.name, schema.encoding, json.dumps(
                     wide_integers_as_strings(tick_schema), sort_keys=True).encode())
             self.id = writer.add_channel(channel.topic, "json", schema_ids[key], channel.metadata)
+            return
+        if channel.topic in FRAME_TOPICS and channel.message_encoding == "json" \
+                and schema is not None and schema.name == FRAME_TRANSFORM:
+            # Foxglove's records already: copied, under the schema a TransformStamped topic's
+            # transforms share.
+            if FRAME_TRANSFORM not in schema_ids:
+                schema_ids[FRAME_TRANSFORM] = writer.add_schema(
+                    FRAME_TRANSFORM, "jsonschema",
+                    json.dumps(FOXGLOVE_SCHEMAS[FRAME_TRANSFORM], sort_keys=True).encode())
+            self.schema = FOXGLOVE_SCHEMAS[FRAME_TRANSFORM]
+            self.id = writer.add_channel(channel.topic, "json", schema_ids[FRAME_TRANSFORM],
+                                         channel.metadata)
             return
         if channel.message_encoding not in (POD_ENCODING, MSGPACK_ENCODING, POOL_ENCODING):
             # Readable as it is: copied with its own schema.

@@ -34,9 +34,31 @@ Transform inverse(const Transform& t) noexcept {
 
 namespace {
 
-Quaternion normalized(const Quaternion& q) noexcept {
-  const double norm = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
-  return {q.x / norm, q.y / norm, q.z / norm, q.w / norm};
+/// Where interpolate() takes the series: tan(angle / 2) below it, so the quaternions' angle is
+/// below 0.1 (their rotations below 0.2 rad apart).
+constexpr double kSeriesLimit = 0.05;
+
+/// atan(z) for 0 <= z < kSeriesLimit: the terms left out are below 1e-18 of it. Coefficients,
+/// not divisions, so that the chain is multiplications only.
+double small_atan(double z) noexcept {
+  constexpr double c3 = -1.0 / 3, c5 = 1.0 / 5, c7 = -1.0 / 7, c9 = 1.0 / 9, c11 = -1.0 / 11,
+                   c13 = 1.0 / 13;
+  const double z2 = z * z;
+  return z * (1 + z2 * (c3 + z2 * (c5 + z2 * (c7 + z2 * (c9 + z2 * (c11 + z2 * c13))))));
+}
+
+/// sin(x) and cos(x) for |x| < 0.1: the terms left out are below 1e-22.
+double small_sin(double x) noexcept {
+  constexpr double c3 = -1.0 / 6, c5 = 1.0 / 120, c7 = -1.0 / 5040, c9 = 1.0 / 362880,
+                   c11 = -1.0 / 39916800;
+  const double x2 = x * x;
+  return x * (1 + x2 * (c3 + x2 * (c5 + x2 * (c7 + x2 * (c9 + x2 * c11)))));
+}
+double small_cos(double x) noexcept {
+  constexpr double c2 = -1.0 / 2, c4 = 1.0 / 24, c6 = -1.0 / 720, c8 = 1.0 / 40320,
+                   c10 = -1.0 / 3628800, c12 = 1.0 / 479001600;
+  const double x2 = x * x;
+  return 1 + x2 * (c2 + x2 * (c4 + x2 * (c6 + x2 * (c8 + x2 * (c10 + x2 * c12)))));
 }
 
 }  // namespace
@@ -58,18 +80,35 @@ Transform interpolate(const Transform& a, const Transform& b, double fraction) n
                                  (qb.z - qa.z) * (qb.z - qa.z) + (qb.w - qa.w) * (qb.w - qa.w));
   const double together = std::sqrt((qb.x + qa.x) * (qb.x + qa.x) + (qb.y + qa.y) * (qb.y + qa.y) +
                                     (qb.z + qa.z) * (qb.z + qa.z) + (qb.w + qa.w) * (qb.w + qa.w));
-  const double angle = 2 * std::atan2(apart, together);
+  // Neighbouring entries of a history are close: below kSeriesLimit (rotations less than about
+  // 0.2 rad, 11 degrees, apart; `angle` here is half that, the quaternions' own angle) the angle
+  // and the sine and cosine of its part come from their Taylor series, exact to double precision
+  // there, instead of atan2 and sincos (a lookup interpolates once per link).
+  const double ratio = apart / together;  // tan(angle / 2); together >= sqrt(2) after the flip
+  const bool close = ratio < kSeriesLimit;
+  const double angle = 2 * (close ? small_atan(ratio) : std::atan2(apart, together));
   double weight_a = 1 - fraction;
   double weight_b = fraction;
   // Equal rotations (to round-off): sin(angle) vanishes and the linear blend is exact.
   if (angle > 1e-12) {
-    const double sine = std::sin(angle);
-    weight_a = std::sin((1 - fraction) * angle) / sine;
-    weight_b = std::sin(fraction * angle) / sine;
+    // The chords are 2 sin(angle / 2) and 2 cos(angle / 2) (their squares sum to 4 for unit
+    // quaternions), which give sin and cos of the angle without a call; only fraction * angle
+    // needs one (sin and cos of one argument: one sincos). sin((1 - f) a) / sin(a) is then
+    // cos(f a) - cos(a) sin(f a) / sin(a).
+    const double chords = std::sqrt(apart * apart + together * together);
+    const double half_sine = apart / chords;
+    const double half_cosine = together / chords;
+    const double sine = 2 * half_sine * half_cosine;
+    const double cosine = half_cosine * half_cosine - half_sine * half_sine;
+    const double part = fraction * angle;
+    weight_b = (close ? small_sin(part) : std::sin(part)) / sine;
+    weight_a = (close ? small_cos(part) : std::cos(part)) - cosine * weight_b;
   }
+  // Slerp of unit quaternions is one (to round-off): no normalisation needed. The linear blend
+  // of the equal-rotation case is one too, the two being the same to round-off.
   const Quaternion rotation{weight_a * qa.x + weight_b * qb.x, weight_a * qa.y + weight_b * qb.y,
                             weight_a * qa.z + weight_b * qb.z, weight_a * qa.w + weight_b * qb.w};
-  return {translation, normalized(rotation)};
+  return {translation, rotation};
 }
 
 Vector3 transform_point(const Transform& t, const Vector3& point) noexcept {

@@ -6,6 +6,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -15,7 +17,9 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <type_traits>
 #include <utility>
+#include <vector>
 
 #include "frame_layout.hpp"
 #include "horus/clock.hpp"
@@ -25,6 +29,7 @@
 #include "horus/detail/shm_segment.hpp"
 #include "horus/frames.hpp"
 #include "horus/internal/errno_text.hpp"
+#include "horus/internal/namespace_objects.hpp"
 
 namespace horus {
 
@@ -61,6 +66,29 @@ detail::FileDescriptor open_frames_folder(unsigned mode, bool create) {
   if (root_folder.get() < 0) return detail::FileDescriptor();
   return detail::open_trusted_directory(root_folder.get(), kFramesFolder, frames_directory(), mode,
                                         false, sharing, create);
+}
+
+/// Every process with the tree open holds a shared OFD lock on its first byte for as long as it
+/// has it (the flock is the writers' structural lock: the two kinds never interact), so a cleaner
+/// that gets the exclusive one knows nobody uses the tree. Waits out a cleaner that holds it.
+void lock_as_user(int fd, const std::string& path) {
+  struct flock range {};
+  range.l_type = F_RDLCK;
+  range.l_whence = SEEK_SET;
+  range.l_len = 1;
+  if (::fcntl(fd, F_OFD_SETLKW, &range) != 0) {
+    throw FrameError("cannot lock the frame tree " + path + ": " + detail::errno_text(errno));
+  }
+}
+
+/// Whether the lock of a user of the tree could be taken exclusively now (nobody uses it); holds
+/// it until `fd` closes when so.
+bool lock_as_cleaner(int fd) noexcept {
+  struct flock range {};
+  range.l_type = F_WRLCK;
+  range.l_whence = SEEK_SET;
+  range.l_len = 1;
+  return ::fcntl(fd, F_OFD_SETLK, &range) == 0;
 }
 
 std::uint64_t hash_name(std::string_view name) noexcept {
@@ -167,18 +195,31 @@ bool read_entry(const FrameSlot& slot, std::uint64_t ticket, EntryValue& out) no
   const HistoryEntry& entry = slot.entries[ticket % kFrameHistoryEntries];
   const std::uint64_t before = entry.seq.load(std::memory_order_acquire);
   if (before != 2 * ticket + 2) return false;
-  std::uint64_t words[kEntryWords];
-  for (std::size_t i = 0; i < kEntryWords; ++i) {
-    words[i] = entry.words[i].load(std::memory_order_acquire);
-  }
+  // Straight into the value (a braced list is evaluated in order): words gathered in an array
+  // first were read back 16 bytes at a time from 8-byte stores, which stalls store forwarding.
+  const auto word = [&](std::size_t i) { return entry.words[i].load(std::memory_order_acquire); };
+  const auto number = [&](std::size_t i) { return std::bit_cast<double>(word(i)); };
+  const EntryValue value{
+      nanoseconds(static_cast<std::int64_t>(word(0))),
+      static_cast<std::uint32_t>(word(1)),
+      {{number(2), number(3), number(4)}, {number(5), number(6), number(7), number(8)}}};
   if (entry.seq.load(std::memory_order_relaxed) != before) return false;
-  out.stamp = nanoseconds(static_cast<std::int64_t>(words[0]));
-  out.parent = static_cast<std::uint32_t>(words[1]);
-  double numbers[7];
-  std::memcpy(numbers, &words[2], sizeof(numbers));
-  out.transform = {{numbers[0], numbers[1], numbers[2]},
-                   {numbers[3], numbers[4], numbers[5], numbers[6]}};
+  out = value;
   return true;
+}
+
+/// Only the stamp of ticket `ticket`, when the entry is complete, still there and under
+/// `parent` (index + 1): what a search compares.
+bool read_stamp(const FrameSlot& slot, std::uint64_t ticket, std::uint32_t parent,
+                nanoseconds& stamp) noexcept {
+  const HistoryEntry& entry = slot.entries[ticket % kFrameHistoryEntries];
+  const std::uint64_t before = entry.seq.load(std::memory_order_acquire);
+  if (before != 2 * ticket + 2) return false;
+  const std::uint64_t stamp_word = entry.words[0].load(std::memory_order_acquire);
+  const std::uint64_t parent_word = entry.words[1].load(std::memory_order_acquire);
+  if (entry.seq.load(std::memory_order_relaxed) != before) return false;
+  stamp = nanoseconds(static_cast<std::int64_t>(stamp_word));
+  return parent_word == parent;
 }
 
 /// Thrown inside a lookup when a writer replaced what it was reading: the lookup starts over.
@@ -208,7 +249,12 @@ struct FrameTree::Impl {
   }
   nanoseconds history() const noexcept { return history_duration; }
 
-  std::optional<std::uint32_t> find(std::string_view name) const noexcept {
+  /// What find_index() and parent_index() answer for "none". Lookups use these rather than the
+  /// std::optional forms: GCC returns an optional<uint32_t> through the stack, stored in two
+  /// parts and loaded whole, a store-forwarding stall on every step of a chain.
+  static constexpr std::uint32_t kNone = 0xffffffff;
+
+  std::uint32_t find_index(std::string_view name) const noexcept {
     const std::uint64_t hash = hash_name(name);
     const std::uint32_t frames = count();
     for (std::uint32_t i = 0; i < frames; ++i) {
@@ -218,7 +264,12 @@ struct FrameTree::Impl {
         return i;
       }
     }
-    return std::nullopt;
+    return kNone;
+  }
+  std::optional<std::uint32_t> find(std::string_view name) const noexcept {
+    const std::uint32_t index = find_index(name);
+    if (index == kNone) return std::nullopt;
+    return index;
   }
 
   std::vector<std::string> closest(std::string_view name) const {
@@ -238,7 +289,7 @@ struct FrameTree::Impl {
   }
 
   std::uint32_t resolve(std::string_view name) const {
-    if (const std::optional<std::uint32_t> index = find(name)) return *index;
+    if (const std::uint32_t index = find_index(name); index != kNone) return index;
     std::vector<std::string> near = closest(name);
     std::string message = "unknown frame \"" + std::string(name) + "\" in " + path;
     if (!near.empty()) {
@@ -249,27 +300,45 @@ struct FrameTree::Impl {
     throw UnknownFrameError(message, std::string(name), std::move(near));
   }
 
-  /// The parent index of frame `index`, or nullopt for a root. A parent index out of range is a
+  /// The parent index of frame `index`, or kNone for a root. A parent index out of range is a
   /// malformed file, reported, never followed.
-  std::optional<std::uint32_t> parent_of(std::uint32_t index) const {
+  std::uint32_t parent_index(std::uint32_t index) const {
     const std::uint32_t parent = slot(index).parent.load(std::memory_order_acquire);
-    if (parent == 0) return std::nullopt;
+    if (parent == 0) return kNone;
     if (parent > count()) {
       throw FrameError("malformed frame tree " + path + ": frame \"" + slot_name(slot(index)) +
                        "\" has parent index " + std::to_string(parent - 1));
     }
     return parent - 1;
   }
+  std::optional<std::uint32_t> parent_of(std::uint32_t index) const {
+    const std::uint32_t parent = parent_index(index);
+    if (parent == kNone) return std::nullopt;
+    return parent;
+  }
+
+  /// A frame and its ancestors up to the root, on the stack: a lookup allocates nothing. The
+  /// cycle check in chain() keeps `size` within the capacity.
+  struct Chain {
+    std::array<std::uint32_t, kMaxFrames + 1> indices;
+    std::size_t size = 0;
+    std::uint32_t operator[](std::size_t i) const noexcept { return indices[i]; }
+    std::uint32_t back() const noexcept { return indices[size - 1]; }
+    const std::uint32_t* begin() const noexcept { return indices.data(); }
+    const std::uint32_t* end() const noexcept { return indices.data() + size; }
+  };
 
   /// `index` and its ancestors up to the root.
-  std::vector<std::uint32_t> chain(std::uint32_t index) const {
-    std::vector<std::uint32_t> frames{index};
-    while (const std::optional<std::uint32_t> parent = parent_of(frames.back())) {
-      if (frames.size() > kMaxFrames) {
+  Chain chain(std::uint32_t index) const {
+    Chain frames;
+    frames.indices[frames.size++] = index;
+    for (std::uint32_t parent = parent_index(index); parent != kNone;
+         parent = parent_index(parent)) {
+      if (frames.size > kMaxFrames) {
         throw FrameError("malformed frame tree " + path + ": the ancestors of \"" +
                          slot_name(slot(index)) + "\" form a cycle");
       }
-      frames.push_back(*parent);
+      frames.indices[frames.size++] = parent;
     }
     // A root with an authority is a child whose first transform is being written (its parent
     // is stored last): not a tree of its own.
@@ -282,106 +351,208 @@ struct FrameTree::Impl {
     return frames;
   }
 
-  /// The answerable tickets of a frame under `parent` (index + 1): [first, last], or nullopt when
-  /// it has none.
+  /// The answerable tickets of a frame under `parent` (index + 1): [first, last].
   struct Range {
-    std::uint64_t first;
-    std::uint64_t last;
+    std::uint64_t first = 0;
+    std::uint64_t last = 0;
     EntryValue oldest;
     EntryValue latest;
-    bool is_static;
+    bool is_static = false;
+    /// Entries older than this are past the history duration.
+    nanoseconds horizon{0};
+    /// Whether `oldest` was read whole, or only its stamp (a lookup's, until it needs the rest).
+    bool oldest_whole = true;
   };
-  std::optional<Range> range(std::uint32_t index, std::uint32_t parent) const {
+  /// Fills `r` (in place: a lookup reads one per link) and returns true, or false when the frame
+  /// has no entry. Without `answerable_oldest` (a lookup's range), `first` and `oldest` may be
+  /// older than `horizon`, and only the stamp of `oldest` is read: a lookup at a time needs the
+  /// oldest answerable entry only when the time is older than that, which transform_at() finds
+  /// out without searching for it, and needs the oldest entry whole only when it interpolates
+  /// from it.
+  bool read_range(std::uint32_t index, std::uint32_t parent, bool answerable_oldest,
+                  Range& r) const {
     const FrameSlot& s = slot(index);
     const std::uint64_t written = s.write_count.load(std::memory_order_acquire);
     const std::uint64_t first_ticket = s.first_ticket.load(std::memory_order_acquire);
-    const bool is_static = s.is_static.load(std::memory_order_acquire) != 0;
+    r.is_static = s.is_static.load(std::memory_order_acquire) != 0;
     // The entry after the newest is the one a writer overwrites next: never count on it.
     const std::uint64_t window = kFrameHistoryEntries - 1;
-    Range r{std::max(first_ticket, written > window ? written - window : 0), 0, {}, {}, is_static};
-    if (written == 0 || r.first > written - 1) return std::nullopt;
+    r.first = std::max(first_ticket, written > window ? written - window : 0);
+    if (written == 0 || r.first > written - 1) return false;
     r.last = written - 1;
     if (!read_entry(s, r.last, r.latest) || r.latest.parent != parent) throw Overtaken{};
-    if (is_static) {
+    if (r.is_static) {
       r.first = r.last;
       r.oldest = r.latest;
-      return r;
+      r.oldest_whole = true;
+      r.horizon = r.latest.stamp;
+      return true;
     }
-    if (!read_entry(s, r.first, r.oldest) || r.oldest.parent != parent) throw Overtaken{};
+    r.oldest_whole = answerable_oldest;
+    if (!answerable_oldest) {
+      if (!read_stamp(s, r.first, parent, r.oldest.stamp)) throw Overtaken{};
+    } else if (!read_entry(s, r.first, r.oldest) || r.oldest.parent != parent) {
+      throw Overtaken{};
+    }
     // Entries older than the history duration are no longer answerable.
-    const nanoseconds horizon = r.latest.stamp - history();
-    if (r.oldest.stamp < horizon) {
+    r.horizon = r.latest.stamp - history();
+    if (answerable_oldest && r.oldest.stamp < r.horizon) {
       std::uint64_t low = r.first;  // stamp < horizon
       std::uint64_t high = r.last;  // stamp >= horizon
-      while (high - low > 1) {
-        const std::uint64_t middle = low + (high - low) / 2;
-        EntryValue probe;
-        if (!read_entry(s, middle, probe)) throw Overtaken{};
-        (probe.stamp < horizon ? low : high) = middle;
-      }
+      bracket(s, parent, r.horizon - nanoseconds{1}, low, r.oldest.stamp, high, r.latest.stamp);
       r.first = high;
-      if (!read_entry(s, r.first, r.oldest)) throw Overtaken{};
+      if (high == r.last) {
+        r.oldest = r.latest;
+      } else if (!read_entry(s, high, r.oldest)) {
+        throw Overtaken{};
+      }
     }
+    return true;
+  }
+  std::optional<Range> range(std::uint32_t index, std::uint32_t parent) const {
+    Range r;
+    if (!read_range(index, parent, true, r)) return std::nullopt;
     return r;
+  }
+
+  /// Narrows tickets [low, high], whose stamps are `low_stamp` <= `time` < `high_stamp`, to two
+  /// neighbours, reading only stamps. Entries come at a steady rate, so the first probes aim
+  /// where `time` falls between the two stamps (at 100 Hz one or two probes find it); later ones
+  /// bisect, so an irregular history still takes O(log n) probes.
+  void bracket(const FrameSlot& s, std::uint32_t parent, nanoseconds time, std::uint64_t& low,
+               nanoseconds low_stamp, std::uint64_t& high, nanoseconds high_stamp) const {
+    constexpr int kAimedProbes = 3;
+    for (int probes = 0; high - low > 1; ++probes) {
+      std::uint64_t middle = low + (high - low) / 2;
+      const double fraction = static_cast<double>((time - low_stamp).count()) /
+                              static_cast<double>((high_stamp - low_stamp).count());
+      if (probes < kAimedProbes && fraction >= 0 && fraction < 1) {
+        const auto aimed =
+            low + static_cast<std::uint64_t>(fraction * static_cast<double>(high - low));
+        middle = std::clamp(aimed, low + 1, high - 1);
+      }
+      nanoseconds stamp;
+      if (!read_stamp(s, middle, parent, stamp)) throw Overtaken{};
+      if (stamp <= time) {
+        low = middle;
+        low_stamp = stamp;
+      } else {
+        high = middle;
+        high_stamp = stamp;
+      }
+    }
+  }
+
+  /// Throws the extrapolation into the past of frame `index` asked at `time`, measured from its
+  /// oldest answerable entry (Overtaken when a writer moved that meanwhile).
+  [[noreturn]] void throw_into_past(std::uint32_t index, std::uint32_t parent,
+                                    nanoseconds time) const {
+    const std::optional<Range> answerable = range(index, parent);
+    if (!answerable || time >= answerable->oldest.stamp) throw Overtaken{};
+    const std::string name = slot_name(slot(index));
+    const nanoseconds by = answerable->oldest.stamp - time;
+    throw ExtrapolationError("extrapolation into the past: frame \"" + name + "\" asked at " +
+                                 seconds_text(time) + ", " + milliseconds(by) +
+                                 " before its oldest transform",
+                             name, true, by);
   }
 
   /// The transform of frame `index` to its parent `parent` (index + 1) at `time`.
   Transform transform_at(std::uint32_t index, std::uint32_t parent, const Range& r,
                          nanoseconds time) const {
     if (r.is_static || time == r.latest.stamp) return r.latest.transform;
-    const std::string name = slot_name(slot(index));
     if (time > r.latest.stamp) {
+      const std::string name = slot_name(slot(index));
       const nanoseconds by = time - r.latest.stamp;
       throw ExtrapolationError("extrapolation into the future: frame \"" + name + "\" asked at " +
                                    seconds_text(time) + ", " + milliseconds(by) +
                                    " after its newest transform",
                                name, false, by);
     }
-    if (time < r.oldest.stamp) {
-      const nanoseconds by = r.oldest.stamp - time;
-      throw ExtrapolationError("extrapolation into the past: frame \"" + name + "\" asked at " +
-                                   seconds_text(time) + ", " + milliseconds(by) +
-                                   " before its oldest transform",
-                               name, true, by);
-    }
+    if (time < r.oldest.stamp) throw_into_past(index, parent, time);
     const FrameSlot& s = slot(index);
     std::uint64_t low = r.first;  // stamp <= time
     std::uint64_t high = r.last;  // stamp > time
-    EntryValue before = r.oldest;
-    EntryValue after = r.latest;
-    while (high - low > 1) {
-      const std::uint64_t middle = low + (high - low) / 2;
-      EntryValue probe;
-      if (!read_entry(s, middle, probe) || probe.parent != parent) throw Overtaken{};
-      if (probe.stamp <= time) {
-        low = middle;
-        before = probe;
-      } else {
-        high = middle;
-        after = probe;
-      }
+    bracket(s, parent, time, low, r.oldest.stamp, high, r.latest.stamp);
+    EntryValue read_before;
+    EntryValue read_after;
+    const EntryValue* before = &r.oldest;
+    const EntryValue* after = &r.latest;
+    if (low != r.first || !r.oldest_whole) {
+      if (!read_entry(s, low, read_before) || read_before.parent != parent) throw Overtaken{};
+      before = &read_before;
     }
-    const nanoseconds span = after.stamp - before.stamp;
-    if (span <= nanoseconds::zero()) return after.transform;
+    if (high != r.last) {
+      if (!read_entry(s, high, read_after) || read_after.parent != parent) throw Overtaken{};
+      after = &read_after;
+    }
+    // Only entries within the history duration answer (the range may have left older ones in).
+    if (before->stamp < r.horizon) throw_into_past(index, parent, time);
+    const nanoseconds span = after->stamp - before->stamp;
+    if (span <= nanoseconds::zero()) return after->transform;
     const double fraction =
-        static_cast<double>((time - before.stamp).count()) / static_cast<double>(span.count());
-    return interpolate(before.transform, after.transform, fraction);
+        static_cast<double>((time - before->stamp).count()) / static_cast<double>(span.count());
+    return interpolate(before->transform, after->transform, fraction);
   }
 
-  StampedTransform lookup_once(std::string_view target, std::string_view source,
-                               std::optional<nanoseconds> time,
-                               std::optional<nanoseconds> max_age) const {
+  /// What a lookup answers, without the frames' names (copying them could allocate).
+  struct Answer {
+    nanoseconds stamp{0};
+    Transform transform;
+  };
+
+  /// The links of one lookup: on the stack for any realistic chain, on the heap only beyond
+  /// kInlineLinks (a Link is about 190 bytes; a chain of kMaxFrames would not fit a stack).
+  /// Never initialised as a whole: a lookup writes only the links it composes.
+  struct Link {
+    std::uint32_t index;
+    std::uint32_t parent;
+    Range range;
+  };
+  static constexpr std::size_t kInlineLinks = 32;
+  class Links {
+   public:
+    explicit Links(std::size_t capacity) {
+      if (capacity > kInlineLinks) {
+        spilled_.reserve(capacity);
+        links_ = spilled_.data();
+      } else {
+        links_ = reinterpret_cast<Link*>(inline_);
+      }
+    }
+    Links(const Links&) = delete;
+    Links& operator=(const Links&) = delete;
+    /// A new link, its range to be filled.
+    Link& add(std::uint32_t index, std::uint32_t parent) noexcept {
+      Link* link = ::new (links_ + size_++) Link;
+      link->index = index;
+      link->parent = parent;
+      return *link;
+    }
+    const Link& operator[](std::size_t i) const noexcept { return links_[i]; }
+    const Link* begin() const noexcept { return links_; }
+    const Link* end() const noexcept { return links_ + size_; }
+
+   private:
+    alignas(Link) unsigned char inline_[kInlineLinks * sizeof(Link)];
+    std::vector<Link> spilled_;
+    Link* links_;
+    std::size_t size_ = 0;
+  };
+  static_assert(std::is_trivially_copyable_v<Link> && std::is_trivially_destructible_v<Link>);
+
+  Answer lookup_once(std::string_view target, std::string_view source,
+                     std::optional<nanoseconds> time, std::optional<nanoseconds> max_age) const {
     const std::uint32_t source_index = resolve(source);
     const std::uint32_t target_index = resolve(target);
-    StampedTransform out{
-        std::string(target), std::string(source), time.value_or(nanoseconds{0}), {}};
+    Answer out{time.value_or(nanoseconds{0}), {}};
     if (source_index == target_index) return out;
-    const std::vector<std::uint32_t> up_from_source = chain(source_index);
-    const std::vector<std::uint32_t> up_from_target = chain(target_index);
+    const Chain up_from_source = chain(source_index);
+    const Chain up_from_target = chain(target_index);
     std::size_t source_steps = 0;
     std::size_t target_steps = 0;
     bool joined = false;
-    for (; source_steps < up_from_source.size() && !joined; ++source_steps) {
+    for (; source_steps < up_from_source.size && !joined; ++source_steps) {
       const auto found =
           std::find(up_from_target.begin(), up_from_target.end(), up_from_source[source_steps]);
       if (found != up_from_target.end()) {
@@ -397,21 +568,14 @@ struct FrameTree::Impl {
     }
     --source_steps;  // the loop stepped past the common ancestor
     // The frames whose transforms the answer composes: below the common ancestor on each side.
-    struct Link {
-      std::uint32_t index;
-      std::uint32_t parent;
-      Range range;
-    };
-    std::vector<Link> links;
-    const auto collect = [&](const std::vector<std::uint32_t>& up, std::size_t steps) {
+    Links links(source_steps + target_steps);
+    const auto collect = [&](const Chain& up, std::size_t steps) {
       for (std::size_t i = 0; i < steps; ++i) {
         const std::uint32_t parent = up[i + 1] + 1;
-        std::optional<Range> r = range(up[i], parent);
-        if (!r) {
+        if (!read_range(up[i], parent, false, links.add(up[i], parent).range)) {
           throw ExtrapolationError("frame \"" + slot_name(slot(up[i])) + "\" has no transform yet",
                                    slot_name(slot(up[i])), true, nanoseconds{0});
         }
-        links.push_back({up[i], parent, *r});
       }
     };
     collect(up_from_source, source_steps);
@@ -438,25 +602,31 @@ struct FrameTree::Impl {
       }
       out.stamp = common.value_or(nanoseconds{0});
     }
-    Transform ancestor_from_source;
-    for (std::size_t i = source_steps; i-- > 0;) {
-      const Link& link = links[i];
-      ancestor_from_source = compose(ancestor_from_source,
-                                     transform_at(link.index, link.parent, link.range, out.stamp));
+    // Each side from the common ancestor down. The identity is never composed in: a side of one
+    // link is that link's transform, and a side of none leaves the other side's as the answer.
+    const auto down_to = [&](std::size_t first_link, std::size_t steps) {
+      Transform ancestor_from_frame;
+      for (std::size_t i = steps; i-- > 0;) {
+        const Link& link = links[first_link + i];
+        const Transform step = transform_at(link.index, link.parent, link.range, out.stamp);
+        ancestor_from_frame = i + 1 == steps ? step : compose(ancestor_from_frame, step);
+      }
+      return ancestor_from_frame;
+    };
+    const Transform ancestor_from_source = down_to(0, source_steps);
+    const Transform ancestor_from_target = down_to(source_steps, target_steps);
+    if (target_steps == 0) {
+      out.transform = ancestor_from_source;
+    } else if (source_steps == 0) {
+      out.transform = inverse(ancestor_from_target);
+    } else {
+      out.transform = compose(inverse(ancestor_from_target), ancestor_from_source);
     }
-    Transform ancestor_from_target;
-    for (std::size_t i = target_steps; i-- > 0;) {
-      const Link& link = links[source_steps + i];
-      ancestor_from_target = compose(ancestor_from_target,
-                                     transform_at(link.index, link.parent, link.range, out.stamp));
-    }
-    out.transform = compose(inverse(ancestor_from_target), ancestor_from_source);
     return out;
   }
 
-  StampedTransform lookup(std::string_view target, std::string_view source,
-                          std::optional<nanoseconds> time,
-                          std::optional<nanoseconds> max_age) const {
+  Answer lookup(std::string_view target, std::string_view source, std::optional<nanoseconds> time,
+                std::optional<nanoseconds> max_age) const {
     for (int attempt = 0; attempt < kLookupAttempts; ++attempt) {
       try {
         return lookup_once(target, source, time, max_age);
@@ -676,6 +846,7 @@ FrameTree::FrameTree(FrameTreeOptions options) : impl_(std::make_unique<Impl>())
           ::ftruncate(fd.get(), static_cast<off_t>(kTotalSize)) != 0) {
         throw FrameError("cannot size the frame tree " + path + ": " + detail::errno_text(errno));
       }
+      lock_as_user(fd.get(), path);
       void* memory = map_tree(fd.get(), path);
       format_tree(memory, options.history);
       const std::string self = "/proc/self/fd/" + std::to_string(fd.get());
@@ -691,6 +862,8 @@ FrameTree::FrameTree(FrameTreeOptions options) : impl_(std::make_unique<Impl>())
     }
     detail::FileDescriptor fd =
         detail::open_trusted_file(folder.get(), name, path, O_RDWR, 0, sharing);
+    lock_as_user(fd.get(), path);
+    if (!detail::still_linked(fd.get())) continue;  // a cleaner removed it before we locked
     struct stat info {};
     if (::fstat(fd.get(), &info) != 0) {
       throw FrameError("cannot stat the frame tree " + path + ": " + detail::errno_text(errno));
@@ -739,7 +912,8 @@ Transform FrameTree::lookup(std::string_view target, std::string_view source,
 StampedTransform FrameTree::lookup_stamped(std::string_view target, std::string_view source,
                                            std::optional<nanoseconds> time,
                                            std::optional<nanoseconds> max_age) const {
-  return impl_->lookup(target, source, time, max_age);
+  const Impl::Answer answer = impl_->lookup(target, source, time, max_age);
+  return {std::string(target), std::string(source), answer.stamp, answer.transform};
 }
 
 bool FrameTree::can_lookup(std::string_view target, std::string_view source,
@@ -788,7 +962,7 @@ nanoseconds FrameTree::history_duration() const noexcept { return impl_->history
 
 const std::string& FrameTree::path() const noexcept { return impl_->path; }
 
-std::vector<FrameInfo> FrameTree::frames() const {
+std::vector<FrameInfo> FrameTree::frames(bool with_programs) const {
   std::vector<FrameInfo> out;
   const std::uint32_t count = impl_->count();
   for (std::uint32_t index = 0; index < count; ++index) {
@@ -800,7 +974,7 @@ std::vector<FrameInfo> FrameTree::frames() const {
     info.is_static = s.is_static.load(std::memory_order_acquire) != 0;
     const std::uint64_t authority = s.authority.load(std::memory_order_acquire);
     info.authority_pid = detail::identity_pid(authority);
-    if (authority != 0) {
+    if (authority != 0 && with_programs) {
       info.authority_alive = detail::identity_alive(authority);
       info.authority_program = info.authority_alive ? detail::process_name(info.authority_pid) : "";
     }
@@ -823,26 +997,36 @@ std::vector<FrameInfo> FrameTree::frames() const {
 }
 
 std::vector<StampedTransform> FrameTree::history(std::string_view frame) const {
+  return history_since(frame, 0).entries;
+}
+
+FrameUpdates FrameTree::history_since(std::string_view frame, std::uint64_t since) const {
   const std::uint32_t index = impl_->resolve(frame);
   const std::optional<std::uint32_t> parent = impl_->parent_of(index);
-  std::vector<StampedTransform> out;
+  FrameUpdates out;
+  out.next = since;
   if (!parent) return out;
   const std::string parent_name = slot_name(impl_->slot(*parent));
   const FrameSlot& s = impl_->slot(index);
   for (int attempt = 0; attempt < kLookupAttempts; ++attempt) {
     try {
       const auto r = impl_->range(index, *parent + 1);
-      if (!r) return out;
-      for (std::uint64_t ticket = r->first; ticket <= r->last; ++ticket) {
+      if (!r || r->last < since) return out;
+      const std::uint64_t first = std::max(r->first, since);
+      std::uint64_t lost = first - since;
+      for (std::uint64_t ticket = first; ticket <= r->last; ++ticket) {
         EntryValue value;
-        // An entry overwritten since the range was read is past the history now: skipped.
         if (read_entry(s, ticket, value) && value.parent == *parent + 1) {
-          out.push_back({parent_name, std::string(frame), value.stamp, value.transform});
+          out.entries.push_back({parent_name, std::string(frame), value.stamp, value.transform});
+        } else {
+          ++lost;  // overwritten since the range was read
         }
       }
+      out.lost = lost;
+      out.next = r->last + 1;
       return out;
     } catch (const Overtaken&) {
-      out.clear();
+      out.entries.clear();
     }
   }
   return out;
@@ -903,6 +1087,47 @@ bool remove_frame_tree(std::string_view namespace_name) {
   throw FrameError("cannot remove the frame tree " + frames_directory() + "/" + name + ": " +
                    detail::errno_text(errno));
 }
+
+namespace detail {
+
+std::optional<NamespaceObjectInfo> frame_tree_object(std::string_view namespace_name) {
+  const std::string name = tree_name(namespace_name);
+  const FileDescriptor folder = open_frames_folder(0600, false);
+  if (folder.get() < 0) return std::nullopt;
+  NamespaceObjectInfo info;
+  info.kind = kFramesFolder;
+  info.path = frames_directory() + "/" + name;
+  struct stat status {};
+  if (::fstatat(folder.get(), name.c_str(), &status, AT_SYMLINK_NOFOLLOW) != 0) return std::nullopt;
+  try {
+    // Read-write: an exclusive OFD lock needs a descriptor open for writing.
+    const FileDescriptor file = open_trusted_file(folder.get(), name, info.path, O_RDWR, 0, false);
+    // The memory it holds: tmpfs gives pages only to the frames and entries written.
+    if (::fstat(file.get(), &status) == 0)
+      info.size = static_cast<std::size_t>(status.st_blocks) * 512;
+    info.in_use = !lock_as_cleaner(file.get());
+  } catch (const Error&) {
+    info.in_use = true;  // not ours to judge: left for a person
+  }
+  return info;
+}
+
+bool remove_unused_frame_tree(std::string_view namespace_name) {
+  const std::string name = tree_name(namespace_name);
+  const FileDescriptor folder = open_frames_folder(0600, false);
+  if (folder.get() < 0) return false;
+  try {
+    const FileDescriptor file =
+        open_trusted_file(folder.get(), name, frames_directory() + "/" + name, O_RDWR, 0, false);
+    if (!lock_as_cleaner(file.get()) || !still_linked(file.get())) return false;
+    // Unlinked while locked: an opener waiting for the lock sees it gone and makes a new tree.
+    return ::unlinkat(folder.get(), name.c_str(), 0) == 0;
+  } catch (const Error&) {
+    return false;  // missing, or not ours to judge
+  }
+}
+
+}  // namespace detail
 
 bool frame_tree_exists(std::string_view namespace_name) {
   const std::string name = tree_name(namespace_name);

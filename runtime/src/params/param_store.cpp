@@ -435,8 +435,6 @@ ParamSetResult decode_param_response(std::span<const std::byte> payload) {
   return result;
 }
 
-namespace {}  // namespace
-
 std::vector<NamespaceObjectInfo> param_store_objects(std::string_view namespace_name) {
   const std::string name = param_namespace(namespace_name);
   const FileDescriptor folder = open_param_folder(name, false);

@@ -7,6 +7,7 @@
 #include <string_view>
 
 #include "horus/error.hpp"
+#include "horus/internal/json_record_cursor.hpp"
 #include "horus/json_string.hpp"
 #include "horus/params.hpp"
 #include "mcap_format.hpp"
@@ -14,53 +15,8 @@
 namespace horus::detail {
 namespace {
 
-/// Reads a record as param_change_json() writes it, field by field in that order.
-class RecordCursor {
- public:
-  explicit RecordCursor(std::string_view text) : text_(text) {}
-
-  /// Consumes `literal` when the text continues with it.
-  bool take(std::string_view literal) {
-    if (text_.substr(at_, literal.size()) != literal) return false;
-    at_ += literal.size();
-    return true;
-  }
-  std::optional<std::uint64_t> number() {
-    std::uint64_t value = 0;
-    const std::size_t first = at_;
-    while (at_ < text_.size() && text_[at_] >= '0' && text_[at_] <= '9') {
-      value = value * 10 + static_cast<std::uint64_t>(text_[at_++] - '0');
-    }
-    if (at_ == first) return std::nullopt;
-    return value;
-  }
-  /// A JSON string literal as json_string() writes it.
-  std::optional<std::string> literal() {
-    if (!take("\"")) return std::nullopt;
-    std::string out;
-    while (at_ < text_.size()) {
-      const char c = text_[at_++];
-      if (c == '"') return out;
-      if (c != '\\') {
-        out += c;
-      } else if (at_ < text_.size() && text_[at_] == 'u' && at_ + 5 <= text_.size()) {
-        out += static_cast<char>(
-            std::strtoul(std::string(text_.substr(at_ + 1, 4)).c_str(), nullptr, 16));
-        at_ += 5;
-      } else if (at_ < text_.size()) {
-        out += text_[at_++];
-      }
-    }
-    return std::nullopt;
-  }
-
- private:
-  std::string_view text_;
-  std::size_t at_ = 0;
-};
-
 std::optional<RecordedParamChange> parse_record(std::string_view text, const std::string& where) {
-  RecordCursor cursor(text);
+  JsonRecordCursor cursor(text);
   RecordedParamChange change;
   if (!cursor.take("{\"node\":")) return std::nullopt;
   std::optional<std::string> node = cursor.literal();

@@ -14,6 +14,7 @@
 #include <thread>
 #include <vector>
 
+#include "frame_changes.hpp"
 #include "horus/detail/ring.hpp"
 #include "horus/detail/send_clock.hpp"
 #include "horus/detail/shm_segment.hpp"
@@ -85,6 +86,7 @@ class RecorderImpl {
         clock_offset_ns_(clock_ns(CLOCK_REALTIME) - clock_ns(CLOCK_MONOTONIC)) {
     validate_segment_name("namespace", namespace_);
     for (const std::string& topic : options_.topics) validate_segment_name("topic name", topic);
+    if (options_.frames || options_.all_topics) frames_.emplace(writer_, namespace_);
     summary_.path = writer_.path();
     char host[256] = {};
     ::gethostname(host, sizeof host - 1);
@@ -97,6 +99,7 @@ class RecorderImpl {
       std::lock_guard lock(mutex_);
       for (const std::string& topic : options_.topics) pending_.push_back(topic);
       open_pending();
+      if (frames_) discover_frames();
     }
     thread_ = std::thread([this] { run(); });
   }
@@ -136,6 +139,9 @@ class RecorderImpl {
     std::lock_guard lock(mutex_);
     if (stopped_.load(std::memory_order_acquire) || !error_.empty()) return;
     try {
+      // A simulation runs ahead of the thread's looks (five a second): a tree made in a pass is
+      // followed from that pass on, so that two runs record the same transforms.
+      if (frames_ && !frames_->following()) discover_frames();
       take_all();
     } catch (const std::exception& e) {
       error_ = e.what();
@@ -264,7 +270,20 @@ class RecorderImpl {
       }
       discover_param_stores();
     }
+    if (frames_) discover_frames();
     open_pending();
+  }
+
+  /// Starts following the namespace's frame tree once it exists (mutex_ held).
+  void discover_frames() {
+    try {
+      frames_->discover();
+    } catch (const Error& e) {
+      // Being created right now: the next look tries again (said once).
+      if (unopenable_.insert(std::string(kFramesChannel)).second) {
+        log::warn("recorder: cannot record the frame tree yet: %s", e.what());
+      }
+    }
   }
 
   /// Watches the parameter stores of the namespace that appeared since the last look, each
@@ -386,6 +405,7 @@ class RecorderImpl {
       taken += ticks.log->drain([&](const TickEntry& entry) { write_tick(ticks, entry); });
     }
     taken += take_param_changes();
+    if (frames_) taken += frames_->take(realtime_ns());
     return taken;
   }
 
@@ -502,6 +522,10 @@ class RecorderImpl {
     for (const NodeTicks& ticks : tick_logs_) dropped += ticks.log->dropped();
     if (dropped > 0) summary.lost["/horus/ticks"] = dropped;
     summary.lost_total += dropped;
+    if (const std::uint64_t lapped = frames_ ? frames_->lost() : 0; lapped > 0) {
+      summary.lost[std::string(kFramesChannel)] = lapped;
+      summary.lost_total += lapped;
+    }
     return summary;
   }
 
@@ -515,6 +539,11 @@ class RecorderImpl {
     entries.emplace_back("end_ns", std::to_string(realtime_ns()));
     if (!error_.empty()) entries.emplace_back("error", error_);
     try {
+      if (frames_) {
+        frames_->note_authorities();
+        if (McapMap authorities = frames_->authorities(); !authorities.empty())
+          writer_.add_metadata(kFramesMetadata, authorities);
+      }
       writer_.add_metadata("horus.recorder", entries);
       writer_.finish();
       summary.bytes = writer_.file_size();
@@ -536,6 +565,7 @@ class RecorderImpl {
     }
     topics_.clear();  // the subscriptions end with the recording
     param_stores_.clear();
+    frames_.reset();
   }
 
   RecorderOptions options_;
@@ -562,6 +592,8 @@ class RecorderImpl {
   std::map<std::string, WatchedStore> param_stores_;
   std::uint16_t params_channel_ = 0;
   std::uint32_t params_sequence_ = 0;
+  /// Set when the recording follows the namespace's frame tree.
+  std::optional<FrameRecording> frames_;
   std::string tick_text_;
   std::string error_;
   RecordingSummary summary_;

@@ -16,6 +16,7 @@
 #include "horus/detail/shm_segment.hpp"
 #include "horus/detail/topic_endpoint.hpp"
 #include "horus/error.hpp"
+#include "horus/frames.hpp"
 #include "horus/internal/created_segments.hpp"
 #include "horus/log.hpp"
 #include "horus/pool_frames.hpp"
@@ -126,6 +127,27 @@ std::optional<std::uint64_t> first_receipt(const Positions& ticks, std::uint64_t
   return first->first;
 }
 
+/// The frames the recording process set itself (its "horus.frames" authorities that are the
+/// "horus.session" pid): a scheduler's own nodes', which a replay of them sets again.
+std::set<std::string> frames_set_by_recording_process(const RecordingReader& recording) {
+  std::string session_pid;
+  for (const RecordedMetadata& metadata : recording.metadata()) {
+    if (metadata.name != "horus.session") continue;
+    if (const auto pid = metadata.entries.find("pid"); pid != metadata.entries.end())
+      session_pid = pid->second;
+  }
+  std::set<std::string> own;
+  constexpr std::string_view kPrefix = "authority.";
+  for (const RecordedMetadata& metadata : recording.metadata()) {
+    if (metadata.name != kFramesMetadata) continue;
+    for (const auto& [key, pid] : metadata.entries) {
+      if (key.starts_with(kPrefix) && !session_pid.empty() && pid == session_pid)
+        own.insert(key.substr(kPrefix.size()));
+    }
+  }
+  return own;
+}
+
 bool is_service_type(std::string_view type_name) {
   return type_name == TypeInfo<ServiceRegistration>::name ||
          type_name.starts_with(kRequestFrameName) || type_name.starts_with(kResponseFrameName);
@@ -165,9 +187,13 @@ void check_description(const RecordedChannel& channel, const std::string& type_n
 }  // namespace
 
 Replayer::Replayer(const std::filesystem::path& path, const std::string& namespace_name,
-                   const std::set<std::string>& skip) {
+                   const std::set<std::string>& skip)
+    : namespace_(namespace_name) {
   const RecordingReader recording(path);
   const std::string where = "replay of " + path.string();
+  // Read (and a malformed record refused) before any topic is opened.
+  std::vector<RecordedFrameChange> frame_changes = recorded_frame_changes(recording);
+  const std::set<std::string> own_frames = frames_set_by_recording_process(recording);
   const std::vector<TopicInfo> now = list_topics(namespace_name);
   // Every channel is checked before the first topic is opened, so that a refusal leaves nothing
   // behind in the namespace.
@@ -184,6 +210,7 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
     const std::uint16_t id = entry.first;
     const RecordedChannel& channel = entry.second;
     if (channel.topic == kTicksTopic || channel.topic == kParamsChannel ||
+        channel.topic == kFramesChannel || channel.topic == kStaticFramesChannel ||
         skip.count(channel.topic) != 0)
       continue;
     const auto schema = recording.schemas().find(channel.schema_id);
@@ -329,6 +356,18 @@ Replayer::Replayer(const std::filesystem::path& path, const std::string& namespa
   }
   std::stable_sort(unread_.begin(), unread_.end(),
                    [](const auto& a, const auto& b) { return a.first < b.first; });
+  // Another process's frames, as its messages: before the first cycle that began after the
+  // recorder took them (all before the first cycle when the file has no ticks: the tree keeps
+  // them by their stamps, so lookups at the recorded times answer as they did).
+  for (RecordedFrameChange& change : frame_changes) {
+    if (own_frames.count(change.transform.child) != 0) continue;
+    const auto after = std::find_if(cycle_starts.begin(), cycle_starts.end(),
+                                    [&](const auto& c) { return c.second > change.log_time; });
+    frames_due_.emplace_back(after != cycle_starts.end() ? after->first : UINT64_MAX,
+                             std::move(change));
+  }
+  std::stable_sort(frames_due_.begin(), frames_due_.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
   for (auto& [node, reader] : readers_) std::sort(reader.due.begin(), reader.due.end());
   for (RecordedParamChange& change : recorded_param_changes(recording)) {
     if (change.start || !change.cycle) continue;
@@ -375,6 +414,8 @@ Replayer::~Replayer() = default;
 
 void Replayer::deliver_before_cycle(std::uint64_t cycle) {
   const std::uint64_t until = !has_ticks_ || cycle > last_cycle_ ? UINT64_MAX : cycle;
+  for (; next_frame_ < frames_due_.size() && frames_due_[next_frame_].first <= until; ++next_frame_)
+    set_frame(frames_due_[next_frame_].second);
   for (; next_unread_ < unread_.size() && unread_[next_unread_].first <= until; ++next_unread_)
     send(unread_[next_unread_].second);
 }
@@ -392,6 +433,26 @@ Replayer::Reader* Replayer::deliver_for_next_tick(std::string_view node) {
        ++reader.next)
     send(reader.due[reader.next].second);
   return &reader;
+}
+
+void Replayer::set_frame(const RecordedFrameChange& change) {
+  const StampedTransform& t = change.transform;
+  try {
+    if (!frame_tree_) {
+      FrameTreeOptions options;
+      options.namespace_name = namespace_;
+      frame_tree_ = std::make_unique<FrameTree>(std::move(options));
+    }
+    if (change.is_static) {
+      frame_tree_->set_static_transform(t.parent, t.child, t.transform);
+    } else {
+      frame_tree_->set_transform(t.parent, t.child, t.transform, t.stamp);
+    }
+  } catch (const FrameError& e) {
+    // Another live process is its authority here, or a node of the replay set it meanwhile.
+    if (refused_frames_.insert(t.child).second)
+      log::warn("replay: frame '%s' is not set from the recording: %s", t.child.c_str(), e.what());
+  }
 }
 
 void Replayer::send(std::size_t message) {

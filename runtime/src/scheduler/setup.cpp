@@ -78,6 +78,12 @@ SchedulerImpl::SchedulerImpl(SchedulerConfig config)
     : config_(std::move(config)), tick_period_ns_(0), log_source_("@" + config_.name()) {
   prepare_logging();
   const std::string where = "horus::Scheduler '" + config_.name() + "': ";
+  if (config_.params().empty()) {
+    // How `horus launch` hands a process its parameter file without the program taking a
+    // command-line option for it; a file the program names itself wins.
+    const char* file = std::getenv("HORUS_PARAMS_FILE");  // NOLINT(concurrency-mt-unsafe): once
+    if (file != nullptr && *file != '\0') config_.params(file);
+  }
   if (!config_.tick_rate().valid()) {
     throw Error(where + "tick_rate must be a positive, finite rate");
   }
@@ -495,7 +501,9 @@ void SchedulerImpl::start_recording(const std::vector<SlotPtr>& fresh) {
   std::lock_guard lock(mutex_);
   if (recording_done_) return;  // stop_recording() ended this scheduler's session
   if (!recorder_) {
-    recorder_ = std::make_shared<Recorder>(RecorderOptions{});
+    RecorderOptions options;
+    options.frames = true;  // the nodes' lookups depend on the frame tree (docs/recording.md)
+    recorder_ = std::make_shared<Recorder>(std::move(options));
     log(LogLevel::Info, "recording the session to %s", recorder_->path().c_str());
   }
   for (const SlotPtr& s : fresh) {

@@ -62,14 +62,16 @@ struct TopicWaitSet::State {
   std::atomic<bool> waiting{false};
 };
 
-TopicWaitSet::TopicWaitSet(const std::vector<std::string>& topic_names)
+TopicWaitSet::TopicWaitSet(const std::vector<std::string>& topic_names,
+                           std::string_view namespace_name)
     : state_(std::make_unique<State>()) {
   if (topic_names.empty() || topic_names.size() > FUTEX_WAITV_MAX) {
     throw Error("a topic wait set takes 1 to " + std::to_string(FUTEX_WAITV_MAX) + " topics, not " +
                 std::to_string(topic_names.size()));
   }
   for (const std::string& name : topic_names) {
-    ShmSegment segment = ShmSegment::open_control(name, SegmentOptions{0, 0, 0600, {}});
+    ShmSegment segment =
+        ShmSegment::open_control(name, SegmentOptions{0, 0, 0600, std::string(namespace_name)});
     const std::uint64_t seen = segment.control().ring.commits.load(std::memory_order_acquire);
     state_->topics.push_back({std::move(segment), seen});
   }

@@ -15,6 +15,7 @@
 
 #include "horus/detail/shm_segment.hpp"
 #include "horus/error.hpp"
+#include "horus/frames.hpp"
 #include "horus/internal/created_segments.hpp"
 #include "horus/internal/namespace_objects.hpp"
 
@@ -284,6 +285,7 @@ std::size_t clean_namespace(std::string_view namespace_name) {
   detail::remove_log_ring(namespace_name, false);
   detail::remove_presence_folder(namespace_name, false);
   detail::remove_param_stores(namespace_name, false);
+  detail::remove_unused_frame_tree(namespace_name);
   return removed;
 }
 
@@ -297,6 +299,7 @@ void remove_namespace(std::string_view namespace_name) {
   detail::remove_log_ring(namespace_name, true);
   detail::remove_presence_folder(namespace_name, true);
   detail::remove_param_stores(namespace_name, true);
+  remove_frame_tree(namespace_name);
 }
 
 std::vector<NamespaceObjectInfo> list_namespace_objects(std::string_view namespace_name) {
@@ -308,6 +311,7 @@ std::vector<NamespaceObjectInfo> list_namespace_objects(std::string_view namespa
   for (NamespaceObjectInfo& store : detail::param_store_objects(namespace_name)) {
     objects.push_back(std::move(store));
   }
+  if (auto tree = detail::frame_tree_object(namespace_name)) objects.push_back(std::move(*tree));
   return objects;
 }
 

@@ -13,13 +13,14 @@ import argparse
 import os
 import sys
 
-from horus_cli.commands import (blackbox, bridge, completion, frame, log, monitor, msg, node,
-                                param, process, record, remote, service, shm, topic, view)
+from horus_cli.commands import (action, blackbox, bridge, completion, frame, launch, log, monitor,
+                                msg, node, param, process, record, remote, service, shm, topic,
+                                view)
 from horus_cli.common import EXIT_NOT_FOUND, EXIT_OK, CommandFailed, Commands
 
 # In the order `horus --help` lists them.
-COMMANDS = (topic, process, node, service, param, frame, msg, log, shm, monitor, blackbox, record,
-            bridge, remote, view, completion)
+COMMANDS = (topic, process, node, service, action, param, frame, msg, log, shm, monitor, blackbox,
+            record, bridge, remote, view, launch, completion)
 
 
 def build_parser() -> argparse.ArgumentParser:

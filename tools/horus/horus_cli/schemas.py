@@ -24,10 +24,12 @@ def described_types(args) -> list[dict]:
 
     from horus import typedesc
     folders = args.include or ([SCHEMA_DIR] if SCHEMA_DIR else [])
-    files = sorted(str(path) for folder in folders for pattern in ("*.hmsg", "*.hsrv")
+    files = sorted(str(path) for folder in folders
+                   for pattern in ("*.hmsg", "*.hsrv", "*.haction")
                    for path in pathlib.Path(folder).rglob(pattern))
     if not files:
-        raise CommandFailed(f"no schema files (.hmsg, .hsrv) in {', '.join(folders) or '(none)'}")
+        raise CommandFailed("no schema files (.hmsg, .hsrv, .haction) in "
+                            f"{', '.join(folders) or '(none)'}")
     resolving = folders + ([SCHEMA_DIR] if SCHEMA_DIR and SCHEMA_DIR not in folders else [])
     try:
         return typedesc.describe_files(files, resolving)["types"]

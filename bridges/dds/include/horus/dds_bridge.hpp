@@ -11,8 +11,9 @@
 // stderr each it refuses, and carries the others. A carried topic's failures are lines and
 // retries; a bug of the bridge (a pump that throws) stops it: `on_failure` gets the reason.
 //
-// Services cross too (horus/dds/services.hpp), and topics ros2_types names as their standard
-// type's ROS 2 twin (horus/dds/ros2_twins.hpp).
+// Services cross too (horus/dds/services.hpp), topics ros2_types names as their standard
+// type's ROS 2 twin (horus/dds/ros2_twins.hpp), and the namespace's coordinate frames as ROS 2's
+// /tf and /tf_static (horus/dds/frames.hpp).
 #pragma once
 
 #include <functional>

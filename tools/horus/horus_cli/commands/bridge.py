@@ -1,6 +1,6 @@
-"""`horus bridge`: carries topics and services to and from Cyclone DDS (other hosts, ROS 2) with
-the C++ DDS bridge (horus._core.dds.DdsBridge, run by horus.Network.serve on this thread); this
-module parses its options."""
+"""`horus bridge`: carries topics, services and coordinate frames to and from Cyclone DDS (other
+hosts, ROS 2) with the C++ DDS bridge (horus._core.dds.DdsBridge, run by horus.Network.serve on
+this thread); this module parses its options."""
 from __future__ import annotations
 
 import signal
@@ -14,8 +14,13 @@ def bridge(args) -> int:
         raise CommandFailed("this horus was built without Cyclone DDS (Debian: cyclonedds-dev), "
                             "so it has no bridge")
     from horus import Network
-    if not (args.export or args.imports or args.export_service or args.import_service):
-        raise CommandFailed("nothing to bridge: give --export and/or --import patterns", EXIT_USAGE)
+    export_frames = args.export_frames + (["*"] if args.frames else [])
+    import_frames = args.import_frames + (["*"] if args.frames else [])
+    if not (args.export or args.imports or args.export_service or args.import_service
+            or export_frames or import_frames):
+        raise CommandFailed("nothing to bridge: give --export and/or --import patterns (or "
+                            "--export-service, --import-service, --export-frames, "
+                            "--import-frames, --frames)", EXIT_USAGE)
     deadlines = {}
     for given in args.deadline:
         pattern, _, milliseconds = given.rpartition("=")
@@ -30,7 +35,8 @@ def bridge(args) -> int:
                           export_services=args.export_service,
                           import_services=args.import_service,
                           service_timeout=args.service_timeout, ros2_types=args.ros2_types,
-                          accept_untyped_writers=args.accept_untyped_writers)
+                          accept_untyped_writers=args.accept_untyped_writers,
+                          export_frames=export_frames, import_frames=import_frames)
     except ValueError as error:
         raise CommandFailed(str(error), EXIT_USAGE) from None
     # SIGTERM stops the bridge as Ctrl+C does (status 0).
@@ -82,4 +88,13 @@ def register(commands) -> None:
     sub.add_argument("--accept-untyped-writers", action="store_true",
                      help="import from DDS writers that announce no XTypes type information "
                           "(ROS 2 nodes), whose type DDS cannot check (default: refused)")
+    sub.add_argument("--export-frames", action="append", default=[], metavar="PATTERN",
+                     help="child frames of the namespace's frame tree to write to DDS as ROS 2's "
+                          "/tf and /tf_static (tf2_msgs/msg/TFMessage; a glob; repeatable)")
+    sub.add_argument("--import-frames", action="append", default=[], metavar="PATTERN",
+                     help="child frames to read from DDS's /tf and /tf_static into the frame "
+                          "tree (a glob; repeatable); the bridge becomes their authority")
+    sub.add_argument("--frames", action="store_true",
+                     help="every frame both ways: --export-frames '*' --import-frames '*' "
+                          "(a frame the bridge imported is never exported)")
     sub.set_defaults(handler=bridge)

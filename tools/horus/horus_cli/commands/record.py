@@ -1,7 +1,7 @@
 """`horus record`: make, look into, repair, replay, compare and export session recordings (MCAP
 files, docs/recording.md). horus_cli.main hands it everything after `record`.
 
-    horus record [-a | TOPICS...] [-o FILE] [--duration S]   record (runs horus-record)
+    horus record [-a | TOPICS...] [--frames] [-o FILE] [--duration S]   (runs horus-record)
     horus record list | info F | delete NAME | repair F
     horus record replay F [--rate X] [--loop] [--topics a,b] [--start S] [--end S]
                           [--view [--view-port N]]
@@ -15,6 +15,7 @@ command: 0, 1 (not found, refused, a difference for diff), 2 (usage).
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import time
@@ -70,6 +71,8 @@ def _walk(path: str) -> mcap.Reader:
 
 def record(args) -> int:
     command = [RECORD_PROGRAM, *(["-a"] if args.all else args.topics)]
+    if args.frames and not args.all:
+        command.append("--frames")
     if args.output:
         command += ["-o", args.output]
     if args.duration is not None:
@@ -251,6 +254,54 @@ class _ReplayTopic:
             return None
 
 
+class _ReplayFrames:
+    """The recorded frame channels (/horus/frames, /horus/frames_static), each transform set
+    again in the namespace's frame tree with its recorded stamp, this process their authority:
+    lookups at the recorded times answer as the recorded tree did."""
+
+    def __init__(self, channels: dict[int, bool]) -> None:
+        self.channels = channels  # by channel id: whether it holds the static transforms
+        self.tree = None
+        self.refused: set[str] = set()  # children said on stderr once
+
+    def open(self, namespace: str | None) -> None:
+        import horus
+        self.tree = horus.FrameTree(namespace or None)
+
+    def set(self, data: bytes, channel_id: int) -> bool:
+        """Sets one recorded FrameTransform; False (said on stderr once a frame) when the tree
+        refuses it: another live process is the frame's authority, or its stamp goes back."""
+        import horus
+        record = json.loads(data)
+        child = record.get("child_frame_id", "")
+        translation = tuple(record["translation"][k] for k in "xyz")
+        rotation = tuple(record["rotation"][k] for k in "xyzw")
+        try:
+            if self.channels[channel_id]:
+                self.tree.set_static_transform(record["parent_frame_id"], child, translation,
+                                               rotation)
+            else:
+                stamp = record["timestamp"]["sec"] * 1_000_000_000 + record["timestamp"]["nsec"]
+                self.tree.set_transform(record["parent_frame_id"], child, translation, rotation,
+                                        stamp)
+        except horus.FrameError as error:
+            if child not in self.refused:
+                self.refused.add(child)
+                print(f"horus record replay: frame '{child}': {error}", file=sys.stderr)
+            return False
+        return True
+
+
+def _frame_channels(reader_channels: dict[int, mcap.Channel],
+                    wanted: set[str] | None) -> dict[int, bool]:
+    """The frame channels to replay: whether each (by channel id) holds static transforms."""
+    from horus import foxglove
+    return {channel.id: channel.topic == foxglove.FRAMES_STATIC_TOPIC
+            for channel in reader_channels.values()
+            if channel.topic in foxglove.FRAME_TOPICS and channel.message_encoding == "json"
+            and (wanted is None or channel.topic in wanted)}
+
+
 def _replay_channels(reader_channels: dict[int, mcap.Channel], schemas: dict[int, mcap.Schema],
                      wanted: set[str] | None) -> tuple[dict[int, _ReplayTopic], list[str]]:
     """The topics to replay by channel id, and the service topics left out."""
@@ -335,7 +386,7 @@ def replay(args) -> int:
                             EXIT_USAGE)
     if args.view_port is not None and not args.view:
         raise CommandFailed("--view-port is the live view's: add --view", EXIT_USAGE)
-    from horus import mcap
+    from horus import foxglove, mcap
     path = resolve(args.file)
     wanted = {t for t in args.topics.split(",") if t} if args.topics else None
     # A first walk finds the channels, each one's first message time and largest message (a
@@ -348,16 +399,24 @@ def replay(args) -> int:
             first_time[record.channel_id] = min(first_time.get(record.channel_id, record.log_time),
                                                 record.log_time)
             largest[record.channel_id] = max(largest.get(record.channel_id, 0), len(record.data))
-    topics, services = _replay_channels(reader.channels, reader.schemas, wanted)
+    frames = _ReplayFrames(_frame_channels(reader.channels, wanted))
+    if wanted is not None:
+        missing = sorted(wanted & set(foxglove.FRAME_TOPICS)
+                         - {reader.channels[i].topic for i in frames.channels})
+        if missing:
+            raise CommandFailed(f"not in the recording: {', '.join(missing)}")
+    named_topics = None if wanted is None else wanted - set(foxglove.FRAME_TOPICS)
+    topics, services = _replay_channels(reader.channels, reader.schemas, named_topics)
     if services:
         print(f"horus record replay: left out the service topics {', '.join(services)} (name "
               "them with --topics to replay them)", file=sys.stderr)
-    if not topics:
+    if not topics and not frames.channels:
         raise CommandFailed(f"{path} has no HORUS topic to replay")
     check_types(topics, args)
-    if not any(channel_id in first_time for channel_id in topics):
+    replayed = [*topics, *frames.channels]
+    if not any(channel_id in first_time for channel_id in replayed):
         raise CommandFailed(f"{path} holds no message on the topics to replay")
-    first = min(first_time[channel_id] for channel_id in topics if channel_id in first_time)
+    first = min(first_time[channel_id] for channel_id in replayed if channel_id in first_time)
     # Everything that can refuse the recording does so before the first topic is opened: a
     # refusal then leaves nothing behind in the namespace.
     for channel_id, topic in topics.items():
@@ -377,13 +436,17 @@ def replay(args) -> int:
     try:
         for topic in topics.values():
             _open_topic(topic, args.capacity, args.namespace or "")
-        sent, failed = _publish(path, topics, first, args, view)
+        if frames.channels:
+            frames.open(args.namespace)
+        sent, failed, transforms, refused = _publish(path, topics, frames, first, args, view)
     finally:
         if view is not None:
             view.stop()
     print(f"replayed {sent} messages on {len(topics)} topics"
-          + (f"; {failed} could not be published (horus topic info shows why)" if failed else ""))
-    return EXIT_OK if failed == 0 else EXIT_NOT_FOUND
+          + (f"; {failed} could not be published (horus topic info shows why)" if failed else "")
+          + (f"; set {transforms} transforms in the frame tree" if frames.channels else "")
+          + (f" ({refused} refused, said above)" if refused else ""))
+    return EXIT_OK if failed == 0 and refused == 0 else EXIT_NOT_FOUND
 
 
 def _start_view(args, first: int):
@@ -402,22 +465,45 @@ def _start_view(args, first: int):
     return view
 
 
-def _publish(path: str, topics: dict[int, _ReplayTopic], first: int, args, view) -> tuple[int, int]:
+def _publish(path: str, topics: dict[int, _ReplayTopic], frames: _ReplayFrames, first: int, args,
+             view) -> tuple[int, int, int, int]:
     """Publishes the selected messages with their recorded timing (the view's time set to each
-    one's log time first, so that viewers see it stamped as recorded); (sent, failed)."""
+    one's log time first, so that viewers see it stamped as recorded), and sets the recorded
+    transforms in the frame tree at theirs; (sent, failed, transforms set, transforms refused).
+    Transforms are set in the first pass of a --loop only: the tree keeps them by their stamps,
+    which a second pass would take back in time. A static transform recorded before --start is
+    set at the start, as it holds for good."""
     from horus import mcap
-    sent = failed = 0
+    sent = failed = transforms = refused = 0
+    first_pass = True
     while True:
         wall_start = time.monotonic()
         for record in mcap.Reader(path):
-            if not isinstance(record, mcap.Message) or record.channel_id not in topics:
+            if not isinstance(record, mcap.Message):
                 continue
-            if not _selected(record, first, args.start, args.end):
+            if record.channel_id in frames.channels:
+                if not first_pass:
+                    continue
+                early_static = (frames.channels[record.channel_id]
+                                and args.start is not None
+                                and (record.log_time - first) / 1e9 < args.start)
+                if not early_static and not _selected(record, first, args.start, args.end):
+                    continue
+            elif record.channel_id not in topics or not _selected(record, first, args.start,
+                                                                   args.end):
                 continue
             offset = (record.log_time - first) / 1e9 - (args.start or 0.0)
             delay = wall_start + offset / args.rate - time.monotonic()
             if delay > 0:
                 time.sleep(delay)
+            if record.channel_id in frames.channels:
+                if view is not None:
+                    view.set_time(record.log_time)
+                if frames.set(record.data, record.channel_id):
+                    transforms += 1
+                else:
+                    refused += 1
+                continue
             topic = topics[record.channel_id]
             payload = topic.payload(record.data)
             if view is not None:
@@ -428,7 +514,8 @@ def _publish(path: str, topics: dict[int, _ReplayTopic], first: int, args, view)
                 failed += 1
         if not args.loop:
             break
-    return sent, failed
+        first_pass = False
+    return sent, failed, transforms, refused
 
 
 # ---------------------------------------------------------------------------------------------
@@ -523,8 +610,12 @@ def build_parser() -> argparse.ArgumentParser:
                                      "recordings: " + ", ".join(ACTIONS)
                                      + ". `horus record ACTION --help` for each.")
     parser.add_argument("-a", "--all", action="store_true",
-                        help="every topic of the namespace, also those that appear later")
+                        help="every topic of the namespace, also those that appear later, the "
+                             "parameter changes and the frame tree")
     parser.add_argument("topics", nargs="*", metavar="TOPIC", help="topics to record")
+    parser.add_argument("--frames", action="store_true",
+                        help="the namespace's frame tree too (/horus/frames, "
+                             "/horus/frames_static); -a records it anyway")
     parser.add_argument("-o", "--output", metavar="FILE",
                         help="the file (default: a new session_YYYY_MM_DD_HHMMSS.mcap in "
                              "$HORUS_RECORDINGS)")
@@ -627,8 +718,9 @@ def parse_record(argv: list[str]) -> argparse.Namespace | None:
         # `--` lets a topic be named like an action: horus record -- list
         parser = build_parser()
         args = parser.parse_args(argv)
-        if not args.all and not args.topics:
-            parser.error("name the topics to record, or -a for all of them")
+        if not args.all and not args.topics and not args.frames:
+            parser.error("name the topics to record, --frames for the frame tree, or -a for all "
+                         "of them")
         if args.all and args.topics:
             parser.error("-a records every topic: name no topic with it")
     args.namespace = getattr(args, "namespace", None) or namespace

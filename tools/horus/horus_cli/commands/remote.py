@@ -161,8 +161,9 @@ def register(commands) -> None:
                     "messages sent and dropped (latest wins on a slow link)", remote_status)
     for name, help_text in (("serve", "serve this namespace to authenticated peers (runs "
                                       "horus-remote serve; --help lists its options)"),
-                            ("connect", "mirror a robot's topics here and send ours to it (runs "
-                                        "horus-remote connect; --help lists its options)")):
+                            ("connect", "mirror a robot's topics, parameters and frames here and "
+                                        "send ours to it (runs horus-remote connect; --help lists "
+                                        "its options)")):
         # '+' as the prefix: every argument, options too, goes to horus-remote as it is.
         sub = remote.add_parser(name, help=help_text, description=help_text, prefix_chars="+",
                                 add_help=False)

@@ -50,8 +50,9 @@ def shm_list(args) -> int:
         rows.append({"name": topic["name"], "path": path, "size": size,
                      "pids": topic["user_pids"], "in_use": bool(topic["user_pids"]),
                      "error": topic["error"]})
-    # The log ring, the presence folder and the parameter stores (one a node, named after it):
-    # their users hold a lock on them.
+    # The log ring, the presence folder, the parameter stores (one a node, named after it) and
+    # the frame tree: their users hold a lock on them (the tree's an OFD lock, which /proc/locks
+    # shows without a pid: "(in use)").
     rows += [{"name": o["kind"] + ("/" + os.path.basename(o["path"]) if o["kind"] == "@params"
                                    else ""),
               "path": o["path"], "size": o["size"],
@@ -90,7 +91,8 @@ def shm_clean(args) -> int:
 
 def register(commands) -> None:
     shm = commands.group("shm", "shared-memory segments: list, clean")
-    commands.action(shm, "list", "the namespace's segments, log ring and presence folder, and who "
-                    "uses them", shm_list)
-    commands.action(shm, "clean", "remove the segments, log ring, presence folder and tensor pools "
-                    "whose every user died (never a live one's)", shm_clean)
+    commands.action(shm, "list", "the namespace's segments, log ring, presence folder, parameter "
+                    "stores and frame tree, and who uses them", shm_list)
+    commands.action(shm, "clean", "remove the segments, log ring, presence folder, parameter "
+                    "stores, frame tree and tensor pools whose every user died (never a live "
+                    "one's)", shm_clean)

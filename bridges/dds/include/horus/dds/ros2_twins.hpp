@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "horus/dds/conversion.hpp"
+#include "horus/frames.hpp"
 #include "horus/raw_topic.hpp"
 
 namespace horus::dds_bridge {
@@ -38,5 +39,15 @@ TypeIdentity twin_type_identity(const Ros2Twin& twin);
 /// samples and back. to_local() says why a sample does not decode as the twin ("a CDR sample
 /// does not decode as sensor_msgs/msg/LaserScan: a scan of 361 ranges does not fit HORUS's 360").
 std::unique_ptr<Conversion> twin_conversion(const Ros2Twin& twin);
+
+/// Transforms as one tf2_msgs/msg/TFMessage XCDR1 sample (what ROS 2's /tf and /tf_static
+/// carry): each a geometry_msgs/msg/TransformStamped, header.frame_id the parent, the stamp in
+/// ns split into sec and nanosec.
+void tf_message_to_cdr(std::span<const StampedTransform> transforms,
+                       std::vector<std::byte>& sample);
+/// A TFMessage sample's transforms, each frame id without the one leading '/' tf2 allows; empty,
+/// or why the sample does not decode (`transforms` then empty).
+std::string tf_message_from_cdr(std::span<const std::byte> sample,
+                                std::vector<StampedTransform>& transforms);
 
 }  // namespace horus::dds_bridge

@@ -1,15 +1,17 @@
 // A namespace's shared-memory objects besides its topic segments: the log ring that `horus log`
 // reads (<root>/@logs/<namespace>, runtime/src/scheduler/log_ring.cpp), the presence folder
-// that `horus node list` reads (<root>/@presence/<namespace>, runtime/src/presence/) and the
-// parameter stores (<root>/@params/<namespace>/<node>, runtime/src/params/). The
-// transport's clean_namespace() and remove_namespace() reach them through these functions.
+// that `horus node list` reads (<root>/@presence/<namespace>, runtime/src/presence/), the
+// parameter stores (<root>/@params/<namespace>/<node>, runtime/src/params/) and the frame tree
+// (<root>/@frames/<namespace>, runtime/src/frames/). The transport's clean_namespace() and
+// remove_namespace() reach them through these functions.
 //
 // Who uses them is told by flock(2), which the kernel drops when a process dies: every process
 // that writes the ring holds a shared lock on it for as long as its mapping lives, and every
 // Scheduler holds a shared lock on its presence folder for as long as it announces there. A
 // cleaner takes the exclusive lock without waiting, so it removes only what no live process uses;
 // an opener re-checks, once locked, that what it opened is still linked, and starts over if a
-// cleaner removed it in between.
+// cleaner removed it in between. The frame tree does the same with an OFD lock (fcntl), its flock
+// being its writers' own.
 #pragma once
 
 #include <optional>
@@ -38,5 +40,12 @@ std::vector<NamespaceObjectInfo> param_store_objects(std::string_view namespace_
 /// Unlinks the namespace's parameter stores that no live owner holds (`force`: all), and their
 /// folder once empty. How many went.
 std::size_t remove_param_stores(std::string_view namespace_name, bool force);
+
+/// The namespace's frame tree (<root>/@frames/<namespace>, runtime/src/frames/), its size being
+/// the memory it holds; in use while any process has it open (each holds a shared OFD lock).
+std::optional<NamespaceObjectInfo> frame_tree_object(std::string_view namespace_name);
+/// Unlinks the namespace's frame tree when no process has it open, static frames and all.
+/// Whether it was removed.
+bool remove_unused_frame_tree(std::string_view namespace_name);
 
 }  // namespace horus::detail

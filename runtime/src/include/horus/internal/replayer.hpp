@@ -32,8 +32,10 @@ std::map<std::string, std::map<std::string, std::string>> recorded_starting_para
 
 class Replayer {
  public:
-  /// Reads `path` and opens each recorded topic except "/horus/ticks", service topics and those
-  /// in `skip` (the nodes' own outputs) in `namespace_name` (empty: the current one). Throws
+  /// Reads `path` and opens each recorded topic except "/horus/ticks", "/horus/params", the
+  /// frame channels, service topics and those in `skip` (the nodes' own outputs) in
+  /// `namespace_name` (empty: the current one), whose frame tree gets the recorded frames of
+  /// other processes (deliver_before_cycle; the nodes set their own frames again). Throws
   /// horus::Error naming the topic and both fingerprints when a topic carries another type than
   /// it was recorded with, and naming the file when it cannot be read; then it has opened none.
   Replayer(const std::filesystem::path& path, const std::string& namespace_name,
@@ -42,9 +44,10 @@ class Replayer {
   Replayer(const Replayer&) = delete;
   Replayer& operator=(const Replayer&) = delete;
 
-  /// Publishes, in recorded order, the messages no recorded reader received that are due
-  /// before the scheduler begins cycle `cycle` (all of them left, once the recorded cycles are
-  /// exhausted).
+  /// Sets the recorded transforms of frames that other processes than the recording one set,
+  /// and then publishes, in recorded order, the messages no recorded reader received, that are
+  /// due before the scheduler begins cycle `cycle` (all of them left, once the recorded cycles
+  /// are exhausted).
   void deliver_before_cycle(std::uint64_t cycle);
   /// Called just before each tick of node `node` (where the live run took its tick's `received`
   /// counts): publishes what the recorded tick of the same number of that node had been handed
@@ -82,6 +85,7 @@ class Replayer {
 
   Reader* deliver_for_next_tick(std::string_view node);
   void send(std::size_t message);
+  void set_frame(const RecordedFrameChange& change);
 
   std::vector<std::unique_ptr<TopicEndpoint>> topics_;
   std::vector<std::unique_ptr<PoolFrames>> frames_;
@@ -97,6 +101,12 @@ class Replayer {
     std::uint64_t ticks = 0;  // its ticks in this replay so far
   };
   std::map<std::string, ParamChanges, std::less<>> param_changes_;
+  /// The recorded transforms of frames other processes set, by the cycle they are due before.
+  std::vector<std::pair<std::uint64_t, RecordedFrameChange>> frames_due_;
+  std::size_t next_frame_ = 0;
+  std::string namespace_;
+  std::unique_ptr<FrameTree> frame_tree_;  // opened at the first transform set
+  std::set<std::string> refused_frames_;   // warned about once
   std::size_t delivered_ = 0;
   bool has_ticks_ = false;
   std::uint64_t last_cycle_ = 0;  // the last recorded cycle, if any

@@ -14,9 +14,10 @@ namespace horus::detail {
 
 class TopicWaitSet {
  public:
-  /// For the named topics of the current namespace (at most 128); each may not exist yet.
-  /// Throws horus::Error for an invalid name or a corrupt segment.
-  explicit TopicWaitSet(const std::vector<std::string>& topic_names);
+  /// For the named topics (at most 128) of `namespace_name` (empty: the current namespace);
+  /// each may not exist yet. Throws horus::Error for an invalid name or a corrupt segment.
+  explicit TopicWaitSet(const std::vector<std::string>& topic_names,
+                        std::string_view namespace_name = {});
   ~TopicWaitSet();
   TopicWaitSet(const TopicWaitSet&) = delete;
   TopicWaitSet& operator=(const TopicWaitSet&) = delete;
