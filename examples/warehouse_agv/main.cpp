@@ -1,12 +1,15 @@
-// The warehouse AGV: seven nodes, standard messages, one scheduler. See README.md.
+// The warehouse AGV: seven nodes, standard messages, one action, one scheduler. See README.md.
 // Each node is declared in nodes/<name>.hnode (its topics, data and scheduling settings);
 // horus-gen makes the base classes (warehouse_agv::LidarBase, ...), this file writes their ticks.
 // The nodes share nothing but topics (the robot's position included: the motor controller
-// publishes it), so `--nodes` runs any of them in a process of its own (launch/warehouse.yaml).
+// publishes it) and the GoToPallet action (actions/go_to_pallet.haction: the fleet node sends
+// it, the planner serves it), so `--nodes` runs any of them in a process of its own
+// (launch/warehouse.yaml).
 #include <horus/horus.hpp>
 #include <warehouse_agv.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -19,12 +22,19 @@
 
 using namespace horus::literals;
 namespace msg = horus::msg;
+using warehouse_agv::GoToPallet;
 
 namespace {
 
-// The simulated world: the robot drives along a corridor towards a pallet; the motor controller
-// moves it and publishes where it is on "robot.pose"; at a set time someone steps in front of it.
-constexpr double kPalletX = 4.0;  // m
+// The simulated world: the fleet server sends the robot to a pallet down a corridor (GoToPallet);
+// the motor controller moves it and publishes where it is on "robot.pose"; at a set time someone
+// steps in front of it.
+constexpr std::uint32_t kPalletId = 7;
+constexpr double kPalletX = 1.2;  // m
+// The robot stops this far short of a pallet: where its forks reach it.
+constexpr double kForkReach = 0.5;  // m
+// The corridor's walls are 1 m to each side of the robot's path.
+constexpr double kCorridorHalfWidth = 1.0;  // m
 
 std::uint64_t stamp() { return static_cast<std::uint64_t>(horus::now().count()); }
 
@@ -38,6 +48,13 @@ double latest_robot_x(horus::Topic<msg::Pose2D>& pose, double last_known) noexce
 // Each node narrates through horus's logger: the node's name is attached automatically, the
 // lines go to stderr and to the namespace's log ring (read_log(), `horus log`).
 void say(const std::string& line) { HORUS_LOG_INFO("%s", line.c_str()); }
+
+// The same from a thread of a node that is not its tick's (an action client's callbacks).
+void say_as(std::string_view node, const std::string& line) {
+  horus::log::emit(horus::LogLevel::Info, node, line);
+}
+
+std::string metres(double x) { return std::to_string(x).substr(0, 4) + " m"; }
 
 // nodes/lidar.hnode: 40 Hz, publishes "scan"; a person steps in front of the robot
 // `person_at_s` after the lidar started.
@@ -94,14 +111,69 @@ class Safety : public warehouse_agv::SafetyBase {
   }
 };
 
-// nodes/planner.hnode: 10 Hz on the compute pool.
+// nodes/planner.hnode: 10 Hz on the compute pool. It serves GoToPallet from its tick (the
+// action's tick mode): each tick takes the next goal when it has none, ends the goal it has
+// (arrived, canceled, stopped by the emergency stop), or plans the path to it and reports the
+// distance left.
 class Planner : public warehouse_agv::PlannerBase {
  public:
+  Planner()
+      : navigator_(horus::ActionServerBuilder<GoToPallet>().on_goal(&Planner::decide).build()) {}
+
   void tick() override {
     robot_x_ = latest_robot_x(pose_, robot_x_);
-    if (!scan_.try_recv()) return;
+    if (const auto stop = estop_.try_recv(); stop && stop->engaged)
+      estop_reason_ = stop->reason.str();
+    if (!goal_ && (goal_ = navigator_.next_goal())) {
+      const GoToPallet::Goal& wanted = goal_->goal();
+      say("goal: pallet " + std::to_string(wanted.pallet_id) + " at x=" + metres(wanted.x) +
+          ", stopping at x=" + metres(wanted.x - kForkReach));
+    }
+    if (!goal_) return;
+    const GoToPallet::Goal& wanted = goal_->goal();
+    const double stop_at = wanted.x - kForkReach;
+    const double distance = stop_at - robot_x_;
+    if (goal_->is_cancel_requested()) {
+      send_path(robot_x_);  // the tracker holds the robot where it is
+      say("pallet " + std::to_string(wanted.pallet_id) + ": " + goal_->cancel_reason());
+      goal_->cancel(result(false, distance));
+    } else if (estop_reason_) {
+      goal_->abort("emergency stop: " + *estop_reason_, result(false, distance));
+    } else if (std::abs(distance) <= wanted.tolerance_m) {
+      say("pallet " + std::to_string(wanted.pallet_id) + " reached at x=" + metres(robot_x_));
+      goal_->succeed(result(true, distance));
+    } else if (distance < 0.0) {
+      goal_->abort("pallet " + std::to_string(wanted.pallet_id) + " is behind the robot (x=" +
+                       metres(robot_x_) + "), which drives forward only",
+                   result(false, distance));
+    } else {
+      if (!scan_.try_recv()) return;
+      send_path(stop_at);
+      goal_->publish_feedback({distance, robot_x_});
+      return;
+    }
+    goal_.reset();
+  }
+
+ private:
+  // Quick and stateless (it runs on the server's thread): the goals the robot cannot drive.
+  static horus::GoalDecision decide(const GoToPallet::Goal& goal) {
+    if (!(std::abs(goal.y) < kCorridorHalfWidth)) {
+      return horus::GoalDecision::reject("pallet " + std::to_string(goal.pallet_id) +
+                                         " is off the corridor (y=" + metres(goal.y) +
+                                         "; the walls are 1 m to each side)");
+    }
+    if (!(goal.tolerance_m > 0.0))
+      return horus::GoalDecision::reject("tolerance_m must be positive");
+    return horus::GoalDecision::accept();
+  }
+
+  GoToPallet::Result result(bool reached, double distance) const {
+    return {reached, goal_->goal().pallet_id, robot_x_, 0.0, distance};
+  }
+
+  void send_path(double goal) {
     msg::PathPlan plan{};
-    const double goal = kPalletX - 0.5;
     const double start = robot_x_;
     plan.waypoint_count = 20;
     for (std::size_t i = 0; i < plan.waypoint_count; ++i) {
@@ -111,12 +183,15 @@ class Planner : public warehouse_agv::PlannerBase {
     plan.goal_pose = {static_cast<float>(goal), 0.0f, 0.0f};
     plan.timestamp_ns = stamp();
     path_.send(plan);
-    if (++count_ % 10 == 1)
-      say("path to x=" + std::to_string(goal).substr(0, 4) + " m, 20 waypoints");
+    if (++count_ % 10 == 1) say("path to x=" + metres(goal) + ", 20 waypoints");
   }
+
+  horus::ActionServer<GoToPallet> navigator_;
+  std::optional<horus::ServerGoal<GoToPallet>> goal_;
+  std::optional<std::string> estop_reason_;  // held, as the motor controller holds the stop
 };
 
-// nodes/tracker.hnode: 100 Hz.
+// nodes/tracker.hnode: 100 Hz; full speed (0.8 m/s) until 0.2 m before the goal.
 class Tracker : public warehouse_agv::TrackerBase {
  public:
   void tick() override {
@@ -124,7 +199,7 @@ class Tracker : public warehouse_agv::TrackerBase {
     if (auto plan = path_.try_recv()) goal_ = plan->goal_pose[0];
     const double remaining = goal_ - robot_x_;
     const auto cmd = msg::CmdVel::with_timestamp(
-        static_cast<float>(std::clamp(0.8 * remaining, 0.0, 0.8)), 0.0f, stamp());
+        static_cast<float>(std::clamp(4.0 * remaining, 0.0, 0.8)), 0.0f, stamp());
     cmd_.send(cmd);
     if (++count_ % 50 == 1) say(cmd.log_summary());
   }
@@ -164,9 +239,6 @@ class Motor : public warehouse_agv::MotorBase {
     say("shutdown: wheels disabled (" + std::to_string(safe_entries_) +
         " deadline misses answered by stopping)");
   }
-
- private:
-  static std::string metres(double x) { return std::to_string(x).substr(0, 4) + " m"; }
 };
 
 // nodes/battery.hnode: 2 Hz.
@@ -187,10 +259,13 @@ class Battery : public warehouse_agv::BatteryBase {
   }
 };
 
-// nodes/fleet.hnode: 1 Hz on a thread of its own (async_io), FailurePolicy::Skip.
+// nodes/fleet.hnode: 1 Hz on a thread of its own (async_io), FailurePolicy::Skip. The robot's
+// link to the fleet server: it reports telemetry, and passes on the server's order, "go to
+// pallet 7" (a GoToPallet goal to the planner), saying what comes back.
 class Fleet : public warehouse_agv::FleetBase {
  public:
   void tick() override {
+    if (!order_sent_) send_order();
     const auto battery = battery_.read_latest();
     const auto wheels = wheels_.read_latest();
     msg::Heartbeat beat{};
@@ -208,6 +283,84 @@ class Fleet : public warehouse_agv::FleetBase {
                   wheels && !wheels->enable ? " (disabled)" : "");
     say(line);
   }
+
+ private:
+  // The goal, shared by this node's thread and the client's (which runs the callbacks). The
+  // handle is stored once send_goal() returns; the result is read from it once the goal has
+  // ended; whichever thread sees both comes second and reports it, once.
+  struct Order {
+    std::optional<horus::GoalHandle<GoToPallet>> goal;
+    std::atomic<bool> stored{false};
+    std::atomic<bool> ended{false};
+    std::atomic<bool> reported{false};
+    unsigned feedback_received = 0;  // the client's thread only
+  };
+
+  // Blocks until the planner answers (this node's thread is its own); without a planner yet
+  // (a process of its own, still starting), it waits a while (less than the scheduler's
+  // watchdog) and tries again next tick.
+  void send_order() {
+    if (!client_.wait_for_server(std::chrono::milliseconds(300))) {
+      if (!waiting_reported_) say("GoToPallet: waiting for the planner to serve it");
+      waiting_reported_ = true;
+      return;
+    }
+    const GoToPallet::Goal goal{.pallet_id = kPalletId, .x = kPalletX, .y = 0.0};
+    // Weak: the goal's callbacks must not keep alive the handle that holds them.
+    const std::weak_ptr<Order> weak = order_;
+    horus::GoalCallbacks<GoToPallet> callbacks;
+    callbacks.on_feedback = [weak](const GoToPallet::Feedback& feedback) {
+      const std::shared_ptr<Order> order = weak.lock();
+      // The planner sends feedback every tick (10 Hz): every third is enough to follow.
+      if (!order || order->feedback_received++ % 3 != 0) return;
+      say_as("fleet", "GoToPallet feedback: " + metres(feedback.distance_m) +
+                          " to go, robot at x=" + metres(feedback.x));
+    };
+    callbacks.on_state = [weak](horus::GoalState state, std::string_view) {
+      const std::shared_ptr<Order> order = weak.lock();
+      if (!order || !horus::is_terminal(state)) return;
+      order->ended = true;
+      if (order->stored) report_once(*order);
+    };
+    auto sent = client_.send_goal(goal, std::chrono::seconds(1), callbacks);
+    if (!sent) {
+      // The planner went away in between, or did not answer: the next tick tries again.
+      say("GoToPallet: the goal was not sent: " + sent.error().to_string());
+      return;
+    }
+    if (sent->state() == horus::GoalState::Rejected) {
+      say("GoToPallet pallet " + std::to_string(kPalletId) + ": rejected: " + sent->reason());
+    } else {
+      say("GoToPallet pallet " + std::to_string(kPalletId) + " at x=" + metres(kPalletX) +
+          ": goal " + sent->id().to_string() + " accepted");
+      order_->goal = std::move(*sent);
+      order_->stored = true;
+      if (order_->ended) report_once(*order_);
+    }
+    order_sent_ = true;
+  }
+
+  static void report_once(Order& order) {
+    if (order.reported.exchange(true)) return;
+    const auto outcome = order.goal->try_result();
+    if (!outcome) return;
+    const std::string_view state = horus::to_string(outcome->state);
+    const GoToPallet::Result& result = outcome->result;
+    const bool reason = !outcome->reason.empty();
+    char line[320];
+    std::snprintf(line, sizeof line,
+                  "GoToPallet %.*s%s%s%s: pallet %u %s, robot at x=%.2f m (%.2f m from the "
+                  "stopping point)",
+                  static_cast<int>(state.size()), state.data(), reason ? " (" : "",
+                  outcome->reason.c_str(), reason ? ")" : "", result.pallet_id,
+                  result.reached ? "reached" : "not reached", result.x, result.distance_m);
+    say_as("fleet", line);
+  }
+
+  horus::ActionClient<GoToPallet> client_;
+  std::shared_ptr<Order> order_ = std::make_shared<Order>();
+  bool order_sent_ = false;
+  bool waiting_reported_ = false;
 };
 
 // What to run: all seven nodes (the demo) or some of them, the others running in processes of
@@ -332,8 +485,17 @@ int main(int argc, char** argv) {
     warehouse_agv::SafetyBase::add_to(sched, std::make_unique<Safety>()).build();
   if (has(*options, "lidar"))
     warehouse_agv::LidarBase::add_to(sched, std::make_unique<Lidar>(*options->person_at_s)).build();
-  if (has(*options, "planner"))
-    warehouse_agv::PlannerBase::add_to(sched, std::make_unique<Planner>()).build();
+  if (has(*options, "planner")) {
+    std::unique_ptr<Planner> planner;
+    try {
+      planner = std::make_unique<Planner>();
+    } catch (const horus::Error& e) {
+      // GoToPallet has one server in a namespace: another planner runs there already.
+      std::fprintf(stderr, "warehouse_agv: the planner cannot serve GoToPallet: %s\n", e.what());
+      return 1;
+    }
+    warehouse_agv::PlannerBase::add_to(sched, std::move(planner)).build();
+  }
   if (has(*options, "tracker"))
     warehouse_agv::TrackerBase::add_to(sched, std::make_unique<Tracker>()).build();
   if (has(*options, "motor")) {

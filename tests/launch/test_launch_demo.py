@@ -2,7 +2,8 @@
 
 - examples/warehouse_agv with each node in a process of its own (`warehouse_agv --nodes NAME`),
   started by hand: the nodes still exchange the scan, the plan, the commands and the robot's
-  position, and the person in front of the robot still stops it;
+  position, and the person in front of the robot still stops it; the fleet node's GoToPallet
+  goal reaches the planner in another process and succeeds, as do goals `horus action send`s;
 - its launch file (examples/warehouse_agv/launch/warehouse.yaml), expanded by --dry-run and run
   by `horus launch` until the emergency stop, which holds for a motor controller restarted
   after it;
@@ -32,6 +33,8 @@ DEMO_LAUNCH = ROOT / "examples" / "warehouse_agv" / "launch" / "warehouse.yaml"
 FOURPROC_LAUNCH = pathlib.Path(__file__).resolve().parent / "programs" / "fourproc.yaml"
 NODES = ("motor", "lidar", "safety", "planner", "tracker", "battery", "fleet")
 WHEELS_HALTED = "emergency stop: wheels halted"
+GOAL_ACCEPTED = re.compile(r"fleet: GoToPallet pallet 7 at x=1\.20 m: goal [0-9a-f]{32} accepted$")
+GOAL_SUCCEEDED = "fleet: GoToPallet succeeded: pallet 7 reached, robot at x=0."
 
 
 @pytest.fixture(autouse=True)
@@ -97,6 +100,53 @@ def test_demo_nodes_in_processes_of_their_own_stop_the_robot(tmp_path):
         assert report == [node], outputs[node].text()
 
 
+def test_demo_goal_to_the_pallet_across_processes_and_from_horus_action():
+    # The nodes that move the robot, the planner (the action's server) and the fleet node (its
+    # client) each in a process of its own; nobody steps in front of the robot.
+    argvs = {"motor": [], "lidar": ["--person-at", "60"], "planner": [], "tracker": [],
+             "fleet": []}
+    processes = {}
+    outputs = {}
+    try:
+        for node, extra in argvs.items():
+            processes[node] = subprocess.Popen([WAREHOUSE_AGV, "--nodes", node, *extra],
+                                               text=True, stdout=subprocess.PIPE,
+                                               stderr=subprocess.STDOUT)
+            outputs[node] = Output(processes[node].stdout)
+        outputs["fleet"].wait_for(GOAL_SUCCEEDED, limit=20)
+        assert any(GOAL_ACCEPTED.search(line) for line in outputs["fleet"].lines)
+        assert "fleet: GoToPallet feedback: " in outputs["fleet"].text()
+        assert "planner: pallet 7 reached at x=0." in outputs["planner"].text()
+        # `horus action` finds the demo's action and sends it goals: one the robot, standing at
+        # the pallet, has already reached, and one the planner refuses.
+        listed = subprocess.run([HORUS, "action", "list"], capture_output=True, text=True,
+                                timeout=30)
+        assert re.search(r"^GoToPallet +warehouse_agv\.GoToPallet +\d+ +succeeded ",
+                         listed.stdout, re.M), listed.stdout + listed.stderr
+        sent = subprocess.run([HORUS, "action", "send", "GoToPallet", "{pallet_id: 7, x: 1.2}"],
+                              capture_output=True, text=True, timeout=30)
+        assert sent.returncode == 0, sent.stdout + sent.stderr
+        assert "succeeded: {reached: true, pallet_id: 7, " in sent.stdout, sent.stdout
+        refused = subprocess.run(
+            [HORUS, "action", "send", "GoToPallet", "{pallet_id: 3, x: 1.0, y: 2.5}"],
+            capture_output=True, text=True, timeout=30)
+        assert refused.returncode == 1, refused.stdout + refused.stderr
+        assert "rejected: pallet 3 is off the corridor (y=2.50 m" in refused.stderr
+        # One 10 cm on, to 1 mm, which cannot end within 0.3 s: the command cancels it, the
+        # planner ends it Canceled.
+        canceled = subprocess.run(
+            [HORUS, "action", "send", "GoToPallet", "{pallet_id: 7, x: 1.3, tolerance_m: 0.001}",
+             "--result-timeout", "0.3"], capture_output=True, text=True, timeout=30)
+        assert canceled.returncode == 1, canceled.stdout + canceled.stderr
+        assert "did not end within 0.3 s: canceled" in canceled.stderr, canceled.stderr
+        outputs["planner"].wait_for("planner: pallet 7: canceled by a client")
+    finally:
+        statuses = {node: stop(processes[node]) for node in reversed(list(processes))}
+    for output in outputs.values():
+        output.wait_closed()
+    assert statuses == {node: 0 for node in argvs}, {n: o.text() for n, o in outputs.items()}
+
+
 def test_demo_refuses_an_unknown_node():
     result = subprocess.run([WAREHOUSE_AGV, "--nodes", "lidar,motr"], capture_output=True,
                             text=True, timeout=10)
@@ -119,6 +169,7 @@ def test_demo_launch_file_expands_with_dependencies_first():
     assert f"command:    {WAREHOUSE_AGV} --nodes lidar --person-at 5" in result.stdout
     assert result.stdout.count("namespace:  warehouse_agv_demo") == len(NODES)
     assert "depends on: topic robot.pose" in result.stdout
+    assert "service GoToPallet.send_goal (timeout 10 s)" in result.stdout
 
 
 class DemoLaunch:
@@ -150,6 +201,8 @@ def test_demo_launch_runs_the_robot_until_the_emergency_stop(tmp_path):
     launch = DemoLaunch(tmp_path, person_at="2")
     try:
         launch.wait_for_the_emergency_stop()
+        # The fleet node, started once the planner serves GoToPallet, sent it its goal.
+        assert launch.err.wait_for("GoToPallet pallet 7 at x=1.20 m: goal").startswith("fleet   | ")
     finally:
         status = launch.stop()
     err = launch.err

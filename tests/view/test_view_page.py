@@ -25,7 +25,7 @@ horus.run(horus.Node(name="pacer", tick=tick, rate=50, pubs={"cmd_vel": CmdVel})
 """
 
 
-def wait_for(driver, condition, what: str, limit: float = 15):
+def wait_for(driver, condition, what: str, limit: float = 30):
     return WebDriverWait(driver, limit).until(lambda d: condition(d), f"waiting for {what}")
 
 
@@ -49,7 +49,8 @@ def test_the_page_lists_topics_and_nodes_and_shows_a_live_value_and_plot(view_se
     rows = wait_for(browser, lambda d: (r := topic_rows(d)).get("cmd_vel", {}).get("rate") and r,
                     "cmd_vel listed with a measured rate")
     assert rows["cmd_vel"]["type"] == "horus.msg.CmdVel", rows
-    assert 25 <= rows["cmd_vel"]["rate"] <= 75, f"a 50 Hz topic shown at {rows['cmd_vel']} msg/s"
+    # Wide bounds: a loaded machine slows the publisher; a rate in the wrong unit is far outside.
+    assert 10 <= rows["cmd_vel"]["rate"] <= 100, f"a 50 Hz topic shown at {rows['cmd_vel']} msg/s"
     assert browser.find_element(By.ID, "connection").get_attribute("data-state") == "open"
 
     node = wait_for(browser, lambda d: d.find_elements(By.CSS_SELECTOR, "#nodes tr[data-node]"),
@@ -110,4 +111,4 @@ def test_the_page_lists_the_frames_with_parents_and_rates(view_server, children,
                     "the frames listed with a measured rate")
     assert rows["lidar"] == {"parent": "base_link", "static": "true", "rate": None}, rows
     assert rows["base_link"]["parent"] == "odom" and rows["base_link"]["static"] == "false", rows
-    assert 25 <= rows["base_link"]["rate"] <= 75, f"a 50 Hz frame shown at {rows['base_link']}"
+    assert 10 <= rows["base_link"]["rate"] <= 100, f"a 50 Hz frame shown at {rows['base_link']}"

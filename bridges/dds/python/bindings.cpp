@@ -461,8 +461,9 @@ void bind_dds(py::module_& m) {
   py::class_<PythonDdsBridge>(
       m, "DdsBridge",
       "The C++ bridge (bridges/dds/): carries the topics, services and frames (export_frames, "
-      "import_frames: child frame patterns, as rt/tf and rt/tf_static) the patterns name on "
-      "threads of its own, saying each on stdout and each refusal on stderr, until stop(). "
+      "import_frames: child frame patterns, as rt/tf and rt/tf_static) and the actions "
+      "(export_actions: served to ROS 2 action clients) the patterns name on threads of its own, "
+      "saying each on stdout and each refusal on stderr, until stop(). "
       "find_type(name): a generated class's type description by its HORUS name, or None (how an "
       "exported service's response type is found before a local call showed it).")
       .def(py::init([](const std::string& namespace_name, std::vector<std::string> exports,
@@ -473,7 +474,8 @@ void bind_dds(py::module_& m) {
                        std::vector<std::string> export_services,
                        std::vector<std::string> import_services, double service_timeout,
                        py::object find_type, std::vector<std::string> export_frames,
-                       std::vector<std::string> import_frames) {
+                       std::vector<std::string> import_frames,
+                       std::vector<std::string> export_actions) {
              Network options{.export_ = std::move(exports),
                              .import_ = std::move(imports),
                              .domain = domain,
@@ -486,7 +488,8 @@ void bind_dds(py::module_& m) {
                              .ros2_types = std::move(ros2_types),
                              .accept_untyped_writers = accept_untyped_writers,
                              .export_frames = std::move(export_frames),
-                             .import_frames = std::move(import_frames)};
+                             .import_frames = std::move(import_frames),
+                             .export_actions = std::move(export_actions)};
              for (const auto& [pattern, milliseconds] : deadlines) {
                options.deadlines.emplace_back(pattern, std::chrono::milliseconds(milliseconds));
              }
@@ -502,7 +505,8 @@ void bind_dds(py::module_& m) {
            py::arg("import_services") = std::vector<std::string>{},
            py::arg("service_timeout") = 10.0, py::arg("find_type") = py::none(),
            py::arg("export_frames") = std::vector<std::string>{},
-           py::arg("import_frames") = std::vector<std::string>{})
+           py::arg("import_frames") = std::vector<std::string>{},
+           py::arg("export_actions") = std::vector<std::string>{})
       .def("stop", &PythonDdsBridge::stop, py::call_guard<py::gil_scoped_release>(),
            "Stops every carried topic and deletes the bridge's DDS entities.")
       .def_property_readonly("broken", &PythonDdsBridge::broken,

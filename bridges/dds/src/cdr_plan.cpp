@@ -143,8 +143,10 @@ CdrPlan::CdrPlan(std::string type_name, std::size_t pod_size, std::vector<CdrSte
 }
 
 void CdrPlan::encode(const std::byte* pod, std::vector<std::byte>& sample,
-                     std::span<const std::byte> pool_data) const {
+                     std::span<const std::byte> pool_data,
+                     std::span<const std::byte> body_prefix) const {
   sample.assign({std::byte{0}, std::byte{1}, std::byte{0}, std::byte{0}});  // CDR_LE
+  sample.insert(sample.end(), body_prefix.begin(), body_prefix.end());
   const auto pad_to = [&](std::size_t size) {
     sample.resize(kHeader + aligned(sample.size() - kHeader, size));
   };

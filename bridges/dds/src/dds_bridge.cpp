@@ -113,10 +113,12 @@ class DdsBridge::Running {
     } catch (const std::runtime_error& error) {
       throw Error(error.what());
     }
-    if (!options_.export_services.empty() || !options_.import_services.empty()) {
+    if (!options_.export_services.empty() || !options_.import_services.empty() ||
+        !options_.export_actions.empty()) {
       services_ = std::make_unique<ServiceRelays>(
-          options_.export_services, options_.import_services, options_.service_timeout, namespace_,
-          participant_, Qos{options_.reliable, options_.depth, false, 0}, std::move(find_type));
+          options_.export_services, options_.import_services, options_.export_actions,
+          options_.service_timeout, namespace_, participant_,
+          Qos{options_.reliable, options_.depth, false, 0}, std::move(find_type));
     }
     if (!options_.export_frames.empty() || !options_.import_frames.empty()) {
       start_frames();

@@ -2,11 +2,14 @@
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <cstring>
 #include <stdexcept>
 #include <thread>
+#include <type_traits>
 #include <utility>
 
 #include "horus/bridge/identity.hpp"
@@ -16,6 +19,7 @@
 #include "horus/dds/user_data.hpp"
 #include "horus/dds/xtypes.hpp"
 #include "horus/raw_service.hpp"
+#include "horus/raw_topic.hpp"
 #include "horus/service_registry.hpp"
 #include "horus/topic_registry.hpp"
 #include "horus/type_description.hpp"
@@ -431,12 +435,496 @@ class ServiceRelays::Imported {
   std::thread thread_;  // last: started once everything it uses is there
 };
 
+// -- actions: a local action server, served to ROS 2 action clients -----------------------------
+
+namespace {
+
+// ROS 2's GoalStatus values (HORUS's GoalState, runtime/src/action/README.md); Rejected is HORUS's
+// own and never reaches ROS 2.
+constexpr std::uint8_t kAccepted = 1;
+constexpr std::uint8_t kCanceling = 3;
+constexpr std::uint8_t kRejected = 7;
+constexpr std::size_t kGoalId = 16;
+// Ended goals the status array keeps, as many as a HORUS server keeps for get_result.
+constexpr std::size_t kEndedGoalsKept = 64;
+// get_result calls from DDS waiting for their goal to end; more are answered Unknown at once.
+constexpr std::size_t kWaitingResultsMost = 1024;
+// How often a waiting get_result asks the local server again when no status said the goal ended.
+constexpr auto kResultRecheck = std::chrono::milliseconds(250);
+constexpr auto kActionPoll = std::chrono::milliseconds(2);
+
+using GoalId = std::array<std::byte, kGoalId>;
+
+bool live(std::uint8_t state) { return state >= kAccepted && state <= kCanceling; }
+
+// CDR (XCDR1, little-endian) written member by member, aligned from the body's start: the
+// members of ROS 2's action messages that HORUS's have in another shape.
+class CdrWriter {
+ public:
+  CdrWriter() : sample_{std::byte{0}, std::byte{1}, std::byte{0}, std::byte{0}} {}
+  template <class T>
+  requires std::is_arithmetic_v<T>
+  void put(T value) {
+    sample_.resize(kEncapsulation + aligned(sample_.size() - kEncapsulation, sizeof(T)));
+    const auto* bytes = reinterpret_cast<const std::byte*>(&value);
+    sample_.insert(sample_.end(), bytes, bytes + sizeof(T));
+  }
+  void put(const GoalId& id) { sample_.insert(sample_.end(), id.begin(), id.end()); }
+  // builtin_interfaces/Time of nanoseconds since the epoch.
+  void put_time(std::uint64_t stamp_ns) {
+    put(static_cast<std::int32_t>(stamp_ns / 1'000'000'000));
+    put(static_cast<std::uint32_t>(stamp_ns % 1'000'000'000));
+  }
+  std::vector<std::byte> done() {
+    const std::size_t padding = (4 - (sample_.size() - kEncapsulation) % 4) % 4;
+    sample_.resize(sample_.size() + padding);
+    sample_[3] = static_cast<std::byte>(padding);
+    return std::move(sample_);
+  }
+
+ private:
+  static std::size_t aligned(std::size_t position, std::size_t size) {
+    return (position + size - 1) / size * size;
+  }
+  std::vector<std::byte> sample_;
+};
+
+// The fixed members at the start of a HORUS action message's CDR body (the action wire's types:
+// goal_id [u8; 16], state u8, stamp_ns u64, reason string<192>; or accepted bool, stamp_ns u64,
+// reason; or return_code u8, goals_canceling u32), read at their CDR offsets.
+class CdrBody {
+ public:
+  CdrBody(std::span<const std::byte> sample, std::string type)
+      : body_(sample.subspan(std::min(sample.size(), kEncapsulation))), type_(std::move(type)) {
+    if (sample.size() < kEncapsulation || sample[1] != std::byte{1}) {
+      throw std::runtime_error("a " + type + " sample that is not little-endian CDR");
+    }
+  }
+  template <class T>
+  T at(std::size_t offset) const {
+    need(offset + sizeof(T));
+    T value{};
+    std::memcpy(&value, body_.data() + offset, sizeof(T));
+    return value;
+  }
+  GoalId goal_id() const {
+    need(kGoalId);
+    GoalId id{};
+    std::memcpy(id.data(), body_.data(), kGoalId);
+    return id;
+  }
+  std::string string_at(std::size_t offset) const {
+    const auto length = at<std::uint32_t>(offset);
+    need(offset + 4 + length);
+    return length == 0
+               ? std::string()
+               : std::string(reinterpret_cast<const char*>(body_.data() + offset + 4), length - 1);
+  }
+
+ private:
+  void need(std::size_t size) const {
+    if (body_.size() < size) {
+      throw std::runtime_error("a " + type_ + " sample of " + std::to_string(body_.size()) +
+                               " bytes is cut short");
+    }
+  }
+  std::span<const std::byte> body_;
+  std::string type_;
+};
+
+std::string hex(const GoalId& id) {
+  static constexpr char kDigits[] = "0123456789abcdef";
+  std::string out;
+  for (const std::byte byte : id) {
+    out += kDigits[std::to_integer<unsigned>(byte) >> 4];
+    out += kDigits[std::to_integer<unsigned>(byte) & 15];
+  }
+  return out;
+}
+
+}  // namespace
+
+/// The local types an exported action needs: its three services' payloads and its two topics.
+struct ServiceRelays::ActionParts {
+  std::uint64_t send_goal_fingerprint = 0;
+  std::uint64_t cancel_goal_fingerprint = 0;
+  std::uint64_t get_result_fingerprint = 0;
+  std::optional<TypeIdentity> send_goal_request, send_goal_response, cancel_request,
+      cancel_response, get_result_request, result_message;
+  std::optional<TopicInfo> feedback, status;
+};
+
+// One thread per action: the three services' DDS requests, each answered by a call to the local
+// server; A.status followed into the goal table whose whole GoalStatusArray goes out on each
+// change; A.feedback written as it comes (its CDR is ROS 2's FeedbackMessage: the goal id's 16
+// bytes, then the feedback).
+class ServiceRelays::ExportedAction {
+ public:
+  ExportedAction(const std::string& name, const ActionParts& parts,
+                 const std::shared_ptr<Participant>& participant, const Qos& qos,
+                 std::chrono::duration<double> timeout, const std::string& namespace_name)
+      : name_(name),
+        send_goal_request_(*parts.send_goal_request),
+        send_goal_response_(*parts.send_goal_response),
+        cancel_request_(*parts.cancel_request),
+        cancel_response_(*parts.cancel_response),
+        get_result_request_(*parts.get_result_request),
+        result_message_(*parts.result_message),
+        feedback_(type_identity_of(*parts.feedback)),
+        status_(type_identity_of(*parts.status)),
+        result_plan_(result_plan(result_message_)),
+        module_(action_module(send_goal_request_)),
+        send_goal_reader_(participant, request_topic("send_goal"),
+                          TypeOnWire{module_ + name + "_SendGoal_Request_", {}, {}}, qos, false),
+        send_goal_writer_(participant, reply_topic("send_goal"),
+                          TypeOnWire{module_ + name + "_SendGoal_Response_", {}, {}}, qos, ""),
+        cancel_reader_(participant, request_topic("cancel_goal"),
+                       TypeOnWire{"action_msgs::srv::dds_::CancelGoal_Request_", {}, {}}, qos,
+                       false),
+        cancel_writer_(participant, reply_topic("cancel_goal"),
+                       TypeOnWire{"action_msgs::srv::dds_::CancelGoal_Response_", {}, {}}, qos, ""),
+        get_result_reader_(participant, request_topic("get_result"),
+                           TypeOnWire{module_ + name + "_GetResult_Request_", {}, {}}, qos, false),
+        get_result_writer_(participant, reply_topic("get_result"),
+                           TypeOnWire{module_ + name + "_GetResult_Response_", {}, {}}, qos, ""),
+        feedback_writer_(participant, "rt/" + name + "/_action/feedback",
+                         TypeOnWire{module_ + name + "_FeedbackMessage_", {}, {}}, qos, ""),
+        // ROS 2's status QoS: reliable, transient local, the last array only.
+        status_writer_(participant, "rt/" + name + "/_action/status",
+                       TypeOnWire{"action_msgs::msg::dds_::GoalStatusArray_", {}, {}},
+                       Qos{true, 1, true, 0}, ""),
+        timeout_(std::chrono::ceil<std::chrono::milliseconds>(timeout)),
+        send_goal_(raw_type(name + ".send_goal", parts.send_goal_fingerprint, send_goal_request_,
+                            send_goal_response_),
+                   in_namespace(namespace_name)),
+        cancel_goal_(raw_type(name + ".cancel_goal", parts.cancel_goal_fingerprint, cancel_request_,
+                              cancel_response_),
+                     in_namespace(namespace_name)),
+        get_result_(raw_type(name + ".get_result", parts.get_result_fingerprint,
+                             get_result_request_, result_message_),
+                    in_namespace(namespace_name)),
+        feedback_topic_(RawTopic::open_recorded(*parts.feedback, namespace_name)),
+        status_topic_(RawTopic::open_recorded(*parts.status, namespace_name)),
+        thread_([this] { run(); }) {}
+
+  ~ExportedAction() {
+    stopping_.store(true);
+    thread_.join();
+  }
+  ExportedAction(const ExportedAction&) = delete;
+  ExportedAction& operator=(const ExportedAction&) = delete;
+
+  std::string said() const {
+    return "exporting action '" + name_ + "' as rq/" + name_ + "/_action/{send_goal,cancel_goal," +
+           "get_result}Request, rt/" + name_ + "/_action/{feedback,status} (" + module_ + name_ +
+           "_*)";
+  }
+
+ private:
+  struct Goal {
+    GoalId id;
+    std::uint64_t accepted_ns = 0;
+    std::uint8_t state = 0;
+  };
+  struct WaitingResult {
+    std::uint64_t caller = 0;
+    std::int64_t sequence = 0;
+    GoalId id;
+    std::chrono::steady_clock::time_point asked;
+  };
+
+  static std::string action_module(const Payload& request) {
+    const std::string own = dds_type_name(*request.description, *request.message);
+    return own.substr(0, own.rfind("::") + 2);
+  }
+  std::string request_topic(const char* service) const {
+    return kRequestPrefix + name_ + "/_action/" + service + "Request";
+  }
+  std::string reply_topic(const char* service) const {
+    return kReplyPrefix + name_ + "/_action/" + service + kReplySuffix;
+  }
+
+  // The plan of the result member of A.get_result's answer, which ROS 2's GetResult response
+  // puts after its status byte (so its members align otherwise than in HORUS's message).
+  static CdrPlan result_plan(const Payload& message) {
+    const MessageField* result = message.message->find_field("result");
+    const MessageType* type =
+        result == nullptr ? nullptr : message.description->find_message(result->type.name);
+    if (type == nullptr || !result->offset) {
+      throw std::runtime_error(message.type.name + " has no result member");
+    }
+    if (!message.message->is_pod || !type->is_pod) {
+      throw std::runtime_error("its result " + type->name +
+                               " is a serialized type, which the bridge does not carry as ROS 2's "
+                               "GetResult yet (POD results only)");
+    }
+    return pod_cdr_plan(*message.description, *type);
+  }
+
+  void run() {
+    while (!stopping_.load()) {
+      try {
+        follow_status();
+        forward_feedback();
+        answer_send_goal();
+        answer_cancel_goal();
+        take_get_result();
+        answer_results();
+      } catch (const std::exception& error) {
+        failed("action '" + name_ + "'", failures_, error.what(), "carrying on");
+        std::this_thread::sleep_for(kRetry);
+      }
+      std::this_thread::sleep_for(kActionPoll);
+    }
+  }
+
+  // The local server's answer to `request` (a HORUS CDR sample), or why there is none.
+  ServiceResult<std::vector<std::byte>> call(RawServiceClient& client, Payload& request,
+                                             std::span<const std::byte> cdr) {
+    if (std::string why = request.conversion->to_local(cdr, local_); !why.empty()) {
+      throw std::runtime_error("a request does not decode: " + why);
+    }
+    return client.call(local_, timeout_);
+  }
+
+  // A reply that says why the call failed, as an exported service's does.
+  void fail(Writer& writer, const Sample& request, const ServiceError& error) {
+    writer.write(with_header(failure_body(error.to_string()), request.caller, -request.sequence));
+  }
+
+  void answer_send_goal() {
+    for (const auto& [writer, bytes] : send_goal_reader_.take(std::chrono::nanoseconds(0))) {
+      const Sample request = split_header(bytes);
+      const ServiceResult<std::vector<std::byte>> answer =
+          call(send_goal_, send_goal_request_, request.cdr);  // the same CDR as HORUS's request
+      if (!answer) {
+        fail(send_goal_writer_, request, answer.error());
+        continue;
+      }
+      send_goal_response_.conversion->to_dds(*answer, cdr_);
+      const CdrBody response(cdr_, send_goal_response_.type.name);
+      const bool accepted = response.at<std::uint8_t>(0) != 0;
+      const auto stamp_ns = response.at<std::uint64_t>(8);
+      const GoalId id = CdrBody(request.cdr, send_goal_request_.type.name).goal_id();
+      if (accepted) {
+        if (update(id, kAccepted, stamp_ns)) publish_status();
+      } else {  // ROS 2's response has no slot for why
+        say("action '" + name_ + "': goal " + hex(id) +
+            " from DDS rejected: " + response.string_at(16));
+      }
+      CdrWriter reply;
+      reply.put(static_cast<std::uint8_t>(accepted));
+      reply.put_time(stamp_ns);
+      send_goal_writer_.write(with_header(reply.done(), request.caller, request.sequence));
+    }
+  }
+
+  // ROS 2 cancels by id and stamp; HORUS by id alone (all zero: every live goal), so the stamp
+  // is not used.
+  void answer_cancel_goal() {
+    for (const auto& [writer, bytes] : cancel_reader_.take(std::chrono::nanoseconds(0))) {
+      const Sample request = split_header(bytes);
+      const GoalId id = CdrBody(request.cdr, "CancelGoal_Request").goal_id();
+      std::vector<std::byte> horus_request(request.cdr.begin(),
+                                           request.cdr.begin() + kEncapsulation);
+      horus_request.insert(horus_request.end(), id.begin(), id.end());
+      const ServiceResult<std::vector<std::byte>> answer =
+          call(cancel_goal_, cancel_request_, horus_request);
+      if (!answer) {
+        fail(cancel_writer_, request, answer.error());
+        continue;
+      }
+      cancel_response_.conversion->to_dds(*answer, cdr_);
+      const CdrBody response(cdr_, cancel_response_.type.name);
+      const auto code = response.at<std::uint8_t>(0);
+      const auto canceling = response.at<std::uint32_t>(4);
+      // HORUS answers how many goals it is canceling; ROS 2 lists them: the goal asked for, or
+      // for all, the live goals the status showed.
+      std::vector<const Goal*> listed;
+      const bool all =
+          std::all_of(id.begin(), id.end(), [](std::byte b) { return b == std::byte{0}; });
+      for (const Goal& goal : goals_) {
+        if (listed.size() < canceling && (all ? live(goal.state) : goal.id == id)) {
+          listed.push_back(&goal);
+        }
+      }
+      CdrWriter reply;
+      reply.put(static_cast<std::int8_t>(code));
+      reply.put(static_cast<std::uint32_t>(listed.size()));
+      for (const Goal* goal : listed) {
+        reply.put(goal->id);
+        reply.put_time(goal->accepted_ns);
+      }
+      cancel_writer_.write(with_header(reply.done(), request.caller, request.sequence));
+    }
+  }
+
+  // ROS 2's get_result answers once the goal has ended; HORUS's at once: a call for a live goal
+  // waits here until A.status says it ended (or, failing that, asking again now and then).
+  void take_get_result() {
+    for (const auto& [writer, bytes] : get_result_reader_.take(std::chrono::nanoseconds(0))) {
+      const Sample request = split_header(bytes);
+      WaitingResult waiting{request.caller,
+                            request.sequence,
+                            CdrBody(request.cdr, "GetResult_Request").goal_id(),
+                            {}};
+      if (waiting_.size() >= kWaitingResultsMost) {
+        fail(get_result_writer_, request,
+             ServiceError::service_failed("too many get_result calls waiting"));
+        continue;
+      }
+      waiting_.push_back(waiting);
+    }
+  }
+
+  void answer_results() {
+    const auto now = std::chrono::steady_clock::now();
+    for (auto waiting = waiting_.begin(); waiting != waiting_.end();) {
+      const Goal* goal = find(waiting->id);
+      const bool ended = goal != nullptr && !live(goal->state);
+      if (!ended && now - waiting->asked < kResultRecheck) {
+        ++waiting;
+        continue;
+      }
+      waiting->asked = now;
+      std::vector<std::byte> horus_request{std::byte{0}, std::byte{1}, std::byte{0}, std::byte{0}};
+      horus_request.insert(horus_request.end(), waiting->id.begin(), waiting->id.end());
+      const ServiceResult<std::vector<std::byte>> answer =
+          call(get_result_, get_result_request_, horus_request);
+      const Sample request{waiting->caller, waiting->sequence, {}};
+      if (!answer) {
+        fail(get_result_writer_, request, answer.error());
+        waiting = waiting_.erase(waiting);
+        continue;
+      }
+      result_message_.conversion->to_dds(*answer, cdr_);
+      const auto state = CdrBody(cdr_, result_message_.type.name).at<std::uint8_t>(kGoalId);
+      if (live(state)) {
+        ++waiting;
+        continue;
+      }
+      const std::byte status{state == kRejected ? std::uint8_t{0} : state};
+      const std::size_t offset = *result_message_.message->find_field("result")->offset;
+      result_plan_.encode(answer->data() + offset, reply_cdr_, {}, std::span(&status, 1));
+      get_result_writer_.write(with_header(reply_cdr_, waiting->caller, waiting->sequence));
+      waiting = waiting_.erase(waiting);
+    }
+  }
+
+  void forward_feedback() {
+    for (std::ptrdiff_t size; (size = feedback_topic_->try_recv()) >= 0;) {
+      feedback_.conversion->to_dds(feedback_topic_->received(static_cast<std::size_t>(size)), cdr_);
+      feedback_writer_.write(cdr_);
+    }
+  }
+
+  void follow_status() {
+    bool changed = false;
+    for (std::ptrdiff_t size; (size = status_topic_->try_recv()) >= 0;) {
+      status_.conversion->to_dds(status_topic_->received(static_cast<std::size_t>(size)), cdr_);
+      const CdrBody status(cdr_, status_.type.name);
+      changed |=
+          update(status.goal_id(), status.at<std::uint8_t>(kGoalId), status.at<std::uint64_t>(24));
+    }
+    if (changed) {
+      publish_status();
+    }
+  }
+
+  const Goal* find(const GoalId& id) const {
+    const auto found =
+        std::find_if(goals_.begin(), goals_.end(), [&](const Goal& goal) { return goal.id == id; });
+    return found == goals_.end() ? nullptr : &*found;
+  }
+
+  // A goal's state moves forward only (A.status may show Executing before send_goal's answer
+  // came back here); a rejected goal never enters the table. True when it changed.
+  bool update(const GoalId& id, std::uint8_t state, std::uint64_t stamp_ns) {
+    if (state == kRejected || state == 0) {
+      return false;
+    }
+    auto goal = std::find_if(goals_.begin(), goals_.end(),
+                             [&](const Goal& known) { return known.id == id; });
+    if (goal == goals_.end()) {
+      goals_.push_back(Goal{id, stamp_ns, state});
+      forget_ended();
+      return true;
+    }
+    if (state <= goal->state) {
+      return false;
+    }
+    goal->state = state;
+    return true;
+  }
+
+  void forget_ended() {
+    std::size_t ended = std::count_if(goals_.begin(), goals_.end(),
+                                      [](const Goal& goal) { return !live(goal.state); });
+    for (auto goal = goals_.begin(); ended > kEndedGoalsKept && goal != goals_.end();) {
+      if (live(goal->state)) {
+        ++goal;
+      } else {
+        goal = goals_.erase(goal);
+        --ended;
+      }
+    }
+  }
+
+  void publish_status() {
+    CdrWriter array;
+    array.put(static_cast<std::uint32_t>(goals_.size()));
+    for (const Goal& goal : goals_) {
+      array.put(goal.id);
+      array.put_time(goal.accepted_ns);
+      array.put(static_cast<std::int8_t>(goal.state));
+    }
+    status_writer_.write(array.done());
+  }
+
+  std::string name_;
+  Payload send_goal_request_;
+  Payload send_goal_response_;
+  Payload cancel_request_;
+  Payload cancel_response_;
+  Payload get_result_request_;
+  Payload result_message_;
+  Payload feedback_;
+  Payload status_;
+  CdrPlan result_plan_;
+  std::string module_;  // <pkg>::dds_::, the action's IDL module
+  Reader send_goal_reader_;
+  Writer send_goal_writer_;
+  Reader cancel_reader_;
+  Writer cancel_writer_;
+  Reader get_result_reader_;
+  Writer get_result_writer_;
+  Writer feedback_writer_;
+  Writer status_writer_;
+  std::chrono::milliseconds timeout_;
+  RawServiceClient send_goal_;
+  RawServiceClient cancel_goal_;
+  RawServiceClient get_result_;
+  std::unique_ptr<RawTopic> feedback_topic_;
+  std::unique_ptr<RawTopic> status_topic_;
+  std::vector<Goal> goals_;  // in the order they came
+  std::vector<WaitingResult> waiting_;
+  std::vector<std::byte> local_;
+  std::vector<std::byte> cdr_;
+  std::vector<std::byte> reply_cdr_;
+  std::atomic<std::uint64_t> failures_{0};
+  std::atomic<bool> stopping_{false};
+  std::thread thread_;  // last: started once everything it uses is there
+};
+
 // -- the relays ---------------------------------------------------------------------------------
 
 ServiceRelays::ServiceRelays(std::vector<std::string> exports, std::vector<std::string> imports,
+                             std::vector<std::string> export_actions,
                              std::chrono::duration<double> call_timeout, std::string namespace_name,
                              std::shared_ptr<Participant> participant, Qos qos, TypeLookup lookup)
     : policy_(std::move(exports), std::move(imports)),
+      exporting_actions_(!export_actions.empty()),
+      action_policy_(std::move(export_actions), {}),
       call_timeout_(call_timeout),
       namespace_(std::move(namespace_name)),
       participant_(std::move(participant)),
@@ -444,6 +932,7 @@ ServiceRelays::ServiceRelays(std::vector<std::string> exports, std::vector<std::
       lookup_(std::move(lookup)) {}
 
 ServiceRelays::~ServiceRelays() {
+  exported_actions_.clear();
   exported_.clear();
   imported_.clear();
 }
@@ -454,7 +943,11 @@ void ServiceRelays::scan() {
 }
 
 void ServiceRelays::scan_exports() {
-  for (const ServiceInfo& entry : list_services(namespace_)) {
+  const std::vector<ServiceInfo> services = list_services(namespace_);
+  if (exporting_actions_) {
+    scan_actions(services);
+  }
+  for (const ServiceInfo& entry : services) {
     const std::string& name = entry.name;
     if (!policy_.exported(name) || refused_.contains(name)) {
       continue;
@@ -486,8 +979,8 @@ void ServiceRelays::scan_exports() {
 // The payload types come from the service's request topic and a reply topic (their frames'
 // descriptions), else from the lookup; while neither gives the response type, the service waits
 // (the first reply topic shows it).
-void ServiceRelays::export_service(const std::string& name, const std::string& request_type,
-                                   const std::string& response_type, std::uint64_t fingerprint) {
+std::optional<std::pair<TypeIdentity, TypeIdentity>> ServiceRelays::service_types(
+    const std::string& name, const std::string& request_type, const std::string& response_type) {
   std::optional<TypeIdentity> request;
   std::optional<TypeIdentity> response;
   std::string undescribed;  // a frame topic that carries no description (a Python program's)
@@ -524,13 +1017,103 @@ void ServiceRelays::export_service(const std::string& name, const std::string& r
                              request_type);
   }
   if (!request || !response) {
+    return std::nullopt;
+  }
+  return std::pair{std::move(*request), std::move(*response)};
+}
+
+// The payload types come from the service's request topic and a reply topic (their frames'
+// descriptions), else from the lookup; while neither gives the response type, the service waits
+// (the first reply topic shows it).
+void ServiceRelays::export_service(const std::string& name, const std::string& request_type,
+                                   const std::string& response_type, std::uint64_t fingerprint) {
+  auto types = service_types(name, request_type, response_type);
+  if (!types) {
     return;
   }
-  auto exported =
-      std::make_unique<Exported>(name, fingerprint, std::move(*request), std::move(*response),
-                                 participant_, qos_, call_timeout_, namespace_);
+  auto exported = std::make_unique<Exported>(name, fingerprint, std::move(types->first),
+                                             std::move(types->second), participant_, qos_,
+                                             call_timeout_, namespace_);
   say(exported->said());
   exported_[name] = std::move(exported);
+}
+
+// An action A is its services A.send_goal, A.cancel_goal, A.get_result and its topics A.feedback
+// and A.status (runtime/src/action/README.md): exported once all five are there with a live
+// server, and no longer once A.send_goal's server is gone.
+void ServiceRelays::scan_actions(const std::vector<ServiceInfo>& services) {
+  std::map<std::string, const ServiceInfo*> served;
+  for (const ServiceInfo& entry : services) {
+    if (entry.servers > 0) {
+      served[entry.name] = &entry;
+    }
+  }
+  constexpr std::string_view kSendGoal = ".send_goal";
+  for (auto carried = exported_actions_.begin(); carried != exported_actions_.end();) {
+    if (served.contains(carried->first + std::string(kSendGoal))) {
+      ++carried;
+      continue;
+    }
+    const std::string name = carried->first;
+    carried = exported_actions_.erase(carried);
+    say("no longer exporting action '" + name + "' (its server stopped)");
+  }
+  for (const auto& [service, entry] : served) {
+    if (!service.ends_with(kSendGoal)) {
+      continue;
+    }
+    const std::string name = service.substr(0, service.size() - kSendGoal.size());
+    if (!action_policy_.exported(name) || exported_actions_.contains(name) ||
+        refused_actions_.contains(name)) {
+      continue;
+    }
+    const auto cancel = served.find(name + ".cancel_goal");
+    const auto result = served.find(name + ".get_result");
+    if (cancel == served.end() || result == served.end()) {
+      continue;
+    }
+    try {
+      export_action(name, *entry, *cancel->second, *result->second);
+    } catch (const std::exception& error) {
+      refused_actions_.insert(name);
+      complain("cannot export action '" + name + "': " + error.what());
+    }
+  }
+}
+
+void ServiceRelays::export_action(const std::string& name, const ServiceInfo& send_goal,
+                                  const ServiceInfo& cancel_goal, const ServiceInfo& get_result) {
+  ActionParts parts;
+  parts.send_goal_fingerprint = send_goal.fingerprint;
+  parts.cancel_goal_fingerprint = cancel_goal.fingerprint;
+  parts.get_result_fingerprint = get_result.fingerprint;
+  auto sending = service_types(send_goal.name, send_goal.request_type, send_goal.response_type);
+  auto canceling =
+      service_types(cancel_goal.name, cancel_goal.request_type, cancel_goal.response_type);
+  auto resulting =
+      service_types(get_result.name, get_result.request_type, get_result.response_type);
+  if (!sending || !canceling || !resulting) {
+    return;  // a reply topic still to come
+  }
+  for (TopicInfo& topic : list_topics(namespace_)) {
+    if (topic.description.empty() || !topic.error.empty()) {
+      continue;
+    }
+    if (topic.name == name + ".feedback")
+      parts.feedback = std::move(topic);
+    else if (topic.name == name + ".status")
+      parts.status = std::move(topic);
+  }
+  if (!parts.feedback || !parts.status) {
+    return;
+  }
+  std::tie(parts.send_goal_request, parts.send_goal_response) = std::move(*sending);
+  std::tie(parts.cancel_request, parts.cancel_response) = std::move(*canceling);
+  std::tie(parts.get_result_request, parts.result_message) = std::move(*resulting);
+  auto exported =
+      std::make_unique<ExportedAction>(name, parts, participant_, qos_, call_timeout_, namespace_);
+  say(exported->said());
+  exported_actions_[name] = std::move(exported);
 }
 
 void ServiceRelays::scan_imports() {

@@ -45,6 +45,9 @@ struct Network {
   /// (tf2_msgs/msg/TFMessage), and those read from there into the tree (globs on child names).
   std::vector<std::string> export_frames{};
   std::vector<std::string> import_frames{};
+  /// Local actions served to ROS 2 action clients on DDS (rq/A/_action/send_goalRequest, ...;
+  /// docs/dds-bridge.md "Actions").
+  std::vector<std::string> export_actions{};
 };
 
 namespace detail {

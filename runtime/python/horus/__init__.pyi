@@ -143,6 +143,7 @@ class Network:
     accept_untyped_writers: bool
     export_frames: list[str]
     import_frames: list[str]
+    export_actions: list[str]
     status: int
     def __init__(self, export: Sequence[str] = ..., import_: Sequence[str] = ...,
                  domain: int = ..., reliable: bool = ..., depth: int = ...,
@@ -151,7 +152,8 @@ class Network:
                  import_services: Sequence[str] = ..., service_timeout: float = ...,
                  ros2_types: Sequence[str] = ...,
                  accept_untyped_writers: bool = ..., export_frames: Sequence[str] = ...,
-                 import_frames: Sequence[str] = ...) -> None: ...
+                 import_frames: Sequence[str] = ...,
+                 export_actions: Sequence[str] = ...) -> None: ...
     def serve(self, stop: threading.Event, namespace: str = ...) -> int: ...
 
 class View:

@@ -45,14 +45,15 @@ class Network:
     standard type's ROS 2 twin, --ros2-types), accept_untyped_writers (import from DDS writers
     that announce no type information, --accept-untyped-writers), export_frames and
     import_frames (patterns of child frames of the namespace's frame tree written to and read
-    from DDS as ROS 2's /tf and /tf_static, --export-frames, --import-frames).
+    from DDS as ROS 2's /tf and /tf_static, --export-frames, --import-frames), export_actions
+    (patterns of local actions served to ROS 2 action clients, --export-action).
     """
 
     def __init__(self, export=(), import_=(), domain: int = 0, reliable: bool = True,
                  depth: int = 100, transient_local=(), deadlines: dict | None = None,
                  export_services=(), import_services=(), service_timeout: float = 10.0,
                  ros2_types=(), accept_untyped_writers: bool = False, export_frames=(),
-                 import_frames=()) -> None:
+                 import_frames=(), export_actions=()) -> None:
         self.export = _patterns(export, "export")
         self.import_ = _patterns(import_, "import_")
         self.export_services = _patterns(export_services, "export_services")
@@ -61,11 +62,12 @@ class Network:
         self.ros2_types = _patterns(ros2_types, "ros2_types")
         self.export_frames = _patterns(export_frames, "export_frames", "child frame")
         self.import_frames = _patterns(import_frames, "import_frames", "child frame")
+        self.export_actions = _patterns(export_actions, "export_actions", "action")
         if not (self.export or self.import_ or self.export_services or self.import_services
-                or self.export_frames or self.import_frames):
+                or self.export_frames or self.import_frames or self.export_actions):
             raise ValueError("a Network carries nothing: give export and/or import_ patterns "
                              "(or export_services, import_services, export_frames, "
-                             "import_frames)")
+                             "import_frames, export_actions)")
         if isinstance(domain, bool) or not isinstance(domain, int) or not 0 <= domain <= 232:
             raise ValueError(f"domain must be a DDS domain id (0..232), got {domain!r}")
         if isinstance(depth, bool) or not isinstance(depth, int) or depth < 1:
@@ -104,7 +106,9 @@ class Network:
                          f"{self.import_services or 'nothing'}"
                          + (f"; frames: exporting {self.export_frames or 'nothing'}, importing "
                             f"{self.import_frames or 'nothing'}"
-                            if self.export_frames or self.import_frames else "") + "\n")
+                            if self.export_frames or self.import_frames else "")
+                         + (f"; actions: exporting {self.export_actions}"
+                            if self.export_actions else "") + "\n")
         sys.stdout.flush()
         bridge = _dds.DdsBridge(
             namespace, self.export, self.import_, self.domain, self.reliable, self.depth,
@@ -112,7 +116,7 @@ class Network:
             self.ros2_types, export_services=self.export_services,
             import_services=self.import_services, service_timeout=self.service_timeout,
             find_type=_type_description, export_frames=self.export_frames,
-            import_frames=self.import_frames)
+            import_frames=self.import_frames, export_actions=self.export_actions)
         try:
             while not stop.is_set() and bridge.broken is None:
                 stop.wait(RESCAN_S)

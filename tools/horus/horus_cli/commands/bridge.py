@@ -1,5 +1,5 @@
-"""`horus bridge`: carries topics, services and coordinate frames to and from Cyclone DDS (other
-hosts, ROS 2) with the C++ DDS bridge (horus._core.dds.DdsBridge, run by horus.Network.serve on
+"""`horus bridge`: carries topics, services, actions and coordinate frames to and from Cyclone
+DDS (other hosts, ROS 2) with the C++ DDS bridge (horus._core.dds.DdsBridge, run by horus.Network.serve on
 this thread); this module parses its options."""
 from __future__ import annotations
 
@@ -17,10 +17,10 @@ def bridge(args) -> int:
     export_frames = args.export_frames + (["*"] if args.frames else [])
     import_frames = args.import_frames + (["*"] if args.frames else [])
     if not (args.export or args.imports or args.export_service or args.import_service
-            or export_frames or import_frames):
+            or export_frames or import_frames or args.export_action):
         raise CommandFailed("nothing to bridge: give --export and/or --import patterns (or "
                             "--export-service, --import-service, --export-frames, "
-                            "--import-frames, --frames)", EXIT_USAGE)
+                            "--import-frames, --frames, --export-action)", EXIT_USAGE)
     deadlines = {}
     for given in args.deadline:
         pattern, _, milliseconds = given.rpartition("=")
@@ -36,7 +36,8 @@ def bridge(args) -> int:
                           import_services=args.import_service,
                           service_timeout=args.service_timeout, ros2_types=args.ros2_types,
                           accept_untyped_writers=args.accept_untyped_writers,
-                          export_frames=export_frames, import_frames=import_frames)
+                          export_frames=export_frames, import_frames=import_frames,
+                          export_actions=args.export_action)
     except ValueError as error:
         raise CommandFailed(str(error), EXIT_USAGE) from None
     # SIGTERM stops the bridge as Ctrl+C does (status 0).
@@ -67,6 +68,9 @@ def register(commands) -> None:
                      help="local services to serve on DDS (rq/<name>Request, rr/<name>Reply)")
     sub.add_argument("--import-service", action="append", default=[], metavar="PATTERN",
                      help="services on DDS to serve locally (calls forwarded to their server)")
+    sub.add_argument("--export-action", action="append", default=[], metavar="PATTERN",
+                     help="local actions to serve to ROS 2 action clients on DDS "
+                          "(rq/<name>/_action/send_goalRequest, rt/<name>/_action/status, ...)")
     sub.add_argument("--domain", type=int, default=0, help="the DDS domain id (default 0)")
     sub.add_argument("--best-effort", action="store_true",
                      help="best-effort DDS endpoints (default: reliable)")

@@ -7,9 +7,8 @@ import os
 import time
 
 
-def group_members(pgid: int) -> list[int]:
-    """The live (not zombie) processes of a process group."""
-    members = []
+def _live_processes():
+    """(pid, ppid, pgrp) of every live (not zombie) process."""
     for name in os.listdir("/proc"):
         if not name.isdigit():
             continue
@@ -19,9 +18,13 @@ def group_members(pgid: int) -> list[int]:
         except OSError:
             continue  # ended meanwhile
         # After the command's closing parenthesis: state, ppid, pgrp.
-        if len(fields) >= 3 and int(fields[2]) == pgid and fields[0] not in (b"Z", b"X"):
-            members.append(int(name))
-    return members
+        if len(fields) >= 3 and fields[0] not in (b"Z", b"X"):
+            yield int(name), int(fields[1]), int(fields[2])
+
+
+def group_members(pgid: int) -> list[int]:
+    """The live (not zombie) processes of a process group."""
+    return [pid for pid, _, pgrp in _live_processes() if pgrp == pgid]
 
 
 def _state(pid: int) -> bytes | None:
@@ -61,16 +64,5 @@ def wait_group_gone(pgid: int, limit: float) -> bool:
 def adopted_children() -> list[int]:
     """The live processes whose parent is this one: with PR_SET_CHILD_SUBREAPER, the orphans of
     the processes this one started (a daemon that left its group) as well as its own children."""
-    me = str(os.getpid()).encode()
-    found = []
-    for name in os.listdir("/proc"):
-        if not name.isdigit():
-            continue
-        try:
-            with open(f"/proc/{name}/stat", "rb") as stat:
-                fields = stat.read().rpartition(b")")[2].split()
-        except OSError:
-            continue
-        if len(fields) >= 2 and fields[1] == me and fields[0] not in (b"Z", b"X"):
-            found.append(int(name))
-    return found
+    me = os.getpid()
+    return [pid for pid, ppid, _ in _live_processes() if ppid == me]

@@ -41,9 +41,12 @@ class CdrPlan {
   /// The DDS sample of `pod` (pod_size() bytes) into `sample`: the CDR_LE encapsulation header,
   /// the body, padding to a multiple of 4 (the header's options count it), as dds_cdr writes it.
   /// `pool_data`: the block's data a kPoolData step writes (a recorded frame's bytes after the
-  /// descriptor).
+  /// descriptor). `body_prefix`: bytes the body starts with, the members of an enclosing message
+  /// before this one (a ROS 2 action's GetResult response puts its status first), after which
+  /// this message's members align as CDR counts it, from the body's start.
   void encode(const std::byte* pod, std::vector<std::byte>& sample,
-              std::span<const std::byte> pool_data = {}) const;
+              std::span<const std::byte> pool_data = {},
+              std::span<const std::byte> body_prefix = {}) const;
 
   /// `pod` (pod_size() bytes) from a DDS sample, little- or big-endian CDR; padding and unused
   /// string bytes zeroed. An empty string when it decoded, else why not (one line).

@@ -14,6 +14,13 @@
 // Importing: a service an exporting bridge offers on DDS (its reply writer's user data names the
 // service and both payload types, with their descriptions) gets a RawServiceServer here that
 // relays each call to DDS.
+//
+// Actions (docs/dds-bridge.md, "Actions"): a local action server's A.send_goal, A.cancel_goal,
+// A.get_result, A.feedback and A.status (runtime/src/action/README.md) served to ROS 2 action
+// clients as ROS 2 names and shapes them: rq/A/_action/send_goalRequest and the rest, with
+// <pkg>::dds_::A_SendGoal_Request_ ..., action_msgs' CancelGoal and GoalStatusArray. One thread
+// per action calls the local services with RawServiceClients and keeps the goals' states for the
+// status array.
 #pragma once
 
 #include <chrono>
@@ -29,6 +36,7 @@
 #include "horus/dds/endpoints.hpp"
 #include "horus/dds/user_data.hpp"
 #include "horus/dds_bridge.hpp"
+#include "horus/service_registry.hpp"
 
 namespace horus::dds_bridge {
 
@@ -42,9 +50,11 @@ TypeIdentity described_type(std::string description);
 /// of its own; scan() (the bridge's thread, every half second) starts and ends them.
 class ServiceRelays {
  public:
+  /// `export_actions`: patterns of local actions served to ROS 2 action clients.
   ServiceRelays(std::vector<std::string> exports, std::vector<std::string> imports,
-                std::chrono::duration<double> call_timeout, std::string namespace_name,
-                std::shared_ptr<Participant> participant, Qos qos, TypeLookup lookup);
+                std::vector<std::string> export_actions, std::chrono::duration<double> call_timeout,
+                std::string namespace_name, std::shared_ptr<Participant> participant, Qos qos,
+                TypeLookup lookup);
   /// Stops every relay; imported services are withdrawn (local callers get NoServer).
   ~ServiceRelays();
   ServiceRelays(const ServiceRelays&) = delete;
@@ -55,14 +65,24 @@ class ServiceRelays {
  private:
   class Exported;
   class Imported;
+  struct ActionParts;
+  class ExportedAction;
 
   void scan_exports();
   void scan_imports();
   void export_service(const std::string& name, const std::string& request_type,
                       const std::string& response_type, std::uint64_t fingerprint);
   void import_service(const std::string& name, const Publication& publication);
+  /// The request and response types of a local service (empty while they cannot be known yet).
+  std::optional<std::pair<TypeIdentity, TypeIdentity>> service_types(
+      const std::string& name, const std::string& request_type, const std::string& response_type);
+  void scan_actions(const std::vector<ServiceInfo>& services);
+  void export_action(const std::string& name, const ServiceInfo& send_goal,
+                     const ServiceInfo& cancel_goal, const ServiceInfo& get_result);
 
   bridge::TopicPolicy policy_;  // export_services and import_services
+  bool exporting_actions_;
+  bridge::TopicPolicy action_policy_;  // export_actions
   std::chrono::duration<double> call_timeout_;
   std::string namespace_;
   std::shared_ptr<Participant> participant_;
@@ -70,7 +90,9 @@ class ServiceRelays {
   TypeLookup lookup_;
   std::map<std::string, std::unique_ptr<Exported>> exported_;
   std::map<std::string, std::unique_ptr<Imported>> imported_;
+  std::map<std::string, std::unique_ptr<ExportedAction>> exported_actions_;
   std::set<std::string> refused_;
+  std::set<std::string> refused_actions_;
 };
 
 }  // namespace horus::dds_bridge
