@@ -34,6 +34,9 @@ import time
 import urllib.request
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "support"))
+from dds_domains import claimed_domain  # noqa: E402  (tests/support, put on the path above)
+
 PYTHON = "/usr/bin/python3"
 TARGET = "demo_msgs"
 
@@ -131,10 +134,10 @@ def dds(args: argparse.Namespace) -> None:
     shutil.rmtree(build_dir, ignore_errors=True)
     configure(args.source, build_dir, prefix, args.generator)
     build(build_dir)
-    # A domain of its own (the process id's), so that no other test's DDS traffic is met.
-    domain = 100 + os.getpid() % 100
     env = dict(os.environ, HORUS_NAMESPACE=f"dds_program_{os.getpid()}")
-    ran = run([build_dir / "dds_program", domain], env=env, check=False)
+    # A domain of its own, so that no other test's DDS traffic is met.
+    with claimed_domain() as domain:
+        ran = run([build_dir / "dds_program", domain], env=env, check=False)
     expect(ran.returncode == 0, "the program to run its scheduler with the bridge", ran.stdout)
     expect(f"bridge on DDS domain {domain}: exporting ['dds_program_nothing']" in ran.stdout,
            "the bridge to start in the program's process (its first line)", ran.stdout)

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import os
 import pathlib
-import random
 import subprocess
 import sys
+from typing import Iterator
 
 import pytest
+from dds_domains import claimed_domain
 from processes import Children, two_worlds
 
 HERE = pathlib.Path(__file__).resolve().parent
@@ -21,13 +22,14 @@ LOOPBACK_CONFIG = HERE.parent.parent / "docs" / "cyclonedds-loopback.xml"
 
 
 @pytest.fixture(autouse=True)
-def dds_domain(monkeypatch, tmp_path) -> int:
-    """A DDS domain of this test's own on loopback (children inherit CYCLONEDDS_URI), and the
-    type cache of `horus` kept in tmp_path."""
+def dds_domain(monkeypatch, tmp_path) -> Iterator[int]:
+    """A DDS domain of this test's own, held by no other test on the machine, on loopback
+    (children inherit CYCLONEDDS_URI), and the type cache of `horus` kept in tmp_path."""
     monkeypatch.setenv("CYCLONEDDS_URI", f"file://{LOOPBACK_CONFIG}")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     monkeypatch.chdir(tmp_path)
-    return random.randrange(1, 230)
+    with claimed_domain() as domain:
+        yield domain
 
 
 @pytest.fixture

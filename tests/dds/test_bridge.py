@@ -181,5 +181,6 @@ def test_a_bridge_given_nothing_to_carry_is_a_usage_error(worlds, generated):
     result = horus_in(worlds[0], generated, "bridge", "--domain", "3")
     assert result.returncode == 2 and result.stderr.strip().splitlines() == [
         "horus: nothing to bridge: give --export and/or --import patterns (or --export-service, "
-        "--import-service, --export-frames, --import-frames, --frames, --export-action)"
+        "--import-service, --export-frames, --import-frames, --frames, --export-action, "
+        "--import-action)"
     ], result.stderr

@@ -174,7 +174,7 @@ def test_invalid_network_fields_are_refused(children):
     prefix = "refused: horus::Scheduler 'horus_dds_network_peer': network: "  # the program's name
     assert out.splitlines() == [prefix + line for line in (
         "a Network carries nothing: give export_ and/or import_ patterns (or export_services, "
-        "import_services, export_frames, import_frames, export_actions)",
+        "import_services, export_frames, import_frames, export_actions, import_actions)",
         "domain must be a DDS domain id (0..232), got 233",
         "domain must be a DDS domain id (0..232), got -1",
         "depth must be at least 1, got 0",

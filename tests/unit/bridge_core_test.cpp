@@ -255,7 +255,7 @@ TEST(BridgeFrameSource, WhatTheRingOverwroteIsCountedLostOnTheNextFrame) {
   EXPECT_EQ(source.stale(), 0U);
 }
 
-TEST(BridgeFrameSource, LatestIsTheNewestMessageWhetherTakenOrNot) {
+TEST(BridgeFrameSource, LatestIsTheNewestMessageTakenOrSentBeforeOpeningNotOneWaiting) {
   const topic_test::PrivateNamespace ns;
   const std::unique_ptr<RawTopic> publisher = counter_topic(8);
   ASSERT_TRUE(send_counter(*publisher, 7));
@@ -276,6 +276,15 @@ TEST(BridgeFrameSource, LatestIsTheNewestMessageWhetherTakenOrNot) {
   EXPECT_EQ(next->sequence, 2U);
   ASSERT_TRUE(source.latest().has_value());
   EXPECT_EQ(counter_of(*source.latest()), 9U) << "the newest again, though taken";
+
+  ASSERT_TRUE(send_counter(*publisher, 10));
+  EXPECT_FALSE(source.latest().has_value())
+      << "10 is waiting: next() gives it, and a joiner welcomed with it would get it twice";
+  const auto waiting = source.try_next();
+  ASSERT_TRUE(waiting.has_value());
+  EXPECT_EQ(counter_of(*waiting), 10U);
+  ASSERT_TRUE(source.latest().has_value());
+  EXPECT_EQ(counter_of(*source.latest()), 10U);
   EXPECT_EQ(source.lost(), 0U);
 }
 

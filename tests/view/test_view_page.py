@@ -41,6 +41,14 @@ def topic_rows(driver) -> dict:
         return rows;""")
 
 
+def node_rows(driver) -> list:
+    """[{"text", "health"}] of the page's node list, read at once: the list is redrawn as the
+    graph changes, so an element found earlier may be gone by the time it is read."""
+    return driver.execute_script("""
+        return [...document.querySelectorAll('#nodes tr[data-node]')].map(
+            (row) => ({text: row.innerText, health: row.dataset.health}));""")
+
+
 def test_the_page_lists_topics_and_nodes_and_shows_a_live_value_and_plot(view_server, children,
                                                                          browser):
     pacer = children.python(PACER, dict(os.environ))
@@ -53,11 +61,9 @@ def test_the_page_lists_topics_and_nodes_and_shows_a_live_value_and_plot(view_se
     assert 10 <= rows["cmd_vel"]["rate"] <= 100, f"a 50 Hz topic shown at {rows['cmd_vel']} msg/s"
     assert browser.find_element(By.ID, "connection").get_attribute("data-state") == "open"
 
-    node = wait_for(browser, lambda d: d.find_elements(By.CSS_SELECTOR, "#nodes tr[data-node]"),
-                    "a node in the node list")
-    assert any("pacer" in row.text and "cmd_vel" in row.text for row in node), [r.text for r in node]
-    health = {row.get_attribute("data-node"): row.get_attribute("data-health") for row in node}
-    assert "publishing" in health.values(), health
+    nodes = wait_for(browser, node_rows, "a node in the node list")
+    assert any("pacer" in row["text"] and "cmd_vel" in row["text"] for row in nodes), nodes
+    assert "publishing" in [row["health"] for row in nodes], nodes
 
     browser.find_element(By.CSS_SELECTOR, "#topics tr[data-topic='cmd_vel']").click()
     value = browser.find_element(By.ID, "value")

@@ -40,7 +40,8 @@ std::optional<Frame> FrameSource::try_next() {
 
 std::optional<Frame> FrameSource::latest() {
   const std::ptrdiff_t size = topic_->read_latest();
-  if (size < 0) {
+  // Asked after the read: a message sent since then is waiting too, and may be the one read.
+  if (size < 0 || topic_->has_msg()) {
     return std::nullopt;
   }
   const std::span<const std::byte> message = topic_->received(static_cast<std::size_t>(size));

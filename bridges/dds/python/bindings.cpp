@@ -462,51 +462,55 @@ void bind_dds(py::module_& m) {
       m, "DdsBridge",
       "The C++ bridge (bridges/dds/): carries the topics, services and frames (export_frames, "
       "import_frames: child frame patterns, as rt/tf and rt/tf_static) and the actions "
-      "(export_actions: served to ROS 2 action clients) the patterns name on threads of its own, "
+      "(export_actions: served to ROS 2 action clients; import_actions: ROS 2 action servers "
+      "offered to local clients) the patterns name on threads of its own, "
       "saying each on stdout and each refusal on stderr, until stop(). "
       "find_type(name): a generated class's type description by its HORUS name, or None (how an "
       "exported service's response type is found before a local call showed it).")
-      .def(py::init([](const std::string& namespace_name, std::vector<std::string> exports,
-                       std::vector<std::string> imports, int domain, bool reliable, int depth,
-                       std::vector<std::string> transient_local,
-                       const std::vector<std::pair<std::string, std::int64_t>>& deadlines,
-                       bool accept_untyped_writers, std::vector<std::string> ros2_types,
-                       std::vector<std::string> export_services,
-                       std::vector<std::string> import_services, double service_timeout,
-                       py::object find_type, std::vector<std::string> export_frames,
-                       std::vector<std::string> import_frames,
-                       std::vector<std::string> export_actions) {
-             Network options{.export_ = std::move(exports),
-                             .import_ = std::move(imports),
-                             .domain = domain,
-                             .reliable = reliable,
-                             .depth = depth,
-                             .transient_local = std::move(transient_local),
-                             .export_services = std::move(export_services),
-                             .import_services = std::move(import_services),
-                             .service_timeout = std::chrono::duration<double>(service_timeout),
-                             .ros2_types = std::move(ros2_types),
-                             .accept_untyped_writers = accept_untyped_writers,
-                             .export_frames = std::move(export_frames),
-                             .import_frames = std::move(import_frames),
-                             .export_actions = std::move(export_actions)};
-             for (const auto& [pattern, milliseconds] : deadlines) {
-               options.deadlines.emplace_back(pattern, std::chrono::milliseconds(milliseconds));
-             }
-             // Made (and, should the bridge not start, let go) under the GIL.
-             const auto held = std::make_shared<py::object>(std::move(find_type));
-             const py::gil_scoped_release released;  // it starts DDS and a thread
-             return std::make_unique<PythonDdsBridge>(std::move(options), namespace_name, held);
-           }),
-           py::arg("namespace"), py::arg("exports"), py::arg("imports"), py::arg("domain"),
-           py::arg("reliable"), py::arg("depth"), py::arg("transient_local"), py::arg("deadlines"),
-           py::arg("accept_untyped_writers"), py::arg("ros2_types"),
-           py::arg("export_services") = std::vector<std::string>{},
-           py::arg("import_services") = std::vector<std::string>{},
-           py::arg("service_timeout") = 10.0, py::arg("find_type") = py::none(),
-           py::arg("export_frames") = std::vector<std::string>{},
-           py::arg("import_frames") = std::vector<std::string>{},
-           py::arg("export_actions") = std::vector<std::string>{})
+      .def(
+          py::init(
+              [](const std::string& namespace_name, std::vector<std::string> exports,
+                 std::vector<std::string> imports, int domain, bool reliable, int depth,
+                 std::vector<std::string> transient_local,
+                 const std::vector<std::pair<std::string, std::int64_t>>& deadlines,
+                 bool accept_untyped_writers, std::vector<std::string> ros2_types,
+                 std::vector<std::string> export_services, std::vector<std::string> import_services,
+                 double service_timeout, py::object find_type,
+                 std::vector<std::string> export_frames, std::vector<std::string> import_frames,
+                 std::vector<std::string> export_actions, std::vector<std::string> import_actions) {
+                Network options{.export_ = std::move(exports),
+                                .import_ = std::move(imports),
+                                .domain = domain,
+                                .reliable = reliable,
+                                .depth = depth,
+                                .transient_local = std::move(transient_local),
+                                .export_services = std::move(export_services),
+                                .import_services = std::move(import_services),
+                                .service_timeout = std::chrono::duration<double>(service_timeout),
+                                .ros2_types = std::move(ros2_types),
+                                .accept_untyped_writers = accept_untyped_writers,
+                                .export_frames = std::move(export_frames),
+                                .import_frames = std::move(import_frames),
+                                .export_actions = std::move(export_actions),
+                                .import_actions = std::move(import_actions)};
+                for (const auto& [pattern, milliseconds] : deadlines) {
+                  options.deadlines.emplace_back(pattern, std::chrono::milliseconds(milliseconds));
+                }
+                // Made (and, should the bridge not start, let go) under the GIL.
+                const auto held = std::make_shared<py::object>(std::move(find_type));
+                const py::gil_scoped_release released;  // it starts DDS and a thread
+                return std::make_unique<PythonDdsBridge>(std::move(options), namespace_name, held);
+              }),
+          py::arg("namespace"), py::arg("exports"), py::arg("imports"), py::arg("domain"),
+          py::arg("reliable"), py::arg("depth"), py::arg("transient_local"), py::arg("deadlines"),
+          py::arg("accept_untyped_writers"), py::arg("ros2_types"),
+          py::arg("export_services") = std::vector<std::string>{},
+          py::arg("import_services") = std::vector<std::string>{},
+          py::arg("service_timeout") = 10.0, py::arg("find_type") = py::none(),
+          py::arg("export_frames") = std::vector<std::string>{},
+          py::arg("import_frames") = std::vector<std::string>{},
+          py::arg("export_actions") = std::vector<std::string>{},
+          py::arg("import_actions") = std::vector<std::string>{})
       .def("stop", &PythonDdsBridge::stop, py::call_guard<py::gil_scoped_release>(),
            "Stops every carried topic and deletes the bridge's DDS entities.")
       .def_property_readonly("broken", &PythonDdsBridge::broken,

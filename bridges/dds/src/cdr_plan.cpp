@@ -221,13 +221,16 @@ std::string encapsulation_error(std::span<const std::byte> sample, bool& big_end
 }
 
 std::string CdrPlan::decode(std::span<const std::byte> sample, std::byte* pod,
-                            std::vector<std::byte>* pool_data) const {
+                            std::vector<std::byte>* pool_data, std::size_t body_prefix) const {
   bool big = false;
   if (std::string error = encapsulation_error(sample, big); !error.empty()) {
     return error;
   }
   std::memset(pod, 0, pod_size_);
   BodyReader reader(sample.subspan(kHeader), big);
+  if (std::string error; reader.take(body_prefix, 1, error) == nullptr) {
+    return "a CDR sample does not decode as " + type_name_ + ": " + error;
+  }
   for (const CdrStep& step : steps_) {
     const std::string error = decode_step(step, reader, pod, pool_data);
     if (!error.empty()) {

@@ -114,10 +114,10 @@ class DdsBridge::Running {
       throw Error(error.what());
     }
     if (!options_.export_services.empty() || !options_.import_services.empty() ||
-        !options_.export_actions.empty()) {
+        !options_.export_actions.empty() || !options_.import_actions.empty()) {
       services_ = std::make_unique<ServiceRelays>(
           options_.export_services, options_.import_services, options_.export_actions,
-          options_.service_timeout, namespace_, participant_,
+          options_.import_actions, options_.service_timeout, namespace_, participant_,
           Qos{options_.reliable, options_.depth, false, 0}, std::move(find_type));
     }
     if (!options_.export_frames.empty() || !options_.import_frames.empty()) {

@@ -114,7 +114,7 @@ ExportPump::ExportPump(const LocalTopic& local, std::unique_ptr<Conversion> conv
 void ExportPump::loop() {
   // A latched topic's last message, sent before this handle opened, is what a late joiner on DDS
   // should get; one that arrived since is taken below anyway.
-  if (latched_ && !local_.topic().has_msg()) {
+  if (latched_) {
     if (const std::optional<bridge::Frame> frame = local_.latest()) {
       send_to_dds(frame->bytes);
     }

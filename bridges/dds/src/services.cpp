@@ -1,11 +1,13 @@
 #include "horus/dds/services.hpp"
 
+#include <openssl/sha.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <stdexcept>
 #include <thread>
@@ -176,8 +178,46 @@ TopicOptions in_namespace(const std::string& namespace_name) {
   return options;
 }
 
-std::string both_ways(const std::string& name) {
-  return "refusing service '" + name + "': it matches both --export-service and --import-service";
+// `kind`: "service" or "action", as the options name them.
+std::string both_ways(const std::string& kind, const std::string& name) {
+  return "refusing " + kind + " '" + name + "': it matches both --export-" + kind +
+         " and --import-" + kind;
+}
+
+// Follows what DDS offers of one kind ("service" or "action"): the import of an offer that went
+// away ends (its local callers then get NoServer, as from any server that stops); each new offer
+// is imported by `start`, or refused once, with the reason, when the policy would carry it both
+// ways or it cannot be carried.
+template <class Offer, class Import, class Start>
+void follow_offers(const std::string& kind, const std::map<std::string, Offer>& offered,
+                   std::map<std::string, std::unique_ptr<Import>>& imported,
+                   std::set<std::string>& refused, const bridge::TopicPolicy& policy,
+                   const Start& start) {
+  for (auto carried = imported.begin(); carried != imported.end();) {
+    if (offered.contains(carried->first)) {
+      ++carried;
+      continue;
+    }
+    const std::string name = carried->first;
+    carried = imported.erase(carried);
+    say("no longer importing " + kind + " '" + name + "' (no server on DDS)");
+  }
+  for (const auto& [name, offer] : offered) {
+    if (imported.contains(name) || refused.contains(name)) {
+      continue;
+    }
+    if (policy.exported(name)) {
+      refused.insert(name);
+      complain(both_ways(kind, name));
+      continue;
+    }
+    try {
+      start(name, offer);
+    } catch (const std::exception& error) {
+      refused.insert(name);
+      complain("cannot import " + kind + " '" + name + "': " + error.what());
+    }
+  }
 }
 
 }  // namespace
@@ -442,7 +482,11 @@ namespace {
 // ROS 2's GoalStatus values (HORUS's GoalState, runtime/src/action/README.md); Rejected is HORUS's
 // own and never reaches ROS 2.
 constexpr std::uint8_t kAccepted = 1;
+constexpr std::uint8_t kExecuting = 2;
 constexpr std::uint8_t kCanceling = 3;
+constexpr std::uint8_t kSucceeded = 4;
+constexpr std::uint8_t kCanceled = 5;
+constexpr std::uint8_t kAborted = 6;
 constexpr std::uint8_t kRejected = 7;
 constexpr std::size_t kGoalId = 16;
 // Ended goals the status array keeps, as many as a HORUS server keeps for get_result.
@@ -456,6 +500,47 @@ constexpr auto kActionPoll = std::chrono::milliseconds(2);
 using GoalId = std::array<std::byte, kGoalId>;
 
 bool live(std::uint8_t state) { return state >= kAccepted && state <= kCanceling; }
+
+// Keeps the live goals of a table and the last kEndedGoalsKept ended ones.
+template <class Goal>
+void forget_ended(std::vector<Goal>& goals) {
+  std::size_t ended =
+      std::count_if(goals.begin(), goals.end(), [](const Goal& goal) { return !live(goal.state); });
+  for (auto goal = goals.begin(); ended > kEndedGoalsKept && goal != goals.end();) {
+    if (live(goal->state)) {
+      ++goal;
+    } else {
+      goal = goals.erase(goal);
+      --ended;
+    }
+  }
+}
+
+template <class Goal>
+Goal* find_goal(std::vector<Goal>& goals, const GoalId& id) {
+  const auto found =
+      std::find_if(goals.begin(), goals.end(), [&](const Goal& goal) { return goal.id == id; });
+  return found == goals.end() ? nullptr : &*found;
+}
+
+std::uint64_t now_ns() {
+  return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                        std::chrono::system_clock::now().time_since_epoch())
+                                        .count());
+}
+
+// The first 8 bytes (big-endian) of the SHA-256 of `text`: horus-gen's fingerprint of a canonical
+// text (generator/horus_gen/identity.py), which an imported action's service registrations carry
+// as a generated server's do.
+std::uint64_t sha256_fingerprint(const std::string& text) {
+  std::array<unsigned char, SHA256_DIGEST_LENGTH> digest{};
+  SHA256(reinterpret_cast<const unsigned char*>(text.data()), text.size(), digest.data());
+  std::uint64_t fingerprint = 0;
+  for (std::size_t i = 0; i < sizeof fingerprint; ++i) {
+    fingerprint = (fingerprint << 8) | digest[i];
+  }
+  return fingerprint;
+}
 
 // CDR (XCDR1, little-endian) written member by member, aligned from the body's start: the
 // members of ROS 2's action messages that HORUS's have in another shape.
@@ -475,6 +560,14 @@ class CdrWriter {
     put(static_cast<std::int32_t>(stamp_ns / 1'000'000'000));
     put(static_cast<std::uint32_t>(stamp_ns % 1'000'000'000));
   }
+  void put(const std::string& text) {
+    put(static_cast<std::uint32_t>(text.size() + 1));
+    const auto* first = reinterpret_cast<const std::byte*>(text.data());
+    sample_.insert(sample_.end(), first, first + text.size());
+    sample_.push_back(std::byte{0});
+  }
+  // The members written so far, unpadded: the body_prefix of a CdrPlan that encodes what follows.
+  std::span<const std::byte> body() const { return std::span(sample_).subspan(kEncapsulation); }
   std::vector<std::byte> done() {
     const std::size_t padding = (4 - (sample_.size() - kEncapsulation) % 4) % 4;
     sample_.resize(sample_.size() + padding);
@@ -507,11 +600,18 @@ class CdrBody {
     std::memcpy(&value, body_.data() + offset, sizeof(T));
     return value;
   }
-  GoalId goal_id() const {
-    need(kGoalId);
+  GoalId goal_id(std::size_t offset = 0) const {
+    need(offset + kGoalId);
     GoalId id{};
-    std::memcpy(id.data(), body_.data(), kGoalId);
+    std::memcpy(id.data(), body_.data() + offset, kGoalId);
     return id;
+  }
+  // builtin_interfaces/Time as nanoseconds since the epoch (a time before it: 0).
+  std::uint64_t time_at(std::size_t offset) const {
+    const auto sec = at<std::int32_t>(offset);
+    return sec < 0
+               ? 0
+               : static_cast<std::uint64_t>(sec) * 1'000'000'000 + at<std::uint32_t>(offset + 4);
   }
   std::string string_at(std::size_t offset) const {
     const auto length = at<std::uint32_t>(offset);
@@ -544,15 +644,55 @@ std::string hex(const GoalId& id) {
 
 }  // namespace
 
-/// The local types an exported action needs: its three services' payloads and its two topics.
+/// An action's three services: their fingerprints and payload types (get_result's response is
+/// also what A.result carries).
 struct ServiceRelays::ActionParts {
   std::uint64_t send_goal_fingerprint = 0;
   std::uint64_t cancel_goal_fingerprint = 0;
   std::uint64_t get_result_fingerprint = 0;
   std::optional<TypeIdentity> send_goal_request, send_goal_response, cancel_request,
       cancel_response, get_result_request, result_message;
-  std::optional<TopicInfo> feedback, status;
 };
+
+namespace {
+
+// ROS 2's GetResult response puts the result after its status byte (so its members align
+// otherwise than in HORUS's message): the plan of the result member of A.get_result's answer.
+CdrPlan result_plan(const Payload& message) {
+  const MessageField* result = message.message->find_field("result");
+  const MessageType* type =
+      result == nullptr ? nullptr : message.description->find_message(result->type.name);
+  if (type == nullptr || !result->offset) {
+    throw std::runtime_error(message.type.name + " has no result member");
+  }
+  if (!message.message->is_pod || !type->is_pod) {
+    throw std::runtime_error("its result " + type->name +
+                             " is a serialized type, which the bridge does not carry as ROS 2's "
+                             "GetResult yet (POD results only)");
+  }
+  return pod_cdr_plan(*message.description, *type);
+}
+
+// <pkg>::dds_::, the IDL module of an action whose send_goal request is `request`.
+std::string action_module(const Payload& request) {
+  const std::string own = dds_type_name(*request.description, *request.message);
+  return own.substr(0, own.rfind("::") + 2);
+}
+
+// action_msgs' DDS types (bridges/dds/ros2_idl/), the same for every action.
+constexpr const char* kCancelRequestType = "action_msgs::srv::dds_::CancelGoal_Request_";
+constexpr const char* kCancelResponseType = "action_msgs::srv::dds_::CancelGoal_Response_";
+constexpr const char* kStatusArrayType = "action_msgs::msg::dds_::GoalStatusArray_";
+
+// rq/A/_action/send_goalRequest and the rest: ROS 2's DDS names of an action's service topics.
+std::string action_request_topic(const std::string& action, const char* service) {
+  return kRequestPrefix + action + "/_action/" + service + "Request";
+}
+std::string action_reply_topic(const std::string& action, const char* service) {
+  return kReplyPrefix + action + "/_action/" + service + kReplySuffix;
+}
+
+}  // namespace
 
 // One thread per action: the three services' DDS requests, each answered by a call to the local
 // server; A.status followed into the goal table whose whole GoalStatusArray goes out on each
@@ -560,9 +700,10 @@ struct ServiceRelays::ActionParts {
 // bytes, then the feedback).
 class ServiceRelays::ExportedAction {
  public:
-  ExportedAction(const std::string& name, const ActionParts& parts,
-                 const std::shared_ptr<Participant>& participant, const Qos& qos,
-                 std::chrono::duration<double> timeout, const std::string& namespace_name)
+  ExportedAction(const std::string& name, const ActionParts& parts, const TopicInfo& feedback,
+                 const TopicInfo& status, const std::shared_ptr<Participant>& participant,
+                 const Qos& qos, std::chrono::duration<double> timeout,
+                 const std::string& namespace_name)
       : name_(name),
         send_goal_request_(*parts.send_goal_request),
         send_goal_response_(*parts.send_goal_response),
@@ -570,8 +711,8 @@ class ServiceRelays::ExportedAction {
         cancel_response_(*parts.cancel_response),
         get_result_request_(*parts.get_result_request),
         result_message_(*parts.result_message),
-        feedback_(type_identity_of(*parts.feedback)),
-        status_(type_identity_of(*parts.status)),
+        feedback_(type_identity_of(feedback)),
+        status_(type_identity_of(status)),
         result_plan_(result_plan(result_message_)),
         module_(action_module(send_goal_request_)),
         send_goal_reader_(participant, request_topic("send_goal"),
@@ -579,10 +720,9 @@ class ServiceRelays::ExportedAction {
         send_goal_writer_(participant, reply_topic("send_goal"),
                           TypeOnWire{module_ + name + "_SendGoal_Response_", {}, {}}, qos, ""),
         cancel_reader_(participant, request_topic("cancel_goal"),
-                       TypeOnWire{"action_msgs::srv::dds_::CancelGoal_Request_", {}, {}}, qos,
-                       false),
+                       TypeOnWire{kCancelRequestType, {}, {}}, qos, false),
         cancel_writer_(participant, reply_topic("cancel_goal"),
-                       TypeOnWire{"action_msgs::srv::dds_::CancelGoal_Response_", {}, {}}, qos, ""),
+                       TypeOnWire{kCancelResponseType, {}, {}}, qos, ""),
         get_result_reader_(participant, request_topic("get_result"),
                            TypeOnWire{module_ + name + "_GetResult_Request_", {}, {}}, qos, false),
         get_result_writer_(participant, reply_topic("get_result"),
@@ -591,8 +731,7 @@ class ServiceRelays::ExportedAction {
                          TypeOnWire{module_ + name + "_FeedbackMessage_", {}, {}}, qos, ""),
         // ROS 2's status QoS: reliable, transient local, the last array only.
         status_writer_(participant, "rt/" + name + "/_action/status",
-                       TypeOnWire{"action_msgs::msg::dds_::GoalStatusArray_", {}, {}},
-                       Qos{true, 1, true, 0}, ""),
+                       TypeOnWire{kStatusArrayType, {}, {}}, Qos{true, 1, true, 0}, ""),
         timeout_(std::chrono::ceil<std::chrono::milliseconds>(timeout)),
         send_goal_(raw_type(name + ".send_goal", parts.send_goal_fingerprint, send_goal_request_,
                             send_goal_response_),
@@ -603,8 +742,8 @@ class ServiceRelays::ExportedAction {
         get_result_(raw_type(name + ".get_result", parts.get_result_fingerprint,
                              get_result_request_, result_message_),
                     in_namespace(namespace_name)),
-        feedback_topic_(RawTopic::open_recorded(*parts.feedback, namespace_name)),
-        status_topic_(RawTopic::open_recorded(*parts.status, namespace_name)),
+        feedback_topic_(RawTopic::open_recorded(feedback, namespace_name)),
+        status_topic_(RawTopic::open_recorded(status, namespace_name)),
         thread_([this] { run(); }) {}
 
   ~ExportedAction() {
@@ -633,33 +772,10 @@ class ServiceRelays::ExportedAction {
     std::chrono::steady_clock::time_point asked;
   };
 
-  static std::string action_module(const Payload& request) {
-    const std::string own = dds_type_name(*request.description, *request.message);
-    return own.substr(0, own.rfind("::") + 2);
-  }
   std::string request_topic(const char* service) const {
-    return kRequestPrefix + name_ + "/_action/" + service + "Request";
+    return action_request_topic(name_, service);
   }
-  std::string reply_topic(const char* service) const {
-    return kReplyPrefix + name_ + "/_action/" + service + kReplySuffix;
-  }
-
-  // The plan of the result member of A.get_result's answer, which ROS 2's GetResult response
-  // puts after its status byte (so its members align otherwise than in HORUS's message).
-  static CdrPlan result_plan(const Payload& message) {
-    const MessageField* result = message.message->find_field("result");
-    const MessageType* type =
-        result == nullptr ? nullptr : message.description->find_message(result->type.name);
-    if (type == nullptr || !result->offset) {
-      throw std::runtime_error(message.type.name + " has no result member");
-    }
-    if (!message.message->is_pod || !type->is_pod) {
-      throw std::runtime_error("its result " + type->name +
-                               " is a serialized type, which the bridge does not carry as ROS 2's "
-                               "GetResult yet (POD results only)");
-    }
-    return pod_cdr_plan(*message.description, *type);
-  }
+  std::string reply_topic(const char* service) const { return action_reply_topic(name_, service); }
 
   void run() {
     while (!stopping_.load()) {
@@ -780,7 +896,7 @@ class ServiceRelays::ExportedAction {
   void answer_results() {
     const auto now = std::chrono::steady_clock::now();
     for (auto waiting = waiting_.begin(); waiting != waiting_.end();) {
-      const Goal* goal = find(waiting->id);
+      const Goal* goal = find_goal(goals_, waiting->id);
       const bool ended = goal != nullptr && !live(goal->state);
       if (!ended && now - waiting->asked < kResultRecheck) {
         ++waiting;
@@ -831,23 +947,16 @@ class ServiceRelays::ExportedAction {
     }
   }
 
-  const Goal* find(const GoalId& id) const {
-    const auto found =
-        std::find_if(goals_.begin(), goals_.end(), [&](const Goal& goal) { return goal.id == id; });
-    return found == goals_.end() ? nullptr : &*found;
-  }
-
   // A goal's state moves forward only (A.status may show Executing before send_goal's answer
   // came back here); a rejected goal never enters the table. True when it changed.
   bool update(const GoalId& id, std::uint8_t state, std::uint64_t stamp_ns) {
     if (state == kRejected || state == 0) {
       return false;
     }
-    auto goal = std::find_if(goals_.begin(), goals_.end(),
-                             [&](const Goal& known) { return known.id == id; });
-    if (goal == goals_.end()) {
+    Goal* goal = find_goal(goals_, id);
+    if (goal == nullptr) {
       goals_.push_back(Goal{id, stamp_ns, state});
-      forget_ended();
+      forget_ended(goals_);
       return true;
     }
     if (state <= goal->state) {
@@ -855,19 +964,6 @@ class ServiceRelays::ExportedAction {
     }
     goal->state = state;
     return true;
-  }
-
-  void forget_ended() {
-    std::size_t ended = std::count_if(goals_.begin(), goals_.end(),
-                                      [](const Goal& goal) { return !live(goal.state); });
-    for (auto goal = goals_.begin(); ended > kEndedGoalsKept && goal != goals_.end();) {
-      if (live(goal->state)) {
-        ++goal;
-      } else {
-        goal = goals_.erase(goal);
-        --ended;
-      }
-    }
   }
 
   void publish_status() {
@@ -916,15 +1012,486 @@ class ServiceRelays::ExportedAction {
   std::thread thread_;  // last: started once everything it uses is there
 };
 
+// -- actions: a ROS 2 action server, served to local action clients -----------------------------
+
+namespace {
+
+// How long each of the three local servers' next() waits in turn (next(0) never receives).
+constexpr auto kCallPoll = std::chrono::milliseconds(1);
+constexpr const char* kRosRejected = "rejected by the ROS 2 action server (ROS 2 gives no reason)";
+
+}  // namespace
+
+// One thread per action. Local calls go out on DDS and are answered when their replies come
+// back, so a call waiting on DDS holds up no other; each accepted goal's result is asked of ROS 2
+// at once (ROS 2's get_result answers when the goal ends), and its answer is published as
+// A.result, then the terminal A.status. The GoalStatusArray's Executing and Canceling become
+// A.status of the goals sent from here; their feedback is A.feedback (the same CDR).
+class ServiceRelays::ImportedAction {
+ public:
+  ImportedAction(const std::string& name, const std::string& module, const ActionParts& parts,
+                 const TypeIdentity& feedback, const TypeIdentity& status,
+                 const std::shared_ptr<Participant>& participant, const Qos& qos,
+                 const std::string& namespace_name)
+      : name_(name),
+        module_(module),
+        parts_(parts),
+        send_goal_request_(*parts.send_goal_request),
+        send_goal_response_(*parts.send_goal_response),
+        cancel_request_(*parts.cancel_request),
+        cancel_response_(*parts.cancel_response),
+        get_result_request_(*parts.get_result_request),
+        result_message_(*parts.result_message),
+        feedback_(feedback),
+        status_(status),
+        result_plan_(result_plan(result_message_)),
+        result_offset_(*result_message_.message->find_field("result")->offset),
+        send_goal_writer_(participant, action_request_topic(name, "send_goal"),
+                          TypeOnWire{module + name + "_SendGoal_Request_", {}, {}}, qos, ""),
+        send_goal_reader_(participant, action_reply_topic(name, "send_goal"),
+                          TypeOnWire{module + name + "_SendGoal_Response_", {}, {}}, qos, false),
+        cancel_writer_(participant, action_request_topic(name, "cancel_goal"),
+                       TypeOnWire{kCancelRequestType, {}, {}}, qos, ""),
+        cancel_reader_(participant, action_reply_topic(name, "cancel_goal"),
+                       TypeOnWire{kCancelResponseType, {}, {}}, qos, false),
+        get_result_writer_(participant, action_request_topic(name, "get_result"),
+                           TypeOnWire{module + name + "_GetResult_Request_", {}, {}}, qos, ""),
+        get_result_reader_(participant, action_reply_topic(name, "get_result"),
+                           TypeOnWire{module + name + "_GetResult_Response_", {}, {}}, qos, false),
+        feedback_reader_(participant, "rt/" + name + "/_action/feedback",
+                         TypeOnWire{module + name + "_FeedbackMessage_", {}, {}}, qos, false),
+        // ROS 2's status writer is transient local: the array of now comes at once.
+        status_reader_(participant, "rt/" + name + "/_action/status",
+                       TypeOnWire{kStatusArrayType, {}, {}}, Qos{true, qos.depth, true, 0}, false),
+        feedback_topic_(name + ".feedback", feedback, in_namespace(namespace_name)),
+        status_topic_(name + ".status", status, in_namespace(namespace_name)),
+        result_topic_(name + ".result", *parts.result_message, in_namespace(namespace_name)),
+        namespace_(namespace_name),
+        caller_(new_service_endpoint_id()),
+        thread_([this] { run(); }) {}
+
+  ~ImportedAction() {
+    stopping_.store(true);
+    thread_.join();
+  }
+  ImportedAction(const ImportedAction&) = delete;
+  ImportedAction& operator=(const ImportedAction&) = delete;
+
+ private:
+  enum class Kind : std::uint8_t { kSendGoal, kCancelGoal, kGetResult };
+  // A request written to DDS whose reply is awaited. kGetResult ones are the bridge's own (no
+  // local caller) and wait as long as their goal runs.
+  struct Call {
+    Kind kind;
+    std::int64_t sequence = 0;
+    ServiceCaller caller;
+    GoalId id;
+    std::chrono::steady_clock::time_point deadline;
+    // A send_goal's: the state a status array showed before the reply came (it may come first).
+    std::uint8_t early_state = 0;
+  };
+  struct Goal {
+    GoalId id;
+    std::uint8_t state = 0;
+    std::uint64_t stamp_ns = 0;
+    std::vector<std::byte> result;  // the A.result message once it ended
+  };
+
+  void run() {
+    while (!stopping_.load() && !serving()) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    while (!stopping_.load()) {
+      try {
+        take_calls();
+        take_replies();
+        forward_feedback();
+        follow_status();
+        expire_calls();
+      } catch (const std::exception& error) {
+        failed("action '" + name_ + "'", failures_, error.what(), "carrying on");
+        std::this_thread::sleep_for(kRetry);
+      }
+    }
+    for (const Call& call : calls_) {
+      fail(call, ServiceError::no_server("the import of the action ended (its ROS 2 server left "
+                                         "DDS, or the bridge stopped)"));
+    }
+  }
+
+  // The local services are registered once the ROS 2 server's request readers match this
+  // side's writers, as a request written before would be lost.
+  bool serving() {
+    if (send_goal_writer_.matched() == 0 || cancel_writer_.matched() == 0 ||
+        get_result_writer_.matched() == 0) {
+      return false;
+    }
+    const TopicOptions options = in_namespace(namespace_);
+    send_goal_.emplace(raw_type(name_ + ".send_goal", parts_.send_goal_fingerprint,
+                                send_goal_request_, send_goal_response_),
+                       options);
+    cancel_goal_.emplace(raw_type(name_ + ".cancel_goal", parts_.cancel_goal_fingerprint,
+                                  cancel_request_, cancel_response_),
+                         options);
+    get_result_.emplace(raw_type(name_ + ".get_result", parts_.get_result_fingerprint,
+                                 get_result_request_, result_message_),
+                        options);
+    say("importing action '" + name_ + "' from rr/" + name_ + "/_action/{send_goal,cancel_goal," +
+        "get_result}Reply, rt/" + name_ + "/_action/{feedback,status} (" + module_ + name_ + "_*)");
+    return true;
+  }
+
+  void take_calls() {
+    if (auto request = send_goal_->next(kCallPoll)) {
+      send_goal_request_.conversion->to_dds(request->payload, cdr_);  // ROS 2's request's CDR
+      relay(send_goal_writer_, Kind::kSendGoal, request->caller,
+            CdrBody(cdr_, send_goal_request_.type.name).goal_id(), cdr_);
+    }
+    if (auto request = cancel_goal_->next(kCallPoll)) {
+      cancel_request_.conversion->to_dds(request->payload, cdr_);
+      const GoalId id = CdrBody(cdr_, cancel_request_.type.name).goal_id();
+      // HORUS cancels by id alone (all zero: every live goal), ROS 2 by id and stamp, where a
+      // zero stamp adds no goal.
+      CdrWriter cancel;
+      cancel.put(id);
+      cancel.put_time(0);
+      relay(cancel_writer_, Kind::kCancelGoal, request->caller, id, cancel.done());
+    }
+    if (auto request = get_result_->next(kCallPoll)) {
+      answer_get_result(*request);
+    }
+  }
+
+  // Writes a call to DDS, its reply awaited in calls_; with no ROS 2 server matched, the caller
+  // gets NoServer at once.
+  void relay(Writer& writer, Kind kind, const ServiceCaller& caller, const GoalId& id,
+             std::span<const std::byte> cdr) {
+    if (writer.matched() == 0) {
+      fail(Call{kind, 0, caller, id, {}},
+           ServiceError::no_server("no ROS 2 action server of " + name_ + " on DDS"));
+      return;
+    }
+    const std::int64_t sequence = ++sequence_;
+    try {
+      writer.write(with_header(cdr, caller_, sequence));
+    } catch (const std::exception& error) {
+      fail(Call{kind, 0, caller, id, {}},
+           ServiceError::transport(std::string("the request did not go out on DDS: ") +
+                                   error.what()));
+      return;
+    }
+    calls_.push_back(
+        Call{kind, sequence, caller, id, std::chrono::steady_clock::now() + kReplyTimeout});
+  }
+
+  void fail(const Call& call, const ServiceError& error) {
+    switch (call.kind) {
+      case Kind::kSendGoal:
+        send_goal_->fail(call.caller, error);
+        break;
+      case Kind::kCancelGoal:
+        cancel_goal_->fail(call.caller, error);
+        break;
+      case Kind::kGetResult:
+        end(call.id, kAborted,
+            "the ROS 2 action server's result did not come: " + error.to_string(),
+            default_result());
+        break;
+    }
+  }
+
+  void take_replies() {
+    const std::array<std::pair<Reader*, Kind>, 3> readers = {
+        std::pair{&send_goal_reader_, Kind::kSendGoal},
+        std::pair{&cancel_reader_, Kind::kCancelGoal},
+        std::pair{&get_result_reader_, Kind::kGetResult}};
+    for (const auto& [reader, kind] : readers) {
+      for (const auto& [writer, bytes] : reader->take(std::chrono::nanoseconds(0))) {
+        Sample reply;
+        try {
+          reply = split_header(bytes);
+        } catch (const std::exception&) {
+          continue;  // not a reply of this protocol
+        }
+        const auto call = std::find_if(calls_.begin(), calls_.end(), [&](const Call& waiting) {
+          return waiting.kind == kind && reply.caller == caller_ &&
+                 (reply.sequence == waiting.sequence || reply.sequence == -waiting.sequence);
+        });
+        if (call == calls_.end()) {
+          continue;  // another caller's reply, or a late one to a call that timed out
+        }
+        const Call answered = *call;
+        calls_.erase(call);
+        if (reply.sequence < 0) {  // a HORUS bridge exporting the action could not answer
+          fail(answered, remote_error(failure_text(reply.cdr)));
+        } else if (kind == Kind::kSendGoal) {
+          answered_send_goal(answered, reply.cdr);
+        } else if (kind == Kind::kCancelGoal) {
+          answered_cancel_goal(answered, reply.cdr);
+        } else {
+          answered_get_result(answered, reply.cdr);
+        }
+      }
+    }
+  }
+
+  void answered_send_goal(const Call& call, std::span<const std::byte> cdr) {
+    const CdrBody response(cdr, "SendGoal_Response");
+    const bool accepted = response.at<std::uint8_t>(0) != 0;
+    const std::uint64_t stamp_ns = response.time_at(4);
+    const std::string reason = accepted ? std::string() : kRosRejected;
+    CdrWriter answer;
+    answer.put(static_cast<std::uint8_t>(accepted));
+    answer.put(stamp_ns);
+    answer.put(reason);
+    answer_local(*send_goal_, send_goal_response_, call.caller, answer.done());
+    publish_status(call.id, accepted ? kAccepted : kRejected, stamp_ns, reason);
+    if (!accepted) {
+      return;
+    }
+    goals_.push_back(Goal{call.id, kAccepted, stamp_ns, {}});
+    advance(goals_.back(), call.early_state);
+    forget_ended(goals_);
+    CdrWriter ask;
+    ask.put(call.id);
+    const std::int64_t sequence = ++sequence_;
+    try {
+      get_result_writer_.write(with_header(ask.done(), caller_, sequence));
+    } catch (const std::exception& error) {
+      end(call.id, kAborted, std::string("its get_result did not go out on DDS: ") + error.what(),
+          default_result());
+      return;
+    }
+    calls_.push_back(Call{
+        Kind::kGetResult, sequence, {}, call.id, std::chrono::steady_clock::time_point::max()});
+  }
+
+  // ROS 2 lists the goals it is canceling, HORUS answers how many.
+  void answered_cancel_goal(const Call& call, std::span<const std::byte> cdr) {
+    const CdrBody response(cdr, "CancelGoal_Response");
+    CdrWriter answer;
+    answer.put(static_cast<std::uint8_t>(response.at<std::int8_t>(0)));
+    answer.put(response.at<std::uint32_t>(4));
+    answer_local(*cancel_goal_, cancel_response_, call.caller, answer.done());
+  }
+
+  void answered_get_result(const Call& call, std::span<const std::byte> cdr) {
+    const auto status =
+        static_cast<std::uint8_t>(CdrBody(cdr, "GetResult_Response").at<std::int8_t>(0));
+    std::vector<std::byte> result(result_plan_.pod_size());
+    if (std::string why = result_plan_.decode(cdr, result.data(), nullptr, 1); !why.empty()) {
+      end(call.id, kAborted, "the ROS 2 action server's result does not decode: " + why,
+          default_result());
+      return;
+    }
+    switch (status) {
+      case kSucceeded:
+        end(call.id, status, "", result.data());
+        break;
+      case kCanceled:
+        end(call.id, status, "canceled on the ROS 2 action server", result.data());
+        break;
+      case kAborted:
+        end(call.id, status, "aborted by the ROS 2 action server (ROS 2 gives no reason)",
+            result.data());
+        break;
+      default:
+        end(call.id, kAborted,
+            "the ROS 2 action server answered get_result with status " + std::to_string(status),
+            result.data());
+    }
+  }
+
+  // A.result, then the terminal A.status, as a HORUS server ends a goal.
+  void end(const GoalId& id, std::uint8_t state, const std::string& reason,
+           const std::byte* result) {
+    const std::uint64_t stamp_ns = now_ns();
+    std::vector<std::byte> message = result_message(id, state, stamp_ns, reason, result);
+    result_topic_.send(message);
+    publish_status(id, state, stamp_ns, reason);
+    if (Goal* goal = find_goal(goals_, id)) {
+      goal->state = state;
+      goal->stamp_ns = stamp_ns;
+      goal->result = std::move(message);
+      forget_ended(goals_);
+    }
+  }
+
+  // HORUS's get_result answers at once: an ended goal's outcome, a live one's state, else Unknown.
+  void answer_get_result(const RawServiceServer::Request& request) {
+    get_result_request_.conversion->to_dds(request.payload, cdr_);
+    const GoalId id = CdrBody(cdr_, get_result_request_.type.name).goal_id();
+    const Goal* goal = find_goal(goals_, id);
+    if (goal != nullptr && !goal->result.empty()) {
+      get_result_->answer(request.caller, goal->result);
+      return;
+    }
+    get_result_->answer(
+        request.caller,
+        goal == nullptr
+            ? result_message(id, 0, now_ns(), "no such goal on this server", default_result())
+            : result_message(id, goal->state, goal->stamp_ns, "", default_result()));
+  }
+
+  void forward_feedback() {
+    for (const auto& [writer, bytes] : feedback_reader_.take(std::chrono::nanoseconds(0))) {
+      const auto sample = std::as_bytes(std::span(bytes));
+      if (!ours(CdrBody(sample, feedback_.type.name).goal_id())) {
+        continue;  // another ROS 2 client's goal
+      }
+      if (std::string why = feedback_.conversion->to_local(sample, local_); !why.empty()) {
+        throw std::runtime_error("a feedback message does not decode: " + why);
+      }
+      feedback_topic_.send(local_);
+    }
+  }
+
+  // GoalStatusArray {GoalStatus[] {GoalInfo {UUID goal_id; Time stamp}; int8 status}}: the states
+  // a goal passes through that no reply tells (the end comes from get_result).
+  void follow_status() {
+    for (const auto& [writer, bytes] : status_reader_.take(std::chrono::nanoseconds(0))) {
+      const CdrBody array(std::as_bytes(std::span(bytes)), "GoalStatusArray");
+      const auto count = array.at<std::uint32_t>(0);
+      std::size_t offset = 4;
+      for (std::uint32_t i = 0; i < count; ++i) {
+        const GoalId id = array.goal_id(offset);
+        offset = (offset + kGoalId + 3) / 4 * 4;  // the stamp's int32 aligns to 4
+        const auto state = static_cast<std::uint8_t>(array.at<std::int8_t>(offset + 8));
+        offset += 9;
+        if (Goal* goal = find_goal(goals_, id)) {
+          advance(*goal, state);
+          continue;
+        }
+        for (Call& call : calls_) {
+          if (call.kind == Kind::kSendGoal && call.id == id) {
+            call.early_state = std::max(call.early_state, state);
+          }
+        }
+      }
+    }
+  }
+
+  void advance(Goal& goal, std::uint8_t state) {
+    if (live(goal.state) && (state == kExecuting || state == kCanceling) && state > goal.state) {
+      goal.state = state;
+      publish_status(goal.id, state, now_ns(), "");
+    }
+  }
+
+  void expire_calls() {
+    const auto now = std::chrono::steady_clock::now();
+    for (auto call = calls_.begin(); call != calls_.end();) {
+      if (now < call->deadline) {
+        ++call;
+        continue;
+      }
+      const Call late = *call;
+      call = calls_.erase(call);
+      fail(late, ServiceError::timeout("no reply over DDS within " +
+                                       std::to_string(kReplyTimeout.count()) + " s"));
+    }
+  }
+
+  // A goal sent from here: accepted, or its send_goal reply still to come (feedback may beat it).
+  bool ours(const GoalId& id) {
+    return find_goal(goals_, id) != nullptr ||
+           std::any_of(calls_.begin(), calls_.end(), [&](const Call& call) {
+             return call.kind == Kind::kSendGoal && call.id == id;
+           });
+  }
+
+  void answer_local(RawServiceServer& server, Payload& response, const ServiceCaller& caller,
+                    std::span<const std::byte> cdr) {
+    if (std::string why = response.conversion->to_local(cdr, local_); !why.empty()) {
+      server.fail(caller, ServiceError::transport("the answer does not convert: " + why));
+      return;
+    }
+    server.answer(caller, local_);
+  }
+
+  void publish_status(const GoalId& id, std::uint8_t state, std::uint64_t stamp_ns,
+                      const std::string& reason) {
+    CdrWriter status;
+    status.put(id);
+    status.put(state);
+    status.put(stamp_ns);
+    status.put(reason);
+    if (std::string why = status_.conversion->to_local(status.done(), local_); !why.empty()) {
+      throw std::runtime_error("a status does not convert: " + why);
+    }
+    status_topic_.send(local_);
+  }
+
+  // The local A.result message (get_result's answer) of a result in its POD layout.
+  std::vector<std::byte> result_message(const GoalId& id, std::uint8_t state,
+                                        std::uint64_t stamp_ns, const std::string& reason,
+                                        const std::byte* result) {
+    CdrWriter members;
+    members.put(id);
+    members.put(state);
+    members.put(stamp_ns);
+    members.put(reason);
+    result_plan_.encode(result, cdr_, {}, members.body());
+    std::vector<std::byte> message;
+    if (std::string why = result_message_.conversion->to_local(cdr_, message); !why.empty()) {
+      throw std::runtime_error("a result message does not convert: " + why);
+    }
+    return message;
+  }
+
+  // The result type's defaults (in the defaults of the whole result message).
+  const std::byte* default_result() const { return result_message_.empty.data() + result_offset_; }
+
+  std::string name_;
+  std::string module_;  // <pkg>::dds_::, the action's IDL module
+  ActionParts parts_;
+  Payload send_goal_request_;
+  Payload send_goal_response_;
+  Payload cancel_request_;
+  Payload cancel_response_;
+  Payload get_result_request_;
+  Payload result_message_;
+  Payload feedback_;
+  Payload status_;
+  CdrPlan result_plan_;
+  std::size_t result_offset_;
+  Writer send_goal_writer_;
+  Reader send_goal_reader_;
+  Writer cancel_writer_;
+  Reader cancel_reader_;
+  Writer get_result_writer_;
+  Reader get_result_reader_;
+  Reader feedback_reader_;
+  Reader status_reader_;
+  RawTopic feedback_topic_;
+  RawTopic status_topic_;
+  RawTopic result_topic_;
+  std::string namespace_;
+  std::uint64_t caller_;  // this import's id in the request header, unique on the machine
+  std::int64_t sequence_ = 0;
+  std::optional<RawServiceServer> send_goal_;  // registered once serving()
+  std::optional<RawServiceServer> cancel_goal_;
+  std::optional<RawServiceServer> get_result_;
+  std::vector<Call> calls_;
+  std::vector<Goal> goals_;  // in the order they were accepted
+  std::vector<std::byte> cdr_;
+  std::vector<std::byte> local_;
+  std::atomic<std::uint64_t> failures_{0};
+  std::atomic<bool> stopping_{false};
+  std::thread thread_;  // last: started once everything it uses is there
+};
+
 // -- the relays ---------------------------------------------------------------------------------
 
 ServiceRelays::ServiceRelays(std::vector<std::string> exports, std::vector<std::string> imports,
                              std::vector<std::string> export_actions,
+                             std::vector<std::string> import_actions,
                              std::chrono::duration<double> call_timeout, std::string namespace_name,
                              std::shared_ptr<Participant> participant, Qos qos, TypeLookup lookup)
     : policy_(std::move(exports), std::move(imports)),
       exporting_actions_(!export_actions.empty()),
-      action_policy_(std::move(export_actions), {}),
+      importing_actions_(!import_actions.empty()),
+      action_policy_(std::move(export_actions), std::move(import_actions)),
       call_timeout_(call_timeout),
       namespace_(std::move(namespace_name)),
       participant_(std::move(participant)),
@@ -932,6 +1499,7 @@ ServiceRelays::ServiceRelays(std::vector<std::string> exports, std::vector<std::
       lookup_(std::move(lookup)) {}
 
 ServiceRelays::~ServiceRelays() {
+  imported_actions_.clear();
   exported_actions_.clear();
   exported_.clear();
   imported_.clear();
@@ -964,7 +1532,7 @@ void ServiceRelays::scan_exports() {
     }
     if (policy_.imported(name)) {
       refused_.insert(name);
-      complain(both_ways(name));
+      complain(both_ways("service", name));
       continue;
     }
     try {
@@ -1072,6 +1640,11 @@ void ServiceRelays::scan_actions(const std::vector<ServiceInfo>& services) {
     if (cancel == served.end() || result == served.end()) {
       continue;
     }
+    if (action_policy_.imported(name)) {
+      refused_actions_.insert(name);
+      complain(both_ways("action", name));
+      continue;
+    }
     try {
       export_action(name, *entry, *cancel->second, *result->second);
     } catch (const std::exception& error) {
@@ -1087,38 +1660,56 @@ void ServiceRelays::export_action(const std::string& name, const ServiceInfo& se
   parts.send_goal_fingerprint = send_goal.fingerprint;
   parts.cancel_goal_fingerprint = cancel_goal.fingerprint;
   parts.get_result_fingerprint = get_result.fingerprint;
-  auto sending = service_types(send_goal.name, send_goal.request_type, send_goal.response_type);
-  auto canceling =
-      service_types(cancel_goal.name, cancel_goal.request_type, cancel_goal.response_type);
-  auto resulting =
-      service_types(get_result.name, get_result.request_type, get_result.response_type);
-  if (!sending || !canceling || !resulting) {
+  if (!action_service_types(
+          name,
+          {send_goal.request_type, send_goal.response_type, cancel_goal.request_type,
+           cancel_goal.response_type, get_result.request_type, get_result.response_type},
+          parts)) {
     return;  // a reply topic still to come
   }
+  std::optional<TopicInfo> feedback;
+  std::optional<TopicInfo> status;
   for (TopicInfo& topic : list_topics(namespace_)) {
     if (topic.description.empty() || !topic.error.empty()) {
       continue;
     }
     if (topic.name == name + ".feedback")
-      parts.feedback = std::move(topic);
+      feedback = std::move(topic);
     else if (topic.name == name + ".status")
-      parts.status = std::move(topic);
+      status = std::move(topic);
   }
-  if (!parts.feedback || !parts.status) {
+  if (!feedback || !status) {
     return;
   }
-  std::tie(parts.send_goal_request, parts.send_goal_response) = std::move(*sending);
-  std::tie(parts.cancel_request, parts.cancel_response) = std::move(*canceling);
-  std::tie(parts.get_result_request, parts.result_message) = std::move(*resulting);
-  auto exported =
-      std::make_unique<ExportedAction>(name, parts, participant_, qos_, call_timeout_, namespace_);
+  auto exported = std::make_unique<ExportedAction>(name, parts, *feedback, *status, participant_,
+                                                   qos_, call_timeout_, namespace_);
   say(exported->said());
   exported_actions_[name] = std::move(exported);
 }
 
+// `types`: the request and response type names of send_goal, cancel_goal and get_result.
+bool ServiceRelays::action_service_types(const std::string& name,
+                                         const std::array<std::string, 6>& types,
+                                         ActionParts& parts) {
+  auto sending = service_types(name + ".send_goal", types[0], types[1]);
+  auto canceling = service_types(name + ".cancel_goal", types[2], types[3]);
+  auto resulting = service_types(name + ".get_result", types[4], types[5]);
+  if (!sending || !canceling || !resulting) {
+    return false;
+  }
+  std::tie(parts.send_goal_request, parts.send_goal_response) = std::move(*sending);
+  std::tie(parts.cancel_request, parts.cancel_response) = std::move(*canceling);
+  std::tie(parts.get_result_request, parts.result_message) = std::move(*resulting);
+  return true;
+}
+
 void ServiceRelays::scan_imports() {
+  std::vector<Publication> publications = participant_->publications();
+  if (importing_actions_) {
+    scan_action_imports(publications);
+  }
   std::map<std::string, Publication> offered;
-  for (Publication& publication : participant_->publications()) {
+  for (Publication& publication : publications) {
     const std::string& topic = publication.topic;
     if (!topic.starts_with(kReplyPrefix) || !topic.ends_with(kReplySuffix) ||
         topic.size() <= std::strlen(kReplyPrefix) + std::strlen(kReplySuffix)) {
@@ -1131,31 +1722,103 @@ void ServiceRelays::scan_imports() {
       offered.emplace(std::move(name), std::move(publication));
     }
   }
-  for (auto carried = imported_.begin(); carried != imported_.end();) {
-    if (offered.contains(carried->first)) {
-      ++carried;
+  follow_offers("service", offered, imported_, refused_, policy_,
+                [this](const std::string& name, const Publication& publication) {
+                  import_service(name, publication);
+                });
+}
+
+// A ROS 2 action server of A is there while its rr/A/_action/send_goalReply writer is; the
+// import ends when it goes (local clients' goals then end as with any server that stops).
+void ServiceRelays::scan_action_imports(const std::vector<Publication>& publications) {
+  constexpr std::string_view kSendGoalReply = "/_action/send_goalReply";
+  std::map<std::string, std::string> offered;  // each action's send_goal response type
+  for (const Publication& publication : publications) {
+    const std::string& topic = publication.topic;
+    if (!topic.starts_with(kReplyPrefix) || !topic.ends_with(kSendGoalReply) ||
+        topic.size() <= std::strlen(kReplyPrefix) + kSendGoalReply.size()) {
       continue;
     }
-    const std::string name = carried->first;
-    carried = imported_.erase(carried);  // no server on DDS: local callers get NoServer
-    say("no longer importing service '" + name + "' (no server on DDS)");
+    std::string name =
+        topic.substr(std::strlen(kReplyPrefix),
+                     topic.size() - std::strlen(kReplyPrefix) - kSendGoalReply.size());
+    if (action_policy_.imported(name)) {
+      offered.emplace(std::move(name), publication.type);
+    }
   }
-  for (const auto& [name, publication] : offered) {
-    if (imported_.contains(name) || refused_.contains(name)) {
-      continue;
-    }
-    if (policy_.exported(name)) {
-      refused_.insert(name);
-      complain(both_ways(name));
-      continue;
-    }
-    try {
-      import_service(name, publication);
-    } catch (const std::exception& error) {
-      refused_.insert(name);
-      complain("cannot import service '" + name + "': " + error.what());
+  follow_offers("action", offered, imported_actions_, refused_actions_, action_policy_,
+                [this](const std::string& name, const std::string& response_type) {
+                  import_action(name, response_type);
+                });
+}
+
+// The HORUS types are the ones horus-gen makes of the action's .haction, named after its DDS
+// module (<pkg>::dds_::A_SendGoal_Response_ is pkg.ASendGoalResponse), found as an exported
+// service's are (local topics, else the lookup); the import waits while they cannot be known.
+void ServiceRelays::import_action(const std::string& name, const std::string& response_type) {
+  const std::string suffix = name + "_SendGoal_Response_";
+  constexpr std::string_view kModule = "::dds_::";
+  if (!response_type.ends_with(std::string(kModule) + suffix)) {
+    throw std::runtime_error("its send_goal replies are of the DDS type " + response_type +
+                             ", not <pkg>::dds_::" + suffix);
+  }
+  const std::string module = response_type.substr(0, response_type.size() - suffix.size());
+  std::string package = module.substr(0, module.size() - kModule.size());
+  for (std::size_t at; (at = package.find("::")) != std::string::npos;) {
+    package.replace(at, 2, ".");
+  }
+  const std::string action = package + "." + name;
+  const std::array<std::string, 6> types = {
+      action + "SendGoalRequest",    action + "SendGoalResponse", action + "CancelGoalRequest",
+      action + "CancelGoalResponse", action + "GetResultRequest", action + "ResultMessage"};
+  ActionParts parts;
+  if (!action_service_types(name, types, parts)) {
+    return;
+  }
+  // A generated server registers each service with its fingerprint over both payload types.
+  const auto fingerprint = [&](const char* service, const TypeIdentity& request,
+                               const TypeIdentity& response) {
+    const auto hex = [](std::uint64_t value) {
+      char digits[17];
+      std::snprintf(digits, sizeof digits, "%016llx", static_cast<unsigned long long>(value));
+      return std::string(digits);
+    };
+    return sha256_fingerprint("service " + action + service + " {\n  request: " + request.name +
+                              "#" + hex(request.fingerprint) + ",\n  response: " + response.name +
+                              "#" + hex(response.fingerprint) + ",\n}\n");
+  };
+  parts.send_goal_fingerprint =
+      fingerprint("SendGoal", *parts.send_goal_request, *parts.send_goal_response);
+  parts.cancel_goal_fingerprint =
+      fingerprint("CancelGoal", *parts.cancel_request, *parts.cancel_response);
+  parts.get_result_fingerprint =
+      fingerprint("GetResult", *parts.get_result_request, *parts.result_message);
+  const std::optional<TypeIdentity> feedback =
+      topic_type(name + ".feedback", action + "FeedbackMessage");
+  const std::optional<TypeIdentity> status = topic_type(name + ".status", action + "Status");
+  if (!feedback || !status) {
+    return;
+  }
+  if (const std::string own = action_module(Payload(*parts.send_goal_request)); own != module) {
+    throw std::runtime_error("its HORUS types are of the DDS module " + own + ", not " + module);
+  }
+  imported_actions_[name] = std::make_unique<ImportedAction>(
+      name, module, parts, *feedback, *status, participant_, qos_, namespace_);
+}
+
+// A topic's type from its segment (when it carries a description), else from the lookup.
+std::optional<TypeIdentity> ServiceRelays::topic_type(const std::string& topic,
+                                                      const std::string& type) {
+  for (const TopicInfo& info : list_topics(namespace_)) {
+    if (info.name == topic && !info.description.empty() && info.error.empty()) {
+      TypeIdentity found = type_identity_of(info);
+      if (found.name != type) {
+        throw std::runtime_error("its topic " + topic + " carries " + found.name + ", not " + type);
+      }
+      return found;
     }
   }
+  return lookup_ ? lookup_(type) : std::nullopt;
 }
 
 void ServiceRelays::import_service(const std::string& name, const Publication& publication) {

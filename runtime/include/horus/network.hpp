@@ -48,6 +48,8 @@ struct Network {
   /// Local actions served to ROS 2 action clients on DDS (rq/A/_action/send_goalRequest, ...;
   /// docs/dds-bridge.md "Actions").
   std::vector<std::string> export_actions{};
+  /// ROS 2 action servers on DDS offered to local action clients (docs/dds-bridge.md "Actions").
+  std::vector<std::string> import_actions{};
 };
 
 namespace detail {

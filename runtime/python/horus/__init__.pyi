@@ -144,6 +144,7 @@ class Network:
     export_frames: list[str]
     import_frames: list[str]
     export_actions: list[str]
+    import_actions: list[str]
     status: int
     def __init__(self, export: Sequence[str] = ..., import_: Sequence[str] = ...,
                  domain: int = ..., reliable: bool = ..., depth: int = ...,
@@ -153,7 +154,8 @@ class Network:
                  ros2_types: Sequence[str] = ...,
                  accept_untyped_writers: bool = ..., export_frames: Sequence[str] = ...,
                  import_frames: Sequence[str] = ...,
-                 export_actions: Sequence[str] = ...) -> None: ...
+                 export_actions: Sequence[str] = ...,
+                 import_actions: Sequence[str] = ...) -> None: ...
     def serve(self, stop: threading.Event, namespace: str = ...) -> int: ...
 
 class View:

@@ -46,14 +46,15 @@ class Network:
     that announce no type information, --accept-untyped-writers), export_frames and
     import_frames (patterns of child frames of the namespace's frame tree written to and read
     from DDS as ROS 2's /tf and /tf_static, --export-frames, --import-frames), export_actions
-    (patterns of local actions served to ROS 2 action clients, --export-action).
+    (patterns of local actions served to ROS 2 action clients, --export-action), import_actions
+    (patterns of ROS 2 action servers on DDS offered to local action clients, --import-action).
     """
 
     def __init__(self, export=(), import_=(), domain: int = 0, reliable: bool = True,
                  depth: int = 100, transient_local=(), deadlines: dict | None = None,
                  export_services=(), import_services=(), service_timeout: float = 10.0,
                  ros2_types=(), accept_untyped_writers: bool = False, export_frames=(),
-                 import_frames=(), export_actions=()) -> None:
+                 import_frames=(), export_actions=(), import_actions=()) -> None:
         self.export = _patterns(export, "export")
         self.import_ = _patterns(import_, "import_")
         self.export_services = _patterns(export_services, "export_services")
@@ -63,11 +64,13 @@ class Network:
         self.export_frames = _patterns(export_frames, "export_frames", "child frame")
         self.import_frames = _patterns(import_frames, "import_frames", "child frame")
         self.export_actions = _patterns(export_actions, "export_actions", "action")
+        self.import_actions = _patterns(import_actions, "import_actions", "action")
         if not (self.export or self.import_ or self.export_services or self.import_services
-                or self.export_frames or self.import_frames or self.export_actions):
+                or self.export_frames or self.import_frames or self.export_actions
+                or self.import_actions):
             raise ValueError("a Network carries nothing: give export and/or import_ patterns "
                              "(or export_services, import_services, export_frames, "
-                             "import_frames, export_actions)")
+                             "import_frames, export_actions, import_actions)")
         if isinstance(domain, bool) or not isinstance(domain, int) or not 0 <= domain <= 232:
             raise ValueError(f"domain must be a DDS domain id (0..232), got {domain!r}")
         if isinstance(depth, bool) or not isinstance(depth, int) or depth < 1:
@@ -107,8 +110,9 @@ class Network:
                          + (f"; frames: exporting {self.export_frames or 'nothing'}, importing "
                             f"{self.import_frames or 'nothing'}"
                             if self.export_frames or self.import_frames else "")
-                         + (f"; actions: exporting {self.export_actions}"
-                            if self.export_actions else "") + "\n")
+                         + (f"; actions: exporting {self.export_actions or 'nothing'}, importing "
+                            f"{self.import_actions or 'nothing'}"
+                            if self.export_actions or self.import_actions else "") + "\n")
         sys.stdout.flush()
         bridge = _dds.DdsBridge(
             namespace, self.export, self.import_, self.domain, self.reliable, self.depth,
@@ -116,7 +120,8 @@ class Network:
             self.ros2_types, export_services=self.export_services,
             import_services=self.import_services, service_timeout=self.service_timeout,
             find_type=_type_description, export_frames=self.export_frames,
-            import_frames=self.import_frames, export_actions=self.export_actions)
+            import_frames=self.import_frames, export_actions=self.export_actions,
+            import_actions=self.import_actions)
         try:
             while not stop.is_set() and bridge.broken is None:
                 stop.wait(RESCAN_S)

@@ -30,10 +30,11 @@ void check_patterns(const std::vector<std::string>& patterns, std::string_view f
 void check_network(const Network& network) {
   if (network.export_.empty() && network.import_.empty() && network.export_services.empty() &&
       network.import_services.empty() && network.export_frames.empty() &&
-      network.import_frames.empty() && network.export_actions.empty()) {
+      network.import_frames.empty() && network.export_actions.empty() &&
+      network.import_actions.empty()) {
     throw Error(
         "a Network carries nothing: give export_ and/or import_ patterns (or export_services, "
-        "import_services, export_frames, import_frames, export_actions)");
+        "import_services, export_frames, import_frames, export_actions, import_actions)");
   }
   check_patterns(network.export_, "export_");
   check_patterns(network.import_, "import_");
@@ -44,6 +45,7 @@ void check_network(const Network& network) {
   check_patterns(network.export_frames, "export_frames");
   check_patterns(network.import_frames, "import_frames");
   check_patterns(network.export_actions, "export_actions");
+  check_patterns(network.import_actions, "import_actions");
   if (network.domain < 0 || network.domain > 232) {
     throw Error("domain must be a DDS domain id (0..232), got " + std::to_string(network.domain));
   }

@@ -17,10 +17,11 @@ def bridge(args) -> int:
     export_frames = args.export_frames + (["*"] if args.frames else [])
     import_frames = args.import_frames + (["*"] if args.frames else [])
     if not (args.export or args.imports or args.export_service or args.import_service
-            or export_frames or import_frames or args.export_action):
+            or export_frames or import_frames or args.export_action or args.import_action):
         raise CommandFailed("nothing to bridge: give --export and/or --import patterns (or "
                             "--export-service, --import-service, --export-frames, "
-                            "--import-frames, --frames, --export-action)", EXIT_USAGE)
+                            "--import-frames, --frames, --export-action, --import-action)",
+                            EXIT_USAGE)
     deadlines = {}
     for given in args.deadline:
         pattern, _, milliseconds = given.rpartition("=")
@@ -37,7 +38,8 @@ def bridge(args) -> int:
                           service_timeout=args.service_timeout, ros2_types=args.ros2_types,
                           accept_untyped_writers=args.accept_untyped_writers,
                           export_frames=export_frames, import_frames=import_frames,
-                          export_actions=args.export_action)
+                          export_actions=args.export_action,
+                          import_actions=args.import_action)
     except ValueError as error:
         raise CommandFailed(str(error), EXIT_USAGE) from None
     # SIGTERM stops the bridge as Ctrl+C does (status 0).
@@ -71,6 +73,9 @@ def register(commands) -> None:
     sub.add_argument("--export-action", action="append", default=[], metavar="PATTERN",
                      help="local actions to serve to ROS 2 action clients on DDS "
                           "(rq/<name>/_action/send_goalRequest, rt/<name>/_action/status, ...)")
+    sub.add_argument("--import-action", action="append", default=[], metavar="PATTERN",
+                     help="ROS 2 action servers on DDS to serve to local action clients (goals "
+                          "forwarded to them)")
     sub.add_argument("--domain", type=int, default=0, help="the DDS domain id (default 0)")
     sub.add_argument("--best-effort", action="store_true",
                      help="best-effort DDS endpoints (default: reliable)")

@@ -52,10 +52,11 @@ class FrameSource {
   std::optional<Frame> next(std::chrono::milliseconds wait);
   /// The next frame if one is there; never waits (a woken event loop calls it until nothing).
   std::optional<Frame> try_next();
-  /// The newest message the topic holds, whether or not this reader took it already (a latched
-  /// topic's last message for a late joiner); it moves no read position and counts nothing lost.
-  /// Its sequence is the ticket just before this reader's position, which is the newest message's
-  /// exactly when nothing newer is waiting.
+  /// The newest message the topic holds, for a late joiner of a latched topic, when this reader
+  /// stands past it (took it, or it was sent before the reader opened); nothing while a message
+  /// is waiting, which next() gives to everyone alike, so no joiner gets a message twice. It moves
+  /// no read position and counts nothing lost; its sequence is the ticket just before this
+  /// reader's position.
   std::optional<Frame> latest();
 
   RawTopic& topic() noexcept { return *topic_; }

@@ -50,9 +50,11 @@ class CdrPlan {
 
   /// `pod` (pod_size() bytes) from a DDS sample, little- or big-endian CDR; padding and unused
   /// string bytes zeroed. An empty string when it decoded, else why not (one line).
-  /// A kPoolData step's data goes to `pool_data` (the step's field stays zero).
+  /// A kPoolData step's data goes to `pool_data` (the step's field stays zero). `body_prefix`:
+  /// how many bytes of the body come before this message's members (encode's body_prefix).
   std::string decode(std::span<const std::byte> sample, std::byte* pod,
-                     std::vector<std::byte>* pool_data = nullptr) const;
+                     std::vector<std::byte>* pool_data = nullptr,
+                     std::size_t body_prefix = 0) const;
 
  private:
   std::string type_name_;

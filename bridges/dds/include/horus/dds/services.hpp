@@ -20,9 +20,14 @@
 // clients as ROS 2 names and shapes them: rq/A/_action/send_goalRequest and the rest, with
 // <pkg>::dds_::A_SendGoal_Request_ ..., action_msgs' CancelGoal and GoalStatusArray. One thread
 // per action calls the local services with RawServiceClients and keeps the goals' states for the
-// status array.
+// status array. Imported the other way: a ROS 2 action server on DDS (its send_goal reply writer
+// discovered) gets RawServiceServers of the three services and the three topics here, one thread
+// per action relaying each call to DDS, asking ROS 2's get_result for each accepted goal (whose
+// answer, when the goal ends, becomes A.result and the last A.status), and following its feedback
+// and GoalStatusArray.
 #pragma once
 
+#include <array>
 #include <chrono>
 #include <functional>
 #include <map>
@@ -50,11 +55,12 @@ TypeIdentity described_type(std::string description);
 /// of its own; scan() (the bridge's thread, every half second) starts and ends them.
 class ServiceRelays {
  public:
-  /// `export_actions`: patterns of local actions served to ROS 2 action clients.
+  /// `export_actions`: patterns of local actions served to ROS 2 action clients;
+  /// `import_actions`: of ROS 2 action servers on DDS served to local action clients.
   ServiceRelays(std::vector<std::string> exports, std::vector<std::string> imports,
-                std::vector<std::string> export_actions, std::chrono::duration<double> call_timeout,
-                std::string namespace_name, std::shared_ptr<Participant> participant, Qos qos,
-                TypeLookup lookup);
+                std::vector<std::string> export_actions, std::vector<std::string> import_actions,
+                std::chrono::duration<double> call_timeout, std::string namespace_name,
+                std::shared_ptr<Participant> participant, Qos qos, TypeLookup lookup);
   /// Stops every relay; imported services are withdrawn (local callers get NoServer).
   ~ServiceRelays();
   ServiceRelays(const ServiceRelays&) = delete;
@@ -67,9 +73,12 @@ class ServiceRelays {
   class Imported;
   struct ActionParts;
   class ExportedAction;
+  class ImportedAction;
 
   void scan_exports();
   void scan_imports();
+  void scan_action_imports(const std::vector<Publication>& publications);
+  void import_action(const std::string& name, const std::string& response_type);
   void export_service(const std::string& name, const std::string& request_type,
                       const std::string& response_type, std::uint64_t fingerprint);
   void import_service(const std::string& name, const Publication& publication);
@@ -77,12 +86,18 @@ class ServiceRelays {
   std::optional<std::pair<TypeIdentity, TypeIdentity>> service_types(
       const std::string& name, const std::string& request_type, const std::string& response_type);
   void scan_actions(const std::vector<ServiceInfo>& services);
+  /// Fills `parts`' payload types from the type names of send_goal, cancel_goal and get_result
+  /// (request and response each); false while they cannot be known yet.
+  bool action_service_types(const std::string& name, const std::array<std::string, 6>& types,
+                            ActionParts& parts);
+  std::optional<TypeIdentity> topic_type(const std::string& topic, const std::string& type);
   void export_action(const std::string& name, const ServiceInfo& send_goal,
                      const ServiceInfo& cancel_goal, const ServiceInfo& get_result);
 
   bridge::TopicPolicy policy_;  // export_services and import_services
   bool exporting_actions_;
-  bridge::TopicPolicy action_policy_;  // export_actions
+  bool importing_actions_;
+  bridge::TopicPolicy action_policy_;  // export_actions and import_actions
   std::chrono::duration<double> call_timeout_;
   std::string namespace_;
   std::shared_ptr<Participant> participant_;
@@ -91,6 +106,7 @@ class ServiceRelays {
   std::map<std::string, std::unique_ptr<Exported>> exported_;
   std::map<std::string, std::unique_ptr<Imported>> imported_;
   std::map<std::string, std::unique_ptr<ExportedAction>> exported_actions_;
+  std::map<std::string, std::unique_ptr<ImportedAction>> imported_actions_;
   std::set<std::string> refused_;
   std::set<std::string> refused_actions_;
 };
